@@ -1,0 +1,119 @@
+// The trusted checker: loads a verified policy image and decides, for each bus
+// transaction, allow / ignore / fail-safe / reject.
+//
+// Freestanding: no heap, no exceptions, no RTTI, no floating point, no OS
+// calls; all state lives inside the Checker object (sizeof is fixed by
+// limits.h), so a host can place it in static storage or secure memory.
+// Thread-safety: none. One Checker serves one request at a time, as the
+// paper's secure-world checker does; hosts serialise calls.
+// Cost: check() is bounded by the image's worst-case cost, reported by
+// worst_case_cost() (bytecode instructions, forward jumps only).
+#ifndef CONTEGO_CORE_CHECKER_H_
+#define CONTEGO_CORE_CHECKER_H_
+
+#include <stdint.h>
+
+#include "contego/core/host.h"
+#include "contego/core/image.h"
+#include "contego/core/limits.h"
+#include "contego/core/transaction.h"
+#include "contego/core/verdict.h"
+
+namespace contego::core {
+
+// Why the verifier refused an image. Stable numbers (they appear in tools' output).
+enum class LoadStatus : uint8_t {
+  kOk = 0,
+  kTooSmall = 1,
+  kBadMagic = 2,
+  kBadVersion = 3,
+  kSizeMismatch = 4,       // header.total_size != buffer size
+  kBadChecksum = 5,
+  kBadHeader = 6,          // non-zero flags / reserved
+  kSectionBounds = 7,      // section outside the image, misaligned, or overlapping another
+  kDuplicateSection = 8,
+  kUnknownSection = 9,
+  kMissingSection = 10,
+  kRecordSize = 11,        // size != count * record size
+  kTooMany = 12,           // a count exceeds limits.h
+  kBadTag = 13,            // an enum field holds an unknown value, or padding is non-zero
+  kBadReference = 14,      // an id points outside its table or to the wrong kind of thing
+  kBadField = 15,          // field geometry outside the frame / group / sample
+  kBadProgram = 16,        // unknown opcode or operand
+  kJumpBackward = 17,
+  kJumpOutOfRange = 18,
+  kProgramTooLong = 19,
+  kStackUnderflow = 20,
+  kStackOverflow = 21,
+  kStackMismatch = 22,     // two paths reach an instruction with different stack depths
+  kNoTerminator = 23,      // a path runs off the end of the program
+  kBadName = 24,           // name offset outside kNames or not NUL-terminated
+};
+
+// Where the verifier stopped: which section and which record in it.
+struct LoadResult {
+  LoadStatus status;
+  uint32_t section;  // SectionKind, 0 for the header
+  uint32_t index;    // record index in that section (instruction index for kCode)
+};
+
+const char* load_status_name(LoadStatus status);  // "bad-checksum" ... (static strings)
+const char* reason_name(Reason reason);           // "rate-exceeded" ...
+const char* decision_name(Decision decision);     // "allow" / "ignore" / "failsafe" / "reject"
+
+class Checker {
+ public:
+  Checker() = default;
+  Checker(const Checker&) = delete;
+  Checker& operator=(const Checker&) = delete;
+
+  // Verifies `image` completely, then copies it into this object's tables.
+  // On failure the previously loaded policy is discarded and every check()
+  // answers kReject/kNotLoaded (fail closed). The buffer is not kept.
+  [[nodiscard]] LoadResult load(const uint8_t* image, uint32_t size);
+  bool loaded() const { return loaded_; }
+
+  void set_host(const Host& host) { host_ = host; }
+
+  // Decides about one transaction and fills `out`. Never fails: every error
+  // path yields a fail-closed verdict with its reason.
+  void check(const Transaction& tx, Verdict* out);
+
+  // Writes the safe state of `device` (its templates, encoded) into `out` as
+  // a kFailsafe verdict. Returns false if the device has none / is unknown.
+  bool safe_state(uint16_t device, Verdict* out);
+
+  // Operator reset of a latched device.
+  void reset_latch(uint16_t device);
+  bool latched(uint16_t device) const;
+
+  // Seeds the shadow copy of a register-map device (e.g. read back from the
+  // hardware at start). Returns false for a bad device or a non-register-map profile.
+  bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+
+  // Upper bound of bytecode instructions executed by one check() of a
+  // single command, over all commands of the image (computed at load).
+  uint32_t worst_case_cost() const { return worst_case_cost_; }
+
+  // Read access to the loaded tables (for hosts, tools and tests).
+  uint32_t task_count() const { return task_count_; }
+  uint32_t device_count() const { return device_count_; }
+  const TaskRecord& task(uint16_t id) const { return tasks_[id]; }
+  const DeviceRecord& device(uint16_t id) const { return devices_[id]; }
+
+ private:
+  // Fixed-capacity tables and runtime state (shadow registers, staging, rate
+  // windows, latches). Sized by limits.h; no pointers into the image.
+  bool loaded_ = false;
+  Host host_{};
+  uint32_t worst_case_cost_ = 0;
+  uint32_t task_count_ = 0;
+  uint32_t device_count_ = 0;
+  TaskRecord tasks_[kMaxTasks]{};
+  DeviceRecord devices_[kMaxDevices]{};
+  // (the implementation adds the remaining tables here)
+};
+
+}  // namespace contego::core
+
+#endif  // CONTEGO_CORE_CHECKER_H_

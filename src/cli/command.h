@@ -1,0 +1,21 @@
+// Each `contego` subcommand lives in its own file and registers itself with
+// the CLI11 app through one function declared here. main.cc calls them all.
+#ifndef CONTEGO_CLI_COMMAND_H_
+#define CONTEGO_CLI_COMMAND_H_
+
+namespace CLI {
+class App;
+}
+
+namespace contego::cli {
+
+// Every register_* adds one subcommand whose callback sets the process exit
+// code through set_exit_code().
+void register_version(CLI::App& app);
+
+void set_exit_code(int code);
+int exit_code();
+
+}  // namespace contego::cli
+
+#endif  // CONTEGO_CLI_COMMAND_H_

@@ -1,0 +1,24 @@
+// contego: actuator command firewall for real-time control systems.
+#include <CLI/CLI.hpp>
+
+#include "cli/command.h"
+
+namespace contego::cli {
+namespace {
+int g_exit_code = 0;
+}
+void set_exit_code(int code) { g_exit_code = code; }
+int exit_code() { return g_exit_code; }
+}  // namespace contego::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"contego: every actuation command checked against a policy"};
+  app.require_subcommand(1);
+  contego::cli::register_version(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  return contego::cli::exit_code();
+}

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package that contego's build, tests, fuzzers,
+# cross-build and plots need. Idempotent and non-interactive: packages that
+# are already present are skipped, so a second run does no network I/O.
+set -euo pipefail
+
+packages=(
+  # toolchain and build
+  build-essential g++ cmake ninja-build pkg-config git
+  clang llvm libclang-rt-14-dev clang-format clang-tidy
+  # libraries (see docs/libraries.md for why each one)
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libcli11-dev libfmt-dev nlohmann-json3-dev libseccomp-dev libi2c-dev
+  # cross-build of the trusted core for the paper's Cortex-A53, run under qemu
+  g++-aarch64-linux-gnu qemu-user
+  # plots and measurements
+  gnuplot-nox valgrind
+  # real, unmodified I2C clients for end-to-end tests
+  i2c-tools python3 python3-smbus python3-smbus2 python3-periphery
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "bootstrap: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo_cmd=()
+if [[ $(id -u) -ne 0 ]]; then sudo_cmd=(sudo); fi
+echo "bootstrap: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# The whole test suite: installs dependencies, then builds and tests every
+# mode (debug, ASan+UBSan, fuzz smoke runs). Exits non-zero on any failure.
+# Usage: tools/test.sh [--quick]   (--quick: debug build and CTest only)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+quick=0
+[[ "${1:-}" == "--quick" ]] && quick=1
+
+bash tools/bootstrap.sh
+
+step() { printf '\n==== %s ====\n' "$*"; }
+
+step "debug build + tests"
+cmake --preset dev >/dev/null
+cmake --build --preset dev
+ctest --preset dev
+
+((quick)) && exit 0
+
+step "asan+ubsan build + tests"
+cmake --preset asan-ubsan >/dev/null
+cmake --build --preset asan-ubsan
+ctest --preset asan-ubsan
+
+if [[ -f fuzz/CMakeLists.txt ]]; then
+  step "fuzz smoke runs (clang, libFuzzer)"
+  cmake --preset fuzz >/dev/null
+  cmake --build --preset fuzz
+  bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-10}"
+fi
+
+if command -v clang-format >/dev/null; then
+  step "clang-format check"
+  git ls-files '*.h' '*.cc' | xargs clang-format --dry-run --Werror
+fi
+step "all tests passed"
