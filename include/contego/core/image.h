@@ -274,6 +274,12 @@ enum class Op : uint8_t {
   kCommand = 5,    // push the checked command's global command id
   kIndex = 6,      // push the checked command's group index (register-map channel)
   kJobCount = 7,   // push how many commands of this task to this device this job (this one included)
+  kLastField = 8,  // push field slot b of the last command of the same kind that reached the
+                   // device (fault if none yet): rate-of-change and replay rules
+  kSinceLast = 9,  // push microseconds since that command reached the device (fault if none)
+  kState = 10,     // push this invariant's state word (starts at 0; sequences)
+  kSetState = 11,  // pop into this invariant's pending state word; it is committed only if the
+                   // transaction's final decision writes to the bus (allow or fail-safe)
   kAdd = 16, kSub, kMul, kDiv, kMod, kNeg, kAbs, kMin, kMax,
   kEq = 32, kNe, kLt, kLe, kGt, kGe, kAnd, kOr, kNot,
   kDup = 48,
