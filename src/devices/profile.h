@@ -22,11 +22,11 @@
 namespace contego::devices {
 
 struct FieldSpec {
-  std::string name;           // "speed", "off", "channel"...
-  core::FieldRecord geometry; // where it sits (name offset filled by the image writer)
-  int64_t min = 0;            // legal range of the value, for the compiler's range checks
+  std::string name;            // "speed", "off", "channel"...
+  core::FieldRecord geometry;  // where it sits (name offset filled by the image writer)
+  int64_t min = 0;             // legal range of the value, for the compiler's range checks
   int64_t max = 0;
-  std::string unit;           // "", "ticks", "ms" ... (documentation and unit checks)
+  std::string unit;  // "", "ticks", "ms" ... (documentation and unit checks)
 };
 
 struct CommandSpec {
