@@ -1,0 +1,60 @@
+#include "bus/linux_i2cdev.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <linux/i2c-dev.h>
+#include <linux/i2c.h>
+#include <sys/ioctl.h>
+#include <vector>
+
+namespace contego::bus {
+
+Result<std::unique_ptr<LinuxI2cDev>> LinuxI2cDev::open(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) return make_error("cannot open " + path + ": " + std::strerror(errno));
+  unsigned long funcs = 0;
+  if (::ioctl(fd, I2C_FUNCS, &funcs) != 0) {
+    const int e = errno;
+    ::close(fd);
+    return make_error(path + " is not an i2c-dev adapter (I2C_FUNCS: " + std::strerror(e) + ")");
+  }
+  return std::unique_ptr<LinuxI2cDev>(new LinuxI2cDev(fd, funcs));
+}
+
+LinuxI2cDev::~LinuxI2cDev() { ::close(fd_); }
+
+int LinuxI2cDev::transfer(std::span<Msg> msgs) {
+  if (msgs.empty() || msgs.size() > I2C_RDWR_IOCTL_MAX_MSGS) return EINVAL;
+  std::vector<i2c_msg> raw(msgs.size());
+  for (size_t i = 0; i < msgs.size(); ++i) {
+    raw[i].addr = msgs[i].addr;
+    raw[i].flags = msgs[i].flags;
+    raw[i].len = msgs[i].len;
+    raw[i].buf = msgs[i].buf;
+    if (msgs[i].flags & I2C_M_RECV_LEN) {
+      // The kernel wants the extra-byte count preset in buf[0] (1 for SMBus).
+      if (msgs[i].len < 1 + I2C_SMBUS_BLOCK_MAX) return EINVAL;
+      msgs[i].buf[0] = 1;
+    }
+  }
+  i2c_rdwr_ioctl_data arg{raw.data(), static_cast<uint32_t>(raw.size())};
+  std::lock_guard lock(mu_);
+  if (::ioctl(fd_, I2C_RDWR, &arg) < 0) return errno;
+  for (size_t i = 0; i < msgs.size(); ++i) msgs[i].len = raw[i].len;
+  return 0;
+}
+
+int LinuxI2cDev::quick(uint16_t addr, bool read) {
+  std::lock_guard lock(mu_);
+  if (::ioctl(fd_, I2C_SLAVE_FORCE, static_cast<unsigned long>(addr)) < 0) return errno;
+  i2c_smbus_ioctl_data arg{};
+  arg.read_write = read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE;
+  arg.size = I2C_SMBUS_QUICK;
+  if (::ioctl(fd_, I2C_SMBUS, &arg) < 0) return errno;
+  return 0;
+}
+
+}  // namespace contego::bus

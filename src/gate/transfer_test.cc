@@ -1,0 +1,94 @@
+#include "gate/transfer.h"
+
+#include <gtest/gtest.h>
+
+namespace contego::gate {
+namespace {
+
+Message w(uint16_t addr, std::vector<uint8_t> bytes) {
+  Message m;
+  m.addr = addr;
+  m.len = static_cast<uint16_t>(bytes.size());
+  m.data = std::move(bytes);
+  return m;
+}
+
+Message r(uint16_t addr, uint16_t len) {
+  Message m;
+  m.addr = addr;
+  m.flags = kMsgRead;
+  m.len = len;
+  return m;
+}
+
+TEST(ToTransactions, OneBytePointerBeforeReadBecomesRegisterRead) {
+  Transfer t;
+  t.messages = {w(0x40, {0x00}), r(0x40, 1)};
+  auto txs = to_transactions(t);
+  ASSERT_EQ(txs.size(), 1u);
+  EXPECT_EQ(txs[0].kind, core::TxKind::kRead);
+  EXPECT_EQ(txs[0].bytes, std::vector<uint8_t>{0x00});
+  EXPECT_EQ(txs[0].message_count, 2u);
+}
+
+TEST(ToTransactions, EveryWriteInsideACombinedTransferIsCheckedAsAWrite) {
+  // The smuggling attack: a real command hidden between reads.
+  Transfer t;
+  t.messages = {r(0x40, 1), w(0x40, {0xFE, 0x03}), w(0x08, {0x01, 0x77, 0, 0, 0}), r(0x08, 1)};
+  auto txs = to_transactions(t);
+  ASSERT_EQ(txs.size(), 4u);
+  EXPECT_EQ(txs[0].kind, core::TxKind::kRead);
+  EXPECT_EQ(txs[1].kind, core::TxKind::kWrite);
+  EXPECT_EQ(txs[1].bytes, (std::vector<uint8_t>{0xFE, 0x03}));
+  EXPECT_EQ(txs[2].kind, core::TxKind::kWrite);
+  EXPECT_EQ(txs[2].addr, 0x08);
+  EXPECT_EQ(txs[3].kind, core::TxKind::kRead);
+}
+
+TEST(ToTransactions, PointerToAnotherAddressIsAWrite) {
+  Transfer t;
+  t.messages = {w(0x40, {0x06}), r(0x41, 1)};
+  auto txs = to_transactions(t);
+  ASSERT_EQ(txs.size(), 2u);
+  EXPECT_EQ(txs[0].kind, core::TxKind::kWrite);
+}
+
+TEST(ToTransactions, GeneralCallByteIsNeverAPointer) {
+  // 0x06 to address 0 resets every PCA9685 on the bus, even if a read follows.
+  Transfer t;
+  t.messages = {w(0x00, {0x06}), r(0x00, 1)};
+  auto txs = to_transactions(t);
+  ASSERT_EQ(txs.size(), 2u);
+  EXPECT_EQ(txs[0].kind, core::TxKind::kWrite);
+  EXPECT_EQ(txs[0].addr, 0);
+}
+
+TEST(ToTransactions, QuickIsOneQuickTransaction) {
+  Transfer t;
+  t.quick = true;
+  t.quick_addr = 0x40;
+  auto txs = to_transactions(t);
+  ASSERT_EQ(txs.size(), 1u);
+  EXPECT_EQ(txs[0].kind, core::TxKind::kQuick);
+  EXPECT_EQ(txs[0].addr, 0x40);
+}
+
+TEST(Validate, RefusesKernelLimits) {
+  Transfer t;
+  EXPECT_NE(validate(t), "");  // no messages
+  t.messages.assign(43, r(0x40, 1));
+  EXPECT_NE(validate(t), "");
+  t.messages.assign(42, r(0x40, 1));
+  EXPECT_EQ(validate(t), "");
+  t.messages = {r(0x40, 8193)};
+  EXPECT_NE(validate(t), "");
+  t.messages = {w(0x80, {1})};
+  EXPECT_NE(validate(t), "");
+  Message bad = w(0x40, {1, 2});
+  bad.len = 5;
+  t.messages = {bad};
+  EXPECT_NE(validate(t), "");
+}
+
+}  // namespace
+}  // namespace contego::gate

@@ -1,0 +1,275 @@
+// Decoding is tested with the kernel's own UAPI structs in this process's
+// memory, so a layout mistake in the decoder shows up as a wrong transfer.
+#include "intercept/i2c_abi/i2c_abi.h"
+
+#include <errno.h>
+
+#include <cstring>
+#include <gtest/gtest.h>
+#include <linux/i2c-dev.h>
+#include <linux/i2c.h>
+
+namespace contego::intercept::i2c_abi {
+namespace {
+
+uint64_t addr_of(const void* p) { return reinterpret_cast<uint64_t>(p); }
+
+class I2cAbi : public ::testing::Test {
+ protected:
+  FdState state;
+  LocalMemory mem;
+
+  Decoded smbus(uint8_t rw, uint8_t cmd, uint32_t size, i2c_smbus_data* data) {
+    i2c_smbus_ioctl_data a{};
+    a.read_write = rw;
+    a.command = cmd;
+    a.size = size;
+    a.data = data;
+    return decode_ioctl(state, I2C_SMBUS, addr_of(&a), mem, 0x0FFF0001);
+  }
+};
+
+TEST_F(I2cAbi, RequestNumbersMatchTheKernelHeaders) {
+  EXPECT_EQ(kI2cSlave, static_cast<unsigned long>(I2C_SLAVE));
+  EXPECT_EQ(kI2cSlaveForce, static_cast<unsigned long>(I2C_SLAVE_FORCE));
+  EXPECT_EQ(kI2cRdwr, static_cast<unsigned long>(I2C_RDWR));
+  EXPECT_EQ(kI2cSmbus, static_cast<unsigned long>(I2C_SMBUS));
+  EXPECT_EQ(kI2cFuncs, static_cast<unsigned long>(I2C_FUNCS));
+  EXPECT_EQ(kI2cPec, static_cast<unsigned long>(I2C_PEC));
+  EXPECT_EQ(kSmbusI2cBlockBroken, static_cast<uint32_t>(I2C_SMBUS_I2C_BLOCK_BROKEN));
+}
+
+TEST_F(I2cAbi, SlaveAddressRangeFollowsTenbit) {
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE, 0x80, mem, 0).err, EINVAL);
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE, 0x40, mem, 0).err, 0);
+  EXPECT_EQ(state.addr, 0x40);
+  EXPECT_EQ(decode_ioctl(state, I2C_TENBIT, 1, mem, 0).err, 0);
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE_FORCE, 0x3FF, mem, 0).err, 0);
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE_FORCE, 0x400, mem, 0).err, EINVAL);
+  EXPECT_EQ(state.addr, 0x3FF);
+}
+
+TEST_F(I2cAbi, SlaveIsBusyWhereAKernelDriverOwnsTheAddressButForceIsNot) {
+  auto busy = [](uint8_t, uint16_t addr) { return addr == 0x40; };
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE, 0x40, mem, 0, busy).err, EBUSY);
+  EXPECT_EQ(decode_ioctl(state, I2C_SLAVE_FORCE, 0x40, mem, 0, busy).err, 0);
+}
+
+TEST_F(I2cAbi, UnknownRequestIsEnotty) {
+  EXPECT_EQ(decode_ioctl(state, 0x5401 /* TCGETS */, 0, mem, 0).err, ENOTTY);
+}
+
+TEST_F(I2cAbi, FuncsWritesAnUnsignedLong) {
+  unsigned long funcs = 0;
+  EXPECT_EQ(decode_ioctl(state, I2C_FUNCS, addr_of(&funcs), mem, 0x0FFF0001).err, 0);
+  EXPECT_EQ(funcs, 0x0FFF0001ul);
+  EXPECT_EQ(decode_ioctl(state, I2C_FUNCS, 0, mem, 1).err, EFAULT);
+}
+
+TEST_F(I2cAbi, RetriesAndTimeoutAboveIntMaxAreEinval) {
+  EXPECT_EQ(decode_ioctl(state, I2C_RETRIES, 0x80000000ul, mem, 0).err, EINVAL);
+  EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 0x80000000ul, mem, 0).err, EINVAL);
+  EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 10, mem, 0).err, 0);
+}
+
+TEST_F(I2cAbi, SmbusByteDataWriteIsCommandThenByte) {
+  state.addr = 0x40;
+  i2c_smbus_data data{};
+  data.byte = 0x21;
+  Decoded d = smbus(I2C_SMBUS_WRITE, 0x00, I2C_SMBUS_BYTE_DATA, &data);
+  ASSERT_EQ(d.action, Decoded::Action::kTransfer);
+  ASSERT_EQ(d.transfer.messages.size(), 1u);
+  EXPECT_EQ(d.transfer.messages[0].addr, 0x40);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x00, 0x21}));
+}
+
+TEST_F(I2cAbi, SmbusWordWriteIsLittleEndian) {
+  i2c_smbus_data data{};
+  data.word = 0x0102;
+  Decoded d = smbus(I2C_SMBUS_WRITE, 0x06, I2C_SMBUS_WORD_DATA, &data);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x06, 0x02, 0x01}));
+}
+
+TEST_F(I2cAbi, SmbusBrokenBlockWriteIsTheGoPiGoFrame) {
+  // python3-smbus write_i2c_block_data(0x08, 1, [0x77, 0, 0, 0]) on the wire: 01 77 00 00 00.
+  state.addr = 0x08;
+  i2c_smbus_data data{};
+  data.block[0] = 4;
+  data.block[1] = 0x77;
+  Decoded d = smbus(I2C_SMBUS_WRITE, 0x01, I2C_SMBUS_I2C_BLOCK_BROKEN, &data);
+  ASSERT_EQ(d.transfer.messages.size(), 1u);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x01, 0x77, 0, 0, 0}));
+}
+
+TEST_F(I2cAbi, SmbusBlockDataWriteCarriesTheCount) {
+  i2c_smbus_data data{};
+  data.block[0] = 2;
+  data.block[1] = 0xAA;
+  data.block[2] = 0xBB;
+  Decoded d = smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_BLOCK_DATA, &data);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x10, 2, 0xAA, 0xBB}));
+  data.block[0] = 33;
+  EXPECT_EQ(smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_BLOCK_DATA, &data).err, EINVAL);
+  EXPECT_EQ(smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_I2C_BLOCK_DATA, &data).err, EINVAL);
+}
+
+TEST_F(I2cAbi, SmbusQuickAndByteWriteNeedNoData) {
+  state.addr = 0x30;
+  Decoded q = smbus(I2C_SMBUS_WRITE, 0, I2C_SMBUS_QUICK, nullptr);
+  ASSERT_EQ(q.action, Decoded::Action::kTransfer);
+  EXPECT_TRUE(q.transfer.quick);
+  EXPECT_EQ(q.transfer.quick_addr, 0x30);
+  Decoded b = smbus(I2C_SMBUS_WRITE, 0x06, I2C_SMBUS_BYTE, nullptr);
+  ASSERT_EQ(b.action, Decoded::Action::kTransfer);
+  EXPECT_EQ(b.transfer.messages[0].data, std::vector<uint8_t>{0x06});
+  EXPECT_EQ(smbus(I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, nullptr).err, EINVAL);
+}
+
+TEST_F(I2cAbi, SmbusBadSizeOrDirectionIsEinval) {
+  i2c_smbus_data data{};
+  EXPECT_EQ(smbus(I2C_SMBUS_WRITE, 0, 9, &data).err, EINVAL);
+  EXPECT_EQ(smbus(2, 0, I2C_SMBUS_BYTE_DATA, &data).err, EINVAL);
+}
+
+TEST_F(I2cAbi, SmbusByteDataReadRoundTrip) {
+  state.addr = 0x40;
+  i2c_smbus_data data{};
+  data.word = 0xFFFF;
+  Decoded d = smbus(I2C_SMBUS_READ, 0x00, I2C_SMBUS_BYTE_DATA, &data);
+  ASSERT_EQ(d.transfer.messages.size(), 2u);
+  EXPECT_EQ(d.transfer.messages[0].data, std::vector<uint8_t>{0x00});
+  EXPECT_TRUE(d.transfer.messages[1].is_read());
+  gate::TransferReply reply;
+  reply.reads = {{0x11}};
+  EXPECT_EQ(complete(d.completion, reply, mem), 0);
+  EXPECT_EQ(data.byte, 0x11);
+  EXPECT_EQ(data.block[1], 0xFF);  // only one byte is copied back for a byte read
+}
+
+TEST_F(I2cAbi, SmbusBlockReadsFillTheUnion) {
+  i2c_smbus_data data{};
+  Decoded d = smbus(I2C_SMBUS_READ, 0x01, I2C_SMBUS_I2C_BLOCK_BROKEN, &data);
+  ASSERT_EQ(d.transfer.messages.size(), 2u);
+  EXPECT_EQ(d.transfer.messages[1].len, 32);  // BROKEN reads are forced to 32 bytes
+  gate::TransferReply reply;
+  reply.reads = {std::vector<uint8_t>(32, 0x5A)};
+  EXPECT_EQ(complete(d.completion, reply, mem), 0);
+  EXPECT_EQ(data.block[0], 32);
+  EXPECT_EQ(data.block[32], 0x5A);
+
+  i2c_smbus_data blk{};
+  Decoded b = smbus(I2C_SMBUS_READ, 0x02, I2C_SMBUS_BLOCK_DATA, &blk);
+  EXPECT_TRUE(b.transfer.messages[1].flags & gate::kMsgRecvLen);
+  reply.reads = {{3, 7, 8, 9}};
+  EXPECT_EQ(complete(b.completion, reply, mem), 0);
+  EXPECT_EQ(blk.block[0], 3);
+  EXPECT_EQ(blk.block[3], 9);
+  reply.reads = {{40}};
+  EXPECT_EQ(complete(b.completion, reply, mem), -EPROTO);
+}
+
+TEST_F(I2cAbi, ProcCallWritesThenReadsTheWord) {
+  i2c_smbus_data data{};
+  data.word = 0x1234;
+  Decoded d = smbus(I2C_SMBUS_WRITE, 0x05, I2C_SMBUS_PROC_CALL, &data);
+  ASSERT_EQ(d.transfer.messages.size(), 2u);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x05, 0x34, 0x12}));
+  gate::TransferReply reply;
+  reply.reads = {{0xCD, 0xAB}};
+  EXPECT_EQ(complete(d.completion, reply, mem), 0);
+  EXPECT_EQ(data.word, 0xABCD);
+}
+
+TEST_F(I2cAbi, RdwrLimitsAreTheKernels) {
+  i2c_msg msgs[43] = {};
+  uint8_t buf[4] = {1, 2, 3, 4};
+  for (auto& m : msgs) {
+    m.addr = 0x40;
+    m.len = 1;
+    m.buf = buf;
+  }
+  i2c_rdwr_ioctl_data a{msgs, 43};
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+  a.nmsgs = 0;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+  a.nmsgs = 42;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).action, Decoded::Action::kTransfer);
+  msgs[5].len = 8193;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+  i2c_rdwr_ioctl_data null_msgs{nullptr, 1};
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&null_msgs), mem, 0).err, EINVAL);
+}
+
+TEST_F(I2cAbi, RdwrUsesEachMessagesAddressAndCopiesReadsBack) {
+  state.addr = 0x11;  // ignored by I2C_RDWR
+  uint8_t wbuf[2] = {0xFE, 0x79};
+  uint8_t rbuf[1] = {0};
+  i2c_msg msgs[2] = {};
+  msgs[0] = {0x40, 0, 2, wbuf};
+  msgs[1] = {0x41, I2C_M_RD, 1, rbuf};
+  i2c_rdwr_ioctl_data a{msgs, 2};
+  Decoded d = decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0);
+  ASSERT_EQ(d.action, Decoded::Action::kTransfer);
+  EXPECT_EQ(d.transfer.messages[0].addr, 0x40);
+  EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0xFE, 0x79}));
+  EXPECT_EQ(d.transfer.messages[1].addr, 0x41);
+  // The copy is ours: changing the task's buffer afterwards changes nothing.
+  wbuf[1] = 0x03;
+  EXPECT_EQ(d.transfer.messages[0].data[1], 0x79);
+  gate::TransferReply reply;
+  reply.reads = {{0x42}};
+  EXPECT_EQ(complete(d.completion, reply, mem), 2);
+  EXPECT_EQ(rbuf[0], 0x42);
+}
+
+TEST_F(I2cAbi, RdwrRecvLenNeedsAPresetAndRoom) {
+  uint8_t buf[40] = {1};
+  i2c_msg m{0x40, I2C_M_RD | I2C_M_RECV_LEN, 40, buf};
+  i2c_rdwr_ioctl_data a{&m, 1};
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).action, Decoded::Action::kTransfer);
+  m.len = 20;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+  m.len = 40;
+  buf[0] = 0;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+  m.flags = I2C_M_RECV_LEN;  // on a write
+  buf[0] = 1;
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
+}
+
+TEST_F(I2cAbi, PlainWriteGoesToTheSlaveAddressCappedAt8192) {
+  state.addr = 0x08;
+  uint8_t frame[5] = {0x01, 0x77, 0, 0, 0};
+  Decoded d = decode_write(state, addr_of(frame), 5, mem);
+  EXPECT_EQ(d.transfer.messages[0].addr, 0x08);
+  EXPECT_EQ(d.transfer.messages[0].data.size(), 5u);
+  gate::TransferReply ok;
+  EXPECT_EQ(complete(d.completion, ok, mem), 5);
+  std::vector<uint8_t> big(9000);
+  Decoded b = decode_write(state, addr_of(big.data()), big.size(), mem);
+  EXPECT_EQ(b.transfer.messages[0].data.size(), 8192u);
+  gate::TransferReply nack;
+  nack.err = EREMOTEIO;
+  EXPECT_EQ(complete(b.completion, nack, mem), -EREMOTEIO);
+}
+
+TEST_F(I2cAbi, FreshDescriptorWritesToTheGeneralCallAddress) {
+  uint8_t reset = 0x06;
+  Decoded d = decode_write(state, addr_of(&reset), 1, mem);
+  EXPECT_EQ(d.transfer.messages[0].addr, 0);
+}
+
+TEST_F(I2cAbi, PlainReadCopiesBack) {
+  state.addr = 0x06;
+  uint8_t buf[10] = {};
+  Decoded d = decode_read(state, addr_of(buf), 10);
+  EXPECT_TRUE(d.transfer.messages[0].is_read());
+  EXPECT_EQ(d.transfer.messages[0].len, 10);
+  gate::TransferReply reply;
+  reply.reads = {{1, 2, 3, 4, 5, 6, 7, 8, 9, 10}};
+  EXPECT_EQ(complete(d.completion, reply, mem), 10);
+  EXPECT_EQ(buf[9], 10);
+}
+
+}  // namespace
+}  // namespace contego::intercept::i2c_abi
