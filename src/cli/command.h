@@ -12,6 +12,7 @@ namespace contego::cli {
 // Every register_* adds one subcommand whose callback sets the process exit
 // code through set_exit_code().
 void register_version(CLI::App& app);
+void register_sched(CLI::App& app);
 
 void set_exit_code(int code);
 int exit_code();

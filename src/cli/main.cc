@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   CLI::App app{"contego: every actuation command checked against a policy"};
   app.require_subcommand(1);
   contego::cli::register_version(app);
+  contego::cli::register_sched(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,109 @@
+#include "sched/reader.h"
+
+#include <gtest/gtest.h>
+
+#include "sched/test_util.h"
+
+namespace contego::sched {
+namespace {
+
+using testing::ms;
+using testing::us;
+
+void expect_error(const Result<TaskSet>& r, const std::string& fragment) {
+  ASSERT_FALSE(r.ok()) << "expected an error containing: " << fragment;
+  EXPECT_NE(r.error().find(fragment), std::string::npos) << r.error();
+}
+
+TEST(ReaderTest, CsvWithTheDocumentedHeader) {
+  const Result<TaskSet> r = parse_csv(
+      "# the issue's example\n"
+      "name,wcet,period,deadline,priority,actuations\n"
+      "t1,1ms,4ms,4ms,3,1\r\n"
+      "\n"
+      "t2, 2ms, 10ms, 10ms, 2, 2\n"
+      "t3,3ms,20ms,,1,1\n",
+      "set.csv");
+  ASSERT_TRUE(r.ok()) << r.error();
+  ASSERT_EQ(r->tasks.size(), 3u);
+  EXPECT_EQ(r->tasks[1].name, "t2");
+  EXPECT_EQ(r->tasks[1].wcet, ms(2));
+  EXPECT_EQ(r->tasks[1].actuations, 2);
+  EXPECT_EQ(r->tasks[2].deadline, ms(20)) << "empty deadline means D = T";
+  EXPECT_EQ(r->tasks[0].priority, 3);
+  EXPECT_EQ(r->tasks[0].overhead, kOverheadUnset);
+  EXPECT_TRUE(r->priorities_given);
+}
+
+TEST(ReaderTest, CsvColumnsInAnyOrderAndOptionalOnes) {
+  const Result<TaskSet> r = parse_csv("period,name,wcet,overhead\n5ms,a,1ms,20us\n", "x.csv");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->tasks[0].deadline, ms(5));
+  EXPECT_EQ(r->tasks[0].overhead, us(20));
+  EXPECT_EQ(r->tasks[0].actuations, 0);
+  EXPECT_FALSE(r->priorities_given);
+}
+
+TEST(ReaderTest, CsvErrorsNameFileLineAndField) {
+  expect_error(parse_csv("name,wcet,period\na,1,4ms\n", "s.csv"), "s.csv:2: wcet:");
+  expect_error(parse_csv("name,wcet,period\na,1,4ms\n", "s.csv"), "missing unit");
+  expect_error(parse_csv("name,wcet,period,prio\n", "s.csv"), "s.csv:1: unknown column 'prio'");
+  expect_error(parse_csv("name,wcet\n", "s.csv"), "no 'period' column");
+  expect_error(parse_csv("name,wcet,period\na,1ms\n", "s.csv"),
+               "s.csv:2: expected 3 fields, found 2");
+  expect_error(parse_csv("name,wcet,period,priority\na,1ms,4ms,high\n", "s.csv"),
+               "s.csv:2: priority: 'high' is not an integer");
+  expect_error(parse_csv("name,wcet,period,actuations\na,1ms,4ms,-1\n", "s.csv"), "actuations");
+  expect_error(parse_csv("name,wcet,period\na,1ms,4ms\na,1ms,4ms\n", "s.csv"), "name used twice");
+  expect_error(parse_csv("# nothing\n", "s.csv"), "no header");
+  expect_error(parse_csv("name,wcet,period\n", "s.csv"), "empty");
+}
+
+TEST(ReaderTest, DeadlineBeyondPeriodIsRefusedClearly) {
+  expect_error(parse_csv("name,wcet,period,deadline\nslow,1ms,10ms,15ms\n", "s.csv"),
+               "task 'slow': deadline 15ms exceeds period 10ms");
+}
+
+TEST(ReaderTest, JsonTaskSet) {
+  const Result<TaskSet> r = parse_json(R"({"overhead": "0.5ms", "tasks": [
+      {"name": "t1", "wcet": "1ms", "period": "4ms", "priority": 3, "actuations": 1},
+      {"name": "t2", "wcet": "2ms", "period": "10ms", "deadline": "8ms", "priority": 2,
+       "actuations": 2, "overhead": "40us"}]})",
+                                       "set.json");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(*r->overhead, us(500));
+  EXPECT_EQ(r->tasks[0].deadline, ms(4));
+  EXPECT_EQ(r->tasks[1].deadline, ms(8));
+  EXPECT_EQ(r->tasks[1].overhead, us(40));
+  EXPECT_TRUE(r->priorities_given);
+}
+
+TEST(ReaderTest, JsonErrorsNameTaskAndField) {
+  expect_error(parse_json(R"({"tasks": [{"name": "a", "wcet": 1000, "period": "4ms"}]})", "j"),
+               "tasks[0] ('a').wcet: give a string with a unit");
+  expect_error(parse_json(R"({"tasks": [{"name": "a", "wcet": "1ms", "perod": "4ms"}]})", "j"),
+               "tasks[0] ('a').perod: unknown key");
+  expect_error(parse_json(R"({"tasks": [{"name": "a", "wcet": "1ms"}]})", "j"),
+               "missing \"period\"");
+  expect_error(parse_json(R"({"tasks": [)", "j"), "not valid JSON");
+  expect_error(parse_json(R"({"task": []})", "j"), "unknown key 'task'");
+  expect_error(
+      parse_json(R"({"tasks": [{"name": "a", "wcet": "1ms", "period": "4ms", "priority": 1},
+                                        {"name": "b", "wcet": "1ms", "period": "4ms"}]})",
+                 "j"),
+      "some tasks have a priority");
+}
+
+TEST(ReaderTest, MeasuredOverheadFile) {
+  Result<MeasuredOverhead> m = parse_overhead_json(
+      R"({"overhead_ns": 41000, "measured_on": "rpi3", "method": "p99 of 10000 trials"})",
+      "o.json");
+  ASSERT_TRUE(m.ok()) << m.error();
+  EXPECT_EQ(m->overhead, us(41));
+  EXPECT_EQ(m->measured_on, "rpi3");
+  EXPECT_FALSE(parse_overhead_json(R"({"overhead": "41us"})", "o.json").ok());
+  EXPECT_FALSE(parse_overhead_json(R"({"overhead_ns": -5})", "o.json").ok());
+}
+
+}  // namespace
+}  // namespace contego::sched

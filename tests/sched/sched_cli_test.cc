@@ -1,0 +1,116 @@
+// Runs the built `contego sched` on task-set files and checks what a user
+// (or a script) sees: the JSON, the exit status, the error text.
+#include <array>
+#include <cstdio>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct CliRun {
+  int status = -1;
+  std::string out;  // stdout and stderr
+};
+
+CliRun run(const std::string& args) {
+  const std::string cmd = std::string(CONTEGO_BIN) + " " + args + " 2>&1";
+  CliRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  std::array<char, 4096> buf{};
+  size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string data(const std::string& name) { return std::string(SCHED_DATA_DIR) + "/" + name; }
+
+const nlohmann::json* find_task(const nlohmann::json& doc, const std::string& name) {
+  for (const auto& t : doc["tasks"]) {
+    if (t["name"] == name) return &t;
+  }
+  return nullptr;
+}
+
+// The issue's example from the command line: C^TEE 1.5, 3, 3.5 ms;
+// B 1, 0.5, 0 ms; R^TEE 2.5, 6.5, 15.5 ms; all schedulable.
+TEST(SchedCliTest, IssueExampleJson) {
+  const CliRun r = run("sched " + data("issue_example.csv") + " --overhead 0.5ms --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(doc["schedulable"].get<bool>());
+  struct Want {
+    const char* name;
+    int64_t c_tee, blocking, response;
+  };
+  for (const Want& w :
+       {Want{"t1", 1'500'000, 1'000'000, 2'500'000}, Want{"t2", 3'000'000, 500'000, 6'500'000},
+        Want{"t3", 3'500'000, 0, 15'500'000}}) {
+    const nlohmann::json* t = find_task(doc, w.name);
+    ASSERT_NE(t, nullptr) << w.name;
+    EXPECT_EQ((*t)["c_tee_ns"], w.c_tee) << w.name;
+    EXPECT_EQ((*t)["blocking_ns"], w.blocking) << w.name;
+    EXPECT_EQ((*t)["response_ns"], w.response) << w.name;
+    EXPECT_TRUE((*t)["schedulable"].get<bool>()) << w.name;
+  }
+  EXPECT_EQ(doc["max_overhead_ns"], 800'000);
+}
+
+TEST(SchedCliTest, TextTableAndVerdict) {
+  const CliRun r = run("sched " + data("issue_example.csv") + " --overhead 500us");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("15.5ms"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("schedulable: every task meets its deadline"), std::string::npos);
+  EXPECT_NE(r.out.find("checking may cost up to 800us per command"), std::string::npos) << r.out;
+}
+
+// At 2 ms per command t1 misses (C^TEE 3 + B 4 = 7 > 4): exit status 1.
+TEST(SchedCliTest, UnschedulableExitsOne) {
+  const CliRun r = run("sched " + data("issue_example.csv") + " --overhead 2ms --json");
+  ASSERT_EQ(r.status, 1) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_FALSE(doc["schedulable"].get<bool>());
+  const nlohmann::json* t1 = find_task(doc, "t1");
+  ASSERT_NE(t1, nullptr);
+  EXPECT_TRUE((*t1)["response_ns"].is_null());
+  EXPECT_EQ((*t1)["response_exceeds_ns"], 7'000'000);
+}
+
+TEST(SchedCliTest, MeasuredOverheadFromBenchFile) {
+  const CliRun r = run("sched " + data("issue_example.csv") + " --overhead-from " +
+                       data("measured_overhead.json") + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["tasks"][0]["overhead_ns"], 500'000);
+  EXPECT_NE(doc["overhead_source"].get<std::string>().find("measured"), std::string::npos);
+}
+
+TEST(SchedCliTest, BadInputsExitTwoWithAClearMessage) {
+  CliRun r = run("sched " + data("deadline_beyond_period.csv") + " --overhead 0.5ms");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("task 'slow': deadline 15ms exceeds period 10ms"), std::string::npos)
+      << r.out;
+  r = run("sched " + data("issue_example.csv") + " --overhead 0.5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("--overhead: invalid duration '0.5': missing unit"), std::string::npos)
+      << r.out;
+  r = run("sched " + data("no_such_file.csv"));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("cannot open"), std::string::npos) << r.out;
+}
+
+// Priorities rewritten by deadline-monotonic: shortest deadline on top.
+TEST(SchedCliTest, AssignDeadlineMonotonic) {
+  const CliRun r =
+      run("sched " + data("issue_example.csv") + " --overhead 0.5ms --assign dm --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["assignment"], "dm");
+  EXPECT_GT((*find_task(doc, "t1"))["priority"], (*find_task(doc, "t3"))["priority"]);
+}
+
+}  // namespace
