@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer binary of a fuzz build briefly, starting from its seed
+# corpus (copied, so the checked-in corpus is not modified).
+# Usage: tools/fuzz_smoke.sh BUILD_DIR [SECONDS_PER_TARGET]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="${1:?usage: tools/fuzz_smoke.sh BUILD_DIR [SECONDS]}"
+seconds="${2:-10}"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+found=0
+while IFS= read -r fuzzer; do
+  name="$(basename "$fuzzer" _fuzzer)"
+  found=1
+  mkdir -p "$work/$name"
+  if [[ -d "fuzz/corpus/$name" ]]; then cp -r "fuzz/corpus/$name/." "$work/$name/"; fi
+  printf '== %s (%ss)\n' "$name" "$seconds"
+  "$fuzzer" -max_total_time="$seconds" -print_final_stats=1 "$work/$name" 2>&1 | tail -n 12
+done < <(find "$build" -type f -name '*_fuzzer' -perm -u+x | sort)
+if ((found == 0)); then
+  echo "no fuzzers found under $build" >&2
+  exit 1
+fi
