@@ -1,0 +1,250 @@
+#include "sim/arm.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/settings.h"
+#include "sim/sim_bus.h"
+
+namespace contego::sim {
+namespace {
+
+// Joint pulses (60 Hz ticks) of the two poses; only the base turns.
+constexpr std::array<uint16_t, 5> kPickPose = {250, 285, 200, 307, 375};
+constexpr std::array<uint16_t, 5> kDropPose = {500, 285, 200, 307, 375};
+constexpr double kPoseTolerance = 12.0;
+constexpr double kServoMin = 150.0;  // tutRPi limits; beyond them the servo hits its stop
+constexpr double kServoMax = 600.0;
+constexpr double kTickUs60Hz = 1e6 / 60.0 / 4096.0;  // nominal tick at set_pwm_freq(60)
+
+bool is_grip_write(const TimedOp& op, const std::string& task) {
+  return op.task == task && op.op.kind == BusOp::Kind::kWrite && op.op.addr == kArmAddr &&
+         op.op.bytes.size() == 2 && op.op.bytes[0] >= 0x06 + 4 * kGripChannel &&
+         op.op.bytes[0] <= 0x09 + 4 * kGripChannel;
+}
+
+std::vector<TimedOp> at(uint64_t t, const std::string& task, const std::vector<BusOp>& ops,
+                        bool injected) {
+  std::vector<TimedOp> out;
+  for (const auto& op : ops) out.push_back({t++, task, op, injected});  // 1 us apart
+  return out;
+}
+
+// Control spoofing (Fig. 1): the gripper gets arbitrary high pulses.
+class HighPulse : public Attack {
+ public:
+  explicit HighPulse(AttackSpec spec) : Attack(std::move(spec)) {}
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
+             Noise& noise) override {
+    if (!spec().active(job.release_us) || job.index < 2) return;
+    const auto lo = spec().param_int("min", 700);
+    const auto hi = spec().param_int("max", 1400);
+    const auto pulse = static_cast<uint16_t>(noise.uniform_int(lo, hi));
+    bool rewrote = false;
+    for (auto& op : ops) {
+      if (!is_grip_write(op, task)) continue;
+      const uint8_t reg = op.op.bytes[0];
+      if (reg == 0x08 + 4 * kGripChannel) op.op.bytes[1] = static_cast<uint8_t>(pulse & 0xFF);
+      if (reg == 0x09 + 4 * kGripChannel) op.op.bytes[1] = static_cast<uint8_t>(pulse >> 8);
+      op.injected = rewrote = true;
+    }
+    if (!rewrote) {  // jobs that do not touch the gripper get a pulse of their own
+      auto extra = at(job.release_us + 200'000, task,
+                      pca9685_set_pwm(kArmAddr, kGripChannel, 0, pulse), true);
+      ops.insert(ops.end(), extra.begin(), extra.end());
+    }
+  }
+};
+
+// Configuration-register tampering: MODE1 sleep, PRE_SCALE, ALL_LED.
+class ConfigTamper : public Attack {
+ public:
+  ConfigTamper(AttackSpec spec, std::vector<std::vector<uint8_t>> writes)
+      : Attack(std::move(spec)), writes_(std::move(writes)) {}
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us) || job.index < 2) return;
+    uint64_t t = job.release_us + 100'000;
+    for (const auto& w : writes_) ops.push_back({t++, task, write_op(kArmAddr, w), true});
+  }
+
+ private:
+  std::vector<std::vector<uint8_t>> writes_;
+};
+
+// Unauthorised task: another program opens the gripper while the arm moves.
+class ArmIntruder : public Attack {
+ public:
+  explicit ArmIntruder(AttackSpec spec) : Attack(std::move(spec)) {
+    auto it = this->spec().params.find("task");
+    intruder_ = it == this->spec().params.end() ? "intruder" : it->second;
+  }
+  void apply(const Job& job, const std::string&, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us)) return;
+    auto extra = at(job.release_us + 250'000, intruder_,
+                    pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen), true);
+    ops.insert(ops.end(), extra.begin(), extra.end());
+  }
+
+ private:
+  std::string intruder_;
+};
+
+}  // namespace
+
+std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint16_t off) {
+  const auto base = static_cast<uint8_t>(0x06 + 4 * channel);
+  return {write_op(addr, {base, static_cast<uint8_t>(on & 0xFF)}),
+          write_op(addr, {static_cast<uint8_t>(base + 1), static_cast<uint8_t>(on >> 8)}),
+          write_op(addr, {static_cast<uint8_t>(base + 2), static_cast<uint8_t>(off & 0xFF)}),
+          write_op(addr, {static_cast<uint8_t>(base + 3), static_cast<uint8_t>(off >> 8)})};
+}
+
+void ArmController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
+  const uint64_t t = job.release_us;
+  auto add = [&](uint64_t when, const std::vector<BusOp>& bus_ops) {
+    for (const auto& op : bus_ops) ops.push_back({when++, o_.task, op, false});
+  };
+  if (job.index == 1) {
+    // PCA9685() then set_pwm_freq(60), as the Adafruit library sends them.
+    // The register reads happen at release; the writes keep their order.
+    add(t + 0, {write_op(kArmAddr, {0xFA, 0}), write_op(kArmAddr, {0xFB, 0}),
+                write_op(kArmAddr, {0xFC, 0}), write_op(kArmAddr, {0xFD, 0}),
+                write_op(kArmAddr, {0x01, 0x04}), write_op(kArmAddr, {0x00, 0x01})});
+    BusOp read_mode1 = read_op(kArmAddr, 1);
+    read_mode1.bytes = {0x00};
+    auto mode1 = port.read(o_.task, read_mode1);
+    const uint8_t old = mode1 && !mode1->empty() ? (*mode1)[0] : 0x01;
+    add(t + 10'000, {write_op(kArmAddr, {0x00, static_cast<uint8_t>(old & ~0x10)}),
+                     write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & 0x7F) | 0x10)}),
+                     write_op(kArmAddr, {0xFE, 0x65}),
+                     write_op(kArmAddr, {0x00, static_cast<uint8_t>(old & ~0x10)})});
+    add(t + 20'000, {write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & ~0x10) | 0x80)})});
+    return;
+  }
+  const uint64_t phase = (job.index - 2) % 4;
+  if (phase == 0 || phase == 2) {
+    const auto& pose = phase == 0 ? kPickPose : kDropPose;
+    for (int ch = 0; ch < 5; ++ch) add(t + 1000 * ch, pca9685_set_pwm(kArmAddr, ch, 0, pose[ch]));
+  } else {
+    add(t, pca9685_set_pwm(kArmAddr, kGripChannel, 0, phase == 1 ? kGripClose : kGripOpen));
+  }
+}
+
+ArmWorld::ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
+    : controller_(ArmController::Options{setting_string(settings, "task", "arm"),
+                                         setting_duration_us(settings, "period", 500'000)}),
+      pca_(std::make_shared<bus::Pca9685>(kArmAddr)),
+      noise_(derive_seed(seed, 2)),
+      period_us_(setting_duration_us(settings, "period", 500'000)),
+      next_arrival_us_(period_us_ / 2) {}
+
+void ArmWorld::attach(bus::VirtualBus& bus) { bus.attach(pca_); }
+
+std::unique_ptr<Attack> ArmWorld::make_attack(const AttackSpec& spec, std::string* error) {
+  if (spec.kind == "high_pulse") return std::make_unique<HighPulse>(spec);
+  if (spec.kind == "sleep") {
+    return std::make_unique<ConfigTamper>(spec, std::vector<std::vector<uint8_t>>{{0x00, 0x11}});
+  }
+  if (spec.kind == "prescale") {
+    return std::make_unique<ConfigTamper>(
+        spec, std::vector<std::vector<uint8_t>>{{0x00, 0x11}, {0xFE, 0x03}, {0x00, 0x01}});
+  }
+  if (spec.kind == "all_led") {
+    return std::make_unique<ConfigTamper>(spec, std::vector<std::vector<uint8_t>>{{0xFB, 0x10}});
+  }
+  if (spec.kind == "unauthorised") return std::make_unique<ArmIntruder>(spec);
+  *error = "unknown arm attack '" + spec.kind +
+           "' (expected high_pulse, sleep, prescale, all_led, unauthorised)";
+  return nullptr;
+}
+
+double ArmWorld::effective_pulse(int channel) const {
+  const auto o = pwm_output(*pca_, channel);
+  if (!o.active) return 0.0;
+  if (o.full_on) return -1.0;
+  return o.pulse_us / kTickUs60Hz;
+}
+
+// Logs every write that sets the gripper's OFF_H (the last byte of a
+// set_pwm) or ALL_LED_OFF_H, with the pulse the channel then holds: the
+// paper's Fig. 1 plots these accesses in order.
+void ArmWorld::on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) {
+  if ((addr != kArmAddr && addr != 0x70) || bytes.size() < 2) return;
+  constexpr int kOffH = 0x09 + 4 * kGripChannel;
+  const int first = bytes[0];
+  const bool ai = (pca_->reg(0x00) & 0x20) != 0;
+  const int last = ai ? first + static_cast<int>(bytes.size()) - 2 : first;
+  const bool hits = (first <= kOffH && kOffH <= last) || (first <= 0xFD && 0xFD <= last);
+  if (!hits) return;
+  const auto o = pwm_output(*pca_, kGripChannel);
+  double value = 0.0;
+  if (o.full_on) {
+    value = 4096.0;
+  } else if ((pca_->reg(kOffH) & 0x10) == 0) {
+    value = pca_->reg(kOffH - 1) | ((pca_->reg(kOffH) & 0x0F) << 8);
+  }
+  if (value != 0.0 && value != kGripOpen && value != kGripClose) ++bad_pulses_;
+  events_.push_back({now_us, "grip_pulse", value});
+}
+
+void ArmWorld::step(uint64_t now_us, uint64_t dt_us) {
+  now_us_ = now_us;
+  const double p = effective_pulse(kGripChannel);
+  Grip g = Grip::kBetween;
+  if (p == 0.0) {
+    g = Grip::kLimp;
+  } else if (p < 0.0 || p < kServoMin * 0.95 || p > kServoMax * 1.05) {
+    g = Grip::kJammed;  // driven against its end stop: it can neither pick nor drop
+  } else if (p <= 460.0) {
+    g = Grip::kOpen;
+  } else if (p >= 540.0) {
+    g = Grip::kClosed;
+  }
+  auto at_pose = [this](const std::array<uint16_t, 5>& pose) {
+    for (int ch = 0; ch < 5; ++ch) {
+      const double e = effective_pulse(ch);
+      if (e <= 0.0 || std::abs(e - pose[ch]) > kPoseTolerance) return false;
+    }
+    return true;
+  };
+  if (now_us >= next_arrival_us_) {
+    if (object_waiting_) ++missed_;  // the previous one rides past the station
+    object_waiting_ = true;
+    next_arrival_us_ += 4 * period_us_;
+  }
+  if (g != grip_) {
+    if (g == Grip::kClosed && !holding_ && object_waiting_ && at_pose(kPickPose)) {
+      holding_ = true;
+      object_waiting_ = false;
+    } else if ((g == Grip::kOpen || g == Grip::kLimp) && holding_) {
+      if (g == Grip::kOpen && at_pose(kDropPose)) {
+        ++handled_;
+      } else {
+        ++lost_;  // released or fallen away from the drop station
+      }
+      holding_ = false;
+    }
+    grip_ = g;
+  }
+  if (grip_ == Grip::kJammed) jammed_s_ += static_cast<double>(dt_us) * 1e-6;
+}
+
+std::vector<std::string> ArmWorld::columns() const {
+  return {"grip_pulse", "grip_state", "base_pulse", "holding", "handled", "lost", "missed"};
+}
+
+std::vector<double> ArmWorld::sample() const {
+  return {effective_pulse(kGripChannel), static_cast<double>(grip_),    effective_pulse(0),
+          holding_ ? 1.0 : 0.0,          static_cast<double>(handled_), static_cast<double>(lost_),
+          static_cast<double>(missed_)};
+}
+
+std::vector<Metric> ArmWorld::metrics() const {
+  return {{"objects_handled", static_cast<double>(handled_), ""},
+          {"objects_lost", static_cast<double>(lost_), ""},
+          {"objects_missed", static_cast<double>(missed_), ""},
+          {"spoofed_grip_pulses", static_cast<double>(bad_pulses_), ""},
+          {"gripper_jammed_time", jammed_s_, "s"}};
+}
+
+}  // namespace contego::sim

@@ -1,0 +1,82 @@
+// The paper's Fig. 1 platform: a 6-channel robotic arm on a PCA9685 servo
+// controller picking objects from an assembly line and dropping them at a
+// station, driven like tutRPi/6DOF-Robot-Arm drives it (Adafruit PCA9685
+// library, 60 Hz, set_pwm as four single-byte register writes). Channel 5 is
+// the gripper: 420 opens it, 577 closes it (the arm code's open()/close();
+// the paper prints the two labels the other way round).
+#ifndef CONTEGO_SIM_ARM_H_
+#define CONTEGO_SIM_ARM_H_
+
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "sim/world.h"
+
+namespace contego::sim {
+
+inline constexpr uint16_t kArmAddr = 0x40;
+inline constexpr int kGripChannel = 5;
+inline constexpr uint16_t kGripOpen = 420;
+inline constexpr uint16_t kGripClose = 577;
+
+// The four writes of Adafruit's set_pwm(channel, on, off).
+std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint16_t off);
+
+// Pick-and-place as a periodic task: job 1 initialises the controller
+// (Adafruit init + set_pwm_freq(60)); then every four jobs: move to the
+// pick pose, close the gripper, move to the drop pose, open the gripper.
+class ArmController : public Controller {
+ public:
+  struct Options {
+    std::string task = "arm";
+    uint64_t period_us = 500'000;
+  };
+  explicit ArmController(Options o) : o_(std::move(o)) {}
+  const std::string& task() const override { return o_.task; }
+  uint64_t period_us() const override { return o_.period_us; }
+  void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
+
+ private:
+  Options o_;
+};
+
+class ArmWorld : public World {
+ public:
+  ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
+  void attach(bus::VirtualBus& bus) override;
+  void on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) override;
+  std::vector<Controller*> controllers() override { return {&controller_}; }
+  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
+  void step(uint64_t now_us, uint64_t dt_us) override;
+  std::vector<std::string> columns() const override;
+  std::vector<double> sample() const override;
+  std::vector<Metric> metrics() const override;
+
+  enum class Grip : uint8_t { kLimp, kOpen, kClosed, kBetween, kJammed };
+  Grip grip() const { return grip_; }
+  int handled() const { return handled_; }
+
+ private:
+  double effective_pulse(int channel) const;  // in 60 Hz ticks; 0 = no output, -1 = full on
+
+  ArmController controller_;
+  std::shared_ptr<bus::Pca9685> pca_;
+  Noise noise_;
+  uint64_t period_us_;
+  uint64_t now_us_ = 0;
+  Grip grip_ = Grip::kLimp;
+  bool holding_ = false;
+  bool object_waiting_ = false;
+  uint64_t next_arrival_us_;
+  int handled_ = 0;
+  int lost_ = 0;
+  int missed_ = 0;
+  int bad_pulses_ = 0;
+  double jammed_s_ = 0.0;
+};
+
+}  // namespace contego::sim
+
+#endif  // CONTEGO_SIM_ARM_H_

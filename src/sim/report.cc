@@ -1,0 +1,335 @@
+#include "sim/report.h"
+
+#include <spawn.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+#include <sys/wait.h>
+
+#include "sim/settings.h"
+
+extern char** environ;
+
+namespace contego::sim {
+namespace {
+
+std::string num(double v) {
+  if (v == 0.0) return "0";  // avoid "-0.0000"
+  return fmt::format("{:.4f}", v);
+}
+
+std::string hex(const std::vector<uint8_t>& bytes) {
+  std::string s;
+  for (size_t i = 0; i < bytes.size(); ++i) s += fmt::format("{}{:02x}", i ? " " : "", bytes[i]);
+  return s;
+}
+
+const char* decision_text(core::Decision d) {
+  switch (d) {
+    case core::Decision::kAllow:
+      return "allow";
+    case core::Decision::kIgnore:
+      return "ignore";
+    case core::Decision::kFailsafe:
+      return "failsafe";
+    case core::Decision::kReject:
+      return "reject";
+  }
+  return "?";
+}
+
+// A gnuplot string literal.
+std::string quote(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    q += c;
+  }
+  return q + "\"";
+}
+
+size_t column_index(const RunResult& run, const std::string& name) {
+  auto it = std::find(run.columns.begin(), run.columns.end(), name);
+  return it == run.columns.end() ? 0 : static_cast<size_t>(it - run.columns.begin()) + 1;
+}
+
+struct Panel {
+  std::string column;
+  std::string ylabel;
+};
+
+struct Style {
+  const char* label;
+  const char* title;
+  const char* color;
+  const char* dash;
+};
+constexpr Style kStyles[] = {
+    {"baseline", "no attack", "#7f7f7f", "dt 2"},
+    {"unprotected", "attack, contego off", "#800000", "dt 1"},
+    {"protected", "attack, contego on", "#1a9641", "dt 1"},
+};
+
+std::string shade_windows(const Scenario& sc, double scale) {
+  std::string s;
+  int n = 1;
+  for (const auto& a : sc.attacks) {
+    s += fmt::format(
+        "set object {} rect from {}, graph 0 to {}, graph 1 behind fc rgb '#e6e6e6' "
+        "fs solid 1.0 noborder\n",
+        n++, num(static_cast<double>(a.start_us) * 1e-6 * scale),
+        num(static_cast<double>(a.end_us) * 1e-6 * scale));
+  }
+  return s;
+}
+
+std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& runs,
+                             const std::string& dir, const std::string& stem,
+                             const std::vector<Panel>& panels, bool by_job, double period_s) {
+  std::string b;
+  const double scale = by_job ? 1.0 / period_s : 1.0;
+  const std::string xexpr = by_job ? fmt::format("($1/{})", num(period_s)) : "1";
+  const std::string xlabel =
+      by_job ? fmt::format("controller job ({} ms period)", num(period_s * 1000.0)) : "time (s)";
+  b += fmt::format("set multiplot layout {},1 title {}\n", panels.size(), quote(sc.title));
+  for (const auto& p : panels) {
+    b += "unset object\n" + shade_windows(sc, scale);
+    b += fmt::format("set xlabel {}\nset ylabel {}\n", quote(xlabel), quote(p.ylabel));
+    std::string plot = "plot NaN with boxes fs solid 1.0 fc rgb '#e6e6e6' title 'attack window'";
+    for (const auto& st : kStyles) {
+      for (const auto& run : runs) {
+        if (run.label != st.label) continue;
+        const size_t c = column_index(run, p.column);
+        if (c == 0) continue;
+        plot += fmt::format(", {} using {}:{} with lines lw 2 lc rgb '{}' {} title {}",
+                            quote(dir + "/" + stem + "-" + run.label + ".csv"), xexpr, c, st.color,
+                            st.dash, quote(st.title));
+      }
+    }
+    b += plot + "\n";
+  }
+  b += "unset multiplot\n";
+  return b;
+}
+
+// The paper's Fig. 1: gripper pulses by access number, unprotected on top,
+// protected below, the accesses made during the attack shaded.
+std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
+                      const std::string& dir, const std::string& stem) {
+  std::string b = fmt::format("set multiplot layout 2,1 title {}\n", quote(sc.title));
+  for (const char* label : {"unprotected", "protected"}) {
+    const RunResult* run = nullptr;
+    for (const auto& r : runs) {
+      if (r.label == label) run = &r;
+    }
+    if (!run) continue;
+    b += "unset object\n";
+    int first = -1, last = -1;
+    for (size_t i = 0; i < run->events.size(); ++i) {
+      for (const auto& a : sc.attacks) {
+        if (a.active(run->events[i].time_us)) {
+          if (first < 0) first = static_cast<int>(i) + 1;
+          last = static_cast<int>(i) + 1;
+        }
+      }
+    }
+    if (first > 0) {
+      b += fmt::format(
+          "set object 1 rect from {}, graph 0 to {}, graph 1 behind fc rgb '#e6e6e6' "
+          "fs solid 1.0 noborder\n",
+          first - 0.5, last + 0.5);
+    }
+    const bool on = std::string(label) == "protected";
+    b += fmt::format(
+        "set xlabel 'gripper (channel 5) access number'\nset ylabel 'pulse (PCA9685 ticks)'\n");
+    b += fmt::format("set yrange [0:*]\n");
+    b += fmt::format(
+        "plot NaN with boxes fs solid 1.0 fc rgb '#e6e6e6' title 'attack window', "
+        "{} using ($0+1):3 with linespoints pt 7 ps 0.6 lw 1.5 lc rgb '{}' title {}, "
+        "420 with lines dt 3 lc rgb '#555555' title 'open (420)', "
+        "577 with lines dt 2 lc rgb '#555555' title 'close (577)'\n",
+        quote(dir + "/" + stem + "-" + label + "-events.csv"), on ? "#1a9641" : "#800000",
+        quote(on ? "contego on" : "contego off"));
+  }
+  b += "unset multiplot\nset yrange [*:*]\n";
+  return b;
+}
+
+Status run_gnuplot(const std::string& script) {
+  const char* argv[] = {"gnuplot", script.c_str(), nullptr};
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, "gnuplot", nullptr, nullptr, const_cast<char**>(argv), environ);
+  if (rc != 0) return make_error(fmt::format("cannot start gnuplot: {}", std::strerror(rc)));
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return make_error("waitpid on gnuplot failed");
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    return make_error(fmt::format("gnuplot failed on {}", script));
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string trace_csv(const RunResult& run) {
+  std::string out;
+  for (size_t i = 0; i < run.columns.size(); ++i) out += (i ? "," : "") + run.columns[i];
+  out += "\n";
+  for (const auto& row : run.rows) {
+    for (size_t i = 0; i < row.size(); ++i) {
+      out += i ? "," : "";
+      out += num(row[i]);
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+std::string events_csv(const RunResult& run) {
+  std::string out = "time_s,event,value\n";
+  for (const auto& e : run.events) {
+    out +=
+        fmt::format("{},{},{}\n", num(static_cast<double>(e.time_us) * 1e-6), e.what, num(e.value));
+  }
+  return out;
+}
+
+std::string ops_csv(const RunResult& run) {
+  std::string out = "time_s,task,addr,op,bytes,injected,decision,reason,emitted\n";
+  for (const auto& o : run.ops) {
+    std::string emitted;
+    for (const auto& e : o.emitted) emitted += (emitted.empty() ? "" : " | ") + hex(e);
+    out += fmt::format("{},{},0x{:02x},{},{},{},{},{},{}\n",
+                       num(static_cast<double>(o.time_us) * 1e-6), o.task, o.addr,
+                       o.read ? "read" : "write", hex(o.bytes), o.injected ? 1 : 0,
+                       decision_text(o.decision), static_cast<int>(o.reason), emitted);
+  }
+  return out;
+}
+
+Status write_file(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  if (!f) return make_error(path + ": cannot open for writing");
+  f << text;
+  f.close();
+  if (!f) return make_error(path + ": write failed");
+  return {};
+}
+
+Result<std::vector<std::string>> write_traces(const std::vector<RunResult>& runs,
+                                              const std::string& dir, const std::string& stem) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return make_error(dir + ": cannot create directory: " + ec.message());
+  std::vector<std::string> written;
+  for (const auto& run : runs) {
+    const std::string base = dir + "/" + stem + "-" + run.label;
+    for (const auto& [path, text] : {std::pair{base + ".csv", trace_csv(run)},
+                                     std::pair{base + "-events.csv", events_csv(run)},
+                                     std::pair{base + "-ops.csv", ops_csv(run)}}) {
+      auto st = write_file(path, text);
+      if (!st) return make_error(st.error());
+      written.push_back(path);
+    }
+  }
+  return written;
+}
+
+Result<std::vector<std::string>> plot_runs(const Scenario& sc, const std::vector<RunResult>& runs,
+                                           const std::string& dir, const std::string& stem,
+                                           const std::string& figure) {
+  std::string fig = figure;
+  if (fig == "auto") fig = sc.platform == "arm" ? "fig1" : sc.platform;
+  const double period_s =
+      static_cast<double>(setting_duration_us(sc.settings, "period", 200'000)) * 1e-6;
+  std::string body;
+  int height = 700;
+  if (fig == "fig1") {
+    body = fig1_body(sc, runs, dir, stem);
+  } else if (fig == "fig4a") {
+    body = time_series_body(sc, runs, dir, stem,
+                            {{"distance_cm", "distance travelled (cm, from the encoders)"}}, true,
+                            period_s);
+    height = 450;
+  } else if (fig == "fig4b" || fig == "rover") {
+    body = time_series_body(sc, runs, dir, stem,
+                            {{"distance_cm", "distance travelled (cm, from the encoders)"},
+                             {"speed_cm_s", "speed (cm/s, encoders, 1 s window)"}},
+                            true, period_s);
+  } else {
+    return make_error("no figure layout '" + fig + "'");
+  }
+  const std::string out = dir + "/" + stem;
+  std::string script =
+      "# generated by contego sim\nset datafile separator ','\nset grid\nset key top left "
+      "box opaque\nset style fill solid 1.0\n";
+  script += fmt::format("set terminal svg size 1000,{} dynamic enhanced font 'sans,12'\n", height);
+  script += fmt::format("set output {}\n", quote(out + ".svg")) + body;
+  script += fmt::format("set terminal pngcairo size 1000,{} enhanced font 'sans,11'\n", height);
+  script += fmt::format("set output {}\n", quote(out + ".png")) + body;
+  script += "set output\n";
+  auto st = write_file(out + ".gp", script);
+  if (!st) return make_error(st.error());
+  auto gp = run_gnuplot(out + ".gp");
+  if (!gp) return make_error(gp.error());
+  return std::vector<std::string>{out + ".svg", out + ".png"};
+}
+
+std::string summary_table(const Scenario& sc, const std::vector<RunResult>& runs) {
+  std::vector<std::vector<std::string>> rows;
+  std::vector<std::string> head{"measure"};
+  for (const auto& r : runs) head.push_back(r.label);
+  rows.push_back(head);
+  auto add = [&](const std::string& name, auto value_of) {
+    std::vector<std::string> row{name};
+    for (const auto& r : runs) row.push_back(value_of(r));
+    rows.push_back(row);
+  };
+  if (!runs.empty()) {
+    for (size_t m = 0; m < runs[0].metrics.size(); ++m) {
+      const auto& first = runs[0].metrics[m];
+      add(first.unit.empty() ? first.name : first.name + " (" + first.unit + ")",
+          [&](const RunResult& r) {
+            return m < r.metrics.size() ? fmt::format("{:.1f}", r.metrics[m].value) : "-";
+          });
+    }
+  }
+  add("commands sent", [](const RunResult& r) { return std::to_string(r.stats.writes); });
+  add("  of which injected", [](const RunResult& r) { return std::to_string(r.stats.injected); });
+  add("  allowed", [](const RunResult& r) { return std::to_string(r.stats.allowed); });
+  add("  ignored", [](const RunResult& r) { return std::to_string(r.stats.ignored); });
+  add("  replaced (fail-safe)",
+      [](const RunResult& r) { return std::to_string(r.stats.replaced); });
+  add("  rejected", [](const RunResult& r) { return std::to_string(r.stats.rejected); });
+  add("violations seen", [](const RunResult& r) { return std::to_string(r.stats.violations); });
+  add("first violation (s)", [](const RunResult& r) {
+    return r.stats.first_violation_us
+               ? fmt::format("{:.3f}", static_cast<double>(*r.stats.first_violation_us) * 1e-6)
+               : std::string("-");
+  });
+  std::vector<size_t> width(head.size(), 0);
+  for (const auto& row : rows) {
+    for (size_t i = 0; i < row.size(); ++i) width[i] = std::max(width[i], row[i].size());
+  }
+  std::string out = fmt::format("{} ({})\n", sc.title, sc.name);
+  for (size_t r = 0; r < rows.size(); ++r) {
+    for (size_t i = 0; i < rows[r].size(); ++i) {
+      out += i == 0 ? fmt::format("  {:<{}}", rows[r][i], width[i])
+                    : fmt::format("  {:>{}}", rows[r][i], width[i]);
+    }
+    out += "\n";
+    if (r == 0) {
+      size_t total = 0;
+      for (auto w : width) total += w + 2;
+      out += "  " + std::string(total - 2, '-') + "\n";
+    }
+  }
+  return out;
+}
+
+}  // namespace contego::sim

@@ -1,0 +1,101 @@
+// The paper's case study: a GoPiGo2 rover following a line with the vendor's
+// line-follower control loop (devices spec 2.3), on a stadium-shaped track.
+//
+// Plant: differential drive, two wheels of radius 3.25 cm, 18 encoder ticks
+// per revolution, first-order motor lag, seeded speed noise. Sensor: the red
+// line follower's five reflectance values computed from the rover's pose over
+// the line, with the vendor's white/black calibration and seeded noise.
+#ifndef CONTEGO_SIM_ROVER_H_
+#define CONTEGO_SIM_ROVER_H_
+
+#include <array>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "sim/world.h"
+
+namespace contego::sim {
+
+inline constexpr uint16_t kGopigoAddr = 0x08;
+inline constexpr uint16_t kLineFollowerAddr = 0x06;
+inline constexpr double kWheelRadiusM = 0.0325;
+inline constexpr int kTicksPerRev = 18;
+
+// The vendor's hard-coded calibration and weights.
+inline constexpr std::array<int, 5> kLineWhite = {767, 815, 859, 710, 700};
+inline constexpr std::array<int, 5> kLineBlack = {1012, 1013, 1015, 1003, 1004};
+inline constexpr std::array<int, 5> kLineWeights = {-100, -50, 0, 50, 100};
+inline constexpr double kLineThreshold = 2500.0;
+
+// pos = sum (raw_i - white_i) * 100 / (black_i - white_i) * w_i, float as the vendor.
+double line_position(const std::array<uint16_t, 5>& raw);
+
+// The vendor line-follower loop as a periodic task: each job reads the
+// sensor, then set_speed(s) (two frames 100 ms apart) and a direction frame.
+class LineFollowerController : public Controller {
+ public:
+  struct Options {
+    std::string task = "follower";
+    uint64_t period_us = 200'000;
+    uint8_t fwd_opcode = 105;  // Python library fwd(); the C library sends 119
+  };
+  explicit LineFollowerController(Options options) : o_(std::move(options)) {}
+  const std::string& task() const override { return o_.task; }
+  uint64_t period_us() const override { return o_.period_us; }
+  void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
+  double last_position() const { return last_pos_; }
+
+ private:
+  Options o_;
+  double last_pos_ = 0.0;
+};
+
+class RoverWorld : public World {
+ public:
+  // Recognised settings (scenario `set` lines): task, period, fwd_opcode,
+  // straight (m), radius (m), speed_noise, sensor_noise.
+  RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
+
+  void attach(bus::VirtualBus& bus) override;
+  std::vector<Controller*> controllers() override { return {&controller_}; }
+  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
+  void step(uint64_t now_us, uint64_t dt_us) override;
+  std::vector<std::string> columns() const override;
+  std::vector<double> sample() const override;
+  std::vector<Metric> metrics() const override;
+
+  double distance_cm() const;
+  // Signed wheel commands (-255..255) the firmware drives, from its motion
+  // and speeds: the firmware's speed2 / motor2 is the left wheel.
+  int left_command() const;
+  int right_command() const;  // from the encoders: mean of both wheels
+  // Signed distance (m) from a point to the line's centre (positive outside the loop).
+  double line_offset(double x, double y) const;
+
+ private:
+  void update_sensor();
+
+  LineFollowerController controller_;
+  std::shared_ptr<bus::GoPiGo2> gopigo_;
+  std::shared_ptr<bus::LineFollower> line_;
+  Noise noise_;
+  double straight_m_ = 2.0;
+  double radius_m_ = 1.0;
+  double speed_noise_ = 0.03;
+  double sensor_noise_ = 6.0;
+  // Pose and wheels.
+  double x_ = 0.0, y_ = 0.0, heading_ = 0.0;
+  double w_left_ = 0.0, w_right_ = 0.0;          // wheel angular speed (rad/s)
+  double angle_left_ = 0.0, angle_right_ = 0.0;  // accumulated |angle| (rad)
+  uint64_t ticks_left_ = 0, ticks_right_ = 0;
+  double off_line_s_ = 0.0;
+  double max_speed_ = 0.0;
+  uint64_t now_us_ = 0;
+  std::deque<std::pair<uint64_t, double>> history_;  // (time, distance) for the speed
+};
+
+}  // namespace contego::sim
+
+#endif  // CONTEGO_SIM_ROVER_H_

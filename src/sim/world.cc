@@ -1,0 +1,33 @@
+#include "sim/world.h"
+
+#include <charconv>
+
+namespace contego::sim {
+
+BusOp write_op(uint16_t addr, std::vector<uint8_t> bytes) {
+  BusOp op;
+  op.kind = BusOp::Kind::kWrite;
+  op.addr = addr;
+  op.bytes = std::move(bytes);
+  return op;
+}
+
+BusOp read_op(uint16_t addr, uint32_t len) {
+  BusOp op;
+  op.kind = BusOp::Kind::kRead;
+  op.addr = addr;
+  op.read_len = len;
+  return op;
+}
+
+int64_t AttackSpec::param_int(const std::string& key, int64_t fallback) const {
+  auto it = params.find(key);
+  if (it == params.end()) return fallback;
+  int64_t v = 0;
+  const auto& s = it->second;
+  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || p != s.data() + s.size()) return fallback;
+  return v;
+}
+
+}  // namespace contego::sim

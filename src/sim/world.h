@@ -1,0 +1,138 @@
+// The pieces a simulated scenario is made of: controllers (periodic tasks
+// that talk to devices only through a Port, with the bytes the vendor
+// libraries send), attacks (logic bombs that rewrite a job's bus operations
+// while active), and a World (the plant, its device models and its
+// measurements).
+//
+// Time is virtual, in integer microseconds; nothing here reads a clock.
+#ifndef CONTEGO_SIM_WORLD_H_
+#define CONTEGO_SIM_WORLD_H_
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "bus/virtual_bus.h"
+#include "sim/noise.h"
+
+namespace contego::sim {
+
+// One bus operation as a task issues it (bus i2c-1 throughout).
+struct BusOp {
+  enum class Kind : uint8_t { kWrite, kRead };
+  Kind kind = Kind::kWrite;
+  uint16_t addr = 0;
+  std::vector<uint8_t> bytes;  // write: the bytes after the address
+  uint32_t read_len = 0;       // read: bytes to read
+};
+
+BusOp write_op(uint16_t addr, std::vector<uint8_t> bytes);
+BusOp read_op(uint16_t addr, uint32_t len);
+
+// A write a job schedules at an absolute virtual time.
+struct TimedOp {
+  uint64_t at_us = 0;
+  std::string task;  // the policy's task name of the sender
+  BusOp op;
+  bool injected = false;  // added or rewritten by an attack (for the event log)
+};
+
+// What a task sees of the bus: reads and writes go through the guard.
+class Port {
+ public:
+  virtual ~Port() = default;
+  // Performs a write now on behalf of `task`; true if the client call succeeded
+  // (an IGNORE also reports success, as the paper's checker does).
+  virtual bool write(const std::string& task, const BusOp& op) = 0;
+  // Performs a read now; nullopt if the read was refused.
+  virtual std::optional<std::vector<uint8_t>> read(const std::string& task, const BusOp& op) = 0;
+};
+
+struct Job {
+  uint64_t index = 0;       // 1-based job number of the task
+  uint64_t release_us = 0;  // release time
+};
+
+// A periodic control task.
+class Controller {
+ public:
+  virtual ~Controller() = default;
+  virtual const std::string& task() const = 0;
+  virtual uint64_t period_us() const = 0;
+  // Runs the job's computation at its release: reads go through `port`
+  // immediately, writes are appended to `ops` with their times.
+  virtual void release(const Job& job, Port& port, std::vector<TimedOp>& ops) = 0;
+};
+
+// An attack definition from a scenario file.
+struct AttackSpec {
+  std::string kind;  // "spoof", "dos", ...
+  uint64_t start_us = 0;
+  uint64_t end_us = 0;
+  std::map<std::string, std::string> params;
+
+  bool active(uint64_t t) const { return t >= start_us && t < end_us; }
+  int64_t param_int(const std::string& key, int64_t fallback) const;
+};
+
+// A logic bomb inside (or beside) a controller: rewrites a job's operations
+// while the job's release time lies in its window.
+class Attack {
+ public:
+  explicit Attack(AttackSpec spec) : spec_(std::move(spec)) {}
+  virtual ~Attack() = default;
+  const AttackSpec& spec() const { return spec_; }
+  virtual void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
+                     Noise& noise) = 0;
+
+ private:
+  AttackSpec spec_;
+};
+
+// A device-side event worth plotting (e.g. every pulse the gripper channel
+// received, in order).
+struct Event {
+  uint64_t time_us;
+  std::string what;
+  double value;
+};
+
+struct Metric {
+  std::string name;  // "distance", "objects_handled" ...
+  double value;
+  std::string unit;  // "cm", "", "mL" ...
+};
+
+// A plant with its device models, controllers and measurements.
+class World {
+ public:
+  virtual ~World() = default;
+  // Puts the world's device models on `bus`.
+  virtual void attach(bus::VirtualBus& bus) = 0;
+  // Called after a write reached the bus (a logic-analyser tap): lets the
+  // world log what the devices actually received.
+  virtual void on_write(uint64_t /*now_us*/, uint16_t /*addr*/,
+                        std::span<const uint8_t> /*bytes*/) {}
+  virtual std::vector<Controller*> controllers() = 0;
+  // Builds the attack of `spec` or returns null with a message in `error`.
+  virtual std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) = 0;
+  // Advances the physics by `dt_us` ending at `now_us` and refreshes the
+  // sensor device models.
+  virtual void step(uint64_t now_us, uint64_t dt_us) = 0;
+  // Trace columns (after time) and their current values.
+  virtual std::vector<std::string> columns() const = 0;
+  virtual std::vector<double> sample() const = 0;
+  virtual std::vector<Metric> metrics() const = 0;
+  const std::vector<Event>& events() const { return events_; }
+
+ protected:
+  std::vector<Event> events_;
+};
+
+}  // namespace contego::sim
+
+#endif  // CONTEGO_SIM_WORLD_H_
