@@ -33,10 +33,11 @@ std::vector<TimedOp> at(uint64_t t, const std::string& task, const std::vector<B
 // Control spoofing (Fig. 1): the gripper gets arbitrary high pulses.
 class HighPulse : public Attack {
  public:
-  explicit HighPulse(AttackSpec spec) : Attack(std::move(spec)) {}
+  HighPulse(AttackSpec spec, std::string victim)
+      : Attack(std::move(spec)), victim_(std::move(victim)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
              Noise& noise) override {
-    if (!spec().active(job.release_us) || job.index < 2) return;
+    if (!spec().active(job.release_us) || task != victim_) return;
     const auto lo = spec().param_int("min", 700);
     const auto hi = spec().param_int("max", 1400);
     const auto pulse = static_cast<uint16_t>(noise.uniform_int(lo, hi));
@@ -54,38 +55,44 @@ class HighPulse : public Attack {
       ops.insert(ops.end(), extra.begin(), extra.end());
     }
   }
+
+ private:
+  std::string victim_;
 };
 
 // Configuration-register tampering: MODE1 sleep, PRE_SCALE, ALL_LED.
 class ConfigTamper : public Attack {
  public:
-  ConfigTamper(AttackSpec spec, std::vector<std::vector<uint8_t>> writes)
-      : Attack(std::move(spec)), writes_(std::move(writes)) {}
+  ConfigTamper(AttackSpec spec, std::string victim, std::vector<std::vector<uint8_t>> writes)
+      : Attack(std::move(spec)), victim_(std::move(victim)), writes_(std::move(writes)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us) || job.index < 2) return;
+    if (!spec().active(job.release_us) || task != victim_) return;
     uint64_t t = job.release_us + 100'000;
     for (const auto& w : writes_) ops.push_back({t++, task, write_op(kArmAddr, w), true});
   }
 
  private:
+  std::string victim_;
   std::vector<std::vector<uint8_t>> writes_;
 };
 
 // Unauthorised task: another program opens the gripper while the arm moves.
 class ArmIntruder : public Attack {
  public:
-  explicit ArmIntruder(AttackSpec spec) : Attack(std::move(spec)) {
+  ArmIntruder(AttackSpec spec, std::string victim)
+      : Attack(std::move(spec)), victim_(std::move(victim)) {
     auto it = this->spec().params.find("task");
     intruder_ = it == this->spec().params.end() ? "intruder" : it->second;
   }
-  void apply(const Job& job, const std::string&, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us)) return;
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us) || task != victim_) return;
     auto extra = at(job.release_us + 250'000, intruder_,
                     pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen), true);
     ops.insert(ops.end(), extra.begin(), extra.end());
   }
 
  private:
+  std::string victim_;
   std::string intruder_;
 };
 
@@ -99,60 +106,86 @@ std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint
           write_op(addr, {static_cast<uint8_t>(base + 3), static_cast<uint8_t>(off >> 8)})};
 }
 
-void ArmController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
-  const uint64_t t = job.release_us;
+void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
+  if (job.index != 1) return;
+  uint64_t t = job.release_us;
   auto add = [&](uint64_t when, const std::vector<BusOp>& bus_ops) {
-    for (const auto& op : bus_ops) ops.push_back({when++, o_.task, op, false});
+    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
+  };
+  // PCA9685(): all channels off, MODE2 totem-pole, MODE1 all-call, wake up.
+  add(t, {write_op(kArmAddr, {0xFA, 0}), write_op(kArmAddr, {0xFB, 0}),
+          write_op(kArmAddr, {0xFC, 0}), write_op(kArmAddr, {0xFD, 0}),
+          write_op(kArmAddr, {0x01, 0x04}), write_op(kArmAddr, {0x00, 0x01})});
+  // set_pwm_freq(60) reads MODE1 first (at release: the chip still sleeps,
+  // the library then writes what it read with SLEEP cleared).
+  BusOp read_mode1 = read_op(kArmAddr, 1);
+  read_mode1.bytes = {0x00};
+  auto mode1 = port.read(task_, read_mode1);
+  const uint8_t old = static_cast<uint8_t>((mode1 && !mode1->empty() ? (*mode1)[0] : 0x01) & ~0x10);
+  add(t + 10'000, {write_op(kArmAddr, {0x00, old}),
+                   write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & 0x7F) | 0x10)}),
+                   write_op(kArmAddr, {0xFE, 0x65}), write_op(kArmAddr, {0x00, old})});
+  add(t + 20'000, {write_op(kArmAddr, {0x00, static_cast<uint8_t>(old | 0x80)})});
+  // The drop (home) pose, one joint after the other.
+  t += 30'000;
+  for (int ch = 0; ch < 5; ++ch) {
+    add(t, pca9685_set_pwm(kArmAddr, ch, 0, kDropPose[ch]));
+    t += 1'000;
+  }
+}
+
+void GripperController::release(const Job& job, Port&, std::vector<TimedOp>& ops) {
+  auto add = [&](const std::vector<BusOp>& bus_ops) {
+    uint64_t when = job.release_us;
+    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
   };
   if (job.index == 1) {
-    // PCA9685() then set_pwm_freq(60), as the Adafruit library sends them.
-    // The register reads happen at release; the writes keep their order.
-    add(t + 0, {write_op(kArmAddr, {0xFA, 0}), write_op(kArmAddr, {0xFB, 0}),
-                write_op(kArmAddr, {0xFC, 0}), write_op(kArmAddr, {0xFD, 0}),
-                write_op(kArmAddr, {0x01, 0x04}), write_op(kArmAddr, {0x00, 0x01})});
-    BusOp read_mode1 = read_op(kArmAddr, 1);
-    read_mode1.bytes = {0x00};
-    auto mode1 = port.read(o_.task, read_mode1);
-    const uint8_t old = mode1 && !mode1->empty() ? (*mode1)[0] : 0x01;
-    add(t + 10'000, {write_op(kArmAddr, {0x00, static_cast<uint8_t>(old & ~0x10)}),
-                     write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & 0x7F) | 0x10)}),
-                     write_op(kArmAddr, {0xFE, 0x65}),
-                     write_op(kArmAddr, {0x00, static_cast<uint8_t>(old & ~0x10)})});
-    add(t + 20'000, {write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & ~0x10) | 0x80)})});
+    add(pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen));
     return;
   }
-  const uint64_t phase = (job.index - 2) % 4;
-  if (phase == 0 || phase == 2) {
-    const auto& pose = phase == 0 ? kPickPose : kDropPose;
-    for (int ch = 0; ch < 5; ++ch) add(t + 1000 * ch, pca9685_set_pwm(kArmAddr, ch, 0, pose[ch]));
-  } else {
-    add(t, pca9685_set_pwm(kArmAddr, kGripChannel, 0, phase == 1 ? kGripClose : kGripOpen));
+  switch ((job.index - 2) % 4) {
+    case 0:
+      add(pca9685_set_pwm(kArmAddr, 0, 0, kPickPose[0]));
+      break;
+    case 1:
+      add(pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripClose));
+      break;
+    case 2:
+      add(pca9685_set_pwm(kArmAddr, 0, 0, kDropPose[0]));
+      break;
+    default:
+      add(pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen));
+      break;
   }
 }
 
 ArmWorld::ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : controller_(ArmController::Options{setting_string(settings, "task", "arm"),
-                                         setting_duration_us(settings, "period", 500'000)}),
+    : init_(setting_string(settings, "init_task", "arm_init"), 10'000'000),
+      gripper_(setting_string(settings, "task", "gripper"),
+               setting_duration_us(settings, "period", 1'000'000), 50'000),
       pca_(std::make_shared<bus::Pca9685>(kArmAddr)),
       noise_(derive_seed(seed, 2)),
-      period_us_(setting_duration_us(settings, "period", 500'000)),
-      next_arrival_us_(period_us_ / 2) {}
+      period_us_(setting_duration_us(settings, "period", 1'000'000)),
+      // One object per four-job cycle, half a period before the base turns to pick it.
+      next_arrival_us_(50'000 + period_us_ / 2) {}
 
 void ArmWorld::attach(bus::VirtualBus& bus) { bus.attach(pca_); }
 
 std::unique_ptr<Attack> ArmWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "high_pulse") return std::make_unique<HighPulse>(spec);
-  if (spec.kind == "sleep") {
-    return std::make_unique<ConfigTamper>(spec, std::vector<std::vector<uint8_t>>{{0x00, 0x11}});
-  }
+  const std::string& victim = gripper_.task();
+  using Writes = std::vector<std::vector<uint8_t>>;
+  if (spec.kind == "high_pulse") return std::make_unique<HighPulse>(spec, victim);
+  if (spec.kind == "sleep")
+    return std::make_unique<ConfigTamper>(spec, victim, Writes{{0x00, 0x11}});
   if (spec.kind == "prescale") {
-    return std::make_unique<ConfigTamper>(
-        spec, std::vector<std::vector<uint8_t>>{{0x00, 0x11}, {0xFE, 0x03}, {0x00, 0x01}});
+    // Sleep, a 1526 Hz prescale, wake: the servo pulses lose their meaning.
+    return std::make_unique<ConfigTamper>(spec, victim,
+                                          Writes{{0x00, 0x11}, {0xFE, 0x03}, {0x00, 0x01}});
   }
   if (spec.kind == "all_led") {
-    return std::make_unique<ConfigTamper>(spec, std::vector<std::vector<uint8_t>>{{0xFB, 0x10}});
+    return std::make_unique<ConfigTamper>(spec, victim, Writes{{0xFB, 0x10}});  // all full on
   }
-  if (spec.kind == "unauthorised") return std::make_unique<ArmIntruder>(spec);
+  if (spec.kind == "unauthorised") return std::make_unique<ArmIntruder>(spec, victim);
   *error = "unknown arm attack '" + spec.kind +
            "' (expected high_pulse, sleep, prescale, all_led, unauthorised)";
   return nullptr;

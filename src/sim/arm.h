@@ -24,22 +24,37 @@ inline constexpr uint16_t kGripClose = 577;
 // The four writes of Adafruit's set_pwm(channel, on, off).
 std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint16_t off);
 
-// Pick-and-place as a periodic task: job 1 initialises the controller
-// (Adafruit init + set_pwm_freq(60)); then every four jobs: move to the
-// pick pose, close the gripper, move to the drop pose, open the gripper.
-class ArmController : public Controller {
+// The two tasks of policies/arm.policy. arm_init (one job) initialises the
+// controller like the Adafruit library (PCA9685() then set_pwm_freq(60)) and
+// puts the arm in its drop pose. gripper moves one servo per job: the first
+// job opens the gripper, then every four jobs: base to the pick pose, close
+// the gripper, base to the drop pose, open the gripper.
+class ArmInitController : public Controller {
  public:
-  struct Options {
-    std::string task = "arm";
-    uint64_t period_us = 500'000;
-  };
-  explicit ArmController(Options o) : o_(std::move(o)) {}
-  const std::string& task() const override { return o_.task; }
-  uint64_t period_us() const override { return o_.period_us; }
+  ArmInitController(std::string task, uint64_t period_us)
+      : task_(std::move(task)), period_us_(period_us) {}
+  const std::string& task() const override { return task_; }
+  uint64_t period_us() const override { return period_us_; }
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 
  private:
-  Options o_;
+  std::string task_;
+  uint64_t period_us_;
+};
+
+class GripperController : public Controller {
+ public:
+  GripperController(std::string task, uint64_t period_us, uint64_t offset_us)
+      : task_(std::move(task)), period_us_(period_us), offset_us_(offset_us) {}
+  const std::string& task() const override { return task_; }
+  uint64_t period_us() const override { return period_us_; }
+  uint64_t offset_us() const override { return offset_us_; }
+  void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
+
+ private:
+  std::string task_;
+  uint64_t period_us_;
+  uint64_t offset_us_;
 };
 
 class ArmWorld : public World {
@@ -47,7 +62,7 @@ class ArmWorld : public World {
   ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
   void attach(bus::VirtualBus& bus) override;
   void on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) override;
-  std::vector<Controller*> controllers() override { return {&controller_}; }
+  std::vector<Controller*> controllers() override { return {&init_, &gripper_}; }
   std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
   std::vector<std::string> columns() const override;
@@ -61,7 +76,8 @@ class ArmWorld : public World {
  private:
   double effective_pulse(int channel) const;  // in 60 Hz ticks; 0 = no output, -1 = full on
 
-  ArmController controller_;
+  ArmInitController init_;
+  GripperController gripper_;
   std::shared_ptr<bus::Pca9685> pca_;
   Noise noise_;
   uint64_t period_us_;

@@ -120,7 +120,8 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
 
   GuardedPort port(*guard, bus, *world, result);
   auto controllers = world->controllers();
-  std::vector<uint64_t> next_release(controllers.size(), 0);
+  std::vector<uint64_t> next_release;
+  for (auto* c : controllers) next_release.push_back(c->offset_us());
   std::vector<uint64_t> job_count(controllers.size(), 0);
   std::vector<Pending> pending;
   uint64_t order = 0;

@@ -76,14 +76,14 @@ TEST(RunnerTest, SameSeedSameTraceOtherSeedOtherTrace) {
 }
 
 Scenario arm(const std::string& attack) {
-  auto sc = parse_scenario("platform arm\npolicy none\nduration 20s\nattack " + attack + "\n",
+  auto sc = parse_scenario("platform arm\npolicy none\nduration 40s\nattack " + attack + "\n",
                            "a.scn", ".");
   EXPECT_TRUE(sc.ok()) << sc.error();
   return *sc;
 }
 
 TEST(RunnerTest, ArmPicksAndPlacesEveryObject) {
-  auto r = run_scenario(arm("high_pulse from 6s to 12s"), {"baseline", false, nullptr, {}});
+  auto r = run_scenario(arm("high_pulse from 10s to 22s"), {"baseline", false, nullptr, {}});
   ASSERT_TRUE(r.ok()) << r.error();
   EXPECT_GE(metric(*r, "objects_handled"), 9.0);  // one per 2 s cycle
   EXPECT_EQ(metric(*r, "objects_lost"), 0.0);
@@ -91,8 +91,8 @@ TEST(RunnerTest, ArmPicksAndPlacesEveryObject) {
 }
 
 TEST(RunnerTest, HighPulsesReachTheUnprotectedGripperAndCostObjects) {
-  auto base = run_scenario(arm("high_pulse from 6s to 12s"), {"baseline", false, nullptr, {}});
-  auto r = run_scenario(arm("high_pulse from 6s to 12s"), {"unprotected", true, nullptr, {}});
+  auto base = run_scenario(arm("high_pulse from 10s to 22s"), {"baseline", false, nullptr, {}});
+  auto r = run_scenario(arm("high_pulse from 10s to 22s"), {"unprotected", true, nullptr, {}});
   ASSERT_TRUE(base.ok() && r.ok());
   EXPECT_GT(metric(*r, "spoofed_grip_pulses"), 5.0);
   EXPECT_LT(metric(*r, "objects_handled"), metric(*base, "objects_handled") - 2);
@@ -100,11 +100,77 @@ TEST(RunnerTest, HighPulsesReachTheUnprotectedGripperAndCostObjects) {
 
 TEST(RunnerTest, ConfigurationTamperingDisturbsTheUnprotectedArm) {
   for (const char* kind : {"sleep", "prescale", "all_led"}) {
-    auto base = run_scenario(arm(std::string(kind) + " from 6s to 12s"), {"b", false, nullptr, {}});
-    auto r = run_scenario(arm(std::string(kind) + " from 6s to 12s"), {"u", true, nullptr, {}});
+    auto base =
+        run_scenario(arm(std::string(kind) + " from 10s to 22s"), {"b", false, nullptr, {}});
+    auto r = run_scenario(arm(std::string(kind) + " from 10s to 22s"), {"u", true, nullptr, {}});
     ASSERT_TRUE(base.ok() && r.ok());
     EXPECT_LT(metric(*r, "objects_handled"), metric(*base, "objects_handled")) << kind;
   }
+}
+
+}  // namespace
+}  // namespace contego::sim
+
+namespace contego::sim {
+namespace {
+
+Result<RunResult> run_text(const std::string& text, bool attacks) {
+  auto sc = parse_scenario(text, "x.scn", ".");
+  if (!sc) return make_error(sc.error());
+  return run_scenario(*sc, {"x", attacks, nullptr, {}});
+}
+
+double value(const RunResult& r, const std::string& name) {
+  for (const auto& m : r.metrics) {
+    if (m.name == name) return m.value;
+  }
+  ADD_FAILURE() << "no metric " << name;
+  return 0;
+}
+
+TEST(RunnerTest, TankMonitorAlarmsOnlyWhenTheLevelIsHigh) {
+  const std::string sc =
+      "platform tank\npolicy none\nduration 90s\nstep 10ms\ntrace 100ms\n"
+      "attack false_alarm from 30s to 50s\n";
+  auto base = run_text(sc, false);
+  auto bad = run_text(sc, true);
+  ASSERT_TRUE(base.ok() && bad.ok());
+  EXPECT_GT(value(*base, "buzzer_on_time"), 20.0);    // two high phases of ~15 s
+  EXPECT_LT(value(*base, "false_alarm_time"), 1.5);   // only the 0.5 s polling lag
+  EXPECT_GT(value(*bad, "false_alarm_time"), 15.0);
+}
+
+TEST(RunnerTest, PumpStopsAtTheDoseUnlessOverdosed) {
+  const std::string sc =
+      "platform pump\npolicy none\nduration 30h\nstep 1s\ntrace 1min\nset period 60s\n"
+      "attack overdose from 2h to 28h rate=1000\n";
+  auto base = run_text(sc, false);
+  auto bad = run_text(sc, true);
+  ASSERT_TRUE(base.ok() && bad.ok());
+  EXPECT_NEAR(value(*base, "dose_delivered"), 5000.0, 10.0);
+  EXPECT_NEAR(value(*base, "dose_reached_at"), 25.0, 0.2);
+  EXPECT_GT(value(*bad, "dose_delivered"), 20000.0);
+}
+
+TEST(RunnerTest, CameraPatrolStaysInRangeUnlessSpoofed) {
+  const std::string sc =
+      "platform camera\npolicy none\nduration 60s\nattack beyond_range from 20s to 40s\n";
+  auto base = run_text(sc, false);
+  auto bad = run_text(sc, true);
+  ASSERT_TRUE(base.ok() && bad.ok());
+  EXPECT_LT(value(*base, "max_pan_angle"), 60.0);
+  EXPECT_GT(value(*bad, "max_pan_angle"), 80.0);
+  EXPECT_GT(value(*bad, "time_beyond_range"), 15.0);
+}
+
+TEST(RunnerTest, CameraSirenSoundsOnlyWithSomethingInView) {
+  const std::string sc =
+      "platform camera\npolicy none\nduration 60s\nattack false_siren from 20s to 40s\n";
+  auto base = run_text(sc, false);
+  auto bad = run_text(sc, true);
+  ASSERT_TRUE(base.ok() && bad.ok());
+  EXPECT_LT(value(*base, "false_siren_time"), 2.5);  // 1 s polling lag per visit
+  EXPECT_GT(value(*bad, "false_siren_time"), 10.0);
 }
 
 }  // namespace

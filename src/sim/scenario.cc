@@ -6,7 +6,10 @@
 #include <sstream>
 
 #include "sim/arm.h"
+#include "sim/camera.h"
+#include "sim/pump.h"
 #include "sim/rover.h"
+#include "sim/tank.h"
 
 namespace contego::sim {
 namespace {
@@ -22,7 +25,7 @@ std::vector<std::string> split_words(std::string_view line) {
 }  // namespace
 
 const std::vector<std::string>& platforms() {
-  static const std::vector<std::string> kPlatforms = {"rover", "arm"};
+  static const std::vector<std::string> kPlatforms = {"rover", "arm", "tank", "pump", "camera"};
   return kPlatforms;
 }
 
@@ -152,6 +155,12 @@ Result<std::unique_ptr<World>> make_world(const Scenario& scenario, uint64_t see
     w = std::make_unique<RoverWorld>(scenario.settings, seed);
   } else if (scenario.platform == "arm") {
     w = std::make_unique<ArmWorld>(scenario.settings, seed);
+  } else if (scenario.platform == "tank") {
+    w = std::make_unique<TankWorld>(scenario.settings, seed);
+  } else if (scenario.platform == "pump") {
+    w = std::make_unique<PumpWorld>(scenario.settings, seed);
+  } else if (scenario.platform == "camera") {
+    w = std::make_unique<CameraWorld>(scenario.settings, seed);
   } else {
     return make_error("unknown platform '" + scenario.platform + "'");
   }

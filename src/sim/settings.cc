@@ -36,7 +36,8 @@ std::optional<uint64_t> parse_duration_us(std::string_view text) {
     std::string_view suffix;
     double us;
   };
-  static constexpr Unit kUnits[] = {{"us", 1.0}, {"ms", 1e3}, {"min", 60e6}, {"s", 1e6}};
+  static constexpr Unit kUnits[] = {
+      {"us", 1.0}, {"ms", 1e3}, {"min", 60e6}, {"s", 1e6}, {"h", 3600e6}};
   for (const auto& u : kUnits) {
     if (text.size() > u.suffix.size() && text.ends_with(u.suffix)) {
       auto v = parse_double(text.substr(0, text.size() - u.suffix.size()));

@@ -10,7 +10,7 @@
 
 namespace contego::sim {
 
-// "200ms", "1.5s", "250us", "2min" -> microseconds; nullopt if malformed or
+// "200ms", "1.5s", "250us", "2min", "30h" -> microseconds; nullopt if malformed or
 // without a unit.
 std::optional<uint64_t> parse_duration_us(std::string_view text);
 std::optional<int64_t> parse_int(std::string_view text);  // decimal or 0x hex, optional sign

@@ -63,6 +63,8 @@ class Controller {
   virtual ~Controller() = default;
   virtual const std::string& task() const = 0;
   virtual uint64_t period_us() const = 0;
+  // Release time of the first job.
+  virtual uint64_t offset_us() const { return 0; }
   // Runs the job's computation at its release: reads go through `port`
   // immediately, writes are appended to `ops` with their times.
   virtual void release(const Job& job, Port& port, std::vector<TimedOp>& ops) = 0;

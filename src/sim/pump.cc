@@ -1,0 +1,107 @@
+#include "sim/pump.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/settings.h"
+
+namespace contego::sim {
+namespace {
+
+constexpr uint16_t kPumpAddr = 0x50;
+constexpr uint16_t kEncoderAddr = 0x51;
+constexpr uint16_t kScreenAddr = 0x3D;
+
+// Over-dose: the task drives the motor at `rate` uL/h whatever the encoder says.
+class Overdose : public Attack {
+ public:
+  explicit Overdose(AttackSpec spec) : Attack(std::move(spec)) {}
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us)) return;
+    const auto rate = static_cast<uint16_t>(spec().param_int("rate", 1000));
+    for (auto& op : ops) {
+      if (op.task != task || op.op.addr != kPumpAddr || op.op.kind != BusOp::Kind::kWrite ||
+          op.op.bytes.size() != 2) {
+        continue;
+      }
+      if (op.op.bytes[0] == 0x01) op.op.bytes[1] = static_cast<uint8_t>(rate & 0xFF);
+      if (op.op.bytes[0] == 0x02) op.op.bytes[1] = static_cast<uint8_t>(rate >> 8);
+      op.injected = true;
+    }
+  }
+};
+
+}  // namespace
+
+void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
+  BusOp read = read_op(kEncoderAddr, 2);
+  read.bytes = {0x00};
+  auto r = port.read(task_, read);
+  if (!r || r->size() < 2) return;
+  const int infused = ((*r)[0] << 8) | (*r)[1];
+  const uint16_t rate = infused < dose_ ? static_cast<uint16_t>(rate_) : 0;
+  const uint64_t t = job.release_us;
+  if (job.index == 1) ops.push_back({t, task_, write_op(kPumpAddr, {0x03, 0})});  // infuse
+  // Rate (u16le) and the displayed volume, one register per write.
+  ops.push_back({t, task_, write_op(kPumpAddr, {0x01, static_cast<uint8_t>(rate & 0xFF)})});
+  ops.push_back({t, task_, write_op(kPumpAddr, {0x02, static_cast<uint8_t>(rate >> 8)})});
+  ops.push_back({t, task_, write_op(kScreenAddr, {0x00, static_cast<uint8_t>(infused & 0xFF)})});
+  ops.push_back({t, task_, write_op(kScreenAddr, {0x01, static_cast<uint8_t>(infused >> 8)})});
+}
+
+PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
+    : infusion_(setting_string(settings, "task", "infusion"),
+                setting_duration_us(settings, "period", 60'000'000),
+                static_cast<int>(setting_int(settings, "rate", 200)),
+                static_cast<int>(setting_int(settings, "dose", 5000))),
+      pump_(std::make_shared<RegisterFile>(kPumpAddr)),
+      encoder_(std::make_shared<RegisterFile>(kEncoderAddr)),
+      screen_(std::make_shared<RegisterFile>(kScreenAddr)),
+      noise_(derive_seed(seed, 4)),
+      dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {}
+
+void PumpWorld::attach(bus::VirtualBus& bus) {
+  bus.attach(pump_);
+  bus.attach(encoder_);
+  bus.attach(screen_);
+}
+
+std::unique_ptr<Attack> PumpWorld::make_attack(const AttackSpec& spec, std::string* error) {
+  if (spec.kind == "overdose") return std::make_unique<Overdose>(spec);
+  *error = "unknown pump attack '" + spec.kind + "' (expected overdose)";
+  return nullptr;
+}
+
+int PumpWorld::rate() const { return pump_->reg(0x01) | (pump_->reg(0x02) << 8); }
+
+void PumpWorld::step(uint64_t now_us, uint64_t dt_us) {
+  const double dt_h = static_cast<double>(dt_us) / 3600e6;
+  const double flow = rate() * dt_h * (1.0 + noise_.gaussian(0.01));
+  const bool withdraw = pump_->reg(0x03) != 0;
+  delivered_ul_ = std::max(0.0, delivered_ul_ + (withdraw ? -flow : flow));
+  max_rate_ = std::max(max_rate_, static_cast<double>(rate()));
+  if (dose_reached_s_ < 0 && delivered_ul_ >= dose_) {
+    dose_reached_s_ = static_cast<double>(now_us) * 1e-6;
+  }
+  const auto counted = static_cast<uint16_t>(std::min(60000.0, std::floor(delivered_ul_)));
+  encoder_->set_reg(0, static_cast<uint8_t>(counted >> 8));
+  encoder_->set_reg(1, static_cast<uint8_t>(counted & 0xFF));
+}
+
+std::vector<std::string> PumpWorld::columns() const {
+  return {"delivered_ul", "rate_ul_h", "screen_ul"};
+}
+
+std::vector<double> PumpWorld::sample() const {
+  return {delivered_ul_, static_cast<double>(rate()),
+          static_cast<double>(screen_->reg(0x00) | (screen_->reg(0x01) << 8))};
+}
+
+std::vector<Metric> PumpWorld::metrics() const {
+  return {{"dose_delivered", delivered_ul_, "uL"},
+          {"overdose", std::max(0.0, delivered_ul_ - dose_), "uL"},
+          {"max_rate", max_rate_, "uL/h"},
+          {"dose_reached_at", dose_reached_s_ < 0 ? -1.0 : dose_reached_s_ / 3600.0, "h"}};
+}
+
+}  // namespace contego::sim

@@ -1,0 +1,118 @@
+#include "sim/tank.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "sim/settings.h"
+
+namespace contego::sim {
+namespace {
+
+constexpr uint16_t kSensorAddr = 0x48;
+constexpr uint16_t kBuzzerAddr = 0x20;
+constexpr uint16_t kDisplayAddr = 0x3C;
+constexpr int kLevelHigh = 800;  // mm
+constexpr int kTempLow = 50;     // 0.1 degC
+constexpr int kTempHigh = 400;
+
+// False alarm: the monitor sounds the buzzer and raises the alert while the
+// tank is normal (a nuisance that trains operators to ignore the alarm).
+class FalseAlarm : public Attack {
+ public:
+  explicit FalseAlarm(AttackSpec spec) : Attack(std::move(spec)) {}
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us)) return;
+    for (auto& op : ops) {
+      if (op.task != task || op.op.kind != BusOp::Kind::kWrite || op.op.bytes.size() != 2) continue;
+      const bool buzzer = op.op.addr == kBuzzerAddr && op.op.bytes[0] == 0x01;
+      const bool alert = op.op.addr == kDisplayAddr && op.op.bytes[0] == 0x00;
+      if (buzzer || alert) {
+        op.op.bytes[1] = 1;
+        op.injected = true;
+      }
+    }
+  }
+};
+
+}  // namespace
+
+void TankMonitor::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
+  BusOp read = read_op(kSensorAddr, 4);
+  read.bytes = {0x00};
+  auto r = port.read(task_, read);
+  if (!r || r->size() < 4) return;
+  const int level = ((*r)[0] << 8) | (*r)[1];
+  const int temp = static_cast<int16_t>(((*r)[2] << 8) | (*r)[3]);
+  const uint8_t on = (level > kLevelHigh || temp < kTempLow || temp > kTempHigh) ? 1 : 0;
+  const uint64_t t = job.release_us;
+  ops.push_back({t, task_, write_op(kBuzzerAddr, {0x01, on})});
+  ops.push_back({t, task_, write_op(kDisplayAddr, {0x00, on})});
+  // The displayed level, one register per write (the display does not auto-increment).
+  ops.push_back({t, task_, write_op(kDisplayAddr, {0x01, static_cast<uint8_t>(level & 0xFF)})});
+  ops.push_back({t, task_, write_op(kDisplayAddr, {0x02, static_cast<uint8_t>(level >> 8)})});
+}
+
+TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
+    : monitor_(setting_string(settings, "task", "monitor"),
+               setting_duration_us(settings, "period", 500'000)),
+      sensor_(std::make_shared<RegisterFile>(kSensorAddr)),
+      buzzer_(std::make_shared<RegisterFile>(kBuzzerAddr)),
+      display_(std::make_shared<RegisterFile>(kDisplayAddr)),
+      noise_(derive_seed(seed, 3)) {
+  step(0, 0);
+}
+
+void TankWorld::attach(bus::VirtualBus& bus) {
+  bus.attach(sensor_);
+  bus.attach(buzzer_);
+  bus.attach(display_);
+}
+
+std::unique_ptr<Attack> TankWorld::make_attack(const AttackSpec& spec, std::string* error) {
+  if (spec.kind == "false_alarm") return std::make_unique<FalseAlarm>(spec);
+  *error = "unknown tank attack '" + spec.kind + "' (expected false_alarm)";
+  return nullptr;
+}
+
+bool TankWorld::abnormal() const {
+  return std::lround(level_mm_) > kLevelHigh || std::lround(temp_dc_) < kTempLow ||
+         std::lround(temp_dc_) > kTempHigh;
+}
+
+void TankWorld::step(uint64_t now_us, uint64_t dt_us) {
+  const double t = static_cast<double>(now_us) * 1e-6;
+  const double dt = static_cast<double>(dt_us) * 1e-6;
+  // Filling and draining in a one-minute cycle, high (above 800 mm) for
+  // about a quarter of it; the temperature wanders around 20 degC.
+  level_mm_ = 600.0 + 300.0 * std::sin(2.0 * std::numbers::pi * t / 60.0);
+  temp_dc_ += noise_.gaussian(0.05) * std::sqrt(dt > 0 ? dt * 1000.0 : 0.0);
+  temp_dc_ = std::clamp(temp_dc_, 150.0, 250.0);
+  const auto level = static_cast<uint16_t>(std::lround(level_mm_));
+  const auto temp = static_cast<int16_t>(std::lround(temp_dc_));
+  sensor_->set_reg(0, static_cast<uint8_t>(level >> 8));
+  sensor_->set_reg(1, static_cast<uint8_t>(level & 0xFF));
+  sensor_->set_reg(2, static_cast<uint8_t>(static_cast<uint16_t>(temp) >> 8));
+  sensor_->set_reg(3, static_cast<uint8_t>(static_cast<uint16_t>(temp) & 0xFF));
+  const bool sounding = buzzer_->reg(0x01) != 0;
+  if (sounding) alarm_s_ += dt;
+  if (sounding && !abnormal()) false_alarm_s_ += dt;
+  if (!sounding && abnormal()) missed_alarm_s_ += dt;
+}
+
+std::vector<std::string> TankWorld::columns() const {
+  return {"level_mm", "temp_c", "abnormal", "buzzer", "alert"};
+}
+
+std::vector<double> TankWorld::sample() const {
+  return {level_mm_, temp_dc_ / 10.0, abnormal() ? 1.0 : 0.0,
+          static_cast<double>(buzzer_->reg(0x01)), static_cast<double>(display_->reg(0x00))};
+}
+
+std::vector<Metric> TankWorld::metrics() const {
+  return {{"buzzer_on_time", alarm_s_, "s"},
+          {"false_alarm_time", false_alarm_s_, "s"},
+          {"missed_alarm_time", missed_alarm_s_, "s"}};
+}
+
+}  // namespace contego::sim
