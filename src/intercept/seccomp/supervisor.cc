@@ -1,0 +1,645 @@
+#include "intercept/seccomp/supervisor.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <poll.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <fstream>
+#include <linux/audit.h>
+#include <linux/close_range.h>
+#include <linux/filter.h>
+#include <linux/seccomp.h>
+#include <map>
+#include <memory>
+#include <string>
+#include <sys/ioctl.h>
+#include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <sys/uio.h>
+#include <sys/wait.h>
+#include <vector>
+
+#include "intercept/i2c_abi/i2c_abi.h"
+
+#ifndef SECCOMP_IOCTL_NOTIF_SET_FLAGS
+#define SECCOMP_IOCTL_NOTIF_SET_FLAGS SECCOMP_IOW(4, __u64)
+#endif
+#ifndef SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP
+#define SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP (1UL << 0)
+#endif
+
+namespace contego::intercept::seccomp {
+namespace {
+
+#if defined(__x86_64__)
+constexpr uint32_t kAuditArch = AUDIT_ARCH_X86_64;
+#elif defined(__aarch64__)
+constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
+#else
+#error "unsupported architecture"
+#endif
+
+// --- the filter ------------------------------------------------------------------
+
+enum class Class { kNotify, kEnosys, kFd0, kFd0or1 };
+
+struct Entry {
+  long nr;
+  Class cls;
+};
+
+std::vector<Entry> filtered_syscalls() {
+  std::vector<Entry> e = {
+#ifdef __NR_open
+      {__NR_open, Class::kNotify},
+#endif
+#ifdef __NR_creat
+      {__NR_creat, Class::kNotify},
+#endif
+      {__NR_openat, Class::kNotify},
+      {__NR_openat2, Class::kNotify},
+      {__NR_close_range, Class::kNotify},
+      {__NR_nanosleep, Class::kNotify},
+      {__NR_clock_nanosleep, Class::kNotify},
+      {__NR_io_uring_setup, Class::kEnosys},
+      {__NR_ioctl, Class::kFd0},
+      {__NR_read, Class::kFd0},
+      {__NR_write, Class::kFd0},
+      {__NR_readv, Class::kFd0},
+      {__NR_writev, Class::kFd0},
+      {__NR_pread64, Class::kFd0},
+      {__NR_pwrite64, Class::kFd0},
+      {__NR_preadv, Class::kFd0},
+      {__NR_pwritev, Class::kFd0},
+      {__NR_preadv2, Class::kFd0},
+      {__NR_pwritev2, Class::kFd0},
+      {__NR_close, Class::kFd0},
+      {__NR_dup, Class::kFd0},
+      {__NR_fcntl, Class::kFd0},
+#ifdef __NR_dup2
+      {__NR_dup2, Class::kFd0or1},
+#endif
+      {__NR_dup3, Class::kFd0or1},
+  };
+  return e;
+}
+
+constexpr uint32_t kArgLow(int i) {
+  return static_cast<uint32_t>(offsetof(seccomp_data, args) + 8 * i);
+}
+
+sock_filter stmt(uint16_t code, uint32_t k) { return BPF_STMT(code, k); }
+sock_filter jump(uint16_t code, uint32_t k, uint8_t jt, uint8_t jf) {
+  return BPF_JUMP(code, k, jt, jf);
+}
+
+std::vector<sock_filter> build_filter(FdRange range) {
+  const auto entries = filtered_syscalls();
+  std::vector<sock_filter> p;
+  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)));
+  p.push_back(jump(BPF_JMP | BPF_JEQ | BPF_K, kAuditArch, 1, 0));
+  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS));  // foreign ABI
+  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)));
+#if defined(__x86_64__)
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, 0x40000000u, 0, 1));  // x32 system calls
+  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS));
+#endif
+  // One comparison per syscall, jumping forward to the blocks laid out after
+  // the list (classic BPF jumps only forward):
+  //   +0 ret ALLOW | +1 ret NOTIFY | +2 ret ENOSYS
+  //   +3 FD0 block (5 insns): ld a0; in [lo, hi) ? NOTIFY : ALLOW
+  //   +8 FD0OR1 block (8 insns): a0 or a1 in [lo, hi) ? NOTIFY : ALLOW
+  const size_t list_start = p.size();
+  const size_t n = entries.size();
+  const size_t notify = list_start + n + 1, enosys = list_start + n + 2, fd0 = list_start + n + 3,
+               fd01 = fd0 + 5;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t here = list_start + i;
+    size_t target = notify;
+    if (entries[i].cls == Class::kEnosys) target = enosys;
+    if (entries[i].cls == Class::kFd0) target = fd0;
+    if (entries[i].cls == Class::kFd0or1) target = fd01;
+    p.push_back(jump(BPF_JMP | BPF_JEQ | BPF_K, static_cast<uint32_t>(entries[i].nr),
+                     static_cast<uint8_t>(target - here - 1), 0));
+  }
+  const uint32_t lo = static_cast<uint32_t>(range.first);
+  const uint32_t hi = static_cast<uint32_t>(range.first + range.count);
+  const sock_filter ret_allow = stmt(BPF_RET | BPF_K, SECCOMP_RET_ALLOW);
+  const sock_filter ret_notify = stmt(BPF_RET | BPF_K, SECCOMP_RET_USER_NOTIF);
+  p.push_back(ret_allow);
+  p.push_back(ret_notify);
+  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_ERRNO | (ENOSYS & 0xFFFF)));
+  // FD0: the low 32 bits of args[0] (an int fd) in [lo, hi)
+  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(0)));
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> allow
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 1));  // >= hi -> allow, else notify
+  p.push_back(ret_allow);
+  p.push_back(ret_notify);
+  // FD0OR1
+  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(0)));
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> check args[1]
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 4));  // in range -> notify
+  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(1)));
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> allow
+  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 1));  // >= hi -> allow, else notify
+  p.push_back(ret_allow);
+  p.push_back(ret_notify);
+  return p;
+}
+
+// --- the program's memory --------------------------------------------------------------
+
+class RemoteMemory final : public i2c_abi::Memory {
+ public:
+  explicit RemoteMemory(pid_t pid) : pid_(pid) {}
+  bool read(uint64_t addr, void* dst, size_t len) override {
+    if (len == 0) return true;
+    iovec local{dst, len};
+    iovec remote{reinterpret_cast<void*>(addr), len};
+    return process_vm_readv(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
+  }
+  bool write(uint64_t addr, const void* src, size_t len) override {
+    if (len == 0) return true;
+    iovec local{const_cast<void*>(src), len};
+    iovec remote{reinterpret_cast<void*>(addr), len};
+    return process_vm_writev(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
+  }
+
+ private:
+  pid_t pid_;
+};
+
+bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
+  out->clear();
+  char chunk[256];
+  while (out->size() < PATH_MAX) {
+    // Read byte-wise near page ends would be slow; read a chunk and fall back
+    // to single bytes when the chunk crosses into an unmapped page.
+    if (mem.read(addr + out->size(), chunk, sizeof chunk)) {
+      const void* nul = memchr(chunk, 0, sizeof chunk);
+      if (nul != nullptr) {
+        out->append(chunk, static_cast<const char*>(nul) - chunk);
+        return true;
+      }
+      out->append(chunk, sizeof chunk);
+      continue;
+    }
+    char c;
+    if (!mem.read(addr + out->size(), &c, 1)) return false;
+    if (c == 0) return true;
+    out->push_back(c);
+  }
+  return false;
+}
+
+std::string lexical_normalise(const std::string& path) {
+  std::vector<std::string> parts;
+  size_t i = 0;
+  while (i <= path.size()) {
+    size_t j = path.find('/', i);
+    if (j == std::string::npos) j = path.size();
+    std::string part = path.substr(i, j - i);
+    if (part == "..") {
+      if (!parts.empty()) parts.pop_back();
+    } else if (!part.empty() && part != ".") {
+      parts.push_back(part);
+    }
+    i = j + 1;
+  }
+  std::string out;
+  for (const auto& p : parts) out += "/" + p;
+  return out.empty() ? "/" : out;
+}
+
+int bus_number(const std::string& path) {
+  std::string rest;
+  if (path.rfind("/dev/i2c-", 0) == 0) {
+    rest = path.substr(9);
+  } else if (path.rfind("/dev/i2c/", 0) == 0) {
+    rest = path.substr(9);
+  } else {
+    return -1;
+  }
+  if (rest.empty() || rest.size() > 3) return -1;
+  int n = 0;
+  for (char c : rest) {
+    if (c < '0' || c > '9') return -1;
+    n = n * 10 + (c - '0');
+  }
+  return n <= 255 ? n : -1;
+}
+
+std::string read_link(const std::string& link) {
+  char buf[PATH_MAX];
+  const ssize_t n = readlink(link.c_str(), buf, sizeof buf - 1);
+  if (n < 0) return {};
+  return std::string(buf, static_cast<size_t>(n));
+}
+
+// The bus a path names for the program, or -1. Relative paths are resolved
+// against the program's cwd or dirfd; symbolic links are followed, so
+// another name for a bus node still reaches the emulation.
+int resolve_bus(pid_t pid, int dirfd, const std::string& path) {
+  std::string full = path;
+  if (path.empty()) return -1;
+  if (path[0] != '/') {
+    const std::string base =
+        dirfd == AT_FDCWD
+            ? read_link("/proc/" + std::to_string(pid) + "/cwd")
+            : read_link("/proc/" + std::to_string(pid) + "/fd/" + std::to_string(dirfd));
+    if (base.empty()) return -1;
+    full = base + "/" + path;
+  }
+  const std::string lexical = lexical_normalise(full);
+  if (int n = bus_number(lexical); n >= 0) return n;
+  char real[PATH_MAX];
+  if (realpath(full.c_str(), real) != nullptr) return bus_number(real);
+  return -1;
+}
+
+// --- per-process descriptor tables ---------------------------------------------------------
+
+struct Handle {
+  i2c_abi::FdState state;
+};
+
+struct Process {
+  std::map<int, std::shared_ptr<Handle>> fds;
+};
+
+class Loop {
+ public:
+  Loop(int listener, FdRange range, const Options& options, gate::Endpoint& endpoint,
+       RunResult& result)
+      : listener_(listener),
+        range_(range),
+        options_(options),
+        endpoint_(endpoint),
+        result_(result) {
+    placeholder_ = open("/dev/null", O_RDWR | O_CLOEXEC);
+  }
+  ~Loop() {
+    if (placeholder_ >= 0) close(placeholder_);
+  }
+
+  void handle(const seccomp_notif& n);
+
+ private:
+  bool in_range(uint64_t fd) const {
+    return fd >= static_cast<uint64_t>(range_.first) &&
+           fd < static_cast<uint64_t>(range_.first + range_.count);
+  }
+  bool valid(uint64_t id) { return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ID_VALID, &id) == 0; }
+  void reply(uint64_t id, int64_t value, int err) {
+    seccomp_notif_resp r{};
+    r.id = id;
+    r.val = err == 0 ? value : 0;
+    r.error = err == 0 ? 0 : -err;
+    ioctl(listener_, SECCOMP_IOCTL_NOTIF_SEND, &r);  // ENOENT: the caller is gone or interrupted
+  }
+  void continue_call(uint64_t id) {
+    seccomp_notif_resp r{};
+    r.id = id;
+    r.flags = SECCOMP_USER_NOTIF_FLAG_CONTINUE;
+    ioctl(listener_, SECCOMP_IOCTL_NOTIF_SEND, &r);
+  }
+  // Installs the placeholder at `slot` and answers the call with the slot.
+  int install(uint64_t id, int slot, bool cloexec) {
+    seccomp_notif_addfd a{};
+    a.id = id;
+    a.flags = SECCOMP_ADDFD_FLAG_SETFD | SECCOMP_ADDFD_FLAG_SEND;
+    a.srcfd = static_cast<uint32_t>(placeholder_);
+    a.newfd = static_cast<uint32_t>(slot);
+    a.newfd_flags = cloexec ? O_CLOEXEC : 0;
+    return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ADDFD, &a);
+  }
+  int free_slot(const Process& p, int minimum) const {
+    for (int fd = std::max(minimum, range_.first); fd < range_.first + range_.count; ++fd) {
+      if (p.fds.count(fd) == 0) return fd;
+    }
+    return -1;
+  }
+  Process& process_of(pid_t tid);
+  void open_call(const seccomp_notif& n, Process& p);
+  void bus_call(const seccomp_notif& n, Process& p, const std::shared_ptr<Handle>& h);
+  void dup_call(const seccomp_notif& n, Process& p);
+
+  int listener_;
+  FdRange range_;
+  const Options& options_;
+  gate::Endpoint& endpoint_;
+  RunResult& result_;
+  int placeholder_;
+  std::map<pid_t, Process> processes_;  // by thread-group id
+  std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
+};
+
+Process& Loop::process_of(pid_t tid) {
+  auto t = tgid_.find(tid);
+  pid_t tgid = tid;
+  pid_t ppid = 0;
+  if (t != tgid_.end()) {
+    tgid = t->second;
+  } else {
+    std::ifstream status("/proc/" + std::to_string(tid) + "/status");
+    std::string line;
+    while (std::getline(status, line)) {
+      if (line.rfind("Tgid:", 0) == 0) tgid = std::stoi(line.substr(5));
+      if (line.rfind("PPid:", 0) == 0) ppid = std::stoi(line.substr(5));
+    }
+    tgid_[tid] = tgid;
+  }
+  auto it = processes_.find(tgid);
+  if (it != processes_.end()) return it->second;
+  // A new process: a forked child shares its parent's open bus descriptors
+  // (same open file descriptions, so the same address and flags).
+  Process& p = processes_[tgid];
+  auto parent = processes_.find(ppid);
+  if (parent != processes_.end() && ppid != 0) p.fds = parent->second.fds;
+  return p;
+}
+
+void Loop::open_call(const seccomp_notif& n, Process& p) {
+  const auto& a = n.data.args;
+  RemoteMemory mem(static_cast<pid_t>(n.pid));
+  int dirfd = AT_FDCWD;
+  uint64_t path_addr = 0;
+  uint64_t flags = 0;
+  if (n.data.nr == __NR_openat || n.data.nr == __NR_openat2) {
+    dirfd = static_cast<int>(a[0]);
+    path_addr = a[1];
+    flags = a[2];
+    if (n.data.nr == __NR_openat2) {
+      uint64_t how_flags = 0;
+      if (!mem.read(a[2], &how_flags, sizeof how_flags)) return reply(n.id, 0, EFAULT);
+      flags = how_flags;
+    }
+#ifdef __NR_open
+  } else if (n.data.nr == __NR_open) {
+    path_addr = a[0];
+    flags = a[1];
+#endif
+#ifdef __NR_creat
+  } else {  // creat
+    path_addr = a[0];
+    flags = O_CREAT | O_WRONLY | O_TRUNC;
+#endif
+  }
+  std::string path;
+  if (!read_path(mem, path_addr, &path)) return reply(n.id, 0, EFAULT);
+  if (!valid(n.id)) return;
+  const int bus = resolve_bus(static_cast<pid_t>(n.pid), dirfd, path);
+  if (bus < 0) return continue_call(n.id);  // not a bus: the kernel opens it
+  if (!endpoint_.has_bus(static_cast<uint8_t>(bus))) return reply(n.id, 0, ENOENT);
+  const int slot = free_slot(p, 0);
+  if (slot < 0) return reply(n.id, 0, EMFILE);
+  if (install(n.id, slot, (flags & O_CLOEXEC) != 0) < 0) return;
+  auto h = std::make_shared<Handle>();
+  h->state.bus = static_cast<uint8_t>(bus);
+  p.fds[slot] = h;
+}
+
+void Loop::bus_call(const seccomp_notif& n, Process& p, const std::shared_ptr<Handle>& h) {
+  (void)p;
+  const auto& a = n.data.args;
+  RemoteMemory mem(static_cast<pid_t>(n.pid));
+  i2c_abi::Decoded d;
+  const long nr = n.data.nr;
+  if (nr == __NR_ioctl) {
+    d = i2c_abi::decode_ioctl(h->state, static_cast<unsigned long>(a[1]), a[2], mem,
+                              endpoint_.funcs(h->state.bus));
+  } else if (nr == __NR_write) {
+    d = i2c_abi::decode_write(h->state, a[1], a[2], mem);
+  } else if (nr == __NR_read) {
+    d = i2c_abi::decode_read(h->state, a[1], a[2]);
+  } else if (nr == __NR_pread64 || nr == __NR_pwrite64 || nr == __NR_preadv || nr == __NR_pwritev ||
+             nr == __NR_preadv2 || nr == __NR_pwritev2) {
+    return reply(n.id, 0, ESPIPE);  // i2c-dev has no file position
+  } else {
+    return reply(n.id, 0, EINVAL);  // readv/writev: not offered by the emulation
+  }
+  if (d.action == i2c_abi::Decoded::Action::kReturn) return reply(n.id, d.value, d.err);
+  // The arguments are copied; make sure they came from the call we are answering.
+  if (!valid(n.id)) return;
+  ++result_.emulated;
+  const gate::TransferReply r = endpoint_.transfer(options_.task, d.transfer);
+  if (!valid(n.id)) return;
+  const int64_t ret = i2c_abi::complete(d.completion, r, mem);
+  if (ret < 0) return reply(n.id, 0, static_cast<int>(-ret));
+  reply(n.id, ret, 0);
+}
+
+void Loop::dup_call(const seccomp_notif& n, Process& p) {
+  const auto& a = n.data.args;
+  const long nr = n.data.nr;
+  const int oldfd = static_cast<int>(a[0]);
+  auto old = p.fds.find(oldfd);
+  if (nr == __NR_dup || nr == __NR_fcntl) {
+    if (old == p.fds.end()) return continue_call(n.id);  // not a bus descriptor
+    int minimum = 0;
+    bool cloexec = false;
+    if (nr == __NR_fcntl) {
+      const int cmd = static_cast<int>(a[1]);
+      if (cmd != F_DUPFD && cmd != F_DUPFD_CLOEXEC) return continue_call(n.id);
+      minimum = static_cast<int>(a[2]);
+      cloexec = cmd == F_DUPFD_CLOEXEC;
+    }
+    const int slot = free_slot(p, minimum);
+    if (slot < 0) return reply(n.id, 0, EMFILE);
+    auto handle = old->second;
+    if (install(n.id, slot, cloexec) >= 0) p.fds[slot] = handle;
+    return;
+  }
+  // dup2 / dup3
+  const int newfd = static_cast<int>(a[1]);
+  const bool new_in_range = in_range(static_cast<uint32_t>(newfd));
+  if (old == p.fds.end()) {
+    // Only bus descriptors live in the reserved range.
+    return reply(n.id, 0, new_in_range ? EBADF : 0);
+  }
+  if (!new_in_range) return reply(n.id, 0, EPERM);  // a bus descriptor never leaves the range
+  if (newfd == oldfd) {
+#ifdef __NR_dup2
+    if (nr == __NR_dup2) return reply(n.id, newfd, 0);
+#endif
+    return reply(n.id, 0, EINVAL);
+  }
+  const bool cloexec = nr == __NR_dup3 && (a[2] & O_CLOEXEC) != 0;
+  auto handle = old->second;
+  if (install(n.id, newfd, cloexec) >= 0) p.fds[newfd] = handle;
+}
+
+void Loop::handle(const seccomp_notif& n) {
+  ++result_.notifications;
+  if (n.data.arch != kAuditArch) return reply(n.id, 0, ENOSYS);  // the filter kills first
+  const long nr = n.data.nr;
+  if (nr == __NR_nanosleep || nr == __NR_clock_nanosleep) {
+    endpoint_.job_boundary(options_.task);
+    return continue_call(n.id);  // a sleep carries no payload
+  }
+  Process& p = process_of(static_cast<pid_t>(n.pid));
+  const auto& a = n.data.args;
+  bool is_open = nr == __NR_openat || nr == __NR_openat2;
+#ifdef __NR_open
+  is_open = is_open || nr == __NR_open;
+#endif
+#ifdef __NR_creat
+  is_open = is_open || nr == __NR_creat;
+#endif
+  if (is_open) return open_call(n, p);
+  if (nr == __NR_close) {
+    p.fds.erase(static_cast<int>(a[0]));
+    return continue_call(n.id);  // closes the placeholder; no payload
+  }
+  if (nr == __NR_close_range) {
+    if ((a[2] & CLOSE_RANGE_CLOEXEC) == 0) {
+      const uint32_t first = static_cast<uint32_t>(a[0]);
+      const uint32_t last = static_cast<uint32_t>(a[1]);
+      for (auto it = p.fds.begin(); it != p.fds.end();) {
+        const auto fd = static_cast<uint32_t>(it->first);
+        it = (fd >= first && fd <= last) ? p.fds.erase(it) : std::next(it);
+      }
+    }
+    return continue_call(n.id);
+  }
+  bool is_dup = nr == __NR_dup || nr == __NR_dup3 || nr == __NR_fcntl;
+#ifdef __NR_dup2
+  is_dup = is_dup || nr == __NR_dup2;
+#endif
+  if (is_dup) return dup_call(n, p);
+  auto it = p.fds.find(static_cast<int>(a[0]));
+  if (it == p.fds.end()) return continue_call(n.id);  // an inert descriptor that is not a bus
+  auto handle = it->second;
+  bus_call(n, p, handle);
+}
+
+}  // namespace
+
+FdRange reserved_range() {
+  rlimit lim{};
+  getrlimit(RLIMIT_NOFILE, &lim);
+  rlim_t top = lim.rlim_cur;
+  if (top == RLIM_INFINITY || top > (1 << 20)) top = 1 << 20;
+  constexpr int kCount = 64;
+  const int first = static_cast<int>(top) - kCount;
+  return {first < 64 ? 64 : first, kCount};
+}
+
+Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
+  if (options.argv.empty()) return make_error("contego run: no program given");
+  const FdRange range = reserved_range();
+  std::vector<sock_filter> filter = build_filter(range);
+  sock_fprog prog{static_cast<unsigned short>(filter.size()), filter.data()};
+  std::vector<char*> argv;
+  for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
+  argv.push_back(nullptr);
+
+  int to_parent[2], to_child[2];
+  if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
+    return make_error(std::string("pipe: ") + strerror(errno));
+  }
+  const pid_t child = fork();
+  if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
+  if (child == 0) {
+    // Only async-signal-safe calls from here to execvp.
+    int fd = -1;
+    if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
+      fd = static_cast<int>(
+          syscall(SYS_seccomp, SECCOMP_SET_MODE_FILTER, SECCOMP_FILTER_FLAG_NEW_LISTENER, &prog));
+    }
+    int msg = fd >= 0 ? fd : -errno;
+    if (write(to_parent[1], &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
+    char ack;
+    if (read(to_child[0], &ack, 1) != 1) _exit(126);
+    close(fd);
+    execvp(argv[0], argv.data());
+    const int e = errno;
+    (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
+    _exit(e == ENOENT ? 127 : 126);
+  }
+  close(to_parent[1]);
+  close(to_child[0]);
+  int msg = 0;
+  const ssize_t got = read(to_parent[0], &msg, sizeof msg);
+  close(to_parent[0]);
+  auto abandon = [&](const std::string& why) -> Result<RunResult> {
+    close(to_child[1]);
+    kill(child, SIGKILL);
+    waitpid(child, nullptr, 0);
+    return make_error(why);
+  };
+  if (got != sizeof msg || msg < 0) {
+    return abandon(std::string("cannot install the seccomp filter: ") +
+                   (got == sizeof msg ? strerror(-msg) : "child failed"));
+  }
+  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
+  const int listener = pidfd < 0 ? -1 : static_cast<int>(syscall(SYS_pidfd_getfd, pidfd, msg, 0));
+  if (listener < 0) {
+    if (pidfd >= 0) close(pidfd);
+    return abandon(std::string("cannot take the notification descriptor: ") + strerror(errno));
+  }
+  RunResult result;
+  if (options.sync_wakeup &&
+      ioctl(listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS, SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
+    result.sync_wakeup = true;
+  }
+  seccomp_notif_sizes sizes{};
+  syscall(SYS_seccomp, SECCOMP_GET_NOTIF_SIZES, 0, &sizes);
+  std::vector<uint8_t> buf(std::max<size_t>(sizes.seccomp_notif, sizeof(seccomp_notif)));
+  char ack = 1;
+  (void)!write(to_child[1], &ack, 1);
+  close(to_child[1]);
+
+  {
+    Loop loop(listener, range, options, endpoint, result);
+    bool child_done = false;
+    for (;;) {
+      pollfd fds[2] = {{listener, POLLIN, 0}, {pidfd, POLLIN, 0}};
+      const int nfds = child_done ? 1 : 2;
+      if (poll(fds, nfds, -1) < 0) {
+        if (errno == EINTR) continue;
+        break;
+      }
+      if (!child_done && (fds[1].revents & POLLIN)) {
+        int status = 0;
+        if (waitpid(child, &status, 0) == child) {
+          child_done = true;
+          if (WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
+          if (WIFSIGNALED(status)) {
+            result.signal = WTERMSIG(status);
+            result.exit_code = 128 + result.signal;
+          }
+        }
+      }
+      if (fds[0].revents & POLLIN) {
+        std::memset(buf.data(), 0, buf.size());
+        auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
+        if (ioctl(listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) loop.handle(*n);
+        continue;
+      }
+      if (fds[0].revents & (POLLHUP | POLLERR)) break;  // no supervised task is left
+    }
+    if (!child_done) {
+      int status = 0;
+      if (waitpid(child, &status, 0) == child) {
+        if (WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
+        if (WIFSIGNALED(status)) {
+          result.signal = WTERMSIG(status);
+          result.exit_code = 128 + result.signal;
+        }
+      }
+    }
+  }
+  close(listener);
+  close(pidfd);
+  endpoint.task_exited(options.task);
+  return result;
+}
+
+}  // namespace contego::intercept::seccomp

@@ -1,0 +1,57 @@
+// Decider: the trusted core as the monitor drives it. CoreDecider is the
+// real one (core::Checker over a verified image); tests substitute scripted
+// deciders to exercise the monitor's own paths (fail-closed errors, safe
+// states, audit) independently of any policy.
+//
+// Thread-safety: none; the monitor serialises every call under its lock.
+#ifndef CONTEGO_MONITOR_DECIDER_H_
+#define CONTEGO_MONITOR_DECIDER_H_
+
+#include <cstdint>
+
+// Reason::kUnknownTask (verdict.h) shadows core::kUnknownTask (transaction.h)
+// under -Wshadow when both are included; harmless (one is scoped).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wshadow"
+#include "contego/core/checker.h"
+#include "contego/core/host.h"
+#include "contego/core/image.h"
+#include "contego/core/transaction.h"
+#include "contego/core/verdict.h"
+#pragma GCC diagnostic pop
+
+namespace contego::monitor {
+
+class Decider {
+ public:
+  virtual ~Decider() = default;
+  virtual void set_host(const core::Host& host) = 0;
+  virtual void check(const core::Transaction& tx, core::Verdict* out) = 0;
+  virtual bool safe_state(uint16_t device, core::Verdict* out) = 0;
+  virtual uint32_t device_count() const = 0;
+  virtual const core::DeviceRecord& device(uint16_t id) const = 0;
+  virtual uint32_t task_period_us(uint16_t task) const = 0;  // 0 = unknown task
+};
+
+// The trusted core. Owns its Checker (large: fixed tables), so allocate it.
+class CoreDecider final : public Decider {
+ public:
+  core::Checker& checker() { return checker_; }
+  void set_host(const core::Host& host) override { checker_.set_host(host); }
+  void check(const core::Transaction& tx, core::Verdict* out) override { checker_.check(tx, out); }
+  bool safe_state(uint16_t device, core::Verdict* out) override {
+    return checker_.safe_state(device, out);
+  }
+  uint32_t device_count() const override { return checker_.device_count(); }
+  const core::DeviceRecord& device(uint16_t id) const override { return checker_.device(id); }
+  uint32_t task_period_us(uint16_t task) const override {
+    return task < checker_.task_count() ? checker_.task(task).period_us : 0;
+  }
+
+ private:
+  core::Checker checker_;
+};
+
+}  // namespace contego::monitor
+
+#endif  // CONTEGO_MONITOR_DECIDER_H_

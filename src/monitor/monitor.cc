@@ -1,0 +1,277 @@
+#include "monitor/monitor.h"
+
+#include <errno.h>
+#include <time.h>
+
+#include <algorithm>
+#include <fmt/core.h>
+
+namespace contego::monitor {
+
+uint64_t monotonic_us() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
+}
+
+Monitor::Monitor(Decider& decider, AuditLog& audit) : decider_(decider), audit_(audit) {
+  core::Host host{};
+  host.context = this;
+  host.read_sample = &Monitor::host_read_sample;
+  host.audit = &Monitor::host_audit;
+  decider_.set_host(host);
+}
+
+Monitor::~Monitor() { stop_sampling(); }
+
+void Monitor::add_bus(uint8_t number, bus::Bus* bus) {
+  std::lock_guard lock(mu_);
+  buses_[number] = bus;
+}
+
+bool Monitor::has_bus(uint8_t bus) {
+  std::lock_guard lock(mu_);
+  return buses_.count(bus) != 0;
+}
+
+uint64_t Monitor::funcs(uint8_t bus) {
+  std::lock_guard lock(mu_);
+  auto it = buses_.find(bus);
+  return it == buses_.end() ? 0 : it->second->funcs();
+}
+
+// Called by the core inside check(), with mu_ held.
+uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
+                                   uint64_t* taken_at_us) {
+  auto* self = static_cast<Monitor*>(ctx);
+  auto it = self->samples_.find(device);
+  if (it == self->samples_.end() || it->second.len == 0) return 0;
+  const uint32_t n = std::min(capacity, it->second.len);
+  std::copy_n(it->second.bytes.begin(), n, buf);
+  if (taken_at_us != nullptr) *taken_at_us = it->second.taken_at_us;
+  return n;
+}
+
+void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
+  auto* self = static_cast<Monitor*>(ctx);
+  const char* name =
+      record->task < self->task_names_.size() ? self->task_names_[record->task].c_str() : nullptr;
+  self->audit_.decision(*record, name);
+}
+
+int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
+  auto it = buses_.find(v.bus);
+  if (it == buses_.end()) return ENODEV;
+  uint32_t offset = 0;
+  for (uint32_t i = 0; i < v.emit_count && i < core::kMaxEmits; ++i) {
+    const uint16_t len = v.emit_len[i];
+    if (offset + len > core::kMaxEmitBytes) return EIO;  // malformed verdict: fail closed
+    std::vector<uint8_t> bytes(v.emit_bytes + offset, v.emit_bytes + offset + len);
+    offset += len;
+    bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes.data()};
+    if (int err = it->second->transfer({&m, 1}); err != 0) return err;
+  }
+  return 0;
+}
+
+gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
+  gate::TransferReply reply;
+  if (std::string why = gate::validate(t); !why.empty()) {
+    audit_.event("malformed", fmt::format("task {}: {}", task, why));
+    reply.err = EINVAL;
+    return reply;
+  }
+  std::lock_guard lock(mu_);
+  auto bus_it = buses_.find(t.bus);
+  if (bus_it == buses_.end()) {
+    reply.err = ENODEV;
+    return reply;
+  }
+  bus::Bus& bus = *bus_it->second;
+  const std::vector<gate::PlannedTx> planned = gate::to_transactions(t);
+
+  // Decide every transaction first: one refusal fails the whole call and
+  // nothing of it reaches the bus (a write cannot slip through inside a
+  // combined transfer that is partly refused).
+  const uint64_t now = monotonic_us();
+  auto job_it = jobs_.find(task);
+  const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+  std::vector<core::Verdict> verdicts(planned.size());
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const gate::PlannedTx& p = planned[i];
+    core::Transaction tx{};
+    tx.task = task;
+    tx.bus = t.bus;
+    tx.kind = p.kind;
+    tx.addr = p.addr;
+    tx.ten_bit = p.ten_bit ? 1 : 0;
+    tx.job = job;
+    tx.len = static_cast<uint32_t>(p.bytes.size());
+    tx.bytes = p.bytes.data();
+    tx.now_us = now;
+    core::Verdict& v = verdicts[i];
+    v = core::Verdict{};
+    v.decision = core::Decision::kReject;  // fail closed if the decider leaves it untouched
+    v.reply_errno = EPERM;
+    decider_.check(tx, &v);
+    decisions_.fetch_add(1);
+    if (v.decision == core::Decision::kReject) {
+      reply.err = v.reply_errno != 0 ? v.reply_errno : EPERM;
+      return reply;
+    }
+    if (v.decision != core::Decision::kAllow && v.decision != core::Decision::kIgnore &&
+        v.decision != core::Decision::kFailsafe) {
+      reply.err = EPERM;
+      return reply;
+    }
+  }
+
+  // Perform, in message order, only what the core allowed or substituted.
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const gate::PlannedTx& p = planned[i];
+    const core::Verdict& v = verdicts[i];
+    if (p.kind == core::TxKind::kQuick) {
+      if (v.decision == core::Decision::kAllow) reply.err = bus.quick(p.addr, t.quick_read);
+    } else if (p.kind == core::TxKind::kWrite) {
+      if (v.decision != core::Decision::kIgnore) reply.err = perform_emits(v, p.ten_bit);
+    } else {  // a read, with its pointer bytes (our copy) when it has them
+      const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
+      std::vector<uint8_t> out(rm.len, 0);
+      if (v.decision == core::Decision::kAllow) {
+        std::vector<uint8_t> pointer = p.bytes;
+        std::vector<bus::Msg> msgs;
+        if (!pointer.empty()) {
+          msgs.push_back({p.addr, static_cast<uint16_t>(p.ten_bit ? gate::kMsgTen : 0),
+                          static_cast<uint16_t>(pointer.size()), pointer.data()});
+        }
+        msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
+        reply.err = bus.transfer(msgs);
+        out.resize(msgs.back().len);
+      }
+      reply.reads.push_back(std::move(out));
+    }
+    if (reply.err != 0) {
+      audit_.event("bus-error",
+                   fmt::format("bus {} addr 0x{:02x}: errno {}", t.bus, p.addr, reply.err));
+      reply.reads.clear();
+      return reply;
+    }
+  }
+  return reply;
+}
+
+void Monitor::job_boundary(uint16_t task) {
+  std::lock_guard lock(mu_);
+  const uint64_t now = monotonic_us();
+  JobState& s = jobs_[task];
+  if (s.started_us == 0) {
+    s.started_us = now;
+    return;
+  }
+  // A sleep ends the job only after half a period: a burst of zero-length
+  // sleeps cannot reset the task's rate window.
+  const uint64_t period = decider_.task_period_us(task);
+  if (now - s.started_us >= period / 2) {
+    ++s.job;
+    s.started_us = now;
+  }
+}
+
+uint32_t Monitor::job(uint16_t task) const {
+  std::lock_guard lock(mu_);
+  auto it = jobs_.find(task);
+  return it == jobs_.end() ? 0 : it->second.job;
+}
+
+void Monitor::task_exited(uint16_t task) {
+  drive_safe_state(fmt::format("task {} exited", task));
+  std::lock_guard lock(mu_);
+  jobs_.erase(task);
+}
+
+void Monitor::drive_safe_state(const std::string& why) {
+  std::lock_guard lock(mu_);
+  drive_safe_state_locked(why);
+}
+
+void Monitor::drive_safe_state_locked(const std::string& why) {
+  audit_.event("safe-state", why);
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    if ((decider_.device(d).role & core::kRoleActuator) == 0) continue;
+    core::Verdict v{};
+    if (!decider_.safe_state(d, &v)) continue;
+    if (int err = perform_emits(v, decider_.device(d).ten_bit != 0); err != 0) {
+      audit_.event("fault", fmt::format("safe state of device {} failed: errno {}", d, err));
+    }
+  }
+}
+
+void Monitor::sample_device_locked(uint16_t d) {
+  const core::DeviceRecord& rec = decider_.device(d);
+  auto it = buses_.find(rec.bus);
+  if (it == buses_.end() || rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return;
+  Sample s;
+  std::array<uint8_t, 8> request{};
+  const uint8_t req_len = std::min<uint8_t>(rec.sample_request_len, 8);
+  std::copy_n(rec.sample_request, req_len, request.begin());
+  const uint16_t ten = rec.ten_bit ? gate::kMsgTen : 0;
+  if (req_len > 0) {
+    bus::Msg w{rec.addr, ten, req_len, request.data()};
+    if (it->second->transfer({&w, 1}) != 0) {
+      samples_.erase(d);  // a failed sample makes the signal unavailable (fail closed)
+      return;
+    }
+  }
+  bus::Msg r{rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()};
+  if (it->second->transfer({&r, 1}) != 0) {
+    samples_.erase(d);
+    return;
+  }
+  s.len = r.len;
+  s.taken_at_us = monotonic_us();
+  samples_[d] = s;
+}
+
+void Monitor::sample_all() {
+  std::lock_guard lock(mu_);
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    if (decider_.device(d).role & core::kRoleSensor) sample_device_locked(d);
+  }
+}
+
+void Monitor::start_sampling() {
+  std::lock_guard lock(mu_);
+  if (sampler_.joinable()) return;
+  sampler_stop_ = false;
+  sampler_ = std::thread([this] {
+    std::map<uint16_t, uint64_t> due;
+    std::unique_lock held(mu_);
+    while (!sampler_stop_) {
+      const uint64_t now = monotonic_us();
+      uint64_t next = now + 100000;
+      for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+        const core::DeviceRecord& rec = decider_.device(d);
+        if (!(rec.role & core::kRoleSensor) || rec.sample_period_us == 0) continue;
+        uint64_t& at = due[d];
+        if (at <= now) {
+          sample_device_locked(d);
+          at = now + rec.sample_period_us;
+        }
+        next = std::min(next, at);
+      }
+      sampler_cv_.wait_for(held, std::chrono::microseconds(next - std::min(next, monotonic_us())),
+                           [this] { return sampler_stop_; });
+    }
+  });
+}
+
+void Monitor::stop_sampling() {
+  {
+    std::lock_guard lock(mu_);
+    sampler_stop_ = true;
+  }
+  sampler_cv_.notify_all();
+  if (sampler_.joinable()) sampler_.join();
+}
+
+}  // namespace contego::monitor

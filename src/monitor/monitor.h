@@ -1,0 +1,93 @@
+// Monitor: the trusted side on Linux. Sole owner of the bus backends; every
+// transfer an enclave client sends is normalised into core transactions,
+// decided by the core, and only the bytes the core emitted are put on the
+// bus. Samples the declared sensors itself (S(t) never comes from a task),
+// keeps job numbers per task, writes the audit log, and drives every actuator
+// to its safe state on start, on a fault and when a supervised task exits.
+//
+// Thread-safety: all public methods may be called from any thread; one mutex
+// serialises the core and the buses (the core is single-threaded by design).
+#ifndef CONTEGO_MONITOR_MONITOR_H_
+#define CONTEGO_MONITOR_MONITOR_H_
+
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "contego/core/limits.h"
+
+#include "bus/bus.h"
+#include "gate/endpoint.h"
+#include "monitor/audit_log.h"
+#include "monitor/decider.h"
+
+namespace contego::monitor {
+
+uint64_t monotonic_us();
+
+class Monitor final : public gate::Endpoint {
+ public:
+  // `decider` and the buses must outlive the monitor.
+  Monitor(Decider& decider, AuditLog& audit);
+  ~Monitor() override;
+
+  void add_bus(uint8_t number, bus::Bus* bus);
+  void set_task_names(std::vector<std::string> names) { task_names_ = std::move(names); }
+
+  // Drives every actuator to its safe state; logs `why`.
+  void drive_safe_state(const std::string& why);
+  // Starts / stops the sensor sampling thread (devices with a sample period).
+  void start_sampling();
+  void stop_sampling();
+  // Takes one sample of every sensor now (tests, and the first sample at start).
+  void sample_all();
+
+  gate::TransferReply transfer(uint16_t task, const gate::Transfer& transfer) override;
+  void job_boundary(uint16_t task) override;
+  void task_exited(uint16_t task) override;
+  bool has_bus(uint8_t bus) override;
+  uint64_t funcs(uint8_t bus) override;
+
+  uint32_t job(uint16_t task) const;
+  uint64_t decisions() const { return decisions_.load(); }
+
+ private:
+  struct Sample {
+    std::array<uint8_t, core::kMaxSampleBytes> bytes{};
+    uint32_t len = 0;
+    uint64_t taken_at_us = 0;
+  };
+  struct JobState {
+    uint32_t job = 1;
+    uint64_t started_us = 0;
+  };
+
+  static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
+                                   uint64_t* taken_at_us);
+  static void host_audit(void* ctx, const core::AuditRecord* record);
+  int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
+  void sample_device_locked(uint16_t device);
+  void drive_safe_state_locked(const std::string& why);
+
+  Decider& decider_;
+  AuditLog& audit_;
+  mutable std::mutex mu_;
+  std::map<uint8_t, bus::Bus*> buses_;
+  std::vector<std::string> task_names_;
+  std::map<uint16_t, Sample> samples_;
+  std::map<uint16_t, JobState> jobs_;
+  std::atomic<uint64_t> decisions_{0};
+  std::thread sampler_;
+  std::condition_variable sampler_cv_;
+  bool sampler_stop_ = false;
+};
+
+}  // namespace contego::monitor
+
+#endif  // CONTEGO_MONITOR_MONITOR_H_
