@@ -68,10 +68,12 @@ struct Style {
   const char* color;
   const char* dash;
 };
+// The attack-free reference is drawn last, dashed, so it shows on top of a
+// protected run that coincides with it.
 constexpr Style kStyles[] = {
-    {"baseline", "no attack", "#7f7f7f", "dt 2"},
-    {"unprotected", "attack, contego off", "#800000", "dt 1"},
-    {"protected", "attack, contego on", "#1a9641", "dt 1"},
+    {"unprotected", "attack, contego off", "#800000", "lw 2 dt 1"},
+    {"protected", "attack, contego on", "#1a9641", "lw 2 dt 1"},
+    {"baseline", "no attack", "#303030", "lw 1.2 dt (6,4)"},
 };
 
 std::string shade_windows(const Scenario& sc, double scale) {
@@ -94,7 +96,7 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
   const double scale = by_job ? 1.0 / period_s : 1.0;
   const std::string xexpr = by_job ? fmt::format("($1/{})", num(period_s)) : "1";
   const std::string xlabel =
-      by_job ? fmt::format("controller job ({} ms period)", num(period_s * 1000.0)) : "time (s)";
+      by_job ? fmt::format("controller job ({:g} ms period)", period_s * 1000.0) : "time (s)";
   b += fmt::format("set multiplot layout {},1 title {}\n", panels.size(), quote(sc.title));
   for (const auto& p : panels) {
     b += "unset object\n" + shade_windows(sc, scale);
@@ -105,7 +107,7 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
         if (run.label != st.label) continue;
         const size_t c = column_index(run, p.column);
         if (c == 0) continue;
-        plot += fmt::format(", {} using {}:{} with lines lw 2 lc rgb '{}' {} title {}",
+        plot += fmt::format(", {} skip 1 using {}:{} with lines lc rgb '{}' {} title {}",
                             quote(dir + "/" + stem + "-" + run.label + ".csv"), xexpr, c, st.color,
                             st.dash, quote(st.title));
       }
@@ -149,7 +151,7 @@ std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
     b += fmt::format("set yrange [0:*]\n");
     b += fmt::format(
         "plot NaN with boxes fs solid 1.0 fc rgb '#e6e6e6' title 'attack window', "
-        "{} using ($0+1):3 with linespoints pt 7 ps 0.6 lw 1.5 lc rgb '{}' title {}, "
+        "{} skip 1 using ($0+1):3 with linespoints pt 7 ps 0.6 lw 1.5 lc rgb '{}' title {}, "
         "420 with lines dt 3 lc rgb '#555555' title 'open (420)', "
         "577 with lines dt 2 lc rgb '#555555' title 'close (577)'\n",
         quote(dir + "/" + stem + "-" + label + "-events.csv"), on ? "#1a9641" : "#800000",

@@ -11,12 +11,10 @@ namespace contego::sim {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kMaxWheelRevPerS = 2.0;  // at speed byte 255
-constexpr double kMotorLagS = 0.08;       // first-order time constant of a wheel
 constexpr double kWheelBaseM = 0.117;
-constexpr double kSensorAheadM = 0.07;   // sensor bar ahead of the axle
-constexpr double kSensorPitchM = 0.015;  // between neighbouring sensors
-constexpr double kLineWidthM = 0.019;    // electrical tape
+constexpr double sensor_ahead_m_ = 0.07;  // sensor bar ahead of the axle
+constexpr double kSensorPitchM = 0.015;   // between neighbouring sensors
+constexpr double kLineWidthM = 0.019;     // electrical tape
 constexpr double kSensorFootprintM = 0.008;
 constexpr double kOffLineM = 0.05;
 
@@ -192,6 +190,9 @@ RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint6
   radius_m_ = setting_double(settings, "radius", 1.0);
   speed_noise_ = setting_double(settings, "speed_noise", 0.03);
   sensor_noise_ = setting_double(settings, "sensor_noise", 6.0);
+  max_rev_per_s_ = setting_double(settings, "max_rev_per_s", 1.4);
+  motor_lag_s_ = setting_double(settings, "motor_lag", 0.08);
+  sensor_ahead_m_ = setting_double(settings, "sensor_ahead", 0.07);
   x_ = 0.0;
   y_ = -radius_m_;
   heading_ = 0.0;
@@ -262,8 +263,8 @@ void RoverWorld::update_sensor() {
   for (size_t i = 0; i < 5; ++i) {
     // Sensor 0 sits on the rover's right, sensor 4 on its left.
     const double lateral = (static_cast<double>(i) - 2.0) * kSensorPitchM;
-    const double sx = x_ + kSensorAheadM * c - lateral * s;
-    const double sy = y_ + kSensorAheadM * s + lateral * c;
+    const double sx = x_ + sensor_ahead_m_ * c - lateral * s;
+    const double sy = y_ + sensor_ahead_m_ * s + lateral * c;
     const double d = std::abs(line_offset(sx, sy));
     const double cover =
         std::clamp((kLineWidthM / 2 + kSensorFootprintM / 2 - d) / kSensorFootprintM, 0.0, 1.0);
@@ -276,10 +277,10 @@ void RoverWorld::update_sensor() {
 
 void RoverWorld::step(uint64_t now_us, uint64_t dt_us) {
   const double dt = static_cast<double>(dt_us) * 1e-6;
-  const double max_w = kMaxWheelRevPerS * kTwoPi;
+  const double max_w = max_rev_per_s_ * kTwoPi;
   const double target_l = left_command() / 255.0 * max_w;
   const double target_r = right_command() / 255.0 * max_w;
-  const double a = std::min(1.0, dt / kMotorLagS);
+  const double a = std::min(1.0, dt / motor_lag_s_);
   w_left_ += (target_l - w_left_) * a;
   w_right_ += (target_r - w_right_) * a;
   const double wl = w_left_ * (1.0 + noise_.gaussian(speed_noise_));

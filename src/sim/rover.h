@@ -85,6 +85,9 @@ class RoverWorld : public World {
   double radius_m_ = 1.0;
   double speed_noise_ = 0.03;
   double sensor_noise_ = 6.0;
+  double max_rev_per_s_ = 1.4;    // wheel speed at speed byte 255
+  double motor_lag_s_ = 0.08;     // first-order time constant of a wheel
+  double sensor_ahead_m_ = 0.07;  // sensor bar ahead of the axle
   // Pose and wheels.
   double x_ = 0.0, y_ = 0.0, heading_ = 0.0;
   double w_left_ = 0.0, w_right_ = 0.0;          // wheel angular speed (rad/s)
