@@ -1,7 +1,6 @@
 #include "devices/model_profile.h"
 
 #include <algorithm>
-
 #include <fmt/format.h>
 
 #include "devices/lower.h"
@@ -10,8 +9,8 @@ namespace contego::devices {
 namespace {
 
 bool same_geometry(const core::FieldRecord& a, const core::FieldRecord& b) {
-  return a.offset == b.offset && a.nbytes == b.nbytes && a.shift == b.shift &&
-         a.width == b.width && a.flags == b.flags;
+  return a.offset == b.offset && a.nbytes == b.nbytes && a.shift == b.shift && a.width == b.width &&
+         a.flags == b.flags;
 }
 
 // True if `p` lowered with any binding gives exactly the device's records.
@@ -31,9 +30,9 @@ bool matches(const ProfileSpec& p, const image::ImageModel& m, const core::Devic
     if (id >= m.commands.size()) return false;
     const auto& rec = m.commands[id];
     const CommandSpec& c = p.commands[k];
-    if (rec.name != c.name || rec.record.match != c.match ||
-        rec.record.group_len != c.group_len || rec.record.repeat != c.repeat ||
-        rec.record.stride != c.stride || rec.record.field_count != c.fields.size() ||
+    if (rec.name != c.name || rec.record.match != c.match || rec.record.group_len != c.group_len ||
+        rec.record.repeat != c.repeat || rec.record.stride != c.stride ||
+        rec.record.field_count != c.fields.size() ||
         rec.record.command_class != static_cast<uint8_t>(c.command_class)) {
       return false;
     }
@@ -68,8 +67,8 @@ FieldSpec field_from_record(const std::string& name, const core::FieldRecord& g)
 
 Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t device) {
   if (device >= m.devices.size()) {
-    return make_error(fmt::format("no device {} in the image ({} devices)", device,
-                                  m.devices.size()));
+    return make_error(
+        fmt::format("no device {} in the image ({} devices)", device, m.devices.size()));
   }
   const core::DeviceRecord& d = m.devices[device].record;
   for (const ProfileSpec& p : builtin_profiles()) {
