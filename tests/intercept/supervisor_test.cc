@@ -12,15 +12,23 @@
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <map>
+#include <set>
 #include <sstream>
 #include <string>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
+#include <thread>
 
 #include "bus/virtual_bus.h"
+#include "gate/socket.h"
 #include "monitor/monitor.h"
+#include "monitor/server.h"
 
 namespace contego {
 namespace {
@@ -133,7 +141,9 @@ class ScriptedDecider final : public monitor::Decider {
   core::DeviceRecord devices_[3];
 };
 
-class Supervised : public ::testing::Test {
+// Parameter: false = monitor in the supervising process (in-process call),
+// true = monitor behind its Unix socket (gate protocol, SO_PEERCRED).
+class Supervised : public ::testing::TestWithParam<bool> {
  protected:
   void SetUp() override {
     char name[] = "/tmp/contego-audit-XXXXXX";
@@ -146,8 +156,31 @@ class Supervised : public ::testing::Test {
     bus.attach(gpg);
     bus.attach(lf);
     mon.add_bus(1, &bus);
+    if (GetParam()) {
+      socket_path = "/tmp/contego-test-" + std::to_string(getpid()) + ".sock";
+      server = std::make_unique<monitor::Server>(
+          mon, audit, std::map<std::string, uint16_t>{{"t0", 0}}, std::set<uid_t>{getuid()});
+      ASSERT_TRUE(server->listen(socket_path).ok());
+      server_thread = std::thread([this] { server->serve(); });
+    }
   }
-  void TearDown() override { unlink(audit_path.c_str()); }
+  void TearDown() override {
+    if (server) {
+      server->stop();
+      server_thread.join();
+      server.reset();
+    }
+    unlink(audit_path.c_str());
+  }
+
+  // With a socket, the monitor learns of the exit from the closed connection,
+  // on its own thread: wait for the safe state it then drives.
+  void settle() {
+    if (!GetParam()) return;
+    for (int i = 0; i < 200 && audit_text().find("safe-state") == std::string::npos; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
 
   // Runs argv supervised; stdout of the program is captured.
   intercept::seccomp::RunResult run(std::vector<std::string> argv) {
@@ -160,7 +193,16 @@ class Supervised : public ::testing::Test {
     intercept::seccomp::Options opt;
     opt.task = 0;
     opt.argv = std::move(argv);
-    auto r = intercept::seccomp::run(opt, mon);
+    std::unique_ptr<gate::SocketClient> client;
+    gate::Endpoint* endpoint = &mon;
+    if (GetParam()) {
+      auto c = gate::SocketClient::connect(socket_path, "t0");
+      EXPECT_TRUE(c.ok()) << (c.ok() ? "" : c.error());
+      if (c.ok()) client = std::move(*c);
+      endpoint = client.get();
+    }
+    auto r = intercept::seccomp::run(opt, *endpoint);
+    settle();
     fflush(stdout);
     dup2(saved, STDOUT_FILENO);
     close(saved);
@@ -188,16 +230,19 @@ class Supervised : public ::testing::Test {
   std::shared_ptr<bus::LineFollower> lf = std::make_shared<bus::LineFollower>();
   monitor::Monitor mon{decider, audit};
   std::string output;
+  std::string socket_path;
+  std::unique_ptr<monitor::Server> server;
+  std::thread server_thread;
 };
 
-TEST_F(Supervised, I2csetAllowedWriteChangesTheDevice) {
+TEST_P(Supervised, I2csetAllowedWriteChangesTheDevice) {
   auto r = run({"/usr/sbin/i2cset", "-y", "1", "0x40", "0x06", "0x55"});
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_EQ(pca->reg(0x06), 0x55);
   EXPECT_GT(r.emulated, 0u);
 }
 
-TEST_F(Supervised, I2csetDeniedWriteLeavesTheDeviceAndIsAudited) {
+TEST_P(Supervised, I2csetDeniedWriteLeavesTheDeviceAndIsAudited) {
   auto r = run({"/usr/sbin/i2cset", "-y", "1", "0x40", "0xfe", "0x03"});
   EXPECT_EQ(r.exit_code, 1);  // "Error: Write failed"
   EXPECT_EQ(pca->reg(0xFE), 0x1E);
@@ -205,27 +250,27 @@ TEST_F(Supervised, I2csetDeniedWriteLeavesTheDeviceAndIsAudited) {
   EXPECT_NE(audit_text().find("\"bytes\":\"fe 03\""), std::string::npos);
 }
 
-TEST_F(Supervised, I2cgetReadsTheRegister) {
+TEST_P(Supervised, I2cgetReadsTheRegister) {
   auto r = run({"/usr/sbin/i2cget", "-y", "1", "0x40", "0x00"});
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_EQ(output, "0x11\n");
 }
 
-TEST_F(Supervised, I2ctransferFailsafeSubstitutionIsVisibleOnTheDevice) {
+TEST_P(Supervised, I2ctransferFailsafeSubstitutionIsVisibleOnTheDevice) {
   auto r = run({"/usr/sbin/i2ctransfer", "-y", "1", "w5@0x08", "0x01", "0x46", "200", "0", "0"});
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_EQ(gpg->left_speed(), 80);  // 200 requested, 80 substituted
   EXPECT_NE(audit_text().find("\"decision\":\"failsafe\""), std::string::npos);
 }
 
-TEST_F(Supervised, I2ctransferSmuggledWriteRefusesTheWholeTransfer) {
+TEST_P(Supervised, I2ctransferSmuggledWriteRefusesTheWholeTransfer) {
   auto r =
       run({"/usr/sbin/i2ctransfer", "-y", "1", "w1@0x40", "0x00", "r1", "w2@0x40", "0xfe", "0x03"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(pca->reg(0xFE), 0x1E);
 }
 
-TEST_F(Supervised, I2cdetectSeesTheVirtualDevices) {
+TEST_P(Supervised, I2cdetectSeesTheVirtualDevices) {
   auto r = run({"/usr/sbin/i2cdetect", "-y", "1"});
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(output.find("40 "), std::string::npos) << output;
@@ -234,7 +279,7 @@ TEST_F(Supervised, I2cdetectSeesTheVirtualDevices) {
   EXPECT_EQ(output.find("41 "), std::string::npos) << output;
 }
 
-TEST_F(Supervised, PythonSmbusReplaysTheGoPiGoSequence) {
+TEST_P(Supervised, PythonSmbusReplaysTheGoPiGoSequence) {
   auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/gopigo_smbus.py"});
   EXPECT_EQ(r.exit_code, 0) << output;
   EXPECT_EQ(gpg->left_speed(), 80);  // set_speed(150) substituted
@@ -245,7 +290,7 @@ TEST_F(Supervised, PythonSmbusReplaysTheGoPiGoSequence) {
   EXPECT_NE(output.find("digitalWrite ignored"), std::string::npos) << output;
 }
 
-TEST_F(Supervised, PythonSmbus2ReplaysThePca9685Sequence) {
+TEST_P(Supervised, PythonSmbus2ReplaysThePca9685Sequence) {
   auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/pca9685_smbus2.py"});
   EXPECT_EQ(r.exit_code, 0) << output;
   EXPECT_NE(output.find("off 577"), std::string::npos) << output;
@@ -255,14 +300,14 @@ TEST_F(Supervised, PythonSmbus2ReplaysThePca9685Sequence) {
   EXPECT_NE(output.find("prescale refused"), std::string::npos) << output;
 }
 
-TEST_F(Supervised, BufferRewrittenByASecondThreadNeverReachesTheBus) {
+TEST_P(Supervised, BufferRewrittenByASecondThreadNeverReachesTheBus) {
   auto r = run({CONTEGO_TESTCASES_DIR "/attack_rdwr_race"});
   EXPECT_EQ(r.exit_code, 0) << output;
   EXPECT_EQ(pca->reg(0xFE), 0x1E);
   EXPECT_EQ(pca->reg(0x06), 0x10);
 }
 
-TEST_F(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
+TEST_P(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
   auto r = run({CONTEGO_TESTCASES_DIR "/attack_static"});
   EXPECT_NE(output.find("open-other-path "), std::string::npos) << output;
   EXPECT_EQ(output.find("open-other-path -1"), std::string::npos) << output;  // got a descriptor
@@ -279,14 +324,14 @@ TEST_F(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
   for (int ch = 0; ch < 16; ++ch) EXPECT_EQ(pca->led_off(ch), 0x1000) << ch;
 }
 
-TEST_F(Supervised, TaskExitDrivesTheSafeState) {
+TEST_P(Supervised, TaskExitDrivesTheSafeState) {
   run({"/usr/sbin/i2cset", "-y", "1", "0x08", "0x01", "0x77", "0", "0", "0", "i"});
   EXPECT_EQ(gpg->motion(), 0x78);  // fwd was allowed, then the exit stopped the rover
   EXPECT_EQ(gpg->frames(), 2u);
   EXPECT_NE(audit_text().find("safe-state"), std::string::npos);
 }
 
-TEST_F(Supervised, MonitorSamplesSensorsItself) {
+TEST_P(Supervised, MonitorSamplesSensorsItself) {
   lf->set_values({1, 2, 3, 4, 1023});
   mon.sample_all();
   auto s = decider.sample(2);
@@ -295,10 +340,79 @@ TEST_F(Supervised, MonitorSamplesSensorsItself) {
   EXPECT_EQ(s[8], 0x03);
 }
 
-TEST_F(Supervised, ProgramThatDoesNotExistFailsCleanly) {
+TEST_P(Supervised, ProgramThatDoesNotExistFailsCleanly) {
   auto r = run({"/nonexistent/program"});
   EXPECT_EQ(r.exit_code, 127);
 }
+
+TEST_P(Supervised, MonitorLostMidRunFailsTheNextActuationAndLeavesTheSafeState) {
+  if (!GetParam()) GTEST_SKIP() << "needs a separate monitor";
+  std::thread killer([this] {
+    // The script's first write happens at once; the second after 1 s.
+    for (int i = 0;
+         i < 300 && audit_text().find("\"bytes\":\"01 77 00 00 00\"") == std::string::npos; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    server->stop();
+  });
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/two_writes.py"});
+  killer.join();
+  EXPECT_NE(output.find("first ok"), std::string::npos) << output;
+  EXPECT_NE(output.find("second failed 5"), std::string::npos) << output;  // EIO: fail closed
+  EXPECT_EQ(gpg->motion(), 0x78);  // the monitor drove the safe state when the link went down
+  const std::string log = audit_text();
+  EXPECT_NE(log.find("\"bytes\":\"01 77 00 00 00\""), std::string::npos);  // kept
+  EXPECT_EQ(log.find("\"bytes\":\"01 6b 00 00 00\""), std::string::npos);  // never decided
+  (void)r;
+}
+
+TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
+  monitor::AuditLog audit;
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-malformed-" + std::to_string(getpid()) + ".sock";
+  monitor::Server server(mon, audit, {{"t0", 0}}, {getuid()});
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+  {
+    // An oversized frame: answered with kError, then that connection is closed.
+    const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strcpy(addr.sun_path, path.c_str());
+    ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    std::vector<uint8_t> header = gate::wire::frame(gate::wire::Type::kTransfer, 1, {});
+    header[10] = 0x10;  // 1 MiB payload announced
+    ASSERT_EQ(write(fd, header.data(), header.size()), 12);
+    gate::wire::Header h;
+    std::vector<uint8_t> payload;
+    ASSERT_EQ(gate::recv_frame(fd, &h, &payload), "");
+    EXPECT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
+    gate::wire::ErrorMsg e;
+    ASSERT_EQ(gate::wire::decode_error(payload, &e), "");
+    EXPECT_NE(e.reason.find("exceeds"), std::string::npos);
+    close(fd);
+  }
+  {
+    auto bad = gate::SocketClient::connect(path, "nobody");
+    ASSERT_FALSE(bad.ok());
+    EXPECT_NE(bad.error().find("no task named 'nobody'"), std::string::npos);
+  }
+  auto c = gate::SocketClient::connect(path, "t0");
+  ASSERT_TRUE(c.ok()) << c.error();
+  gate::Transfer empty;  // no messages: EINVAL, not a crash
+  empty.bus = 1;
+  EXPECT_EQ((*c)->transfer(0, empty).err, EINVAL);
+  EXPECT_TRUE((*c)->has_bus(1));
+  EXPECT_FALSE((*c)->has_bus(2));
+  server.stop();
+  t.join();
+}
+
+INSTANTIATE_TEST_SUITE_P(Clients, Supervised, ::testing::Values(false, true),
+                         [](const auto& p) { return p.param ? "socket" : "in_process"; });
 
 }  // namespace
 }  // namespace contego

@@ -1,0 +1,240 @@
+#include "gate/wire.h"
+
+#include <cstring>
+
+namespace contego::gate::wire {
+namespace {
+
+class Writer {
+ public:
+  void u8(uint8_t v) { out.push_back(v); }
+  void u16(uint16_t v) {
+    u8(static_cast<uint8_t>(v));
+    u8(static_cast<uint8_t>(v >> 8));
+  }
+  void u32(uint32_t v) {
+    u16(static_cast<uint16_t>(v));
+    u16(static_cast<uint16_t>(v >> 16));
+  }
+  void u64(uint64_t v) {
+    u32(static_cast<uint32_t>(v));
+    u32(static_cast<uint32_t>(v >> 32));
+  }
+  void bytes(std::span<const uint8_t> b) { out.insert(out.end(), b.begin(), b.end()); }
+  std::vector<uint8_t> out;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::span<const uint8_t> b) : b_(b) {}
+  bool u8(uint8_t* v) {
+    if (pos_ + 1 > b_.size()) return false;
+    *v = b_[pos_++];
+    return true;
+  }
+  bool u16(uint16_t* v) {
+    uint8_t lo, hi;
+    if (!u8(&lo) || !u8(&hi)) return false;
+    *v = static_cast<uint16_t>(lo | (hi << 8));
+    return true;
+  }
+  bool u32(uint32_t* v) {
+    uint16_t lo, hi;
+    if (!u16(&lo) || !u16(&hi)) return false;
+    *v = lo | (static_cast<uint32_t>(hi) << 16);
+    return true;
+  }
+  bool u64(uint64_t* v) {
+    uint32_t lo, hi;
+    if (!u32(&lo) || !u32(&hi)) return false;
+    *v = lo | (static_cast<uint64_t>(hi) << 32);
+    return true;
+  }
+  bool bytes(size_t n, std::vector<uint8_t>* out) {
+    if (n > b_.size() - pos_) return false;
+    out->assign(b_.begin() + static_cast<long>(pos_), b_.begin() + static_cast<long>(pos_ + n));
+    pos_ += n;
+    return true;
+  }
+  bool done() const { return pos_ == b_.size(); }
+
+ private:
+  std::span<const uint8_t> b_;
+  size_t pos_ = 0;
+};
+
+}  // namespace
+
+std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
+  Reader r(bytes);
+  if (bytes.size() != kHeaderSize) return "header is not 12 bytes";
+  r.u16(&h->magic);
+  r.u8(&h->version);
+  r.u8(&h->type);
+  r.u32(&h->seq);
+  r.u32(&h->length);
+  if (h->magic != kMagic) return "bad magic";
+  if (h->version != kVersion) return "unsupported protocol version " + std::to_string(h->version);
+  if (h->length > kMaxPayload)
+    return "payload of " + std::to_string(h->length) + " bytes exceeds 524288";
+  switch (static_cast<Type>(h->type)) {
+    case Type::kHello:
+    case Type::kHelloOk:
+    case Type::kTransfer:
+    case Type::kReply:
+    case Type::kJobEnd:
+    case Type::kBusInfo:
+    case Type::kBusInfoOk:
+    case Type::kError:
+      return {};
+  }
+  return "unknown message type " + std::to_string(h->type);
+}
+
+std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> payload) {
+  Writer w;
+  w.u16(kMagic);
+  w.u8(kVersion);
+  w.u8(static_cast<uint8_t>(type));
+  w.u32(seq);
+  w.u32(static_cast<uint32_t>(payload.size()));
+  w.bytes(payload);
+  return std::move(w.out);
+}
+
+std::vector<uint8_t> encode_hello(const std::string& task) {
+  Writer w;
+  w.u16(static_cast<uint16_t>(task.size()));
+  w.bytes({reinterpret_cast<const uint8_t*>(task.data()), task.size()});
+  return std::move(w.out);
+}
+
+std::string decode_hello(std::span<const uint8_t> p, std::string* task) {
+  Reader r(p);
+  uint16_t n = 0;
+  std::vector<uint8_t> b;
+  if (!r.u16(&n) || n == 0 || n > kMaxTaskName || !r.bytes(n, &b) || !r.done()) {
+    return "malformed hello (task name of 1..64 bytes expected)";
+  }
+  task->assign(b.begin(), b.end());
+  return {};
+}
+
+std::vector<uint8_t> encode_u16(uint16_t v) {
+  Writer w;
+  w.u16(v);
+  return std::move(w.out);
+}
+
+std::string decode_u16(std::span<const uint8_t> p, uint16_t* v) {
+  Reader r(p);
+  if (!r.u16(v) || !r.done()) return "malformed 16-bit value";
+  return {};
+}
+
+std::vector<uint8_t> encode_transfer(const Transfer& t) {
+  Writer w;
+  w.u8(t.bus);
+  w.u8(
+      static_cast<uint8_t>((t.quick ? 1 : 0) | (t.quick_read ? 2 : 0) | (t.quick_ten_bit ? 4 : 0)));
+  w.u16(t.quick_addr);
+  w.u16(static_cast<uint16_t>(t.messages.size()));
+  for (const Message& m : t.messages) {
+    w.u16(m.addr);
+    w.u16(m.flags);
+    w.u16(m.len);
+    if (!m.is_read()) w.bytes(m.data);
+  }
+  return std::move(w.out);
+}
+
+std::string decode_transfer(std::span<const uint8_t> p, Transfer* t) {
+  Reader r(p);
+  uint8_t flags = 0;
+  uint16_t count = 0;
+  if (!r.u8(&t->bus) || !r.u8(&flags) || !r.u16(&t->quick_addr) || !r.u16(&count)) {
+    return "truncated transfer header";
+  }
+  if (flags & ~7u) return "unknown transfer flags";
+  t->quick = flags & 1;
+  t->quick_read = flags & 2;
+  t->quick_ten_bit = flags & 4;
+  if (count > kMaxMessages) return "more than 42 messages";
+  t->messages.clear();
+  for (uint16_t i = 0; i < count; ++i) {
+    Message m;
+    if (!r.u16(&m.addr) || !r.u16(&m.flags) || !r.u16(&m.len)) return "truncated message header";
+    if (m.len > kMaxMessageLen) return "message longer than 8192 bytes";
+    if (!m.is_read() && !r.bytes(m.len, &m.data)) return "truncated message data";
+    t->messages.push_back(std::move(m));
+  }
+  if (!r.done()) return "trailing bytes after the transfer";
+  return validate(*t);
+}
+
+std::vector<uint8_t> encode_reply(const TransferReply& rep) {
+  Writer w;
+  w.u32(static_cast<uint32_t>(rep.err));
+  w.u16(static_cast<uint16_t>(rep.reads.size()));
+  for (const auto& rd : rep.reads) {
+    w.u16(static_cast<uint16_t>(rd.size()));
+    w.bytes(rd);
+  }
+  return std::move(w.out);
+}
+
+std::string decode_reply(std::span<const uint8_t> p, TransferReply* rep) {
+  Reader r(p);
+  uint32_t err = 0;
+  uint16_t count = 0;
+  if (!r.u32(&err) || !r.u16(&count)) return "truncated reply";
+  if (err > 4095) return "errno out of range";
+  if (count > kMaxMessages) return "more than 42 reads";
+  rep->err = static_cast<int>(err);
+  rep->reads.assign(count, {});
+  for (auto& rd : rep->reads) {
+    uint16_t n = 0;
+    if (!r.u16(&n) || n > kMaxMessageLen || !r.bytes(n, &rd)) return "truncated read data";
+  }
+  if (!r.done()) return "trailing bytes after the reply";
+  return {};
+}
+
+std::vector<uint8_t> encode_bus_info(const BusInfo& b) {
+  Writer w;
+  w.u8(b.present ? 1 : 0);
+  w.u64(b.funcs);
+  return std::move(w.out);
+}
+
+std::string decode_bus_info(std::span<const uint8_t> p, BusInfo* b) {
+  Reader r(p);
+  uint8_t present = 0;
+  if (!r.u8(&present) || present > 1 || !r.u64(&b->funcs) || !r.done()) return "malformed bus info";
+  b->present = present == 1;
+  return {};
+}
+
+std::vector<uint8_t> encode_error(const ErrorMsg& e) {
+  Writer w;
+  w.u32(static_cast<uint32_t>(e.err));
+  const std::string text = e.reason.substr(0, 1024);
+  w.u16(static_cast<uint16_t>(text.size()));
+  w.bytes({reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+  return std::move(w.out);
+}
+
+std::string decode_error(std::span<const uint8_t> p, ErrorMsg* e) {
+  Reader r(p);
+  uint32_t err = 0;
+  uint16_t n = 0;
+  std::vector<uint8_t> b;
+  if (!r.u32(&err) || err > 4095 || !r.u16(&n) || n > 1024 || !r.bytes(n, &b) || !r.done()) {
+    return "malformed error message";
+  }
+  e->err = static_cast<int32_t>(err);
+  e->reason.assign(b.begin(), b.end());
+  return {};
+}
+
+}  // namespace contego::gate::wire

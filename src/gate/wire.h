@@ -1,0 +1,75 @@
+// The gate's wire protocol between an enclave client and a monitor process
+// over a Unix stream socket. docs/gate-protocol.md is the normative text.
+//
+// Every message is a frame: a 12-byte header (magic "CG", version, type,
+// sequence number, payload length, all little-endian) and a payload of at
+// most kMaxPayload bytes. Decoding never trusts a length: every field is
+// bounds-checked against the frame, and anything malformed is refused with a
+// reason (the server answers kError and keeps serving).
+#ifndef CONTEGO_GATE_WIRE_H_
+#define CONTEGO_GATE_WIRE_H_
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "gate/transfer.h"
+
+namespace contego::gate::wire {
+
+inline constexpr uint16_t kMagic = 0x4743;  // "CG"
+inline constexpr uint8_t kVersion = 1;
+inline constexpr uint32_t kHeaderSize = 12;
+inline constexpr uint32_t kMaxPayload = 512 * 1024;  // 42 messages of 8192 bytes fit
+inline constexpr uint32_t kMaxTaskName = 64;
+
+enum class Type : uint8_t {
+  kHello = 1,      // client: task name                 -> kHelloOk | kError
+  kHelloOk = 2,    // server: task id
+  kTransfer = 3,   // client: a Transfer                -> kReply | kError
+  kReply = 4,      // server: a TransferReply
+  kJobEnd = 5,     // client: job boundary (no answer)
+  kBusInfo = 6,    // client: bus number                -> kBusInfoOk | kError
+  kBusInfoOk = 7,  // server: present flag and I2C_FUNCS
+  kError = 0x7F,   // server: errno and reason text
+};
+
+struct Header {
+  uint16_t magic = kMagic;
+  uint8_t version = kVersion;
+  uint8_t type = 0;
+  uint32_t seq = 0;
+  uint32_t length = 0;  // payload bytes
+};
+
+struct BusInfo {
+  bool present = false;
+  uint64_t funcs = 0;
+};
+
+struct ErrorMsg {
+  int32_t err = 0;
+  std::string reason;
+};
+
+// Header: returns "" or why it is refused (bad magic, version, type, length).
+std::string decode_header(std::span<const uint8_t> bytes, Header* out);
+std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> payload);
+
+std::vector<uint8_t> encode_hello(const std::string& task);
+std::string decode_hello(std::span<const uint8_t> payload, std::string* task);
+std::vector<uint8_t> encode_u16(uint16_t v);
+std::string decode_u16(std::span<const uint8_t> payload, uint16_t* v);
+std::vector<uint8_t> encode_transfer(const Transfer& t);
+std::string decode_transfer(std::span<const uint8_t> payload, Transfer* t);
+std::vector<uint8_t> encode_reply(const TransferReply& r);
+std::string decode_reply(std::span<const uint8_t> payload, TransferReply* r);
+std::vector<uint8_t> encode_bus_info(const BusInfo& b);
+std::string decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);
+std::vector<uint8_t> encode_error(const ErrorMsg& e);
+std::string decode_error(std::span<const uint8_t> payload, ErrorMsg* e);
+
+}  // namespace contego::gate::wire
+
+#endif  // CONTEGO_GATE_WIRE_H_

@@ -1,0 +1,86 @@
+#include "gate/wire.h"
+
+#include <gtest/gtest.h>
+
+namespace contego::gate::wire {
+namespace {
+
+TEST(Wire, TransferRoundTrip) {
+  Transfer t;
+  t.bus = 1;
+  Message w;
+  w.addr = 0x40;
+  w.len = 2;
+  w.data = {0xFE, 0x79};
+  Message r;
+  r.addr = 0x40;
+  r.flags = kMsgRead;
+  r.len = 3;
+  t.messages = {w, r};
+  Transfer back;
+  ASSERT_EQ(decode_transfer(encode_transfer(t), &back), "");
+  ASSERT_EQ(back.messages.size(), 2u);
+  EXPECT_EQ(back.messages[0].data, w.data);
+  EXPECT_TRUE(back.messages[1].is_read());
+  EXPECT_EQ(back.messages[1].len, 3);
+}
+
+TEST(Wire, TruncatedAndTrailingTransfersAreRefused) {
+  Transfer t;
+  Message w;
+  w.addr = 0x08;
+  w.len = 5;
+  w.data = {1, 0x77, 0, 0, 0};
+  t.messages = {w};
+  auto bytes = encode_transfer(t);
+  Transfer back;
+  auto cut = bytes;
+  cut.pop_back();
+  EXPECT_EQ(decode_transfer(cut, &back), "truncated message data");
+  auto extra = bytes;
+  extra.push_back(0);
+  EXPECT_EQ(decode_transfer(extra, &back), "trailing bytes after the transfer");
+}
+
+TEST(Wire, HeaderRefusesOversizeBadMagicAndUnknownTypes) {
+  auto f = frame(Type::kTransfer, 7, {});
+  Header h;
+  EXPECT_EQ(decode_header({f.data(), kHeaderSize}, &h), "");
+  EXPECT_EQ(h.seq, 7u);
+  auto big = f;
+  big[8] = 0xFF;
+  big[9] = 0xFF;
+  big[10] = 0xFF;
+  EXPECT_NE(decode_header({big.data(), kHeaderSize}, &h).find("exceeds"), std::string::npos);
+  auto magic = f;
+  magic[0] = 0;
+  EXPECT_EQ(decode_header({magic.data(), kHeaderSize}, &h), "bad magic");
+  auto type = f;
+  type[3] = 0x42;
+  EXPECT_NE(decode_header({type.data(), kHeaderSize}, &h).find("unknown message type"),
+            std::string::npos);
+  auto version = f;
+  version[2] = 2;
+  EXPECT_NE(decode_header({version.data(), kHeaderSize}, &h).find("version"), std::string::npos);
+}
+
+TEST(Wire, ReplyHelloAndErrorRoundTrip) {
+  TransferReply r;
+  r.err = 0;
+  r.reads = {{1, 2, 3}};
+  TransferReply rb;
+  ASSERT_EQ(decode_reply(encode_reply(r), &rb), "");
+  EXPECT_EQ(rb.reads, r.reads);
+  std::string task;
+  ASSERT_EQ(decode_hello(encode_hello("rover"), &task), "");
+  EXPECT_EQ(task, "rover");
+  EXPECT_NE(decode_hello(encode_hello(""), &task), "");
+  EXPECT_NE(decode_hello(encode_hello(std::string(65, 'x')), &task), "");
+  ErrorMsg e;
+  ASSERT_EQ(decode_error(encode_error({13, "no"}), &e), "");
+  EXPECT_EQ(e.err, 13);
+  EXPECT_EQ(e.reason, "no");
+}
+
+}  // namespace
+}  // namespace contego::gate::wire

@@ -1,0 +1,15 @@
+# Two GoPiGo frames one second apart (fwd, then bwd): used to lose the
+# monitor in between. Prints how each write ended.
+import errno
+import time
+from smbus2 import SMBus, i2c_msg
+
+with SMBus(1) as bus:
+    bus.i2c_rdwr(i2c_msg.write(0x08, [0x01, 0x77, 0, 0, 0]))
+    print("first ok", flush=True)
+    time.sleep(1)
+    try:
+        bus.i2c_rdwr(i2c_msg.write(0x08, [0x01, 0x6B, 0, 0, 0]))
+        print("second ok", flush=True)
+    except OSError as e:
+        print("second failed", e.errno, flush=True)
