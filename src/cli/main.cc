@@ -16,6 +16,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   contego::cli::register_version(app);
   contego::cli::register_sched(app);
+#ifdef CONTEGO_HAVE_POLICY
+  contego::cli::register_run(app);
+  contego::cli::register_monitor(app);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
