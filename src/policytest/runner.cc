@@ -65,12 +65,21 @@ std::string errno_text(int e) {
 
 class Runner {
  public:
-  Runner(const TestFile& file, const image::ImageModel& model, std::span<const uint8_t> image)
-      : file_(file), model_(model), image_(image) {}
+  Runner(const TestFile& file, const image::ImageModel& model, std::span<const uint8_t> image,
+         std::span<const devices::ProfileSpec> profiles)
+      : file_(file), model_(model), image_(image), given_(profiles) {}
 
   Result<RunReport> run() {
     report_.file_name = file_.file_name;
+    if (!given_.empty() && given_.size() != model_.devices.size()) {
+      return make_error(fmt::format("{} device profiles given for {} devices", given_.size(),
+                                    model_.devices.size()));
+    }
     for (uint16_t d = 0; d < model_.devices.size(); ++d) {
+      if (!given_.empty()) {
+        profiles_.push_back(given_[d]);
+        continue;
+      }
       Result<devices::ProfileSpec> p = devices::profile_from_model(model_, d);
       if (!p) return make_error(p.error());
       profiles_.push_back(std::move(*p));
@@ -455,6 +464,7 @@ class Runner {
   const TestFile& file_;
   const image::ImageModel& model_;
   std::span<const uint8_t> image_;
+  std::span<const devices::ProfileSpec> given_;
   std::vector<devices::ProfileSpec> profiles_;
   RunReport report_;
   std::set<size_t> fired_invariants_;
@@ -464,8 +474,9 @@ class Runner {
 }  // namespace
 
 Result<RunReport> run_tests(const TestFile& file, const image::ImageModel& model,
-                            std::span<const uint8_t> image) {
-  return Runner(file, model, image).run();
+                            std::span<const uint8_t> image,
+                            std::span<const devices::ProfileSpec> profiles) {
+  return Runner(file, model, image, profiles).run();
 }
 
 std::string format_report(const RunReport& r) {

@@ -14,6 +14,7 @@
 #include "contego/core/host.h"  // before image.h: see test_file.h
 
 #include "base/result.h"
+#include "devices/profile.h"
 #include "image/image_model.h"
 #include "policytest/test_file.h"
 
@@ -47,8 +48,12 @@ struct RunReport {
 // Loads `image` into a core::Checker for every case (an image the verifier
 // refuses is an error) and runs the case's steps in order. `model` is the
 // same image's model: it names tasks, devices, commands and rules.
+// `profiles` are the device profiles by device id as the compiler used them
+// (they name the sample fields of declared sensors); when empty they are
+// recovered from the model (devices::profile_from_model).
 Result<RunReport> run_tests(const TestFile& file, const image::ImageModel& model,
-                            std::span<const uint8_t> image);
+                            std::span<const uint8_t> image,
+                            std::span<const devices::ProfileSpec> profiles = {});
 
 // The verdict table, then errors, coverage and a summary line.
 std::string format_report(const RunReport& report);
