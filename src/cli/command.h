@@ -16,6 +16,8 @@ void register_sched(CLI::App& app);
 // run and monitor need the policy compiler (built when src/policy is present).
 void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);
+void register_test(CLI::App& app);
+void register_demo(CLI::App& app);
 
 void set_exit_code(int code);
 int exit_code();

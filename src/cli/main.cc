@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
 #ifdef CONTEGO_HAVE_POLICY
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);
+  contego::cli::register_test(app);
+  contego::cli::register_demo(app);
 #endif
   try {
     app.parse(argc, argv);
