@@ -18,6 +18,9 @@ void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);
 void register_test(CLI::App& app);
 void register_demo(CLI::App& app);
+// check and image need the policy compiler too.
+void register_check(CLI::App& app);
+void register_image(CLI::App& app);
 
 void set_exit_code(int code);
 int exit_code();

@@ -21,6 +21,8 @@ int main(int argc, char** argv) {
   contego::cli::register_monitor(app);
   contego::cli::register_test(app);
   contego::cli::register_demo(app);
+  contego::cli::register_check(app);
+  contego::cli::register_image(app);
 #endif
   try {
     app.parse(argc, argv);

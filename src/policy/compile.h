@@ -3,25 +3,54 @@
 #define CONTEGO_POLICY_COMPILE_H_
 
 #include <cstdint>
+#include <functional>
+#include <string_view>
 #include <string>
 #include <vector>
 
+#include "devices/profile.h"
 #include "image/image_model.h"
 
 namespace contego::policy {
 
 struct Diagnostic {
   std::string id;        // stable id, e.g. "E0103"
+  std::string name;      // registry name, e.g. "UnknownName"
   std::string severity;  // "error" | "warning" | "note"
   std::string file;
   uint32_t line = 0;     // 1-based
   uint32_t column = 0;   // 1-based
+  uint32_t end_column = 0;  // last column the caret covers on `line` (>= column)
   std::string message;
-  std::string rendered;  // file:line:col: severity[ID]: message + source line + caret
+  std::string source_line;  // the text of `line`
+  std::string rendered;  // file:line:col: severity[ID]: message + source line + caret (+ notes)
+  std::vector<Diagnostic> notes;  // secondary locations ("declared here")
 };
 
 struct CompileOptions {
   bool strict = false;  // warnings are errors
+  // Device profiles by name; empty = devices::find_builtin_profile (tests inject their own).
+  std::function<const devices::ProfileSpec*(std::string_view)> profiles;
+};
+
+// What `contego check` prints besides the image: the policy as the compiler
+// understood it, in readable form.
+struct PolicySummary {
+  struct Device {
+    std::string name, profile, role;  // role: "actuator", "sensor", "actuator+sensor"
+    uint8_t bus = 0;
+    uint16_t addr = 0;
+    std::vector<std::string> safe;  // safe-state commands as written
+    std::string latch;              // "" or "after 3 within 1000000us"
+  };
+  struct Task {
+    std::string name, exe;
+  };
+  std::vector<Device> devices;
+  std::vector<Task> tasks;
+  std::vector<std::string> signals;     // "pos = derived (program of 42 instructions)"
+  std::vector<std::string> rates;       // each rate limit as written
+  std::vector<std::string> invariants;  // each invariant as written
 };
 
 struct CompileOutput {
@@ -30,6 +59,8 @@ struct CompileOutput {
   image::ImageModel model;               // valid when ok
   std::vector<uint8_t> image;            // serialised and accepted by core::Checker::load
   uint32_t worst_case_cost = 0;          // bytecode instructions of one check, from the verifier
+  uint32_t estimated_cost = 0;           // the compiler's own bound (equal unless a bug)
+  PolicySummary summary;                 // filled when the policy got past semantic checks
 };
 
 CompileOutput compile_source(const std::string& file_name, const std::string& text,

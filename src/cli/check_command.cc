@@ -1,0 +1,192 @@
+// `contego check POLICY [--strict] [--json] [--emit IMAGE]`: compiles a
+// policy, verifies the image with the core's own verifier and prints what
+// the policy means: tasks, the access matrix, signals, rate limits,
+// invariants, the image size and the worst-case cost of one check.
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "cli/command.h"
+#include "policy/compile.h"
+#include "policy/diag/diag.h"
+
+namespace contego::cli {
+namespace {
+
+std::string format_us(uint64_t us) {
+  if (us == 0) return "0";
+  if (us % 1000000 == 0) return fmt::format("{}s", us / 1000000);
+  if (us % 1000 == 0) return fmt::format("{}ms", us / 1000);
+  return fmt::format("{}us", us);
+}
+
+std::string format_ns(uint64_t ns) {
+  if (ns == 0) return "-";
+  if (ns % 1000 == 0) return format_us(ns / 1000);
+  return fmt::format("{}ns", ns);
+}
+
+std::string pad(const std::string& s, size_t width) {
+  return s.size() >= width ? s + " " : s + std::string(width - s.size(), ' ');
+}
+
+void print_summary(const std::string& path, const policy::CompileOutput& out) {
+  const auto& m = out.model;
+  const auto& s = out.summary;
+  fmt::print("policy {}: ok\n\n", path);
+
+  fmt::print("tasks ({}):\n", m.tasks.size());
+  fmt::print("  {}{}{}{}{}{}{}{}\n", pad("name", 14), pad("period", 9), pad("deadline", 9),
+             pad("wcet", 9), pad("prio", 5), pad("N", 4), pad("overhead", 9), "exe");
+  for (size_t i = 0; i < m.tasks.size(); ++i) {
+    const auto& t = m.tasks[i].record;
+    fmt::print("  {}{}{}{}{}{}{}{}\n", pad(m.tasks[i].name, 14), pad(format_us(t.period_us), 9),
+               pad(format_us(t.deadline_us), 9), pad(format_us(t.wcet_us), 9),
+               pad(std::to_string(t.priority), 5), pad(std::to_string(t.actuations_per_job), 4),
+               pad(format_ns(t.overhead_ns), 9), i < s.tasks.size() ? s.tasks[i].exe : "");
+  }
+
+  fmt::print("\ndevices ({}):\n", s.devices.size());
+  for (const auto& d : s.devices) {
+    fmt::print("  {}{}i2c-{} {:#04x}  {}", pad(d.name, 14), pad(d.profile, 15), d.bus, d.addr,
+               d.role);
+    if (!d.safe.empty()) {
+      std::string safe;
+      for (const auto& c : d.safe) safe += (safe.empty() ? "" : ", ") + c;
+      fmt::print("; safe state {}", safe);
+    }
+    if (!d.latch.empty()) fmt::print("; latch {}", d.latch);
+    fmt::print("\n");
+  }
+
+  fmt::print("\naccess matrix (A = may actuate, R = may read, . = denied):\n");
+  std::string header = "  " + pad("", 14);
+  for (const auto& d : s.devices) header += pad(d.name, std::max<size_t>(d.name.size() + 1, 4));
+  fmt::print("{}\n", header);
+  for (size_t t = 0; t < m.tasks.size(); ++t) {
+    std::string row = "  " + pad(m.tasks[t].name, 14);
+    for (size_t k = 0; k < s.devices.size(); ++k) {
+      const auto& a = m.access[t];
+      std::string cell;
+      if (a.actuate_devices & (1u << k)) cell += "A";
+      if (a.read_devices & (1u << k)) cell += "R";
+      if (cell.empty()) cell = ".";
+      row += pad(cell, std::max<size_t>(s.devices[k].name.size() + 1, 4));
+    }
+    fmt::print("{}\n", row);
+  }
+
+  if (!s.signals.empty()) {
+    fmt::print("\nsignals ({}):\n", s.signals.size());
+    for (const auto& sig : s.signals) fmt::print("  {}\n", sig);
+  }
+  fmt::print("\nrate limits ({}):\n", s.rates.size());
+  for (const auto& r : s.rates) fmt::print("  {}\n", r);
+  fmt::print("\ninvariants ({}, checked in this order after access and rate limits):\n",
+             s.invariants.size());
+  for (size_t i = 0; i < s.invariants.size(); ++i) {
+    const uint32_t len = i < m.invariants.size() ? m.invariants[i].record.code_len : 0;
+    fmt::print("  {}\n      ({} instructions)\n", s.invariants[i], len);
+  }
+  fmt::print("\nimage: {} bytes, {} bytecode instructions in all, verified by the core\n",
+             out.image.size(), m.code.size());
+  fmt::print("worst-case cost of one check: {} bytecode instructions\n", out.worst_case_cost);
+}
+
+nlohmann::json summary_json(const policy::CompileOutput& out) {
+  const auto& m = out.model;
+  const auto& s = out.summary;
+  nlohmann::json j;
+  j["tasks"] = nlohmann::json::array();
+  for (size_t i = 0; i < m.tasks.size(); ++i) {
+    const auto& t = m.tasks[i].record;
+    nlohmann::json access_a = nlohmann::json::array(), access_r = nlohmann::json::array();
+    for (size_t k = 0; k < s.devices.size(); ++k) {
+      if (m.access[i].actuate_devices & (1u << k)) access_a.push_back(s.devices[k].name);
+      if (m.access[i].read_devices & (1u << k)) access_r.push_back(s.devices[k].name);
+    }
+    j["tasks"].push_back({{"name", m.tasks[i].name},
+                          {"exe", i < s.tasks.size() ? s.tasks[i].exe : ""},
+                          {"period_us", t.period_us},
+                          {"deadline_us", t.deadline_us},
+                          {"wcet_us", t.wcet_us},
+                          {"priority", t.priority},
+                          {"actuations_per_job", t.actuations_per_job},
+                          {"overhead_ns", t.overhead_ns},
+                          {"actuates", access_a},
+                          {"reads", access_r}});
+  }
+  j["devices"] = nlohmann::json::array();
+  for (const auto& d : s.devices) {
+    j["devices"].push_back({{"name", d.name},
+                            {"profile", d.profile},
+                            {"role", d.role},
+                            {"bus", d.bus},
+                            {"addr", d.addr},
+                            {"safe", d.safe},
+                            {"latch", d.latch}});
+  }
+  j["signals"] = s.signals;
+  j["rate_limits"] = s.rates;
+  j["invariants"] = s.invariants;
+  j["image_bytes"] = out.image.size();
+  j["code_instructions"] = m.code.size();
+  j["worst_case_cost"] = out.worst_case_cost;
+  return j;
+}
+
+}  // namespace
+
+void register_check(CLI::App& app) {
+  auto* cmd = app.add_subcommand("check", "Compile a policy, verify its image, print a summary");
+  static std::string path, emit;
+  static bool strict = false, json = false;
+  cmd->add_option("POLICY", path, "policy file")->required();
+  cmd->add_flag("--strict", strict, "treat warnings as errors");
+  cmd->add_flag("--json", json, "print the diagnostics and the summary as JSON");
+  cmd->add_option("--emit", emit, "write the verified policy image to this file");
+  cmd->callback([] {
+    policy::CompileOptions options;
+    options.strict = strict;
+    const policy::CompileOutput out = policy::compile_file(path, options);
+    if (out.ok && !emit.empty()) {
+      std::ofstream f(emit, std::ios::binary | std::ios::trunc);
+      f.write(reinterpret_cast<const char*>(out.image.data()),
+              static_cast<std::streamsize>(out.image.size()));
+      if (!f) {
+        fmt::print(stderr, "contego check: cannot write `{}`\n", emit);
+        set_exit_code(2);
+        return;
+      }
+    }
+    if (json) {
+      nlohmann::json j;
+      j["file"] = path;
+      j["ok"] = out.ok;
+      j["diagnostics"] = nlohmann::json::parse(policy::render_json(out.diagnostics));
+      if (out.ok) j["summary"] = summary_json(out);
+      fmt::print("{}\n", j.dump(2));
+    } else {
+      fmt::print(stderr, "{}", policy::render_text(out.diagnostics));
+      if (out.ok) print_summary(path, out);
+      size_t errors = 0, warnings = 0;
+      for (const auto& d : out.diagnostics) {
+        errors += d.severity == "error";
+        warnings += d.severity == "warning";
+      }
+      if (!out.ok) {
+        fmt::print(stderr, "{}: {} error{}, {} warning{}{}\n", path, errors, errors == 1 ? "" : "s",
+                   warnings, warnings == 1 ? "" : "s",
+                   strict && errors == 0 ? " (--strict: warnings are errors)" : "");
+      } else if (warnings) {
+        fmt::print(stderr, "{}: {} warning{}\n", path, warnings, warnings == 1 ? "" : "s");
+      }
+    }
+    set_exit_code(out.ok ? 0 : 1);
+  });
+}
+
+}  // namespace contego::cli
