@@ -4,7 +4,6 @@
 // invariants, the image size and the worst-case cost of one check.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
-
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>

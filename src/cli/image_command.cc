@@ -2,7 +2,6 @@
 // verifier and prints every table and a disassembly of every program.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
-
 #include <fstream>
 #include <iterator>
 #include <memory>

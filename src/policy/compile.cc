@@ -1,7 +1,6 @@
 #include "policy/compile.h"
 
 #include <fmt/format.h>
-
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -23,20 +22,34 @@ namespace {
 
 const char* section_name(uint32_t kind) {
   switch (static_cast<core::SectionKind>(kind)) {
-    case core::SectionKind::kTasks: return "tasks";
-    case core::SectionKind::kDevices: return "devices";
-    case core::SectionKind::kAliases: return "aliases";
-    case core::SectionKind::kCommands: return "commands";
-    case core::SectionKind::kFields: return "fields";
-    case core::SectionKind::kSignals: return "signals";
-    case core::SectionKind::kRates: return "rates";
-    case core::SectionKind::kInvariants: return "invariants";
-    case core::SectionKind::kTemplates: return "templates";
-    case core::SectionKind::kCode: return "code";
-    case core::SectionKind::kConstants: return "constants";
-    case core::SectionKind::kAccess: return "access";
-    case core::SectionKind::kRegisterInit: return "register-init";
-    case core::SectionKind::kNames: return "names";
+    case core::SectionKind::kTasks:
+      return "tasks";
+    case core::SectionKind::kDevices:
+      return "devices";
+    case core::SectionKind::kAliases:
+      return "aliases";
+    case core::SectionKind::kCommands:
+      return "commands";
+    case core::SectionKind::kFields:
+      return "fields";
+    case core::SectionKind::kSignals:
+      return "signals";
+    case core::SectionKind::kRates:
+      return "rates";
+    case core::SectionKind::kInvariants:
+      return "invariants";
+    case core::SectionKind::kTemplates:
+      return "templates";
+    case core::SectionKind::kCode:
+      return "code";
+    case core::SectionKind::kConstants:
+      return "constants";
+    case core::SectionKind::kAccess:
+      return "access";
+    case core::SectionKind::kRegisterInit:
+      return "register-init";
+    case core::SectionKind::kNames:
+      return "names";
   }
   return kind == 0 ? "header" : "unknown";
 }
@@ -85,14 +98,16 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
     if (sig.raw) {
       const std::string source = p.devices[sig.device].name + "." +
                                  p.devices[sig.device].profile.sample_fields[sig.sample_field].name;
-      s.signals.push_back(sig.name == source
-                              ? fmt::format("{} (raw sample value, valid {}..{})", sig.name, sig.lo, sig.hi)
-                              : fmt::format("{} = {} (raw sample value, valid {}..{})", sig.name,
-                                            source, sig.lo, sig.hi));
+      s.signals.push_back(
+          sig.name == source
+              ? fmt::format("{} (raw sample value, valid {}..{})", sig.name, sig.lo, sig.hi)
+              : fmt::format("{} = {} (raw sample value, valid {}..{})", sig.name, source, sig.lo,
+                            sig.hi));
     } else {
-      const uint32_t len = model && i < model->signals.size() ? model->signals[i].record.code_len : 0;
-      s.signals.push_back(fmt::format("{} = derived, {} ({} instructions)", sig.name,
-                                      type_phrase(sig.type), len));
+      const uint32_t len =
+          model && i < model->signals.size() ? model->signals[i].record.code_len : 0;
+      s.signals.push_back(
+          fmt::format("{} = derived, {} ({} instructions)", sig.name, type_phrase(sig.type), len));
     }
   }
   for (const RateLimit& r : p.rates) s.rates.push_back(r.text);

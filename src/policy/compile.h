@@ -4,8 +4,8 @@
 
 #include <cstdint>
 #include <functional>
-#include <string_view>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "devices/profile.h"
@@ -18,12 +18,12 @@ struct Diagnostic {
   std::string name;      // registry name, e.g. "UnknownName"
   std::string severity;  // "error" | "warning" | "note"
   std::string file;
-  uint32_t line = 0;     // 1-based
-  uint32_t column = 0;   // 1-based
+  uint32_t line = 0;        // 1-based
+  uint32_t column = 0;      // 1-based
   uint32_t end_column = 0;  // last column the caret covers on `line` (>= column)
   std::string message;
   std::string source_line;  // the text of `line`
-  std::string rendered;  // file:line:col: severity[ID]: message + source line + caret (+ notes)
+  std::string rendered;     // file:line:col: severity[ID]: message + source line + caret (+ notes)
   std::vector<Diagnostic> notes;  // secondary locations ("declared here")
 };
 
@@ -54,13 +54,13 @@ struct PolicySummary {
 };
 
 struct CompileOutput {
-  bool ok = false;                       // no errors (and, if strict, no warnings)
-  std::vector<Diagnostic> diagnostics;   // all of them, in source order
-  image::ImageModel model;               // valid when ok
-  std::vector<uint8_t> image;            // serialised and accepted by core::Checker::load
-  uint32_t worst_case_cost = 0;          // bytecode instructions of one check, from the verifier
-  uint32_t estimated_cost = 0;           // the compiler's own bound (equal unless a bug)
-  PolicySummary summary;                 // filled when the policy got past semantic checks
+  bool ok = false;                      // no errors (and, if strict, no warnings)
+  std::vector<Diagnostic> diagnostics;  // all of them, in source order
+  image::ImageModel model;              // valid when ok
+  std::vector<uint8_t> image;           // serialised and accepted by core::Checker::load
+  uint32_t worst_case_cost = 0;         // bytecode instructions of one check, from the verifier
+  uint32_t estimated_cost = 0;          // the compiler's own bound (equal unless a bug)
+  PolicySummary summary;                // filled when the policy got past semantic checks
 };
 
 CompileOutput compile_source(const std::string& file_name, const std::string& text,

@@ -1,13 +1,12 @@
 // End-to-end tests of the compiler: policy text → image → core::Checker.
 // The lowered programs are executed by the trusted core itself, so these
 // tests pin the meaning of the language, not just its syntax.
-#include <gtest/gtest.h>
+#include "policy/compile.h"
 
 #include <cstring>
+#include <gtest/gtest.h>
 #include <memory>
 #include <vector>
-
-#include "policy/compile.h"
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wshadow"  // verdict.h's RuleKind::kNone vs core::kNone
 #include "contego/core/checker.h"

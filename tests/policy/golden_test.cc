@@ -10,12 +10,11 @@
 //
 // DiagnosticCoverage fails when a diagnostic kind of the registry is produced
 // by no golden file, so every diagnostic has at least one test.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <gtest/gtest.h>
 #include <set>
 #include <sstream>
 #include <string>

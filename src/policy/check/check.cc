@@ -44,7 +44,7 @@ struct Errno {
   const char* name;
   uint8_t value;
 };
-constexpr Errno kErrnos[] = {{"EPERM", 1}, {"EIO", 5},     {"ENXIO", 6},  {"EAGAIN", 11},
+constexpr Errno kErrnos[] = {{"EPERM", 1},   {"EIO", 5},    {"ENXIO", 6},   {"EAGAIN", 11},
                              {"EACCES", 13}, {"EBUSY", 16}, {"EINVAL", 22}, {"EREMOTEIO", 121}};
 
 // Builds a generic register-map profile from a `regmap` declaration.
@@ -109,23 +109,29 @@ class Sema {
 
   // Context for resolving an expression.
   struct Ctx {
-    std::string what;              // "the condition of `INV1`" (for messages)
-    bool constant = false;         // must fold to a constant
-    bool signals = true;           // may read signals
-    const Device* device = nullptr;         // fields of the checked command
+    std::string what;                // "the condition of `INV1`" (for messages)
+    bool constant = false;           // must fold to a constant
+    bool signals = true;             // may read signals
+    const Device* device = nullptr;  // fields of the checked command
     const std::vector<uint16_t>* commands = nullptr;
     size_t signal_limit = SIZE_MAX;  // derived signals may read only earlier ones
-    std::string rule;              // rule text for FieldNotShared
+    std::string rule;                // rule text for FieldNotShared
   };
 
   static std::string sym_phrase(SymKind k) {
     switch (k) {
-      case SymKind::kConst: return "a constant";
-      case SymKind::kDevice: return "a device";
-      case SymKind::kSignal: return "a signal";
-      case SymKind::kListSignal: return "a list signal";
-      case SymKind::kTask: return "a task";
-      case SymKind::kInvariant: return "an invariant";
+      case SymKind::kConst:
+        return "a constant";
+      case SymKind::kDevice:
+        return "a device";
+      case SymKind::kSignal:
+        return "a signal";
+      case SymKind::kListSignal:
+        return "a list signal";
+      case SymKind::kTask:
+        return "a task";
+      case SymKind::kInvariant:
+        return "an invariant";
     }
     return "a name";
   }
@@ -180,9 +186,9 @@ class Sema {
     IExprPtr v = resolve(e, ctx);
     if (v->type == Type::kError) return std::nullopt;
     if (v->type != want) {
-      diags_.emit(DiagKind::kTypeMismatch, e.span, what, type_phrase(v->type),
-                  want == Type::kDuration ? "a duration such as `200ms`"
-                                          : std::string(type_phrase(want)));
+      diags_.emit(
+          DiagKind::kTypeMismatch, e.span, what, type_phrase(v->type),
+          want == Type::kDuration ? "a duration such as `200ms`" : std::string(type_phrase(want)));
       return std::nullopt;
     }
     if (!v->is_const()) return std::nullopt;
@@ -192,8 +198,8 @@ class Sema {
     auto v = const_value(e, Type::kDuration, what);
     if (!v) return 0;
     if (*v < 0 || *v > std::numeric_limits<uint32_t>::max()) {
-      diags_.emit(DiagKind::kValueOutOfRange, e.span, what, std::to_string(*v) + "us",
-                  "a duration", "0us", std::to_string(std::numeric_limits<uint32_t>::max()) + "us");
+      diags_.emit(DiagKind::kValueOutOfRange, e.span, what, std::to_string(*v) + "us", "a duration",
+                  "0us", std::to_string(std::numeric_limits<uint32_t>::max()) + "us");
       return 0;
     }
     return static_cast<uint32_t>(*v);
@@ -234,7 +240,7 @@ class Sema {
     i128 lo = kMin, hi = kMax;
     auto ab = [&](auto f) {
       i128 c[4] = {f(i128{a->lo}, i128{b->lo}), f(i128{a->lo}, i128{b->hi}),
-                       f(i128{a->hi}, i128{b->lo}), f(i128{a->hi}, i128{b->hi})};
+                   f(i128{a->hi}, i128{b->lo}), f(i128{a->hi}, i128{b->hi})};
       lo = *std::min_element(c, c + 4);
       hi = *std::max_element(c, c + 4);
     };
@@ -247,7 +253,9 @@ class Sema {
       case IOp::kAbs:
         if (bounded_a) {
           hi = std::max(-i128{a->lo}, i128{a->hi});
-          lo = (a->lo <= 0 && a->hi >= 0) ? 0 : std::min(-i128{a->hi}, i128{a->lo} < 0 ? -i128{a->hi} : i128{a->lo});
+          lo = (a->lo <= 0 && a->hi >= 0)
+                   ? 0
+                   : std::min(-i128{a->hi}, i128{a->lo} < 0 ? -i128{a->hi} : i128{a->lo});
           if (a->lo >= 0) lo = a->lo;
           if (a->hi <= 0) lo = -i128{a->hi};
         }
@@ -287,8 +295,9 @@ class Sema {
     e->hi = sat(hi);
     // Comparisons decided by the intervals alone.
     std::optional<bool> decided;
-    if (a && b && (op == IOp::kLt || op == IOp::kLe || op == IOp::kGt || op == IOp::kGe ||
-                   op == IOp::kEq || op == IOp::kNe)) {
+    if (a && b &&
+        (op == IOp::kLt || op == IOp::kLe || op == IOp::kGt || op == IOp::kGe || op == IOp::kEq ||
+         op == IOp::kNe)) {
       const bool known = a->lo != kMin || a->hi != kMax;
       const bool known_b = b->lo != kMin || b->hi != kMax;
       if (known && known_b) {
@@ -331,10 +340,12 @@ class Sema {
       if (decided) {
         e->lo = e->hi = *decided ? 1 : 0;
       }
-      if (op == IOp::kAnd && ((a->is_const() && a->value == 0) || (b->is_const() && b->value == 0))) {
+      if (op == IOp::kAnd &&
+          ((a->is_const() && a->value == 0) || (b->is_const() && b->value == 0))) {
         e->lo = e->hi = 0;
       }
-      if (op == IOp::kOr && ((a->is_const() && a->value != 0) || (b->is_const() && b->value != 0))) {
+      if (op == IOp::kOr &&
+          ((a->is_const() && a->value != 0) || (b->is_const() && b->value != 0))) {
         e->lo = e->hi = 1;
       }
       return e;
@@ -345,25 +356,65 @@ class Sema {
     int64_t r = 0;
     bool bad = false;
     switch (op) {
-      case IOp::kNeg: bad = __builtin_sub_overflow(int64_t{0}, x, &r); break;
-      case IOp::kNot: r = x == 0; break;
-      case IOp::kAbs: bad = x == kMin; r = x < 0 ? -x : x; break;
-      case IOp::kAdd: bad = __builtin_add_overflow(x, y, &r); break;
-      case IOp::kSub: bad = __builtin_sub_overflow(x, y, &r); break;
-      case IOp::kMul: bad = __builtin_mul_overflow(x, y, &r); break;
-      case IOp::kDiv: bad = y == 0 || (x == kMin && y == -1); if (!bad) r = x / y; break;
-      case IOp::kMod: bad = y == 0 || (x == kMin && y == -1); if (!bad) r = x % y; break;
-      case IOp::kMin: r = std::min(x, y); break;
-      case IOp::kMax: r = std::max(x, y); break;
-      case IOp::kEq: r = x == y; break;
-      case IOp::kNe: r = x != y; break;
-      case IOp::kLt: r = x < y; break;
-      case IOp::kLe: r = x <= y; break;
-      case IOp::kGt: r = x > y; break;
-      case IOp::kGe: r = x >= y; break;
-      case IOp::kAnd: r = (x != 0) && (y != 0); break;
-      case IOp::kOr: r = (x != 0) || (y != 0); break;
-      default: break;
+      case IOp::kNeg:
+        bad = __builtin_sub_overflow(int64_t{0}, x, &r);
+        break;
+      case IOp::kNot:
+        r = x == 0;
+        break;
+      case IOp::kAbs:
+        bad = x == kMin;
+        r = x < 0 ? -x : x;
+        break;
+      case IOp::kAdd:
+        bad = __builtin_add_overflow(x, y, &r);
+        break;
+      case IOp::kSub:
+        bad = __builtin_sub_overflow(x, y, &r);
+        break;
+      case IOp::kMul:
+        bad = __builtin_mul_overflow(x, y, &r);
+        break;
+      case IOp::kDiv:
+        bad = y == 0 || (x == kMin && y == -1);
+        if (!bad) r = x / y;
+        break;
+      case IOp::kMod:
+        bad = y == 0 || (x == kMin && y == -1);
+        if (!bad) r = x % y;
+        break;
+      case IOp::kMin:
+        r = std::min(x, y);
+        break;
+      case IOp::kMax:
+        r = std::max(x, y);
+        break;
+      case IOp::kEq:
+        r = x == y;
+        break;
+      case IOp::kNe:
+        r = x != y;
+        break;
+      case IOp::kLt:
+        r = x < y;
+        break;
+      case IOp::kLe:
+        r = x <= y;
+        break;
+      case IOp::kGt:
+        r = x > y;
+        break;
+      case IOp::kGe:
+        r = x >= y;
+        break;
+      case IOp::kAnd:
+        r = (x != 0) && (y != 0);
+        break;
+      case IOp::kOr:
+        r = (x != 0) || (y != 0);
+        break;
+      default:
+        break;
     }
     if (bad) {
       diags_.emit(DiagKind::kConstantOverflow, span,
@@ -388,8 +439,8 @@ class Sema {
         if (!r) return error_expr(e.span);
         if (r->size() != 1) {
           diags_.emit(DiagKind::kTypeMismatch, e.span, "`" + source_text(e.span) + "`",
-                      "a list of sensor values", "one value; write e.g. `" +
-                          source_text(e.span) + "0`");
+                      "a list of sensor values",
+                      "one value; write e.g. `" + source_text(e.span) + "0`");
           return error_expr(e.span);
         }
         return signal_ref((*r)[0], e.span, c);
@@ -415,8 +466,8 @@ class Sema {
           return fold(IOp::kNot, Type::kBool, {a}, e.span);
         }
         if (!numeric(a->type)) {
-          diags_.emit(DiagKind::kOperandMismatch, e.span, "-", type_phrase(a->type),
-                      "nothing else", "a number or a duration");
+          diags_.emit(DiagKind::kOperandMismatch, e.span, "-", type_phrase(a->type), "nothing else",
+                      "a number or a duration");
           return error_expr(e.span);
         }
         return fold(IOp::kNeg, a->type, {a}, e.span);
@@ -516,8 +567,8 @@ class Sema {
     if (c.device && c.commands && !c.constant) {
       if (IExprPtr f = field_ref(n, e.span, c, IOp::kField)) {
         if (sym && (sym->kind == SymKind::kSignal || sym->kind == SymKind::kConst)) {
-          diags_.emit(DiagKind::kFieldShadowsSignal, e.span, n, sym_phrase(sym->kind).substr(
-                                                                    sym->kind == SymKind::kConst ? 2 : 2));
+          diags_.emit(DiagKind::kFieldShadowsSignal, e.span, n,
+                      sym_phrase(sym->kind).substr(sym->kind == SymKind::kConst ? 2 : 2));
         }
         return f;
       }
@@ -540,8 +591,9 @@ class Sema {
         return error_expr(e.span);
       }
       std::string expected = c.constant ? "a constant"
-                             : (c.device && c.commands) ? "a constant, a signal or a field of the checked command"
-                             : "a constant or a signal";
+                             : (c.device && c.commands)
+                                 ? "a constant, a signal or a field of the checked command"
+                                 : "a constant or a signal";
       diags_.emit(DiagKind::kUnknownName, e.span, n, expected);
       return error_expr(e.span);
     }
@@ -587,8 +639,8 @@ class Sema {
       return std::nullopt;
     }
     if (sym->kind != SymKind::kDevice) {
-      diags_.emit(DiagKind::kTypeMismatch, base.span, "`" + base.name + "`",
-                  sym_phrase(sym->kind), "a sensor");
+      diags_.emit(DiagKind::kTypeMismatch, base.span, "`" + base.name + "`", sym_phrase(sym->kind),
+                  "a sensor");
       return std::nullopt;
     }
     const auto dev_id = static_cast<uint16_t>(sym->index);
@@ -656,8 +708,8 @@ class Sema {
         return std::nullopt;
       }
     }
-    diags_.emit(DiagKind::kTypeMismatch, e.span, "`" + source_text(e.span) + "`",
-                "not a list", "a list of sensor values such as `line.raw`");
+    diags_.emit(DiagKind::kTypeMismatch, e.span, "`" + source_text(e.span) + "`", "not a list",
+                "a list of sensor values such as `line.raw`");
     return std::nullopt;
   }
 
@@ -762,7 +814,8 @@ class Sema {
       }
       const ast::Expr& a = *e.kids[0];
       if (a.kind != ExprKind::kName) {
-        diags_.emit(DiagKind::kExpectedToken, a.span, "a field name", "`" + source_text(a.span) + "`");
+        diags_.emit(DiagKind::kExpectedToken, a.span, "a field name",
+                    "`" + source_text(a.span) + "`");
         return error_expr(e.span);
       }
       IExprPtr r = field_ref(a.name, a.span, c, IOp::kLastField);
@@ -830,9 +883,11 @@ class Sema {
       }
       IExprPtr raw = signal_ref((*ids)[i], list->span, c);
       if (raw->type == Type::kError) return raw;
-      IExprPtr t = fold(IOp::kSub, Type::kInt, {raw, make_const((*w)[i], Type::kInt, e.span)}, e.span);
+      IExprPtr t =
+          fold(IOp::kSub, Type::kInt, {raw, make_const((*w)[i], Type::kInt, e.span)}, e.span);
       t = fold(IOp::kMul, Type::kInt, {t, make_const(100, Type::kInt, e.span)}, e.span);
-      t = fold(IOp::kDiv, Type::kInt, {t, make_const((*b)[i] - (*w)[i], Type::kInt, e.span)}, e.span);
+      t = fold(IOp::kDiv, Type::kInt, {t, make_const((*b)[i] - (*w)[i], Type::kInt, e.span)},
+               e.span);
       t = fold(IOp::kMul, Type::kInt, {t, make_const((*m)[i], Type::kInt, e.span)}, e.span);
       sum = sum ? fold(IOp::kAdd, Type::kInt, {sum, t}, e.span) : t;
     }
@@ -940,8 +995,8 @@ class Sema {
       dev.profile = *p;
       if (!d.registers.empty() || !d.values.empty() || !d.forbid.empty() || d.auto_increment ||
           d.sample_request) {
-        diags_.emit(DiagKind::kUnknownDeviceSetting, d.registers.empty() ? d.span : d.registers[0].span,
-                    "register map declarations",
+        diags_.emit(DiagKind::kUnknownDeviceSetting,
+                    d.registers.empty() ? d.span : d.registers[0].span, "register map declarations",
                     "them only on a `regmap` device; `" + d.profile.name + "` is built in");
       }
     } else {
@@ -999,15 +1054,17 @@ class Sema {
     p.name = "regmap";
     p.kind = core::Profile::kRegisterMap;
     p.role = 0;
-    p.auto_increment = d.auto_increment ? core::AutoIncrement::kAlways : core::AutoIncrement::kNever;
+    p.auto_increment =
+        d.auto_increment ? core::AutoIncrement::kAlways : core::AutoIncrement::kNever;
     bool ok = true;
     std::vector<std::pair<int64_t, int64_t>> used;  // register ranges
     auto overlaps = [&](int64_t a, int64_t b, Span at) {
       for (auto [x, y] : used) {
         if (a <= y && x <= b) {
-          diags_.emit(DiagKind::kBadRegister, at,
-                      fmt::format("registers {:#04x}..{:#04x} overlap a register declared above", a, b),
-                      "each register in one declaration");
+          diags_.emit(
+              DiagKind::kBadRegister, at,
+              fmt::format("registers {:#04x}..{:#04x} overlap a register declared above", a, b),
+              "each register in one declaration");
           ok = false;
           return true;
         }
@@ -1020,7 +1077,8 @@ class Sema {
       auto last = r.last ? int_in(*r.last, "the register", 0, 255) : first;
       auto type = reg_type(r.type.name);
       if (!type) {
-        diags_.emit(DiagKind::kBadRegister, r.type.span, "unknown register type `" + r.type.name + "`",
+        diags_.emit(DiagKind::kBadRegister, r.type.span,
+                    "unknown register type `" + r.type.name + "`",
                     "`u8`, `s8`, `u16le`, `u16be`, `s16le`, `s16be`, `u32le` or `u32be`");
         ok = false;
         continue;
@@ -1091,8 +1149,7 @@ class Sema {
         if (auto bytes = const_list(*d.sample_request, "the sample request")) {
           if (bytes->size() > 8) {
             diags_.emit(DiagKind::kBadRegister, d.sample_request->span,
-                        fmt::format("the sample request has {} bytes", bytes->size()),
-                        "at most 8");
+                        fmt::format("the sample request has {} bytes", bytes->size()), "at most 8");
             ok = false;
           }
           for (int64_t b : *bytes) p.sample_request.push_back(static_cast<uint8_t>(b & 0xFF));
@@ -1109,7 +1166,8 @@ class Sema {
         auto type = reg_type(v.type.name);
         auto off = int_in(*v.offset, "the value offset", 0, core::kMaxSampleBytes - 1);
         if (!type) {
-          diags_.emit(DiagKind::kBadRegister, v.type.span, "unknown value type `" + v.type.name + "`",
+          diags_.emit(DiagKind::kBadRegister, v.type.span,
+                      "unknown value type `" + v.type.name + "`",
                       "`u8`, `s8`, `u16le`, `u16be`, `s16le`, `s16be`, `u32le` or `u32be`");
           ok = false;
           continue;
@@ -1125,7 +1183,7 @@ class Sema {
         }
         devices::FieldSpec f;
         f.geometry = core::FieldRecord{};
-      f.geometry = core::FieldRecord{};
+        f.geometry = core::FieldRecord{};
         f.name = v.name.name;
         f.geometry.offset = static_cast<uint8_t>(*off);
         f.geometry.nbytes = type->nbytes;
@@ -1492,7 +1550,8 @@ class Sema {
       } else if (p.key.name == "overhead") {
         t.overhead_ns = duration_ns(*p.value, what);
       } else if (p.key.name == "priority") {
-        if (auto v = int_in(*p.value, "`priority`", 0, 65535)) t.priority = static_cast<uint16_t>(*v);
+        if (auto v = int_in(*p.value, "`priority`", 0, 65535))
+          t.priority = static_cast<uint16_t>(*v);
       } else if (p.key.name == "actuations") {
         if (auto v = int_in(*p.value, "`actuations`", 0, 65535)) {
           t.actuations = static_cast<uint16_t>(*v);
@@ -1534,9 +1593,8 @@ class Sema {
       const Sym* sym = base.kind == ExprKind::kName ? lookup(base.name) : nullptr;
       if (sym && sym->kind == SymKind::kDevice && dev_ok_[sym->index]) {
         const auto& fields = out_.devices[sym->index].profile.sample_fields;
-        const bool scalar = std::any_of(fields.begin(), fields.end(), [&](const auto& f) {
-          return f.name == d.value->name;
-        });
+        const bool scalar = std::any_of(fields.begin(), fields.end(),
+                                        [&](const auto& f) { return f.name == d.value->name; });
         if (!scalar) {
           auto ids = resolve_member(*d.value, probe);
           if (!ids) return;
@@ -1600,10 +1658,11 @@ class Sema {
       t.read.resize(out_.devices.size());
       if (a.reads) {
         const Device& device = out_.devices[*dev];
-        const bool readable =
-            (device.role & core::kRoleSensor) ||
-            std::any_of(device.profile.commands.begin(), device.profile.commands.end(),
-                        [](const auto& c) { return c.command_class == core::CommandClass::kQuery; });
+        const bool readable = (device.role & core::kRoleSensor) ||
+                              std::any_of(device.profile.commands.begin(),
+                                          device.profile.commands.end(), [](const auto& c) {
+                                            return c.command_class == core::CommandClass::kQuery;
+                                          });
         if (!readable) {
           diags_.emit(DiagKind::kReadOfActuatorOnly, d.span, a.task.name, d.name);
           continue;
@@ -1659,9 +1718,11 @@ class Sema {
                       "checked command's channel)");
           return std::nullopt;
         }
-        out.kind = cv->constant() ? ResponseKind::kFailsafeTemplate : ResponseKind::kFailsafeComputed;
+        out.kind =
+            cv->constant() ? ResponseKind::kFailsafeTemplate : ResponseKind::kFailsafeComputed;
         if (!in_invariant && !cv->constant()) {
-          diags_.emit(DiagKind::kComputedTemplate, r.command->span, "the fail-safe command of " + rule,
+          diags_.emit(DiagKind::kComputedTemplate, r.command->span,
+                      "the fail-safe command of " + rule,
                       "values known only when the command is checked");
           return std::nullopt;
         }
@@ -1710,7 +1771,8 @@ class Sema {
           cv.fields.push_back(fv);
         }
         if (!ok) return std::nullopt;
-        out.kind = cv.constant() ? ResponseKind::kFailsafeTemplate : ResponseKind::kFailsafeComputed;
+        out.kind =
+            cv.constant() ? ResponseKind::kFailsafeTemplate : ResponseKind::kFailsafeComputed;
         if (!in_invariant && !cv.constant()) {
           diags_.emit(DiagKind::kComputedTemplate, r.span, "the fail-safe value of " + rule,
                       "values known only when the command is checked");
@@ -1771,8 +1833,10 @@ class Sema {
     bool comment = false;
     for (char c : s) {
       if (comment) {
-        if (c == '\n') comment = false;
-        else continue;
+        if (c == '\n')
+          comment = false;
+        else
+          continue;
       }
       if (c == '#') {
         comment = true;
@@ -1805,7 +1869,8 @@ class Sema {
     inv.name = d.name.name;
     inv.span = d.name.span;
     inv.text = collapse(source_text(d.span));
-    const bool declared = declare(inv.name, SymKind::kInvariant, out_.invariants.size(), d.name.span);
+    const bool declared =
+        declare(inv.name, SymKind::kInvariant, out_.invariants.size(), d.name.span);
     auto dev = rule_device(d.target.device, "an invariant", true);
     if (!dev) return;
     inv.device = *dev;
@@ -1823,8 +1888,9 @@ class Sema {
         max_repeat = std::max<int64_t>(max_repeat, device.profile.commands[ci].repeat);
       }
       if (max_repeat <= 1) {
-        diags_.emit(DiagKind::kTypeMismatch, d.target.index->span, "`" + source_text(d.target.span) + "`",
-                    "a command without channels", "a repeated register group such as `led`");
+        diags_.emit(DiagKind::kTypeMismatch, d.target.index->span,
+                    "`" + source_text(d.target.span) + "`", "a command without channels",
+                    "a repeated register group such as `led`");
         ok = false;
       } else if (auto idx = int_in(*d.target.index, "the channel", 0, max_repeat - 1)) {
         inv.index = *idx;
@@ -1852,9 +1918,8 @@ class Sema {
         }
         if (!d.target.commands.empty() &&
             std::find(cmds.begin(), cmds.end(), cv->command) == cmds.end()) {
-          diags_.emit(DiagKind::kUnknownCommand, call->name_span,
-                      source_text(d.target.span), spec.name,
-                      "the ones it selects; expected a command it applies to");
+          diags_.emit(DiagKind::kUnknownCommand, call->name_span, source_text(d.target.span),
+                      spec.name, "the ones it selects; expected a command it applies to");
           ok = false;
           continue;
         }
@@ -1933,8 +1998,8 @@ class Sema {
         }
       }
     }
-    auto resp = response(d.response, *dev, cmds, true,
-                         d.form != ast::InvariantForm::kRequire, rule);
+    auto resp =
+        response(d.response, *dev, cmds, true, d.form != ast::InvariantForm::kRequire, rule);
     if (!resp) return;
     inv.response = std::move(*resp);
     if (!ok || !declared) return;
@@ -2026,10 +2091,14 @@ class Sema {
 
 std::string_view type_phrase(Type type) {
   switch (type) {
-    case Type::kInt: return "a plain number";
-    case Type::kDuration: return "a duration";
-    case Type::kBool: return "a boolean";
-    case Type::kError: return "invalid";
+    case Type::kInt:
+      return "a plain number";
+    case Type::kDuration:
+      return "a duration";
+    case Type::kBool:
+      return "a boolean";
+    case Type::kError:
+      return "invalid";
   }
   return "invalid";
 }
@@ -2042,10 +2111,10 @@ bool CommandValue::constant() const {
 }
 
 std::string to_string(const IExpr& e) {
-  static const char* kNames[] = {"const", "signal", "field", "last", "since_last", "index",
-                                 "jobcount", "neg", "not", "abs", "add", "sub", "mul", "div",
-                                 "mod", "min", "max", "eq", "ne", "lt", "le", "gt", "ge", "and",
-                                 "or"};
+  static const char* kNames[] = {
+      "const", "signal", "field", "last", "since_last", "index", "jobcount", "neg", "not",
+      "abs",   "add",    "sub",   "mul",  "div",        "mod",   "min",      "max", "eq",
+      "ne",    "lt",     "le",    "gt",   "ge",         "and",   "or"};
   std::string out = kNames[static_cast<int>(e.op)];
   if (e.op == IOp::kConst) return std::to_string(e.value);
   if (e.op == IOp::kSignal || e.op == IOp::kField || e.op == IOp::kLastField) {

@@ -35,9 +35,24 @@ enum class IOp : uint8_t {
   kSinceLast,  // microseconds since the last command of this kind
   kIndex,      // register-map channel of the checked command
   kJobCount,   // commands of this task to this device in this job
-  kNeg, kNot, kAbs,
-  kAdd, kSub, kMul, kDiv, kMod, kMin, kMax,
-  kEq, kNe, kLt, kLe, kGt, kGe, kAnd, kOr,
+  kNeg,
+  kNot,
+  kAbs,
+  kAdd,
+  kSub,
+  kMul,
+  kDiv,
+  kMod,
+  kMin,
+  kMax,
+  kEq,
+  kNe,
+  kLt,
+  kLe,
+  kGt,
+  kGe,
+  kAnd,
+  kOr,
 };
 
 struct IExpr {
@@ -112,8 +127,13 @@ struct Task {
   std::vector<bool> read;     // per device
 };
 
-enum class ResponseKind : uint8_t { kIgnore, kReject, kFailsafeTemplate, kFailsafeExpected,
-                                    kFailsafeComputed };
+enum class ResponseKind : uint8_t {
+  kIgnore,
+  kReject,
+  kFailsafeTemplate,
+  kFailsafeExpected,
+  kFailsafeComputed
+};
 
 struct Response {
   ResponseKind kind = ResponseKind::kIgnore;
@@ -141,8 +161,8 @@ struct Invariant {
   std::vector<uint16_t> commands;  // profile command indexes it applies to
   std::optional<int64_t> index;    // only this channel
   InvariantForm form = InvariantForm::kRequire;
-  IExprPtr when;                   // may be null
-  IExprPtr require;                // kRequire
+  IExprPtr when;     // may be null
+  IExprPtr require;  // kRequire
   std::vector<CommandValue> expect;
   uint8_t sequence_slot = 0;
   std::vector<int64_t> sequence;

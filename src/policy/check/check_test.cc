@@ -41,14 +41,14 @@ TEST(Check, DurationWhereANumberIsExpectedIsAUnitError) {
 }
 
 TEST(Check, ComparingADurationWithANumberIsRefused) {
-  const Checked c = run(std::string(kBase) +
-                        "invariant A on gopigo: require since_last() > 5 else ignore\n");
+  const Checked c =
+      run(std::string(kBase) + "invariant A on gopigo: require since_last() > 5 else ignore\n");
   EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0402"}));
 }
 
 TEST(Check, BooleanConditionIsRequired) {
-  const Checked c = run(std::string(kBase) +
-                        "invariant A on gopigo.set_left_speed: require speed else ignore\n");
+  const Checked c =
+      run(std::string(kBase) + "invariant A on gopigo.set_left_speed: require speed else ignore\n");
   EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0401"}));
 }
 

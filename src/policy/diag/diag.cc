@@ -22,9 +22,9 @@ std::string untab(std::string_view text) {
 }
 
 nlohmann::json to_json(const Diagnostic& d) {
-  nlohmann::json j = {{"id", d.id},         {"name", d.name},     {"severity", d.severity},
-                      {"file", d.file},     {"line", d.line},     {"column", d.column},
-                      {"end_column", d.end_column}, {"message", d.message}};
+  nlohmann::json j = {
+      {"id", d.id},     {"name", d.name},     {"severity", d.severity},     {"file", d.file},
+      {"line", d.line}, {"column", d.column}, {"end_column", d.end_column}, {"message", d.message}};
   nlohmann::json notes = nlohmann::json::array();
   for (const auto& n : d.notes) notes.push_back(to_json(n));
   j["notes"] = std::move(notes);
@@ -102,8 +102,8 @@ std::vector<Diagnostic> DiagnosticEmitter::take() {
 }
 
 std::string render_text(const Diagnostic& d) {
-  std::string out = fmt::format("{}:{}:{}: {}[{}]: {}\n", d.file, d.line, d.column, d.severity,
-                                d.id, d.message);
+  std::string out =
+      fmt::format("{}:{}:{}: {}[{}]: {}\n", d.file, d.line, d.column, d.severity, d.id, d.message);
   if (d.line > 0) {
     const std::string number = std::to_string(d.line);
     const std::string gutter(number.size(), ' ');

@@ -5,9 +5,8 @@
 #ifndef CONTEGO_POLICY_DIAG_DIAG_H_
 #define CONTEGO_POLICY_DIAG_DIAG_H_
 
-#include <fmt/format.h>
-
 #include <cstdint>
+#include <fmt/format.h>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -27,8 +26,8 @@ enum class DiagKind : uint16_t {
 };
 
 struct DiagKindInfo {
-  const char* name;    // "UnknownName"
-  const char* id;      // "E0301"
+  const char* name;  // "UnknownName"
+  const char* id;    // "E0301"
   Severity severity;
   const char* format;  // fmt format string with positional arguments
 };

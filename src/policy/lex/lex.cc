@@ -122,7 +122,8 @@ class Lexer {
     const uint32_t digits_begin = hex ? begin + 2 : begin;
     for (uint32_t i = digits_begin; i < int_end; ++i) {
       const char d = text_[i];
-      const int v = is_digit(d) ? d - '0' : (std::tolower(static_cast<unsigned char>(d)) - 'a' + 10);
+      const int v =
+          is_digit(d) ? d - '0' : (std::tolower(static_cast<unsigned char>(d)) - 'a' + 10);
       value = value * (hex ? 16 : 10) + v;
       if (value > std::numeric_limits<int64_t>::max()) {
         diags_.emit(DiagKind::kNumberTooLarge, span, spelling);
@@ -186,27 +187,45 @@ class Lexer {
       pos_ += 2;
     };
     switch (c) {
-      case '(': return one(Tok::kLParen);
-      case ')': return one(Tok::kRParen);
-      case '{': return one(Tok::kLBrace);
-      case '}': return one(Tok::kRBrace);
-      case '[': return one(Tok::kLBracket);
-      case ']': return one(Tok::kRBracket);
-      case ',': return one(Tok::kComma);
-      case ';': return one(Tok::kSemi);
-      case ':': return one(Tok::kColon);
-      case '.': return n == '.' ? two(Tok::kDotDot) : one(Tok::kDot);
-      case '=': return n == '=' ? two(Tok::kEq) : one(Tok::kAssign);
+      case '(':
+        return one(Tok::kLParen);
+      case ')':
+        return one(Tok::kRParen);
+      case '{':
+        return one(Tok::kLBrace);
+      case '}':
+        return one(Tok::kRBrace);
+      case '[':
+        return one(Tok::kLBracket);
+      case ']':
+        return one(Tok::kRBracket);
+      case ',':
+        return one(Tok::kComma);
+      case ';':
+        return one(Tok::kSemi);
+      case ':':
+        return one(Tok::kColon);
+      case '.':
+        return n == '.' ? two(Tok::kDotDot) : one(Tok::kDot);
+      case '=':
+        return n == '=' ? two(Tok::kEq) : one(Tok::kAssign);
       case '!':
         if (n == '=') return two(Tok::kNe);
         break;
-      case '<': return n == '=' ? two(Tok::kLe) : one(Tok::kLt);
-      case '>': return n == '=' ? two(Tok::kGe) : one(Tok::kGt);
-      case '+': return one(Tok::kPlus);
-      case '-': return n == '>' ? two(Tok::kArrow) : one(Tok::kMinus);
-      case '*': return one(Tok::kStar);
-      case '/': return one(Tok::kSlash);
-      case '%': return one(Tok::kPercent);
+      case '<':
+        return n == '=' ? two(Tok::kLe) : one(Tok::kLt);
+      case '>':
+        return n == '=' ? two(Tok::kGe) : one(Tok::kGt);
+      case '+':
+        return one(Tok::kPlus);
+      case '-':
+        return n == '>' ? two(Tok::kArrow) : one(Tok::kMinus);
+      case '*':
+        return one(Tok::kStar);
+      case '/':
+        return one(Tok::kSlash);
+      case '%':
+        return one(Tok::kPercent);
       default:
         break;
     }
@@ -232,36 +251,66 @@ class Lexer {
 
 std::string_view tok_spelling(Tok kind) {
   switch (kind) {
-    case Tok::kEnd: return "the end of the file";
-    case Tok::kIdent: return "a name";
-    case Tok::kInt: return "a number";
-    case Tok::kDuration: return "a duration";
-    case Tok::kString: return "a string";
-    case Tok::kLParen: return "`(`";
-    case Tok::kRParen: return "`)`";
-    case Tok::kLBrace: return "`{`";
-    case Tok::kRBrace: return "`}`";
-    case Tok::kLBracket: return "`[`";
-    case Tok::kRBracket: return "`]`";
-    case Tok::kComma: return "`,`";
-    case Tok::kSemi: return "`;`";
-    case Tok::kColon: return "`:`";
-    case Tok::kDot: return "`.`";
-    case Tok::kDotDot: return "`..`";
-    case Tok::kAssign: return "`=`";
-    case Tok::kEq: return "`==`";
-    case Tok::kNe: return "`!=`";
-    case Tok::kLt: return "`<`";
-    case Tok::kLe: return "`<=`";
-    case Tok::kGt: return "`>`";
-    case Tok::kGe: return "`>=`";
-    case Tok::kPlus: return "`+`";
-    case Tok::kMinus: return "`-`";
-    case Tok::kStar: return "`*`";
-    case Tok::kSlash: return "`/`";
-    case Tok::kPercent: return "`%`";
-    case Tok::kArrow: return "`->`";
-    case Tok::kError: return "an invalid token";
+    case Tok::kEnd:
+      return "the end of the file";
+    case Tok::kIdent:
+      return "a name";
+    case Tok::kInt:
+      return "a number";
+    case Tok::kDuration:
+      return "a duration";
+    case Tok::kString:
+      return "a string";
+    case Tok::kLParen:
+      return "`(`";
+    case Tok::kRParen:
+      return "`)`";
+    case Tok::kLBrace:
+      return "`{`";
+    case Tok::kRBrace:
+      return "`}`";
+    case Tok::kLBracket:
+      return "`[`";
+    case Tok::kRBracket:
+      return "`]`";
+    case Tok::kComma:
+      return "`,`";
+    case Tok::kSemi:
+      return "`;`";
+    case Tok::kColon:
+      return "`:`";
+    case Tok::kDot:
+      return "`.`";
+    case Tok::kDotDot:
+      return "`..`";
+    case Tok::kAssign:
+      return "`=`";
+    case Tok::kEq:
+      return "`==`";
+    case Tok::kNe:
+      return "`!=`";
+    case Tok::kLt:
+      return "`<`";
+    case Tok::kLe:
+      return "`<=`";
+    case Tok::kGt:
+      return "`>`";
+    case Tok::kGe:
+      return "`>=`";
+    case Tok::kPlus:
+      return "`+`";
+    case Tok::kMinus:
+      return "`-`";
+    case Tok::kStar:
+      return "`*`";
+    case Tok::kSlash:
+      return "`/`";
+    case Tok::kPercent:
+      return "`%`";
+    case Tok::kArrow:
+      return "`->`";
+    case Tok::kError:
+      return "an invalid token";
   }
   return "a token";
 }

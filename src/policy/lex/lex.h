@@ -21,10 +21,30 @@ enum class Tok : uint8_t {
   kInt,       // value = the integer
   kDuration,  // value = microseconds
   kString,    // text = contents without quotes (escapes \" \\ \n resolved)
-  kLParen, kRParen, kLBrace, kRBrace, kLBracket, kRBracket,
-  kComma, kSemi, kColon, kDot, kDotDot, kAssign,
-  kEq, kNe, kLt, kLe, kGt, kGe,
-  kPlus, kMinus, kStar, kSlash, kPercent, kArrow,
+  kLParen,
+  kRParen,
+  kLBrace,
+  kRBrace,
+  kLBracket,
+  kRBracket,
+  kComma,
+  kSemi,
+  kColon,
+  kDot,
+  kDotDot,
+  kAssign,
+  kEq,
+  kNe,
+  kLt,
+  kLe,
+  kGt,
+  kGe,
+  kPlus,
+  kMinus,
+  kStar,
+  kSlash,
+  kPercent,
+  kArrow,
   kError,  // a lexical error already reported; the parser skips it
 };
 

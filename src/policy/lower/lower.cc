@@ -5,6 +5,7 @@
 #include <map>
 
 #include "contego/core/limits.h"
+
 #include "devices/lower.h"
 
 namespace contego::policy {
@@ -31,8 +32,8 @@ class Program {
   void bind(int label) { labels_[static_cast<size_t>(label)] = static_cast<int64_t>(code_.size()); }
   std::vector<Insn> finish() {
     for (auto [at, label] : fixups_) {
-      code_[at].imm = static_cast<int32_t>(labels_[static_cast<size_t>(label)] -
-                                           static_cast<int64_t>(at));
+      code_[at].imm =
+          static_cast<int32_t>(labels_[static_cast<size_t>(label)] - static_cast<int64_t>(at));
     }
     return std::move(code_);
   }
@@ -137,15 +138,20 @@ class Lowerer {
     for (const Device& d : p_.devices) commands += d.profile.commands.size();
     const Span first_dev = p_.devices.empty() ? Span{} : p_.devices.back().span;
     bool bad = too_many(p_.devices.size(), core::kMaxDevices, "devices", first_dev);
-    bad = too_many(commands, core::kMaxCommandDefs, "device commands (all profiles)", first_dev) || bad;
+    bad = too_many(commands, core::kMaxCommandDefs, "device commands (all profiles)", first_dev) ||
+          bad;
     bad = too_many(p_.tasks.size(), core::kMaxTasks, "tasks",
-                   p_.tasks.empty() ? Span{} : p_.tasks.back().span) || bad;
+                   p_.tasks.empty() ? Span{} : p_.tasks.back().span) ||
+          bad;
     bad = too_many(p_.signals.size(), core::kMaxSignals, "signals",
-                   p_.signals.empty() ? Span{} : p_.signals.back().span) || bad;
+                   p_.signals.empty() ? Span{} : p_.signals.back().span) ||
+          bad;
     bad = too_many(p_.rates.size(), core::kMaxRateLimits, "rate limits",
-                   p_.rates.empty() ? Span{} : p_.rates.back().span) || bad;
+                   p_.rates.empty() ? Span{} : p_.rates.back().span) ||
+          bad;
     bad = too_many(p_.invariants.size(), core::kMaxInvariants, "invariants",
-                   p_.invariants.empty() ? Span{} : p_.invariants.back().span) || bad;
+                   p_.invariants.empty() ? Span{} : p_.invariants.back().span) ||
+          bad;
     return !bad;
   }
 
@@ -182,7 +188,8 @@ class Lowerer {
     const auto& spec = p_.devices[device].profile.commands[cv.command];
     for (size_t s = 0; s < spec.fields.size(); ++s) {
       t.set_mask = static_cast<uint8_t>(t.set_mask | (1u << s));
-      t.values[s] = static_cast<int32_t>(std::clamp<int64_t>(0, spec.fields[s].min, spec.fields[s].max));
+      t.values[s] =
+          static_cast<int32_t>(std::clamp<int64_t>(0, spec.fields[s].min, spec.fields[s].max));
     }
     for (const FieldValue& f : cv.fields) {
       const int64_t scale = unit_scale(spec.fields[f.slot]);
@@ -212,8 +219,10 @@ class Lowerer {
 
   void expr(Program& p, const IExpr& e) {
     switch (e.op) {
-      case IOp::kConst: return push_const(p, e.value);
-      case IOp::kSignal: return p.emit(Op::kSignal, e.slot);
+      case IOp::kConst:
+        return push_const(p, e.value);
+      case IOp::kSignal:
+        return p.emit(Op::kSignal, e.slot);
       case IOp::kField:
       case IOp::kLastField:
         p.emit(e.op == IOp::kField ? Op::kField : Op::kLastField, e.slot);
@@ -222,19 +231,22 @@ class Lowerer {
           p.emit(Op::kMul);
         }
         return;
-      case IOp::kSinceLast: return p.emit(Op::kSinceLast);
-      case IOp::kIndex: return p.emit(Op::kIndex);
-      case IOp::kJobCount: return p.emit(Op::kJobCount);
-      default: break;
+      case IOp::kSinceLast:
+        return p.emit(Op::kSinceLast);
+      case IOp::kIndex:
+        return p.emit(Op::kIndex);
+      case IOp::kJobCount:
+        return p.emit(Op::kJobCount);
+      default:
+        break;
     }
     for (const auto& k : e.kids) expr(p, *k);
     static const std::map<IOp, Op> kOps = {
-        {IOp::kNeg, Op::kNeg}, {IOp::kNot, Op::kNot}, {IOp::kAbs, Op::kAbs},
-        {IOp::kAdd, Op::kAdd}, {IOp::kSub, Op::kSub}, {IOp::kMul, Op::kMul},
-        {IOp::kDiv, Op::kDiv}, {IOp::kMod, Op::kMod}, {IOp::kMin, Op::kMin},
-        {IOp::kMax, Op::kMax}, {IOp::kEq, Op::kEq},   {IOp::kNe, Op::kNe},
-        {IOp::kLt, Op::kLt},   {IOp::kLe, Op::kLe},   {IOp::kGt, Op::kGt},
-        {IOp::kGe, Op::kGe},   {IOp::kAnd, Op::kAnd}, {IOp::kOr, Op::kOr}};
+        {IOp::kNeg, Op::kNeg}, {IOp::kNot, Op::kNot}, {IOp::kAbs, Op::kAbs}, {IOp::kAdd, Op::kAdd},
+        {IOp::kSub, Op::kSub}, {IOp::kMul, Op::kMul}, {IOp::kDiv, Op::kDiv}, {IOp::kMod, Op::kMod},
+        {IOp::kMin, Op::kMin}, {IOp::kMax, Op::kMax}, {IOp::kEq, Op::kEq},   {IOp::kNe, Op::kNe},
+        {IOp::kLt, Op::kLt},   {IOp::kLe, Op::kLe},   {IOp::kGt, Op::kGt},   {IOp::kGe, Op::kGe},
+        {IOp::kAnd, Op::kAnd}, {IOp::kOr, Op::kOr}};
     p.emit(kOps.at(e.op));
   }
 

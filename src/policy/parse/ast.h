@@ -57,8 +57,14 @@ struct Selector {
   Span span;
 };
 
-enum class ResponseKind : uint8_t { kNone, kIgnore, kReject, kFailsafeCommand, kFailsafeExpected,
-                                    kFailsafeAssign };
+enum class ResponseKind : uint8_t {
+  kNone,
+  kIgnore,
+  kReject,
+  kFailsafeCommand,
+  kFailsafeExpected,
+  kFailsafeAssign
+};
 
 struct Assign {
   Ident field;
@@ -68,8 +74,8 @@ struct Assign {
 struct Response {
   ResponseKind kind = ResponseKind::kNone;
   Span span;
-  Ident errno_name;          // kReject (empty: EPERM)
-  ExprPtr command;           // kFailsafeCommand: a kCall
+  Ident errno_name;             // kReject (empty: EPERM)
+  ExprPtr command;              // kFailsafeCommand: a kCall
   std::vector<Assign> assigns;  // kFailsafeAssign
 };
 
@@ -78,11 +84,11 @@ struct ConstDecl {
   ExprPtr value;
 };
 
-struct RegisterDecl {  // generic register maps: `register 0x02..0x03 flow : u16le range 0..4000`
+struct RegisterDecl {   // generic register maps: `register 0x02..0x03 flow : u16le range 0..4000`
   ExprPtr first, last;  // last may be null
   Ident name;
   Ident type;
-  ExprPtr range;  // may be null
+  ExprPtr range;       // may be null
   bool query = false;  // `query register`: reading it needs read access only
   Span span;
 };
@@ -101,8 +107,8 @@ struct DeviceDecl {
   ExprPtr bus;  // kInt after `i2c-`
   Span bus_span;
   ExprPtr address;
-  ExprPtr sample_period;  // `sample 10ms`
-  ExprPtr max_age;        // `max_age 50ms`
+  ExprPtr sample_period;      // `sample 10ms`
+  ExprPtr max_age;            // `max_age 50ms`
   std::vector<ExprPtr> safe;  // `safe stop(), led(5, off=0)`: kCall each
   Span safe_span;
   ExprPtr latch_count, latch_window;  // `latch after 3 violations within 1s`
@@ -127,7 +133,7 @@ struct SignalDecl {
 
 struct TaskProperty {
   Ident key;
-  ExprPtr value;   // null for `exe`
+  ExprPtr value;     // null for `exe`
   std::string text;  // `exe "..."`
 };
 
@@ -164,11 +170,11 @@ struct InvariantDecl {
   Ident name;
   Selector target;
   InvariantForm form = InvariantForm::kRequire;
-  ExprPtr when;                  // may be null (kRequire, kSequence)
-  ExprPtr require;               // kRequire
-  std::vector<ExprPtr> expect;   // kExpect: kCall each
-  Ident sequence_field;          // kSequence
-  ExprPtr sequence_values;       // kSequence: kList
+  ExprPtr when;                 // may be null (kRequire, kSequence)
+  ExprPtr require;              // kRequire
+  std::vector<ExprPtr> expect;  // kExpect: kCall each
+  Ident sequence_field;         // kSequence
+  ExprPtr sequence_values;      // kSequence: kList
   Response response;
   Span span;
   Span head_span;  // `invariant NAME`

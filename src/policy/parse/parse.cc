@@ -9,8 +9,8 @@ using ast::Expr;
 using ast::ExprKind;
 using ast::ExprPtr;
 
-constexpr std::string_view kStatementKeywords[] = {"const", "device", "signal",   "task",
-                                                   "overhead", "allow", "limit", "invariant"};
+constexpr std::string_view kStatementKeywords[] = {"const",    "device", "signal", "task",
+                                                   "overhead", "allow",  "limit",  "invariant"};
 
 bool is_statement_keyword(const Token& t) {
   if (t.kind != Tok::kIdent) return false;
@@ -181,7 +181,8 @@ class Parser {
       if (t.text == "invariant") return parse_invariant();
     }
     failed_ = true;
-    if (!lexical_error_in_statement()) diags_.emit(DiagKind::kExpectedStatement, t.span, describe(t));
+    if (!lexical_error_in_statement())
+      diags_.emit(DiagKind::kExpectedStatement, t.span, describe(t));
   }
 
   void parse_const() {
@@ -218,8 +219,9 @@ class Parser {
     ast::DeviceDecl d;
     if (!ident(d.name, "a device name")) return;
     if (!expect(Tok::kColon)) return;
-    if (!ident(d.profile, "a device profile such as `gopigo2`, `pca9685`, `line_follower` or "
-                          "`regmap`")) {
+    if (!ident(d.profile,
+               "a device profile such as `gopigo2`, `pca9685`, `line_follower` or "
+               "`regmap`")) {
       return;
     }
     if (!expect_word("at")) return;
@@ -568,9 +570,9 @@ class Parser {
   ExprPtr comparison() {
     ExprPtr l = additive();
     if (failed_) return l;
-    static constexpr std::pair<Tok, std::string_view> kOps[] = {
-        {Tok::kEq, "=="}, {Tok::kNe, "!="}, {Tok::kLt, "<"},
-        {Tok::kLe, "<="}, {Tok::kGt, ">"},  {Tok::kGe, ">="}};
+    static constexpr std::pair<Tok, std::string_view> kOps[] = {{Tok::kEq, "=="}, {Tok::kNe, "!="},
+                                                                {Tok::kLt, "<"},  {Tok::kLe, "<="},
+                                                                {Tok::kGt, ">"},  {Tok::kGe, ">="}};
     for (auto [tok, op] : kOps) {
       if (accept(tok)) return binary(std::string(op), std::move(l), additive());
     }

@@ -1,7 +1,6 @@
 #include "policy/parse/parse.h"
 
 #include <gtest/gtest.h>
-
 #include <string>
 
 namespace contego::policy {
