@@ -17,6 +17,8 @@ void register_sched(CLI::App& app);
 void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);
 void register_test(CLI::App& app);
+// sim needs the policy compiler too.
+void register_sim(CLI::App& app);
 void register_demo(CLI::App& app);
 // check and image need the policy compiler too.
 void register_check(CLI::App& app);

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);
   contego::cli::register_test(app);
+  contego::cli::register_sim(app);
   contego::cli::register_demo(app);
   contego::cli::register_check(app);
   contego::cli::register_image(app);
