@@ -132,6 +132,12 @@ Result<sim::RunResult> run_realtime(const RealtimeRequest& req) {
   // never sees a half-updated device. Late steps are caught up at once.
   std::atomic<bool> stop{false};
   std::thread plant([&] {
+    // The plant's clock starts with the program's first bus transfer, so
+    // that times in the program (its attack window) and in the trace agree
+    // however long the interpreter takes to start.
+    while (!stop.load() && mon.decisions() == 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const uint64_t limit = sc.duration_us + 1'000'000;
     for (uint64_t t = sc.step_us; !stop.load() && t <= limit; t += sc.step_us) {
