@@ -13,6 +13,7 @@ namespace contego::cli {
 // code through set_exit_code().
 void register_version(CLI::App& app);
 void register_sched(CLI::App& app);
+void register_bench(CLI::App& app);
 // run and monitor need the policy compiler (built when src/policy is present).
 void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   contego::cli::register_version(app);
   contego::cli::register_sched(app);
+  contego::cli::register_bench(app);
 #ifdef CONTEGO_HAVE_POLICY
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);

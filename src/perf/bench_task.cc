@@ -1,0 +1,114 @@
+// contego-bench-task: the control task `contego bench` times. Opens the bus,
+// addresses one device and sends the same command TRIALS times, timing each
+// write() with CLOCK_MONOTONIC (the paper's method: measured inside the task,
+// so the figure includes whatever enclave client it runs under).
+//
+//   contego-bench-task BUS ADDR HEXBYTES TRIALS OUT PERIOD_US [BURST_MS]
+//
+// OUT receives TRIALS native-endian uint64 nanosecond figures. PERIOD_US > 0
+// sleeps to the next period between trials (a periodic task); 0 sends
+// back to back. TRIALS = 0 sends back to back for BURST_MS milliseconds and
+// writes the number of commands sent (the DoS load). Exit status: 0, 1 on bad arguments or I/O
+// errors, 2 if any write failed.
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <linux/i2c-dev.h>
+#include <sys/ioctl.h>
+#include <vector>
+
+namespace {
+
+uint64_t now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000000u + static_cast<uint64_t>(ts.tv_nsec);
+}
+
+bool parse_hex(const char* text, std::vector<uint8_t>* out) {
+  const size_t n = strlen(text);
+  if (n == 0 || n % 2 != 0) return false;
+  for (size_t i = 0; i < n; i += 2) {
+    char pair[3] = {text[i], text[i + 1], 0};
+    char* end = nullptr;
+    const long v = strtol(pair, &end, 16);
+    if (*end != 0) return false;
+    out->push_back(static_cast<uint8_t>(v));
+  }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 7 && argc != 8) {
+    fprintf(stderr, "usage: %s BUS ADDR HEXBYTES TRIALS OUT PERIOD_US [BURST_MS]\n", argv[0]);
+    return 1;
+  }
+  const long addr = strtol(argv[2], nullptr, 0);
+  std::vector<uint8_t> bytes;
+  if (!parse_hex(argv[3], &bytes)) {
+    fprintf(stderr, "bench task: bad HEXBYTES '%s'\n", argv[3]);
+    return 1;
+  }
+  const long trials = strtol(argv[4], nullptr, 10);
+  const long period_us = strtol(argv[6], nullptr, 10);
+  if (trials < 0 || period_us < 0 || addr <= 0 || addr > 0x7F) {
+    fprintf(stderr, "bench task: bad TRIALS, PERIOD_US or ADDR\n");
+    return 1;
+  }
+  const int fd = open(argv[1], O_RDWR);
+  if (fd < 0) {
+    perror(argv[1]);
+    return 1;
+  }
+  if (ioctl(fd, I2C_SLAVE, addr) < 0) {
+    perror("I2C_SLAVE");
+    return 1;
+  }
+  int failed = 0;
+  if (trials == 0) {  // the burst
+    const uint64_t end = now_ns() + static_cast<uint64_t>(argc == 8 ? atol(argv[7]) : 0) * 1000000u;
+    long sent = 0;
+    while (now_ns() < end) {
+      if (write(fd, bytes.data(), bytes.size()) != static_cast<ssize_t>(bytes.size())) ++failed;
+      ++sent;
+    }
+    FILE* out = fopen(argv[5], "wb");
+    const uint64_t count = static_cast<uint64_t>(sent);
+    if (out == nullptr || fwrite(&count, sizeof count, 1, out) != 1 || fclose(out) != 0) return 1;
+    return 0;
+  }
+  std::vector<uint64_t> ns(static_cast<size_t>(trials));
+  timespec next{};
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  for (long i = 0; i < trials; ++i) {
+    if (period_us > 0) {
+      next.tv_nsec += period_us * 1000;
+      while (next.tv_nsec >= 1000000000) {
+        next.tv_nsec -= 1000000000;
+        ++next.tv_sec;
+      }
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+    }
+    const uint64_t t0 = now_ns();
+    const ssize_t r = write(fd, bytes.data(), bytes.size());
+    const uint64_t t1 = now_ns();
+    if (r != static_cast<ssize_t>(bytes.size())) ++failed;
+    ns[static_cast<size_t>(i)] = t1 - t0;
+  }
+  close(fd);
+  FILE* out = fopen(argv[5], "wb");
+  if (out == nullptr || fwrite(ns.data(), sizeof(uint64_t), ns.size(), out) != ns.size() ||
+      fclose(out) != 0) {
+    perror(argv[5]);
+    return 1;
+  }
+  if (failed > 0) fprintf(stderr, "bench task: %d of %ld writes failed\n", failed, trials);
+  return failed > 0 ? 2 : 0;
+}

@@ -1,0 +1,556 @@
+#include "perf/overhead.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fmt/core.h>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/utsname.h>
+#include <sys/wait.h>
+#include <thread>
+
+#include "bus/virtual_bus.h"
+#include "gate/socket.h"
+#include "intercept/seccomp/supervisor.h"
+#include "monitor/monitor.h"
+#include "monitor/server.h"
+
+namespace contego::perf {
+namespace {
+
+uint64_t now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000000u + static_cast<uint64_t>(ts.tv_nsec);
+}
+
+// Allows every command and emits it unchanged, with its audit line: the
+// cost of a decision without the cost of a particular policy.
+class PassDecider final : public monitor::Decider {
+ public:
+  void set_host(const core::Host& host) override { host_ = host; }
+  void check(const core::Transaction& tx, core::Verdict* v) override {
+    v->decision = core::Decision::kAllow;
+    v->reason = core::Reason{};
+    v->bus = tx.bus;
+    v->addr = tx.addr;
+    v->emit_count = 0;
+    v->emit_bytes_used = 0;
+    if (tx.kind == core::TxKind::kWrite) {
+      v->emit_count = 1;
+      v->emit_len[0] = static_cast<uint16_t>(tx.len);
+      std::memcpy(v->emit_bytes, tx.bytes, tx.len);
+      v->emit_bytes_used = static_cast<uint16_t>(tx.len);
+    }
+    core::AuditRecord r{};
+    r.task = tx.task;
+    r.job = tx.job;
+    r.decision = v->decision;
+    r.bus = tx.bus;
+    r.addr = tx.addr;
+    r.original = tx.bytes;
+    r.original_len = static_cast<uint16_t>(tx.len);
+    if (host_.audit != nullptr) host_.audit(host_.context, &r);
+  }
+  bool safe_state(uint16_t, core::Verdict*) override { return false; }
+  uint32_t device_count() const override { return 0; }
+  const core::DeviceRecord& device(uint16_t) const override { return none_; }
+  uint32_t task_period_us(uint16_t) const override { return 20000; }
+
+ private:
+  core::Host host_{};
+  core::DeviceRecord none_{};
+};
+
+const std::map<std::string, uint16_t>& task_ids() {
+  static const std::map<std::string, uint16_t> ids = {
+      {"follower", 0}, {"gripper", 1}, {"burst", 2}};
+  return ids;
+}
+
+// A monitor with the virtual bus and its device models, auditing to a file.
+struct Rig {
+  explicit Rig(const std::string& audit_path) {
+    (void)audit.open(audit_path);
+    bus.attach(std::make_shared<bus::Pca9685>());
+    bus.attach(std::make_shared<bus::GoPiGo2>());
+    bus.attach(std::make_shared<bus::LineFollower>());
+    mon.add_bus(1, &bus);
+    std::vector<std::string> names(task_ids().size());
+    for (const auto& [name, id] : task_ids()) names[id] = name;
+    mon.set_task_names(names);
+  }
+  bus::VirtualBus bus;
+  PassDecider decider;
+  monitor::AuditLog audit;
+  monitor::Monitor mon{decider, audit};
+};
+
+struct TempDir {
+  TempDir() {
+    char tmpl[] = "/tmp/contego-bench-XXXXXX";
+    if (mkdtemp(tmpl) != nullptr) path = tmpl;
+  }
+  ~TempDir() {
+    if (!path.empty()) (void)!system(("rm -rf '" + path + "'").c_str());
+  }
+  std::string path;
+};
+
+// The separate monitor process. Forked before this process starts threads.
+class MonitorProcess {
+ public:
+  Status start(const std::string& dir) {
+    socket_ = dir + "/monitor.sock";
+    const std::string audit = dir + "/monitor-audit.jsonl";
+    fflush(nullptr);
+    pid_ = fork();
+    if (pid_ < 0) return make_error(std::string("fork: ") + strerror(errno));
+    if (pid_ == 0) {
+      Rig rig(audit);
+      monitor::Server server(rig.mon, rig.audit, task_ids(), {getuid()});
+      if (!server.listen(socket_).ok()) _exit(1);
+      server.serve();
+      _exit(0);
+    }
+    // Ready when a connection is accepted.
+    for (int i = 0; i < 500; ++i) {
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::memcpy(addr.sun_path, socket_.c_str(), socket_.size() + 1);
+      const bool up = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+      ::close(fd);
+      if (up) return {};
+      usleep(10000);
+    }
+    return make_error("the monitor process did not come up at " + socket_);
+  }
+  ~MonitorProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  const std::string& socket() const { return socket_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string socket_;
+};
+
+std::string hex(const std::vector<uint8_t>& bytes) {
+  std::string s;
+  for (uint8_t b : bytes) s += fmt::format("{:02x}", b);
+  return s;
+}
+
+std::vector<std::string> task_argv(const Options& o, const Workload& w, uint32_t trials,
+                                   const std::string& out, uint32_t period_us,
+                                   uint32_t burst_ms = 0) {
+  std::vector<std::string> argv = {o.task_exe,
+                                   "/dev/i2c-1",
+                                   fmt::format("0x{:02x}", w.addr),
+                                   hex(w.bytes),
+                                   std::to_string(trials),
+                                   out,
+                                   std::to_string(period_us)};
+  if (burst_ms > 0) argv.push_back(std::to_string(burst_ms));
+  return argv;
+}
+
+Result<std::vector<uint64_t>> read_samples(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error("the bench task wrote no results to " + path);
+  std::vector<uint64_t> v;
+  uint64_t x;
+  while (in.read(reinterpret_cast<char*>(&x), sizeof x)) v.push_back(x);
+  return v;
+}
+
+// Runs the task program and reads its samples. exit 2 = some writes failed.
+Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out, Row* row) {
+  if (exit_code != 0 && exit_code != 2) {
+    return make_error(fmt::format("the bench task exited with status {}", exit_code));
+  }
+  if (exit_code == 2 && row != nullptr) row->failures = 1;
+  return read_samples(out);
+}
+
+Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
+                                          gate::Endpoint& endpoint, uint16_t task, Row* row) {
+  intercept::seccomp::Options so;
+  so.task = task;
+  so.argv = argv;
+  auto r = intercept::seccomp::run(so, endpoint);
+  if (!r.ok()) return make_error(r.error());
+  return finish_task(r->exit_code, argv[5], row);
+}
+
+Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
+                                              const std::vector<std::string>& argv, Row* row) {
+  auto c = gate::SocketClient::connect(socket, w.task);
+  if (!c.ok()) return make_error(c.error());
+  return run_seccomp(argv, **c, (*c)->task_id(), row);
+}
+
+Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& socket,
+                                          const Workload& w, const std::vector<std::string>& argv,
+                                          Row* row) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  fflush(nullptr);
+  const pid_t pid = fork();
+  if (pid < 0) return make_error(std::string("fork: ") + strerror(errno));
+  if (pid == 0) {
+    setenv("LD_PRELOAD", o.preload_lib.c_str(), 1);
+    setenv("CONTEGO_SOCKET", socket.c_str(), 1);
+    setenv("CONTEGO_TASK", w.task.c_str(), 1);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return finish_task(WIFEXITED(status) ? WEXITSTATUS(status) : 128, argv[5], row);
+}
+
+std::vector<uint64_t> time_unprotected(bus::Bus& bus, const Workload& w, uint32_t trials) {
+  std::vector<uint64_t> ns(trials);
+  std::vector<uint8_t> buf = w.bytes;
+  for (uint32_t i = 0; i < trials; ++i) {
+    bus::Msg m{w.addr, 0, static_cast<uint16_t>(buf.size()), buf.data()};
+    const uint64_t t0 = now_ns();
+    (void)bus.transfer({&m, 1});
+    ns[i] = now_ns() - t0;
+  }
+  return ns;
+}
+
+std::vector<uint64_t> time_core(monitor::Monitor& mon, const Workload& w, uint32_t trials,
+                                uint64_t* failures) {
+  std::vector<uint64_t> ns(trials);
+  gate::Transfer t;
+  t.bus = 1;
+  gate::Message m;
+  m.addr = w.addr;
+  m.len = static_cast<uint16_t>(w.bytes.size());
+  m.data = w.bytes;
+  t.messages.push_back(m);
+  const uint16_t task = task_ids().at(w.task);
+  for (uint32_t i = 0; i < trials; ++i) {
+    const uint64_t t0 = now_ns();
+    const gate::TransferReply r = mon.transfer(task, t);
+    ns[i] = now_ns() - t0;
+    if (r.err != 0) ++*failures;
+  }
+  return ns;
+}
+
+}  // namespace
+
+Stats summarise(std::vector<uint64_t> ns) {
+  Stats s;
+  s.n = ns.size();
+  if (ns.empty()) return s;
+  std::sort(ns.begin(), ns.end());
+  long double sum = 0;
+  for (uint64_t v : ns) sum += static_cast<long double>(v);
+  auto rank = [&](double q) {
+    // Nearest rank: the smallest value with at least q of the samples at or below it.
+    size_t k = static_cast<size_t>(q * static_cast<double>(ns.size()) + 0.999999);
+    k = std::clamp<size_t>(k, 1, ns.size());
+    return static_cast<double>(ns[k - 1]) / 1000.0;
+  };
+  s.mean_us = static_cast<double>(sum / static_cast<long double>(ns.size())) / 1000.0;
+  s.median_us = rank(0.5);
+  s.p99_us = rank(0.99);
+  s.worst_us = static_cast<double>(ns.back()) / 1000.0;
+  return s;
+}
+
+std::vector<Workload> example_workloads() {
+  return {
+      // rover.policy, task follower: a GoPiGo2 set-left-speed frame.
+      {"rover follower", "follower", 0x08, {0x01, 0x46, 100, 0x00, 0x00}},
+      // arm.policy, task gripper: LED5 (the gripper servo) pulse 577 (grip_open).
+      {"arm gripper", "gripper", 0x40, {0x1A, 0x00, 0x00, 0x41, 0x02}},
+  };
+}
+
+const char* path_label(Path p) {
+  switch (p) {
+    case Path::kUnprotected:
+      return "a unprotected";
+    case Path::kPreload:
+      return "b preload";
+    case Path::kSeccompInProcess:
+      return "c1 seccomp+checker";
+    case Path::kSeccompMonitor:
+      return "c2 seccomp+monitor";
+    case Path::kCore:
+      return "d in-process core";
+  }
+  return "?";
+}
+
+const char* path_key(Path p) {
+  switch (p) {
+    case Path::kUnprotected:
+      return "unprotected";
+    case Path::kPreload:
+      return "preload";
+    case Path::kSeccompInProcess:
+      return "seccomp_in_process";
+    case Path::kSeccompMonitor:
+      return "seccomp_monitor_process";
+    case Path::kCore:
+      return "in_process_core";
+  }
+  return "?";
+}
+
+const Row* Report::find(const std::string& workload, Path p) const {
+  for (const Row& r : rows) {
+    if (r.workload == workload && r.path == p) return &r;
+  }
+  return nullptr;
+}
+
+Result<Report> run(const Options& o) {
+  if (o.trials == 0) return make_error("--trials must be at least 1");
+  if (access(o.task_exe.c_str(), X_OK) != 0) {
+    return make_error("cannot execute the bench task program " + o.task_exe);
+  }
+  TempDir dir;
+  if (dir.path.empty()) return make_error(std::string("mkdtemp: ") + strerror(errno));
+  MonitorProcess monitor_process;
+  if (Status s = monitor_process.start(dir.path); !s.ok()) return make_error(s.error());
+  Rig local(dir.path + "/local-audit.jsonl");
+
+  Report report;
+  report.checker = "pass-through decider (allow + emit + audit line)";
+  report.trials = o.trials;
+  const std::string out = dir.path + "/samples.bin";
+  for (const Workload& w : example_workloads()) {
+    for (Path p : kAllPaths) {
+      Row row;
+      row.workload = w.name;
+      row.path = p;
+      Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
+      const auto argv = task_argv(o, w, o.trials, out, 0);
+      switch (p) {
+        case Path::kUnprotected:
+          ns = time_unprotected(local.bus, w, o.trials);
+          break;
+        case Path::kCore:
+          ns = time_core(local.mon, w, o.trials, &row.failures);
+          break;
+        case Path::kSeccompInProcess:
+          ns = run_seccomp(argv, local.mon, task_ids().at(w.task), &row);
+          break;
+        case Path::kSeccompMonitor:
+          ns = run_over_socket(monitor_process.socket(), w, argv, &row);
+          break;
+        case Path::kPreload:
+          if (o.preload_lib.empty()) continue;
+          ns = run_preload(o, monitor_process.socket(), w, argv, &row);
+          break;
+      }
+      if (!ns.ok())
+        return make_error(fmt::format("{} / {}: {}", w.name, path_label(p), ns.error()));
+      if (ns->size() != o.trials) {
+        return make_error(fmt::format("{} / {}: {} samples, expected {}", w.name, path_label(p),
+                                      ns->size(), o.trials));
+      }
+      row.stats = summarise(std::move(*ns));
+      report.rows.push_back(row);
+    }
+  }
+
+  if (o.dos) {
+    // The follower keeps its period while the burst task sends back to back,
+    // both supervised, both through the separate monitor process.
+    DosResult dos;
+    dos.period_us = o.dos_period_us;
+    const Workload follower = example_workloads()[0];
+    Workload burst = follower;
+    burst.task = "burst";
+    const auto periodic = task_argv(o, follower, o.trials, out, o.dos_period_us);
+    auto quiet = run_over_socket(monitor_process.socket(), follower, periodic, nullptr);
+    if (!quiet.ok()) return make_error("DoS (quiet): " + quiet.error());
+    dos.quiet = summarise(std::move(*quiet));
+    const uint32_t burst_ms =
+        static_cast<uint32_t>(uint64_t{o.trials} * o.dos_period_us / 1000u) + 500u;
+    const std::string burst_out = dir.path + "/burst.bin";
+    Result<std::vector<uint64_t>> burst_result = std::vector<uint64_t>{};
+    std::thread burster([&] {
+      burst_result = run_over_socket(monitor_process.socket(), burst,
+                                     task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr);
+    });
+    usleep(100000);  // the burst is under way
+    auto loaded = run_over_socket(monitor_process.socket(), follower, periodic, nullptr);
+    burster.join();
+    if (!loaded.ok()) return make_error("DoS (under burst): " + loaded.error());
+    if (!burst_result.ok()) return make_error("DoS (burst task): " + burst_result.error());
+    dos.under_burst = summarise(std::move(*loaded));
+    dos.burst_commands = burst_result->empty() ? 0 : burst_result->front();
+    report.dos = dos;
+  }
+  return report;
+}
+
+std::string table(const Report& r) {
+  std::string s = fmt::format(
+      "contego bench: {} trials per cell, CLOCK_MONOTONIC around each write() in the task\n"
+      "checker: {}\n\n",
+      r.trials, r.checker);
+  s += fmt::format("{:<16} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "task", "path",
+                   "mean", "median", "p99", "worst", "+median", "+p99", "+worst");
+  s += fmt::format("{:<16} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "", "", "µs",
+                   "µs", "µs", "µs", "µs", "µs", "µs");
+  for (const Row& row : r.rows) {
+    const Row* base = r.find(row.workload, Path::kUnprotected);
+    const Stats& b = base != nullptr ? base->stats : row.stats;
+    const Stats& x = row.stats;
+    s += fmt::format("{:<16} {:<20} {:>9.2f} {:>9.2f} {:>9.2f} {:>10.2f}", row.workload,
+                     path_label(row.path), x.mean_us, x.median_us, x.p99_us, x.worst_us);
+    if (row.path == Path::kUnprotected) {
+      s += "   (baseline)";
+    } else {
+      s += fmt::format("   {:>9.2f} {:>9.2f} {:>9.2f}", x.median_us - b.median_us,
+                       x.p99_us - b.p99_us, x.worst_us - b.worst_us);
+    }
+    if (row.failures != 0) s += "  (some commands failed)";
+    s += "\n";
+  }
+  s += "\nadded µs per checked command (mean vs a):";
+  for (const Row& row : r.rows) {
+    const Row* base = r.find(row.workload, Path::kUnprotected);
+    if (row.path == Path::kUnprotected || base == nullptr) continue;
+    s += fmt::format("\n  {:<16} {:<20} {:>8.2f}", row.workload, path_label(row.path),
+                     row.stats.mean_us - base->stats.mean_us);
+  }
+  s += "\n";
+  if (r.dos) {
+    const DosResult& d = *r.dos;
+    s += fmt::format(
+        "\nDoS: follower every {} µs through the monitor process; p99 {:.2f} µs alone, {:.2f} µs "
+        "while another supervised task bursts ({} commands sent); worst {:.2f} / {:.2f} µs\n",
+        d.period_us, d.quiet.p99_us, d.under_burst.p99_us, d.burst_commands, d.quiet.worst_us,
+        d.under_burst.worst_us);
+  }
+  return s;
+}
+
+namespace {
+nlohmann::json stats_json(const Stats& s) {
+  return {{"n", s.n},
+          {"mean_us", s.mean_us},
+          {"median_us", s.median_us},
+          {"p99_us", s.p99_us},
+          {"worst_us", s.worst_us}};
+}
+
+std::string machine() {
+  utsname u{};
+  uname(&u);
+  return fmt::format("{} {} {} ({} CPUs online)", u.nodename, u.sysname, u.release,
+                     sysconf(_SC_NPROCESSORS_ONLN));
+}
+}  // namespace
+
+nlohmann::json to_json(const Report& r) {
+  nlohmann::json j;
+  j["trials"] = r.trials;
+  j["checker"] = r.checker;
+  j["measured_on"] = machine();
+  for (const Row& row : r.rows) {
+    nlohmann::json cell = stats_json(row.stats);
+    const Row* base = r.find(row.workload, Path::kUnprotected);
+    if (base != nullptr && row.path != Path::kUnprotected) {
+      cell["added_mean_us"] = row.stats.mean_us - base->stats.mean_us;
+      cell["added_median_us"] = row.stats.median_us - base->stats.median_us;
+      cell["added_p99_us"] = row.stats.p99_us - base->stats.p99_us;
+      cell["added_worst_us"] = row.stats.worst_us - base->stats.worst_us;
+    }
+    cell["failures"] = row.failures;
+    j["workloads"][row.workload][path_key(row.path)] = cell;
+  }
+  if (r.dos) {
+    j["dos"] = {{"period_us", r.dos->period_us},
+                {"quiet", stats_json(r.dos->quiet)},
+                {"under_burst", stats_json(r.dos->under_burst)},
+                {"burst_commands", r.dos->burst_commands}};
+  }
+  j["sched_overhead"] = sched_overhead(r);
+  return j;
+}
+
+nlohmann::json sched_overhead(const Report& r) {
+  double worst_added = 0;
+  for (const Row& row : r.rows) {
+    const Row* base = r.find(row.workload, Path::kUnprotected);
+    if (row.path != Path::kSeccompMonitor || base == nullptr) continue;
+    worst_added = std::max(worst_added, row.stats.worst_us - base->stats.worst_us);
+  }
+  return {{"overhead_ns", static_cast<int64_t>(worst_added * 1000.0 + 0.5)},
+          {"measured_on", machine()},
+          {"method", fmt::format("contego bench: largest added worst case over {} trials of the "
+                                 "seccomp client with a separate monitor process ({})",
+                                 r.trials, r.checker)}};
+}
+
+Status write_chart(const Report& r, const std::string& stem) {
+  const std::string dat = stem + ".dat", gp = stem + ".gp";
+  {
+    std::ofstream d(dat);
+    d << "# path mean_us p99_us worst_us (per workload block)\n";
+    for (const Workload& w : example_workloads()) {
+      for (Path p : kAllPaths) {
+        const Row* row = r.find(w.name, p);
+        if (row == nullptr) continue;
+        d << fmt::format("\"{}\\n{}\" {:.3f} {:.3f} {:.3f}\n", w.name, path_label(p),
+                         row->stats.mean_us, row->stats.p99_us, row->stats.worst_us);
+      }
+    }
+    if (!d) return make_error("cannot write " + dat);
+  }
+  std::ofstream g(gp);
+  const auto plot = [&](const std::string& term, const std::string& out) {
+    g << "set terminal " << term << "\n"
+      << "set output '" << out << "'\n"
+      << "set title 'contego: time per actuation command, " << r.trials << " trials'\n"
+      << "set ylabel 'microseconds (log scale)'\n"
+      << "set logscale y\n"
+      << "set grid ytics\n"
+      << "set style data histograms\n"
+      << "set style histogram clustered gap 1\n"
+      << "set style fill solid 0.85 border -1\n"
+      << "set boxwidth 0.9\n"
+      << "set xtics rotate by -40 font ',9'\n"
+      << "set key top left\n"
+      << "plot '" << dat << "' using 2:xtic(1) title 'mean' lc rgb '#4c72b0', "
+      << "'' using 3 title '99th percentile' lc rgb '#dd8452', "
+      << "'' using 4 title 'worst case' lc rgb '#c44e52'\n";
+  };
+  plot("svg size 1100,560 dynamic", stem + ".svg");
+  plot("pngcairo size 1100,560", stem + ".png");
+  g.close();
+  if (!g) return make_error("cannot write " + gp);
+  const int rc = system(("gnuplot '" + gp + "' 2>&1").c_str());
+  if (rc != 0) return make_error("gnuplot failed on " + gp);
+  return {};
+}
+
+}  // namespace contego::perf

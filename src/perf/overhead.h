@@ -1,0 +1,98 @@
+// The overhead measurement behind `contego bench`: the paper's method (a
+// control task timing each actuation command with CLOCK_MONOTONIC over many
+// trials), applied to every path a command can take here:
+//   a  unprotected: the transfer on the virtual bus, called directly;
+//   b  preload: the task under libcontego_preload.so, monitor in another process;
+//   c1 seccomp, checker in the supervising process (contego run --policy);
+//   c2 seccomp, checker in a separate monitor process (contego run --socket);
+//   d  the in-process core: Monitor::transfer called directly (decode-free).
+// Paths b, c1, c2 run the real contego-bench-task program; a and d are timed
+// in this process. The monitor process is forked before any thread starts.
+//
+// Thread-safety: run() starts and joins its own threads; not reentrant.
+#ifndef CONTEGO_PERF_OVERHEAD_H_
+#define CONTEGO_PERF_OVERHEAD_H_
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "base/result.h"
+
+namespace contego::perf {
+
+struct Stats {
+  size_t n = 0;
+  double mean_us = 0, median_us = 0, p99_us = 0, worst_us = 0;
+};
+// Nearest-rank percentiles over nanosecond samples.
+Stats summarise(std::vector<uint64_t> ns);
+
+// One control task's actuation command (the example policies' shapes).
+struct Workload {
+  std::string name;  // "rover follower" ...
+  std::string task;  // task name at the monitor
+  uint8_t addr = 0;
+  std::vector<uint8_t> bytes;  // one write()
+};
+std::vector<Workload> example_workloads();
+
+enum class Path { kUnprotected, kPreload, kSeccompInProcess, kSeccompMonitor, kCore };
+inline constexpr Path kAllPaths[] = {Path::kUnprotected, Path::kPreload, Path::kSeccompInProcess,
+                                     Path::kSeccompMonitor, Path::kCore};
+const char* path_label(Path p);  // short, for tables and the chart
+const char* path_key(Path p);    // JSON key
+
+struct Row {
+  std::string workload;
+  Path path = Path::kUnprotected;
+  Stats stats;
+  uint64_t failures = 0;  // commands the task saw fail (must be 0 with the pass-through checker)
+};
+
+struct DosResult {
+  uint32_t period_us = 0;
+  Stats quiet;        // the periodic task alone
+  Stats under_burst;  // while another supervised task bursts
+  uint64_t burst_commands = 0;
+};
+
+struct Options {
+  uint32_t trials = 200;
+  std::string task_exe;     // contego-bench-task
+  std::string preload_lib;  // libcontego_preload.so ("" skips path b)
+  bool dos = true;
+  uint32_t dos_period_us = 1000;
+};
+
+struct Report {
+  std::string checker;  // what decided (see run())
+  uint32_t trials = 0;
+  std::vector<Row> rows;
+  std::optional<DosResult> dos;
+  const Row* find(const std::string& workload, Path p) const;
+};
+
+// Runs every workload on every path. The checker is a pass-through decider
+// (allows every command and emits it unchanged, with the audit line), so the
+// figures are the cost of interception, transport, decoding, auditing and
+// the bus, not of a particular policy.
+Result<Report> run(const Options& options);
+
+// The human table: mean, median, p99, worst (µs) and added µs vs path a.
+std::string table(const Report& report);
+// Per workload and path, with the added figures; also the sched overhead.
+nlohmann::json to_json(const Report& report);
+// {"overhead_ns", "measured_on", "method"}: what `contego sched
+// --overhead-from` reads. The figure is the largest added worst case of the
+// enforcing deployment path (c2) over the workloads.
+nlohmann::json sched_overhead(const Report& report);
+// Writes DATA.dat and the gnuplot script next to `stem`, then stem.svg and
+// stem.png. Fails if gnuplot is missing or fails.
+Status write_chart(const Report& report, const std::string& stem);
+
+}  // namespace contego::perf
+
+#endif  // CONTEGO_PERF_OVERHEAD_H_
