@@ -35,7 +35,7 @@ int run_policy_tests(const std::string& policy_path, const std::string& test_pat
     return 2;
   }
   Result<policytest::RunReport> report =
-      policytest::run_tests(parsed.file, compiled.model, compiled.image);
+      policytest::run_tests(parsed.file, compiled.model, compiled.image, compiled.profiles);
   if (!report) {
     fmt::print(stderr, "{}: {}\n", policy_path, report.error());
     return 2;

@@ -144,6 +144,7 @@ CompileOutput compile_source(const std::string& file_name, const std::string& te
       }
       out.summary = summarize(policy, source, &lowered.model);
       out.model = std::move(lowered.model);
+      for (const Device& d : policy.devices) out.profiles.push_back(d.profile);
     }
   }
   if (out.summary.devices.empty() && out.summary.tasks.empty()) {

@@ -61,6 +61,9 @@ struct CompileOutput {
   uint32_t worst_case_cost = 0;         // bytecode instructions of one check, from the verifier
   uint32_t estimated_cost = 0;          // the compiler's own bound (equal unless a bug)
   PolicySummary summary;                // filled when the policy got past semantic checks
+  // The device profiles as lowered, by device id (built-in or built from a
+  // `regmap` declaration): what tools use to encode commands and samples.
+  std::vector<devices::ProfileSpec> profiles;
 };
 
 CompileOutput compile_source(const std::string& file_name, const std::string& text,
