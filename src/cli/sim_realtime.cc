@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "intercept/seccomp/supervisor.h"
+#include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 
 namespace contego::cli {

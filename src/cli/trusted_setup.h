@@ -12,7 +12,7 @@
 #include "base/result.h"
 #include "bus/virtual_bus.h"
 #include "monitor/audit_log.h"
-#include "monitor/decider.h"
+#include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 
 namespace contego::monitor {

@@ -1,5 +1,6 @@
-// Decider: the trusted core as the monitor drives it. CoreDecider is the
-// real one (core::Checker over a verified image); tests substitute scripted
+// Decider: the trusted core as the monitor drives it. CoreDecider
+// (core_decider.h) is the real one (core::Checker over a verified image);
+// tests and `contego bench` substitute scripted
 // deciders to exercise the monitor's own paths (fail-closed errors, safe
 // states, audit) independently of any policy.
 //
@@ -31,25 +32,6 @@ class Decider {
   virtual uint32_t device_count() const = 0;
   virtual const core::DeviceRecord& device(uint16_t id) const = 0;
   virtual uint32_t task_period_us(uint16_t task) const = 0;  // 0 = unknown task
-};
-
-// The trusted core. Owns its Checker (large: fixed tables), so allocate it.
-class CoreDecider final : public Decider {
- public:
-  core::Checker& checker() { return checker_; }
-  void set_host(const core::Host& host) override { checker_.set_host(host); }
-  void check(const core::Transaction& tx, core::Verdict* out) override { checker_.check(tx, out); }
-  bool safe_state(uint16_t device, core::Verdict* out) override {
-    return checker_.safe_state(device, out);
-  }
-  uint32_t device_count() const override { return checker_.device_count(); }
-  const core::DeviceRecord& device(uint16_t id) const override { return checker_.device(id); }
-  uint32_t task_period_us(uint16_t task) const override {
-    return task < checker_.task_count() ? checker_.task(task).period_us : 0;
-  }
-
- private:
-  core::Checker checker_;
 };
 
 }  // namespace contego::monitor

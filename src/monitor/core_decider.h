@@ -1,0 +1,33 @@
+// CoreDecider: the monitor's Decider backed by the real core::Checker. Kept
+// out of decider.h so that code which never uses the real core (the monitor
+// library itself, tests with scripted deciders, `contego bench`) does not
+// reference the core's symbols through speculative devirtualisation.
+#ifndef CONTEGO_MONITOR_CORE_DECIDER_H_
+#define CONTEGO_MONITOR_CORE_DECIDER_H_
+
+#include "monitor/decider.h"
+
+namespace contego::monitor {
+
+// The trusted core. Owns its Checker (large: fixed tables), so allocate it.
+class CoreDecider final : public Decider {
+ public:
+  core::Checker& checker() { return checker_; }
+  void set_host(const core::Host& host) override { checker_.set_host(host); }
+  void check(const core::Transaction& tx, core::Verdict* out) override { checker_.check(tx, out); }
+  bool safe_state(uint16_t device, core::Verdict* out) override {
+    return checker_.safe_state(device, out);
+  }
+  uint32_t device_count() const override { return checker_.device_count(); }
+  const core::DeviceRecord& device(uint16_t id) const override { return checker_.device(id); }
+  uint32_t task_period_us(uint16_t task) const override {
+    return task < checker_.task_count() ? checker_.task(task).period_us : 0;
+  }
+
+ private:
+  core::Checker checker_;
+};
+
+}  // namespace contego::monitor
+
+#endif  // CONTEGO_MONITOR_CORE_DECIDER_H_
