@@ -43,9 +43,11 @@ Result<ScenarioOutcome> run_scenario_files(const SimRequest& req) {
       return std::unique_ptr<sim::Guard>(std::move(*g));
     };
   };
+  // The reference is the attack-free mission with contego on (the policy may
+  // correct honest commands too: its "violations seen" are false positives).
   // Protection off still runs the checker in observe mode, so the summary
   // can say when the first violation reached the plant.
-  const sim::RunOptions runs[] = {{"baseline", false, guard(true), req.seed},
+  const sim::RunOptions runs[] = {{"baseline", false, guard(false), req.seed},
                                   {"unprotected", true, guard(true), req.seed},
                                   {"protected", true, guard(false), req.seed}};
   for (const auto& opt : runs) {

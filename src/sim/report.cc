@@ -73,7 +73,7 @@ struct Style {
 constexpr Style kStyles[] = {
     {"unprotected", "attack, contego off", "#800000", "lw 2 dt 1"},
     {"protected", "attack, contego on", "#1a9641", "lw 2 dt 1"},
-    {"baseline", "no attack", "#303030", "lw 1.2 dt (6,4)"},
+    {"baseline", "no attack, contego on", "#303030", "lw 1.2 dt (6,4)"},
 };
 
 std::string shade_windows(const Scenario& sc, double scale) {
@@ -122,7 +122,8 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
 // protected below, the accesses made during the attack shaded.
 std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
                       const std::string& dir, const std::string& stem) {
-  std::string b = fmt::format("set multiplot layout 2,1 title {}\n", quote(sc.title));
+  std::string b = fmt::format("set multiplot layout 2,1 title {}\nset key outside right top vertical\n",
+                              quote(sc.title));
   for (const char* label : {"unprotected", "protected"}) {
     const RunResult* run = nullptr;
     for (const auto& r : runs) {
@@ -157,7 +158,7 @@ std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
         quote(dir + "/" + stem + "-" + label + "-events.csv"), on ? "#1a9641" : "#800000",
         quote(on ? "contego on" : "contego off"));
   }
-  b += "unset multiplot\nset yrange [*:*]\n";
+  b += "unset multiplot\nset yrange [*:*]\nset key inside top left vertical\n";
   return b;
 }
 

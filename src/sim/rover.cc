@@ -257,6 +257,23 @@ double RoverWorld::line_offset(double x, double y) const {
   return std::hypot(x - cx, y) - radius_m_;
 }
 
+double RoverWorld::track_position(double x, double y) const {
+  const double half = straight_m_ / 2.0, r = radius_m_, pi = std::numbers::pi;
+  const double start = half;  // the rover starts mid-way along the bottom straight
+  double s = 0.0;
+  if (x >= -half && x <= half) {
+    s = y < 0 ? x + half : straight_m_ + pi * r + (half - x);
+  } else if (x > half) {
+    s = straight_m_ + r * (std::atan2(y, x - half) + pi / 2.0);
+  } else {
+    double a = std::atan2(y, x + half);
+    if (a < 0) a += 2.0 * pi;
+    s = 2.0 * straight_m_ + pi * r + r * (a - pi / 2.0);
+  }
+  const double lap = 2.0 * straight_m_ + 2.0 * pi * r;
+  return std::fmod(s - start + lap, lap);
+}
+
 void RoverWorld::update_sensor() {
   std::array<uint16_t, 5> raw{};
   const double c = std::cos(heading_), s = std::sin(heading_);
@@ -299,6 +316,13 @@ void RoverWorld::step(uint64_t now_us, uint64_t dt_us) {
   ticks_left_ = tl;
   ticks_right_ = tr;
   if (std::abs(line_offset(x_, y_)) > kOffLineM) off_line_s_ += dt;
+  const double lap = 2.0 * straight_m_ + 2.0 * std::numbers::pi * radius_m_;
+  const double s_now = track_position(x_, y_);
+  double ds = s_now - last_s_;
+  if (ds > lap / 2) ds -= lap;
+  if (ds < -lap / 2) ds += lap;
+  progress_m_ += ds;
+  last_s_ = s_now;
   update_sensor();
 
   now_us_ = now_us;
@@ -321,8 +345,8 @@ double RoverWorld::distance_cm() const {
 }
 
 std::vector<std::string> RoverWorld::columns() const {
-  return {"x_m",       "y_m",         "offset_cm",  "left_cmd",
-          "right_cmd", "distance_cm", "speed_cm_s", "line_position"};
+  return {"x_m",         "y_m",        "offset_cm",     "left_cmd",   "right_cmd",
+          "distance_cm", "speed_cm_s", "line_position", "progress_cm"};
 }
 
 std::vector<double> RoverWorld::sample() const {
@@ -338,11 +362,13 @@ std::vector<double> RoverWorld::sample() const {
           static_cast<double>(right_command()),
           distance_cm(),
           speed,
-          controller_.last_position()};
+          controller_.last_position(),
+          progress_m_ * 100.0};
 }
 
 std::vector<Metric> RoverWorld::metrics() const {
   return {{"distance", distance_cm(), "cm"},
+          {"track_progress", progress_m_ * 100.0, "cm"},
           {"max_speed", max_speed_, "cm/s"},
           {"off_line_time", off_line_s_, "s"}};
 }

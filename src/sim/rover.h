@@ -73,6 +73,8 @@ class RoverWorld : public World {
   int right_command() const;  // from the encoders: mean of both wheels
   // Signed distance (m) from a point to the line's centre (positive outside the loop).
   double line_offset(double x, double y) const;
+  // Arc length (m) of the line point nearest to (x, y), from the start, counter-clockwise.
+  double track_position(double x, double y) const;
 
  private:
   void update_sensor();
@@ -94,6 +96,8 @@ class RoverWorld : public World {
   double angle_left_ = 0.0, angle_right_ = 0.0;  // accumulated |angle| (rad)
   uint64_t ticks_left_ = 0, ticks_right_ = 0;
   double off_line_s_ = 0.0;
+  double progress_m_ = 0.0;  // along the line, unwrapped (negative = backwards)
+  double last_s_ = 0.0;
   double max_speed_ = 0.0;
   uint64_t now_us_ = 0;
   std::deque<std::pair<uint64_t, double>> history_;  // (time, distance) for the speed

@@ -41,7 +41,7 @@ double at(const RunResult& r, const std::string& col, double t) {
 TEST(RunnerTest, VendorLineFollowerStaysOnTheTrack) {
   auto r = run_scenario(rover("spoof from 8s to 16s"), {"baseline", false, nullptr, {}});
   ASSERT_TRUE(r.ok()) << r.error();
-  EXPECT_GT(metric(*r, "distance"), 250.0);  // ~9 cm/s on the straights for 40 s
+  EXPECT_GT(metric(*r, "distance"), 250.0);     // ~9 cm/s on the straights for 40 s
   EXPECT_LT(metric(*r, "off_line_time"), 0.5);  // never more than 5 cm off for long
   // Round the first bend: the rover has left the straight it started on.
   EXPECT_GT(at(*r, "y_m", 40.0), -0.4);

@@ -52,7 +52,10 @@ class ProtectionTest : public ::testing::Test {
     const Scenario sc = load(name);
     const PolicyImage img = compile(sc);
     Runs r;
-    auto b = run_scenario(sc, {"baseline", false, guard(img, true), seed});
+    // The reference mission is the attack-free run with contego on: the
+    // policy may correct honest commands (it judges each frame on the state
+    // at its own time), and protection should keep that mission, not another.
+    auto b = run_scenario(sc, {"baseline", false, guard(img, false), seed});
     auto u = run_scenario(sc, {"unprotected", true, guard(img, true), seed});
     auto p = run_scenario(sc, {"protected", true, guard(img, false), seed});
     EXPECT_TRUE(b.ok() && u.ok() && p.ok());
@@ -157,16 +160,16 @@ TEST_P(EveryPlatformTest, AttackChangesThePlantOnlyWithoutProtection) {
 
 INSTANTIATE_TEST_SUITE_P(
     TableOne, EveryPlatformTest,
-    ::testing::Values(PlantCase{"rover_spoof", "distance", 60.0, 15.0},            // cm
-                      PlantCase{"rover_wrong_direction", "distance", 30.0, 15.0},  // cm
-                      PlantCase{"rover_unauthorised", "distance", 30.0, 15.0},     // cm
+    ::testing::Values(PlantCase{"rover_spoof", "distance", 60.0, 15.0},                  // cm
+                      PlantCase{"rover_wrong_direction", "track_progress", 30.0, 15.0},  // cm
+                      PlantCase{"rover_unauthorised", "distance", 30.0, 15.0},           // cm
                       PlantCase{"arm_high_pulse", "objects_handled", 2.0, 0.0},
                       PlantCase{"arm_sleep", "objects_handled", 2.0, 0.0},
                       PlantCase{"arm_prescale", "objects_handled", 2.0, 0.0},
                       PlantCase{"arm_all_led", "objects_handled", 2.0, 0.0},
                       PlantCase{"arm_unauthorised", "objects_handled", 2.0, 0.0},
                       PlantCase{"tank_false_alarm", "false_alarm_time", 10.0, 0.5},  // s
-                      PlantCase{"pump_overdose", "dose_delivered", 5000.0, 50.0},    // uL
+                      PlantCase{"pump_overdose_dose_first", "dose_delivered", 5000.0, 50.0},
                       PlantCase{"camera_beyond_range", "max_pan_angle", 20.0, 2.0},  // deg
                       PlantCase{"camera_false_siren", "false_siren_time", 10.0, 0.5}),
     [](const auto& info) { return std::string(info.param.scenario); });
@@ -180,6 +183,18 @@ TEST_F(ProtectionTest, SameSeedGivesAByteIdenticalTraceAndAnotherSeedDoesNot) {
     EXPECT_EQ(ops_csv(a.*pick), ops_csv(b.*pick));
     EXPECT_NE(trace_csv(a.*pick), trace_csv(c.*pick));
   }
+}
+
+// With the example pump policy the rate cap is checked before the dose, so
+// after the dose an over-fast rate becomes the maximum rate, not 0: a small
+// over-dose leaks through (the dose-first variant above has none).
+TEST_F(ProtectionTest, ExamplePumpPolicyLimitsTheOverdoseToTheCappedRate) {
+  const Runs r = run("pump_overdose");
+  const double unprotected = metric(r.unprotected, "overdose");
+  const double protected_ = metric(r.protected_, "overdose");
+  EXPECT_GT(unprotected, 20000.0);            // uL
+  EXPECT_LT(protected_, 0.05 * unprotected);  // capped at 200 uL/h for the rest of the attack
+  EXPECT_LE(metric(r.protected_, "max_rate"), 200.0);
 }
 
 // The example policy as shipped latches the rover into stop() instead.
