@@ -1,2 +1,600 @@
-// Placeholder so the skeleton builds; the core implementation replaces it.
+// The check path: transaction → device → command(s) → class, access, latch,
+// rate, invariants → combined verdict + audit. docs/core.md describes the
+// order and the semantics; this file is their implementation.
 #include "contego/core/checker.h"
+
+#include "core/internal.h"
+
+namespace contego::core {
+namespace {
+
+constexpr uint8_t kEperm = 1;
+constexpr uint8_t kEnxio = 6;
+constexpr uint8_t kEinval = 22;
+
+bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
+
+}  // namespace
+
+Checker::Outcome* Checker::new_outcome(uint16_t dev) {
+  if (tx_.outcome_count >= kMaxCommandsPerTransaction) {
+    tx_.overflow = true;
+    return nullptr;
+  }
+  Outcome& o = tx_.outcomes[tx_.outcome_count++];
+  o.device = dev;
+  o.command = kNone;
+  o.index = 0;
+  o.field_count = 0;
+  o.base_reg = 0;
+  o.group_len = 0;
+  o.decision = Decision::kAllow;
+  o.reason = Reason::kAllowed;
+  o.rule_kind = RuleKind::kNone;
+  o.reply_errno = 0;
+  o.rule = kNone;
+  o.emit_offset = tx_.out->emit_bytes_used;
+  o.emit_len = 0;
+  o.emit_index = tx_.out->emit_count;
+  o.bus_command = kNone;
+  return &o;
+}
+
+namespace {
+template <typename O>
+void decide(O& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t err) {
+  o.decision = d;
+  o.reason = r;
+  o.rule_kind = kind;
+  o.rule = rule;
+  o.reply_errno = d == Decision::kReject ? err : 0;
+}
+}  // namespace
+
+bool Checker::emit(const uint8_t* bytes, uint32_t len) {
+  Verdict& v = *tx_.out;
+  if (v.emit_count >= kMaxEmits || len > kMaxEmitBytes - v.emit_bytes_used) {
+    tx_.emit_failed = true;
+    return false;
+  }
+  __builtin_memcpy(v.emit_bytes + v.emit_bytes_used, bytes, len);
+  v.emit_len[v.emit_count++] = static_cast<uint16_t>(len);
+  v.emit_bytes_used = static_cast<uint16_t>(v.emit_bytes_used + len);
+  return true;
+}
+
+void Checker::undo_save(uint16_t dev, uint8_t reg) {
+  if (dev != tx_.undo_device) {
+    tx_.undo_device = dev;
+    __builtin_memset(tx_.saved, 0, sizeof(tx_.saved));
+  }
+  if (internal::bit_test(tx_.saved, reg)) return;
+  if (tx_.undo_count >= kMaxRegisters) {
+    tx_.overflow = true;
+    return;
+  }
+  internal::bit_set(tx_.saved, reg);
+  const DeviceState& s = state_[dev];
+  tx_.undo[tx_.undo_count++] = Undo{dev,
+                                    reg,
+                                    s.shadow[reg],
+                                    s.staged[reg],
+                                    s.staged_task[reg],
+                                    internal::bit_test(s.staged_bits, reg)};
+}
+
+void Checker::rollback() {
+  for (uint32_t i = tx_.undo_count; i-- > 0;) {
+    const Undo& u = tx_.undo[i];
+    DeviceState& s = state_[u.device];
+    s.shadow[u.reg] = u.shadow;
+    s.staged[u.reg] = u.staged;
+    s.staged_task[u.reg] = u.staged_task;
+    if (u.staged_bit) {
+      internal::bit_set(s.staged_bits, u.reg);
+    } else {
+      internal::bit_clear(s.staged_bits, u.reg);
+    }
+  }
+  tx_.undo_count = 0;
+  tx_.undo_device = kNone;
+}
+
+void Checker::update_window(const Transaction& tx) {
+  const uint32_t period = tasks_[tx.task].period_us;
+  const uint64_t key =
+      tx.job != 0 ? ((uint64_t{1} << 63) | tx.job) : (period != 0 ? tx.now_us / period : 0);
+  TaskWindow& w = windows_[tx.task];
+  if (w.valid && w.key == key) return;
+  w.valid = true;
+  w.key = key;
+  __builtin_memset(job_count_[tx.task], 0, sizeof(job_count_[tx.task]));
+  for (uint32_t r = 0; r < rate_count_; ++r) {
+    if (rates_[r].task == tx.task) rate_used_[r] = 0;
+  }
+}
+
+bool Checker::record_violation(uint16_t dev, uint64_t now_us) {
+  const DeviceRecord& d = devices_[dev];
+  if (d.latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafe)) return false;
+  DeviceState& s = state_[dev];
+  s.violations[s.violation_next] = now_us;
+  s.violation_next = static_cast<uint8_t>((s.violation_next + 1) % kMaxLatchCount);
+  if (s.violation_count < kMaxLatchCount) ++s.violation_count;
+  if (s.violation_count < d.latch_count) return false;
+  const uint32_t oldest = (s.violation_next + kMaxLatchCount - d.latch_count) % kMaxLatchCount;
+  const uint64_t t0 = s.violations[oldest];
+  if (now_us >= t0 && now_us - t0 > d.latch_window_us) return false;
+  s.latched = true;
+  return true;
+}
+
+void Checker::reset_latch(uint16_t device) {
+  if (device >= device_count_) return;
+  DeviceState& s = state_[device];
+  s.latched = false;
+  s.violation_count = 0;
+  s.violation_next = 0;
+}
+
+bool Checker::latched(uint16_t device) const {
+  return device < device_count_ && state_[device].latched;
+}
+
+bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
+  if (!loaded_ || device >= device_count_ ||
+      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    return false;
+  }
+  state_[device].shadow[reg] = value;
+  return true;
+}
+
+static void init_verdict(Verdict* out, const Transaction* tx) {
+  out->decision = Decision::kReject;
+  out->reason = Reason::kNotLoaded;
+  out->rule_kind = RuleKind::kNone;
+  out->reply_errno = kEperm;
+  out->rule = kNone;
+  out->device = kNone;
+  out->addr = tx ? tx->addr : 0;
+  out->bus = tx ? tx->bus : 0;
+  out->emit_count = 0;
+  out->emit_bytes_used = 0;
+}
+
+void Checker::audit(const Transaction& tx, const Outcome& o) {
+  if (host_.audit == nullptr) return;
+  AuditRecord r;
+  r.time_us = tx.now_us;
+  r.job = tx.job;
+  r.task = tx.task;
+  r.device = o.device;
+  r.command = o.command;
+  r.rule = o.rule;
+  r.rule_kind = o.rule_kind;
+  r.decision = o.decision;
+  r.reason = o.reason;
+  r.index = o.index;
+  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) {
+    r.fields[i] = i < o.field_count ? o.fields[i] : 0;
+  }
+  r.field_count = o.field_count;
+  r.bus = tx.bus;
+  r.addr = tx.addr;
+  r.original_len = static_cast<uint16_t>(tx.len);
+  r.original = tx.bytes;
+  r.substitute = nullptr;
+  r.substitute_len = 0;
+  if (o.decision == Decision::kFailsafe && o.emit_len != 0) {
+    r.substitute = tx_.out->emit_bytes + o.emit_offset;
+    r.substitute_len = o.emit_len;
+  }
+  host_.audit(host_.context, &r);
+}
+
+void Checker::check(const Transaction& tx, Verdict* out) {
+  init_verdict(out, &tx);
+  tx_.out = out;
+  tx_.outcome_count = 0;
+  tx_.overflow = false;
+  tx_.emit_failed = false;
+  tx_.undo_device = kNone;
+  tx_.undo_count = 0;
+  __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
+  tx_.staged_command = kNone;
+  tx_.staged_index = 0;
+  latch_event_ = false;
+  latch_device_ = kNone;
+  now_us_ = tx.now_us;
+  if (++epoch_ == 0) {  // wrapped: forget every memo so none looks current
+    __builtin_memset(signal_memo_, 0, sizeof(signal_memo_));
+    __builtin_memset(sample_memo_, 0, sizeof(sample_memo_));
+    epoch_ = 1;
+  }
+
+  auto refuse = [&](uint16_t dev, Reason reason, uint8_t err) {
+    Outcome* o = new_outcome(dev);
+    if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNone, kNone, err);
+    finish(tx, out);
+  };
+  if (!loaded_) return refuse(kNone, Reason::kNotLoaded, kEperm);
+  if (tx.task == kUnknownTask || tx.task >= task_count_) {
+    return refuse(kNone, Reason::kUnknownTask, kEperm);
+  }
+
+  // Devices addressed: the device at (bus, addr), an address alias, or every
+  // listener of a general call.
+  uint16_t targets[kMaxDevices];
+  uint32_t target_count = 0;
+  const bool general_call = tx.addr == 0 && tx.ten_bit == 0;
+  general_call_ = general_call;
+  if (general_call) {
+    for (uint32_t i = 0; i < alias_count_; ++i) {
+      const AliasRecord& a = aliases_[i];
+      if (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.bus == tx.bus &&
+          target_count < kMaxDevices) {
+        targets[target_count++] = a.device;
+      }
+    }
+  } else {
+    for (uint32_t i = 0; i < device_count_; ++i) {
+      const DeviceRecord& d = devices_[i];
+      if (d.bus == tx.bus && d.addr == tx.addr && d.ten_bit == (tx.ten_bit ? 1 : 0)) {
+        targets[target_count++] = static_cast<uint16_t>(i);
+        break;
+      }
+    }
+    if (target_count == 0 && tx.ten_bit == 0) {
+      for (uint32_t i = 0; i < alias_count_; ++i) {
+        const AliasRecord& a = aliases_[i];
+        if (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.bus == tx.bus &&
+            a.addr == tx.addr) {
+          targets[target_count++] = a.device;
+          break;
+        }
+      }
+    }
+  }
+  if (target_count == 0) return refuse(kNone, Reason::kUnknownDevice, kEnxio);
+  out->device = targets[0];
+  if (tx.len > kMaxWriteBytes) return refuse(targets[0], Reason::kTooLong, kEinval);
+  if (tx.len != 0 && tx.bytes == nullptr) return refuse(targets[0], Reason::kMalformed, kEinval);
+
+  update_window(tx);
+  for (uint32_t i = 0; i < target_count; ++i) check_device(tx, targets[i]);
+  if (general_call) {
+    // The checked bytes go to the general-call address only if every listener
+    // allowed them as they are; substitutes cannot be addressed to all.
+    bool all_allow = true;
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      Outcome& o = tx_.outcomes[i];
+      if (o.decision == Decision::kFailsafe) {
+        decide(o, Decision::kIgnore, o.reason, o.rule_kind, o.rule, 0);
+      }
+      all_allow = all_allow && o.decision == Decision::kAllow;
+    }
+    out->emit_count = 0;
+    out->emit_bytes_used = 0;
+    if (all_allow && tx.kind == TxKind::kWrite && !emit(tx.bytes, tx.len)) tx_.overflow = true;
+  }
+  finish(tx, out);
+  if (general_call) out->addr = 0;
+}
+
+void Checker::check_device(const Transaction& tx, uint16_t dev) {
+  const bool may_read = (access_[tx.task].read_devices >> dev) & 1u;
+  if (tx.kind == TxKind::kRead || tx.kind == TxKind::kQuick) {
+    Outcome* o = new_outcome(dev);
+    if (o == nullptr) return;
+    if (may_read) {
+      decide(*o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNone, kNone, 0);
+    } else {
+      decide(*o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
+    }
+    return;
+  }
+  if (tx.kind != TxKind::kWrite) {
+    Outcome* o = new_outcome(dev);
+    if (o != nullptr)
+      decide(*o, Decision::kReject, Reason::kMalformed, RuleKind::kNone, kNone, kEinval);
+    return;
+  }
+  if (devices_[dev].profile == static_cast<uint8_t>(Profile::kFrame)) {
+    check_frame(tx, dev);
+  } else {
+    check_register_map(tx, dev);
+  }
+}
+
+// Applies a rule's static response to `o`: ignore, reject, or fail-safe with
+// the rule's template (ignore when it has none).
+void Checker::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id,
+                      Reason reason, RuleKind kind, uint16_t rule) {
+  if (response == static_cast<uint8_t>(Response::kReject)) {
+    decide(o, Decision::kReject, reason, kind, rule, err);
+    return;
+  }
+  if (response == static_cast<uint8_t>(Response::kFailsafe) && template_id != kNone) {
+    const TemplateRecord& t = templates_[template_id];
+    Subst s{};
+    s.active = true;
+    s.command = t.command;
+    s.set_mask = t.set_mask;
+    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
+    decide(o, Decision::kFailsafe, reason, kind, rule, 0);
+    if (!emit_substitute(s, o)) {
+      decide(o, Decision::kIgnore, Reason::kEncodeFailed, kind, rule, 0);
+    }
+    return;
+  }
+  decide(o, Decision::kIgnore, reason, kind, rule, 0);
+}
+
+void Checker::evaluate(const Transaction& tx, Outcome& o) {
+  const Decoded& d = decoded_;
+  const uint16_t dev = d.device;
+  o.command = d.command;
+  o.index = d.index;
+  o.field_count = d.field_count;
+  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) o.fields[i] = d.fields[i];
+  const CommandRecord& cmd = commands_[d.command];
+  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kQuery)) {
+    if ((access_[tx.task].read_devices >> dev) & 1u) {
+      decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNone, kNone, 0);
+    } else {
+      decide(o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
+    }
+    return;
+  }
+  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+    decide(o, Decision::kReject, Reason::kForbiddenCommand, RuleKind::kNone, kNone, kEperm);
+  } else if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0) {
+    decide(o, Decision::kReject, Reason::kAccessDenied, RuleKind::kAccess, tx.task, kEperm);
+  } else if (state_[dev].latched) {
+    decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
+    return;  // already held: no new violation
+  } else {
+    uint32_t& jc = job_count_[tx.task][dev];
+    if (jc != 0xFFFFFFFFu) ++jc;
+    bool decided = false;
+    for (uint32_t r = 0; r < rate_count_; ++r) {
+      const RateRecord& rr = rates_[r];
+      if (rr.task != tx.task || rr.device != dev || !internal::mask_has(rr.commands, d.command)) {
+        continue;
+      }
+      if (rate_used_[r] != 0xFFFFFFFFu) ++rate_used_[r];
+      if (!decided && rate_used_[r] > rr.max_per_job) {
+        respond(o, rr.response, rr.reply_errno, rr.template_id, Reason::kRateExceeded,
+                RuleKind::kRate, static_cast<uint16_t>(r));
+        decided = true;
+      }
+    }
+    if (!decided) {
+      Env env{&tx, &d, kNone, nullptr};
+      Subst subst{};
+      for (uint32_t i = 0; i < invariant_count_; ++i) {
+        const InvariantRecord& inv = invariants_[i];
+        if (inv.device != dev || !internal::mask_has(inv.commands, d.command)) continue;
+        env.invariant = static_cast<uint16_t>(i);
+        subst.active = false;
+        env.subst = &subst;
+        int64_t unused = 0;
+        uint8_t status = 0;
+        const uint8_t term = run(inv.code_first, inv.code_len, env, &unused, &status);
+        const uint16_t rule = static_cast<uint16_t>(i);
+        if (term == static_cast<uint8_t>(Op::kPass)) continue;
+        if (term == static_cast<uint8_t>(Op::kFail)) {
+          respond(o, inv.response, inv.reply_errno, inv.template_id, Reason::kInvariantViolated,
+                  RuleKind::kInvariant, rule);
+        } else if (term == static_cast<uint8_t>(Op::kFailSubst)) {
+          decide(o, Decision::kFailsafe, Reason::kInvariantViolated, RuleKind::kInvariant, rule, 0);
+          if (!emit_substitute(subst, o)) {
+            decide(o, Decision::kIgnore, Reason::kEncodeFailed, RuleKind::kInvariant, rule, 0);
+          }
+        } else {
+          // A fault is a violation: fail closed with the invariant's template.
+          const Reason why = status == 1 ? Reason::kSignalUnavailable : Reason::kProgramFault;
+          respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
+                  RuleKind::kInvariant, rule);
+        }
+        break;
+      }
+    }
+  }
+  if (o.decision != Decision::kAllow && record_violation(dev, tx.now_us)) {
+    // The K-th violation in the window: drive the safe state once, hold it.
+    Verdict& v = *tx_.out;
+    v.emit_count = o.emit_index;
+    v.emit_bytes_used = o.emit_offset;
+    tx_.emit_failed = false;
+    latch_event_ = true;
+    latch_device_ = dev;
+    if (emit_safe_state(dev)) {
+      decide(o, Decision::kFailsafe, Reason::kLatched, RuleKind::kLatch, dev, 0);
+      o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
+      o.bus_command = kNone;
+    } else {
+      v.emit_count = o.emit_index;
+      v.emit_bytes_used = o.emit_offset;
+      decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
+    }
+  }
+}
+
+bool Checker::emit_safe_state(uint16_t dev) {
+  const DeviceRecord& d = devices_[dev];
+  if (d.safe_count == 0) return false;
+  for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
+    const TemplateRecord& tr = templates_[t];
+    Subst s{};
+    s.active = true;
+    s.command = tr.command;
+    s.set_mask = tr.set_mask;
+    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = tr.values[i];
+    uint8_t bytes[kMaxRegisters];
+    uint32_t len = 0;
+    uint16_t command = kNone;
+    uint8_t index = 0;
+    int32_t fields[kMaxFieldsPerCommand];
+    if (!build_substitute(s, nullptr, dev, bytes, &len, &command, &index, fields)) return false;
+    if (!emit_encoded(dev, nullptr, bytes, len, command, index)) return false;
+  }
+  return true;
+}
+
+bool Checker::safe_state(uint16_t device, Verdict* out) {
+  init_verdict(out, nullptr);
+  if (!loaded_ || device >= device_count_) return false;
+  tx_.out = out;
+  tx_.emit_failed = false;
+  tx_.undo_count = 0;
+  tx_.undo_device = kNone;
+  out->device = device;
+  out->addr = devices_[device].addr;
+  out->bus = devices_[device].bus;
+  if (!emit_safe_state(device)) {
+    rollback();
+    out->emit_count = 0;
+    out->emit_bytes_used = 0;
+    return false;
+  }
+  out->decision = Decision::kFailsafe;
+  out->reason = state_[device].latched ? Reason::kLatched : Reason::kAllowed;
+  out->rule_kind = RuleKind::kLatch;
+  out->rule = device;
+  out->reply_errno = 0;
+  return true;
+}
+
+void Checker::finish(const Transaction& tx, Verdict* out) {
+  Decision decision = Decision::kAllow;
+  const Outcome* decider = nullptr;
+  if (tx_.overflow || tx_.emit_failed) {
+    // Too many commands, undo entries or emitted bytes: refuse it all.
+    Outcome* o = tx_.outcome_count < kMaxCommandsPerTransaction
+                     ? new_outcome(out->device)
+                     : &tx_.outcomes[tx_.outcome_count - 1];
+    decide(*o, Decision::kReject, Reason::kTooLong, RuleKind::kNone, kNone, kEinval);
+    decision = Decision::kReject;
+    decider = o;
+  } else if (latch_event_) {
+    // A device latched inside this transaction: its safe state is all that is written.
+    out->emit_count = 0;
+    out->emit_bytes_used = 0;
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      Outcome& o = tx_.outcomes[i];
+      if (o.rule_kind == RuleKind::kLatch && o.device == latch_device_) {
+        decider = &o;
+        break;
+      }
+    }
+    decision = decider->decision;
+    if (decision == Decision::kFailsafe) {
+      Outcome& o = const_cast<Outcome&>(*decider);
+      o.emit_offset = 0;
+      o.emit_index = 0;
+      if (!emit_safe_state(latch_device_)) decision = Decision::kIgnore;
+      o.emit_len = out->emit_bytes_used;
+    }
+  } else {
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.decision == Decision::kReject) {
+        decision = Decision::kReject;
+        decider = &o;
+        break;
+      }
+    }
+    if (decider == nullptr) {
+      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+        const Outcome& o = tx_.outcomes[i];
+        if (o.decision == Decision::kIgnore) {
+          decision = Decision::kIgnore;
+          decider = &o;
+          break;
+        }
+      }
+    }
+    if (decider == nullptr) {
+      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+        const Outcome& o = tx_.outcomes[i];
+        if (o.decision == Decision::kFailsafe) {
+          decision = Decision::kFailsafe;
+          decider = &o;
+          break;
+        }
+      }
+    }
+    if (decider == nullptr && tx_.outcome_count != 0) decider = &tx_.outcomes[0];
+  }
+
+  out->decision = decision;
+  if (decider != nullptr) {
+    out->reason = decider->reason;
+    out->rule_kind = decider->rule_kind;
+    out->rule = decider->rule;
+    out->reply_errno = decision == Decision::kReject ? decider->reply_errno : 0;
+  } else {
+    out->reason = Reason::kStaged;  // only staged register writes
+    out->rule_kind = RuleKind::kNone;
+    out->rule = kNone;
+    out->reply_errno = 0;
+  }
+  if (out->device != kNone && out->device < device_count_) {
+    out->addr = devices_[out->device].addr;
+    out->bus = devices_[out->device].bus;
+  }
+
+  if (!writes(decision)) {
+    out->emit_count = 0;
+    out->emit_bytes_used = 0;
+    rollback();
+    // A group whose commit was checked and refused loses its staged bytes.
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
+      DeviceState& s = state_[o.device];
+      for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
+    }
+  } else {
+    for (uint32_t i = 0; i < invariant_count_; ++i) {
+      if (internal::bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
+    }
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.bus_command == kNone || !writes(o.decision)) continue;
+      LastCommand& l = last_[o.bus_command];
+      l.valid = true;
+      l.time_us = tx.now_us;
+      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
+    }
+  }
+
+  // Audit: one record per decoded command (commands allowed on their own but
+  // dropped with their transaction carry the transaction's decision).
+  if (host_.audit == nullptr) return;
+  if (tx_.outcome_count == 0) {
+    Outcome o{};
+    o.device = out->device;
+    o.command = tx_.staged_command;
+    o.index = tx_.staged_index;
+    o.decision = Decision::kAllow;
+    o.reason = Reason::kStaged;
+    o.rule = kNone;
+    audit(tx, o);
+    return;
+  }
+  for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+    Outcome o = tx_.outcomes[i];
+    if (!writes(decision) && writes(o.decision) && decider != nullptr) {
+      o.decision = decision;
+      o.reason = decider->reason;
+      o.rule_kind = decider->rule_kind;
+      o.rule = decider->rule;
+    }
+    audit(tx, o);
+  }
+}
+
+}  // namespace contego::core

@@ -27,27 +27,27 @@ enum class LoadStatus : uint8_t {
   kTooSmall = 1,
   kBadMagic = 2,
   kBadVersion = 3,
-  kSizeMismatch = 4,       // header.total_size != buffer size
+  kSizeMismatch = 4,  // header.total_size != buffer size
   kBadChecksum = 5,
-  kBadHeader = 6,          // non-zero flags / reserved
-  kSectionBounds = 7,      // section outside the image, misaligned, or overlapping another
+  kBadHeader = 6,      // non-zero flags / reserved
+  kSectionBounds = 7,  // section outside the image, misaligned, or overlapping another
   kDuplicateSection = 8,
   kUnknownSection = 9,
   kMissingSection = 10,
-  kRecordSize = 11,        // size != count * record size
-  kTooMany = 12,           // a count exceeds limits.h
-  kBadTag = 13,            // an enum field holds an unknown value, or padding is non-zero
-  kBadReference = 14,      // an id points outside its table or to the wrong kind of thing
-  kBadField = 15,          // field geometry outside the frame / group / sample
-  kBadProgram = 16,        // unknown opcode or operand
+  kRecordSize = 11,    // size != count * record size
+  kTooMany = 12,       // a count exceeds limits.h
+  kBadTag = 13,        // an enum field holds an unknown value, or padding is non-zero
+  kBadReference = 14,  // an id points outside its table or to the wrong kind of thing
+  kBadField = 15,      // field geometry outside the frame / group / sample
+  kBadProgram = 16,    // unknown opcode or operand
   kJumpBackward = 17,
   kJumpOutOfRange = 18,
   kProgramTooLong = 19,
   kStackUnderflow = 20,
   kStackOverflow = 21,
-  kStackMismatch = 22,     // two paths reach an instruction with different stack depths
-  kNoTerminator = 23,      // a path runs off the end of the program
-  kBadName = 24,           // name offset outside kNames or not NUL-terminated
+  kStackMismatch = 22,  // two paths reach an instruction with different stack depths
+  kNoTerminator = 23,   // a path runs off the end of the program
+  kBadName = 24,        // name offset outside kNames or not NUL-terminated
 };
 
 // Where the verifier stopped: which section and which record in it.
@@ -104,6 +104,142 @@ class Checker {
  private:
   // Fixed-capacity tables and runtime state (shadow registers, staging, rate
   // windows, latches). Sized by limits.h; no pointers into the image.
+  // Everything below is implementation detail (src/core/*.cc).
+  struct DeviceState {
+    uint8_t shadow[kMaxRegisters];       // register-map: the values the device holds
+    uint8_t staged[kMaxRegisters];       // register-map: written but not yet committed
+    uint8_t staged_task[kMaxRegisters];  // which task staged each register
+    uint32_t staged_bits[kMaxRegisters / 32];
+    uint8_t lookup[kMaxRegisters];        // opcode / register -> offset in the device's commands
+    uint64_t violations[kMaxLatchCount];  // ring of the last violation times
+    uint8_t violation_count;
+    uint8_t violation_next;
+    bool latched;
+  };
+  struct LastCommand {
+    uint64_t time_us;
+    int32_t fields[kMaxFieldsPerCommand];
+    bool valid;
+  };
+  struct SignalMemo {
+    uint32_t epoch;
+    uint8_t status;  // 0 ok, 1 unavailable, 2 program fault
+    int64_t value;
+  };
+  struct SampleMemo {
+    uint32_t epoch;
+    uint32_t len;
+    uint64_t taken_at_us;
+    uint8_t bytes[kMaxSampleBytes];
+  };
+  struct TaskWindow {
+    uint64_t key;  // job number (top bit set) or now / period
+    bool valid;
+  };
+  // What the checks made of one decoded command (kept for the audit and
+  // for combining the commands of one transaction).
+  struct Outcome {
+    uint16_t device;
+    uint16_t command;  // kNone: undecoded
+    uint8_t index;
+    uint8_t field_count;
+    uint8_t base_reg;   // register map: first register of the group
+    uint8_t group_len;  // register map: 0 for frames
+    int32_t fields[kMaxFieldsPerCommand];
+    Decision decision;
+    Reason reason;
+    RuleKind rule_kind;
+    uint8_t reply_errno;
+    uint16_t rule;
+    uint16_t emit_offset;  // this command's emitted bytes inside the verdict
+    uint16_t emit_len;
+    uint8_t emit_index;    // its first write in the verdict
+    uint16_t bus_command;  // the command whose fields reached the bus (kNone: none)
+    int32_t bus_fields[kMaxFieldsPerCommand];
+  };
+  // The command being checked: its bytes (frame after the prefix, or the
+  // register group) and decoded fields.
+  struct Decoded {
+    uint16_t device;
+    uint16_t command;
+    uint8_t index;
+    uint8_t prefix;  // frame: bytes before the frame (0 or 1)
+    uint8_t prefix_byte;
+    uint8_t base_reg;
+    uint8_t field_count;
+    uint32_t len;
+    uint32_t written[kMaxRegisters / 32];  // register map: group offsets this commit writes
+    int32_t fields[kMaxFieldsPerCommand];
+    uint8_t bytes[kMaxRegisters];
+  };
+  struct Subst {
+    bool active;
+    uint16_t command;  // kNone: the checked command
+    uint8_t set_mask;
+    int32_t values[kMaxFieldsPerCommand];
+  };
+  struct Undo {
+    uint16_t device;
+    uint8_t reg;
+    uint8_t shadow;
+    uint8_t staged;
+    uint8_t staged_task;
+    bool staged_bit;
+  };
+  struct TxContext {
+    Verdict* out;
+    uint32_t outcome_count;
+    bool overflow;     // too many commands / undo entries: fail closed
+    bool emit_failed;  // the verdict ran out of emit space
+    uint16_t undo_device;
+    uint32_t undo_count;
+    uint32_t saved[kMaxRegisters / 32];
+    uint32_t pending_state[kMaxInvariants / 32];
+    uint16_t staged_command;  // first command whose group was only staged (kNone: none)
+    uint8_t staged_index;
+    Outcome outcomes[kMaxCommandsPerTransaction];
+    Undo undo[kMaxRegisters];
+  };
+  struct Env {
+    const Transaction* tx;
+    const Decoded* d;
+    uint16_t invariant;  // kNone for derived signals
+    Subst* subst;
+  };
+
+  bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
+                      uint16_t device, LoadResult* result);
+  LoadResult verify(const uint8_t* image, uint32_t size);
+  void clear_tables();
+  void compute_costs();
+
+  void check_device(const Transaction& tx, uint16_t dev);
+  void check_frame(const Transaction& tx, uint16_t dev);
+  void check_register_map(const Transaction& tx, uint16_t dev);
+  void evaluate(const Transaction& tx, Outcome& o);
+  void finish(const Transaction& tx, Verdict* out);
+  Outcome* new_outcome(uint16_t dev);
+  bool emit(const uint8_t* bytes, uint32_t len);
+  bool emit_substitute(const Subst& subst, Outcome& o);
+  bool emit_safe_state(uint16_t dev);
+  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
+                    uint16_t command, uint8_t index);
+  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
+               RuleKind kind, uint16_t rule);
+  bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, uint8_t* bytes,
+                        uint32_t* len, uint16_t* command, uint8_t* index, int32_t* fields);
+  void update_window(const Transaction& tx);
+  bool record_violation(uint16_t dev, uint64_t now_us);
+  void undo_save(uint16_t dev, uint8_t reg);
+  void rollback();
+  void audit(const Transaction& tx, const Outcome& o);
+  // Interpreter: returns the terminator op (kPass/kFail/kFailSubst/kReturn) or
+  // 0 on a fault; *status tells a missing signal (1) from another fault (2).
+  uint8_t run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result,
+              uint8_t* status);
+  uint8_t signal(uint16_t id, uint64_t now_us, int64_t* value);  // 0 ok, 1 unavailable, 2 fault
+  uint8_t raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
+
   bool loaded_ = false;
   Host host_{};
   uint32_t worst_case_cost_ = 0;
@@ -111,7 +247,44 @@ class Checker {
   uint32_t device_count_ = 0;
   TaskRecord tasks_[kMaxTasks]{};
   DeviceRecord devices_[kMaxDevices]{};
-  // (the implementation adds the remaining tables here)
+  uint32_t alias_count_ = 0;
+  uint32_t command_count_ = 0;
+  uint32_t field_count_ = 0;
+  uint32_t signal_count_ = 0;
+  uint32_t rate_count_ = 0;
+  uint32_t invariant_count_ = 0;
+  uint32_t template_count_ = 0;
+  uint32_t code_count_ = 0;
+  uint32_t constant_count_ = 0;
+  AliasRecord aliases_[kMaxAliases]{};
+  CommandRecord commands_[kMaxCommandDefs]{};
+  FieldRecord fields_[kMaxFieldDefs]{};
+  SignalRecord signals_[kMaxSignals]{};
+  RateRecord rates_[kMaxRateLimits]{};
+  InvariantRecord invariants_[kMaxInvariants]{};
+  TemplateRecord templates_[kMaxTemplates]{};
+  Insn code_[kMaxCodeWords]{};
+  int64_t constants_[kMaxConstants]{};
+  AccessRecord access_[kMaxTasks]{};
+  uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
+  uint64_t derived_mask_ = 0;
+  // Runtime state.
+  uint32_t epoch_ = 0;
+  uint64_t now_us_ = 0;
+  bool general_call_ = false;  // this check() is a general call (no pointer-write reads)
+  bool latch_event_ = false;   // a device latched during this check()
+  uint16_t latch_device_ = kNone;
+  DeviceState state_[kMaxDevices]{};
+  LastCommand last_[kMaxCommandDefs]{};
+  SignalMemo signal_memo_[kMaxSignals]{};
+  SampleMemo sample_memo_[kMaxDevices]{};
+  TaskWindow windows_[kMaxTasks]{};
+  uint32_t job_count_[kMaxTasks][kMaxDevices]{};
+  uint32_t rate_used_[kMaxRateLimits]{};
+  int64_t state_words_[kMaxInvariants]{};
+  int64_t pending_state_[kMaxInvariants]{};
+  Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
+  TxContext tx_{};
 };
 
 }  // namespace contego::core

@@ -14,6 +14,10 @@
 
 #include <stdint.h>
 
+// verdict.h first: its RuleKind::kNone must be declared before the
+// namespace-scope kNone below, or GCC's -Wshadow fires in every includer.
+#include "contego/core/verdict.h"
+
 namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
@@ -28,8 +32,8 @@ struct ImageHeader {
   uint32_t total_size;     // bytes, header included
   uint32_t checksum;       // CRC-32 (IEEE, reflected, as zlib) of bytes [16, total_size)
   uint32_t section_count;
-  uint32_t flags;          // must be 0 in version 1.0
-  uint32_t reserved[2];    // must be 0
+  uint32_t flags;        // must be 0 in version 1.0
+  uint32_t reserved[2];  // must be 0
 };
 static_assert(sizeof(ImageHeader) == 32);
 
@@ -81,7 +85,7 @@ enum class Profile : uint8_t {
 enum class AutoIncrement : uint8_t {
   kNever = 0,   // every data byte of a write lands in the addressed register
   kAlways = 1,  // data bytes land in consecutive registers
-  kBit = 2,     // as kAlways while bit `ai_bit` of shadow register `ai_reg` is set (PCA9685 MODE1.AI)
+  kBit = 2,  // as kAlways while bit `ai_bit` of shadow register `ai_reg` is set (PCA9685 MODE1.AI)
 };
 
 enum class LatchMode : uint8_t {
@@ -107,11 +111,11 @@ struct DeviceRecord {
   uint8_t auto_increment;  // AutoIncrement
   uint8_t ai_reg;
   uint8_t ai_bit;
-  uint8_t latch_mode;  // LatchMode
-  uint8_t latch_count; // K, 1..kMaxLatchCount when latch_mode != kOff
+  uint8_t latch_mode;          // LatchMode
+  uint8_t latch_count;         // K, 1..kMaxLatchCount when latch_mode != kOff
   uint8_t sample_request_len;  // sensors: bytes the host writes before reading a sample
   uint8_t sample_request[8];
-  uint8_t sample_len;          // sensors: bytes read per sample (<= kMaxSampleBytes)
+  uint8_t sample_len;  // sensors: bytes read per sample (<= kMaxSampleBytes)
   uint8_t pad0[3];
   uint32_t latch_window_us;
   uint32_t sample_period_us;   // sensors: how often the host samples
@@ -123,8 +127,9 @@ struct DeviceRecord {
 static_assert(sizeof(DeviceRecord) == 52);
 
 enum class AliasKind : uint8_t {
-  kAddress = 0,      // writes to (bus, addr) are decoded as writes to `device`
-  kGeneralCall = 1,  // general call (addr 0): decoded as writes to `device` (one record per listener)
+  kAddress = 0,  // writes to (bus, addr) are decoded as writes to `device`
+  kGeneralCall =
+      1,  // general call (addr 0): decoded as writes to `device` (one record per listener)
 };
 
 struct AliasRecord {
@@ -189,11 +194,11 @@ enum class SignalKind : uint8_t {
 struct SignalRecord {
   uint8_t kind;  // SignalKind
   uint8_t pad0;
-  uint16_t device;     // kRaw: sensor device
-  FieldRecord field;   // kRaw: where the value sits in the sample (field.name unused)
-  int32_t valid_min;   // kRaw: values outside [valid_min, valid_max] are unavailable
+  uint16_t device;    // kRaw: sensor device
+  FieldRecord field;  // kRaw: where the value sits in the sample (field.name unused)
+  int32_t valid_min;  // kRaw: values outside [valid_min, valid_max] are unavailable
   int32_t valid_max;
-  uint16_t code_first; // kDerived: program in kCode
+  uint16_t code_first;  // kDerived: program in kCode
   uint16_t code_len;
   uint32_t name;
 };
@@ -224,10 +229,10 @@ struct RateRecord {
 static_assert(sizeof(RateRecord) == 32);
 
 struct InvariantRecord {
-  uint16_t device;       // the actuator it guards
-  uint16_t code_first;   // program in kCode: ends in PASS, FAIL or FAIL_SUBST
+  uint16_t device;      // the actuator it guards
+  uint16_t code_first;  // program in kCode: ends in PASS, FAIL or FAIL_SUBST
   uint16_t code_len;
-  uint8_t response;      // Response on FAIL (FAIL_SUBST always means kFailsafe)
+  uint8_t response;  // Response on FAIL (FAIL_SUBST always means kFailsafe)
   uint8_t reply_errno;
   uint16_t template_id;  // kFailsafe on FAIL: substitute (kNone = ignore)
   uint16_t pad;
@@ -273,20 +278,37 @@ enum class Op : uint8_t {
   kField = 4,      // push field slot b of the checked command (fault if it has no such field)
   kCommand = 5,    // push the checked command's global command id
   kIndex = 6,      // push the checked command's group index (register-map channel)
-  kJobCount = 7,   // push how many commands of this task to this device this job (this one included)
+  kJobCount = 7,  // push how many commands of this task to this device this job (this one included)
   kLastField = 8,  // push field slot b of the last command of the same kind that reached the
                    // device (fault if none yet): rate-of-change and replay rules
   kSinceLast = 9,  // push microseconds since that command reached the device (fault if none)
   kState = 10,     // push this invariant's state word (starts at 0; sequences)
   kSetState = 11,  // pop into this invariant's pending state word; it is committed only if the
                    // transaction's final decision writes to the bus (allow or fail-safe)
-  kAdd = 16, kSub, kMul, kDiv, kMod, kNeg, kAbs, kMin, kMax,
-  kEq = 32, kNe, kLt, kLe, kGt, kGe, kAnd, kOr, kNot,
+  kAdd = 16,
+  kSub,
+  kMul,
+  kDiv,
+  kMod,
+  kNeg,
+  kAbs,
+  kMin,
+  kMax,
+  kEq = 32,
+  kNe,
+  kLt,
+  kLe,
+  kGt,
+  kGe,
+  kAnd,
+  kOr,
+  kNot,
   kDup = 48,
   kDrop = 49,
   kJumpIfZero = 64,  // pop; if zero, pc += imm (imm >= 1, target <= program length - 1)
   kJump = 65,        // pc += imm (imm >= 1)
-  kSubstBegin = 80,  // start a substitute: command b (kNone = the checked command), fields = current values
+  kSubstBegin =
+      80,  // start a substitute: command b (kNone = the checked command), fields = current values
   kSubstField = 81,  // pop into field slot b of the substitute
   kPass = 96,        // invariant holds
   kFail = 97,        // violated: use the invariant's static response
@@ -295,10 +317,10 @@ enum class Op : uint8_t {
 };
 
 struct Insn {
-  uint8_t op;  // Op
-  uint8_t a;   // reserved, 0
-  uint16_t b;  // small operand (index)
-  int32_t imm; // immediate or jump offset in instructions
+  uint8_t op;   // Op
+  uint8_t a;    // reserved, 0
+  uint16_t b;   // small operand (index)
+  int32_t imm;  // immediate or jump offset in instructions
 };
 static_assert(sizeof(Insn) == 8);
 

@@ -19,17 +19,17 @@ enum class TxKind : uint8_t {
 };
 
 struct Transaction {
-  uint16_t task;        // task id from the image, or kUnknownTask
-  uint8_t bus;          // i2c-N
+  uint16_t task;  // task id from the image, or kUnknownTask
+  uint8_t bus;    // i2c-N
   TxKind kind;
-  uint16_t addr;        // 7-bit address (or 10-bit when ten_bit)
+  uint16_t addr;  // 7-bit address (or 10-bit when ten_bit)
   uint8_t ten_bit;
   uint8_t pad;
-  uint32_t job;         // job sequence number of the task (from its periodic sleeps);
-                        // 0 = unknown: the core uses windows of the task's period
-  uint32_t len;         // bytes in `bytes`
-  const uint8_t* bytes; // the trusted side's own copy; not kept after check() returns
-  uint64_t now_us;      // monotonic time of the request, microseconds
+  uint32_t job;          // job sequence number of the task (from its periodic sleeps);
+                         // 0 = unknown: the core uses windows of the task's period
+  uint32_t len;          // bytes in `bytes`
+  const uint8_t* bytes;  // the trusted side's own copy; not kept after check() returns
+  uint64_t now_us;       // monotonic time of the request, microseconds
 };
 
 }  // namespace contego::core

@@ -25,9 +25,9 @@ enum class Decision : uint8_t {
 // Why. Stable numbers: they appear in audit logs.
 enum class Reason : uint8_t {
   kAllowed = 0,
-  kStaged = 1,             // register-map write held until its group's last register arrives
+  kStaged = 1,  // register-map write held until its group's last register arrives
   kReadAllowed = 2,
-  kNotLoaded = 10,         // no verified image
+  kNotLoaded = 10,  // no verified image
   kUnknownTask = 11,
   kUnknownDevice = 12,     // no device at (bus, addr)
   kMalformed = 13,         // bytes do not form a command of the device's profile
@@ -36,13 +36,13 @@ enum class Reason : uint8_t {
   kForbiddenCommand = 16,  // CommandClass::kForbidden
   kAccessDenied = 17,      // access matrix bit is 0
   kReadDenied = 18,
-  kRateExceeded = 19,      // INV^RC
-  kInvariantViolated = 20, // a state invariant's program returned FAIL / FAIL_SUBST
-  kSignalUnavailable = 21, // an invariant needed a sensor signal that is missing or stale
-  kProgramFault = 22,      // overflow, division by zero, missing field: fail closed
-  kLatched = 23,           // device held in its safe state until an operator reset
-  kStagingConflict = 24,   // another task had staged registers of this group; theirs dropped
-  kEncodeFailed = 25,      // a substitute could not be encoded (value out of field range)
+  kRateExceeded = 19,       // INV^RC
+  kInvariantViolated = 20,  // a state invariant's program returned FAIL / FAIL_SUBST
+  kSignalUnavailable = 21,  // an invariant needed a sensor signal that is missing or stale
+  kProgramFault = 22,       // overflow, division by zero, missing field: fail closed
+  kLatched = 23,            // device held in its safe state until an operator reset
+  kStagingConflict = 24,    // another task had staged registers of this group; theirs dropped
+  kEncodeFailed = 25,       // a substitute could not be encoded (value out of field range)
 };
 
 enum class RuleKind : uint8_t { kNone = 0, kAccess = 1, kRate = 2, kInvariant = 3, kLatch = 4 };
@@ -56,7 +56,7 @@ struct Verdict {
   uint16_t device;      // device the transaction was decoded for (kNone if unknown)
   uint16_t addr;        // address the emits go to
   uint8_t bus;
-  uint8_t emit_count;   // writes to perform, in order
+  uint8_t emit_count;  // writes to perform, in order
   uint16_t emit_bytes_used;
   uint16_t emit_len[kMaxEmits];
   uint8_t emit_bytes[kMaxEmitBytes];  // the writes, back to back
@@ -69,13 +69,13 @@ struct AuditRecord {
   uint64_t time_us;
   uint32_t job;
   uint16_t task;
-  uint16_t device;      // kNone if no device matched
-  uint16_t command;     // global command id, kNone if undecoded
+  uint16_t device;   // kNone if no device matched
+  uint16_t command;  // global command id, kNone if undecoded
   uint16_t rule;
   RuleKind rule_kind;
   Decision decision;
   Reason reason;
-  uint8_t index;        // register-map group index (channel)
+  uint8_t index;                         // register-map group index (channel)
   int32_t fields[kMaxFieldsPerCommand];  // decoded field values of the command
   uint8_t field_count;
   uint8_t bus;

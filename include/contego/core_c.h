@@ -1,0 +1,116 @@
+/* C ABI of the trusted core, for adapters written in C: an OP-TEE pseudo-TA,
+ * a kernel hook, or any host that cannot use the C++ API. Freestanding: the
+ * caller provides the checker's storage (contego_checker_size() bytes, aligned
+ * to contego_checker_align()); nothing is allocated. Thread-safety: none (one
+ * call at a time per checker). Every function is bounded and makes no OS call
+ * except through the callbacks the host installs. */
+#ifndef CONTEGO_CORE_C_H_
+#define CONTEGO_CORE_C_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct contego_checker contego_checker; /* opaque */
+
+/* Mirrors contego::core::Verdict (same limits: 64 writes, 256 bytes). */
+#define CONTEGO_MAX_EMITS 64
+#define CONTEGO_MAX_EMIT_BYTES 256
+#define CONTEGO_MAX_FIELDS 8
+#define CONTEGO_NONE 0xFFFFu
+
+enum contego_decision {
+  CONTEGO_ALLOW = 0,
+  CONTEGO_IGNORE = 1,
+  CONTEGO_FAILSAFE = 2,
+  CONTEGO_REJECT = 3
+};
+enum contego_tx_kind { CONTEGO_TX_WRITE = 1, CONTEGO_TX_READ = 2, CONTEGO_TX_QUICK = 3 };
+
+typedef struct contego_transaction {
+  uint16_t task; /* CONTEGO_NONE: not a declared task */
+  uint8_t bus;
+  uint8_t kind; /* enum contego_tx_kind */
+  uint16_t addr;
+  uint8_t ten_bit;
+  uint8_t pad;
+  uint32_t job; /* 0: unknown, windows of the task's period */
+  uint32_t len;
+  const uint8_t* bytes;
+  uint64_t now_us;
+} contego_transaction;
+
+typedef struct contego_verdict {
+  uint8_t decision; /* enum contego_decision */
+  uint8_t reason;   /* contego::core::Reason */
+  uint8_t rule_kind;
+  uint8_t reply_errno;
+  uint16_t rule;
+  uint16_t device;
+  uint16_t addr;
+  uint8_t bus;
+  uint8_t emit_count;
+  uint16_t emit_bytes_used;
+  uint16_t emit_len[CONTEGO_MAX_EMITS];
+  uint8_t emit_bytes[CONTEGO_MAX_EMIT_BYTES];
+} contego_verdict;
+
+typedef struct contego_audit_record {
+  uint64_t time_us;
+  uint32_t job;
+  uint16_t task;
+  uint16_t device;
+  uint16_t command;
+  uint16_t rule;
+  uint8_t rule_kind;
+  uint8_t decision;
+  uint8_t reason;
+  uint8_t index;
+  int32_t fields[CONTEGO_MAX_FIELDS];
+  uint8_t field_count;
+  uint8_t bus;
+  uint16_t addr;
+  uint16_t original_len;
+  uint16_t substitute_len;
+  const uint8_t* original;
+  const uint8_t* substitute;
+} contego_audit_record;
+
+typedef struct contego_host {
+  void* context;
+  /* Latest sample of sensor `device` into buf; returns bytes (0 = none). May be NULL. */
+  uint32_t (*read_sample)(void* context, uint16_t device, uint8_t* buf, uint32_t capacity,
+                          uint64_t* taken_at_us);
+  /* One record per decoded command; pointers valid during the call. May be NULL. */
+  void (*audit)(void* context, const contego_audit_record* record);
+} contego_host;
+
+typedef struct contego_load_result {
+  uint8_t status; /* contego::core::LoadStatus, 0 = ok */
+  uint32_t section;
+  uint32_t index;
+} contego_load_result;
+
+size_t contego_checker_size(void);
+size_t contego_checker_align(void);
+/* Constructs a checker in `mem` (no image loaded). NULL if too small or misaligned. */
+contego_checker* contego_checker_init(void* mem, size_t size);
+contego_load_result contego_load(contego_checker* c, const uint8_t* image, uint32_t size);
+void contego_set_host(contego_checker* c, const contego_host* host);
+void contego_check(contego_checker* c, const contego_transaction* tx, contego_verdict* out);
+int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out);
+void contego_reset_latch(contego_checker* c, uint16_t device);
+int contego_latched(const contego_checker* c, uint16_t device);
+uint32_t contego_worst_case_cost(const contego_checker* c);
+const char* contego_load_status_name(uint8_t status);
+const char* contego_reason_name(uint8_t reason);
+const char* contego_decision_name(uint8_t decision);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CONTEGO_CORE_C_H_ */

@@ -1,0 +1,466 @@
+// The check path on the rover image (frame device): transaction → device →
+// command → class, access, latch, rate, invariants → verdict and audit.
+#include <gtest/gtest.h>
+#include <random>
+
+#include "core/test_fixtures.h"
+
+namespace contego::core {
+namespace {
+
+using testing::emits;
+using testing::Harness;
+using testing::Prog;
+namespace rover = testing::rover;
+using Bytes = std::vector<uint8_t>;
+using image::Named;
+
+class RoverTest : public ::testing::Test {
+ protected:
+  void SetUp() override { load(rover::model()); }
+  void load(const image::ImageModel& m) {
+    const LoadResult r = h.load(m);
+    ASSERT_EQ(r.status, LoadStatus::kOk)
+        << load_status_name(r.status) << " section " << r.section << " index " << r.index;
+  }
+  void sense(const int32_t (&raw)[5], uint64_t taken_at = 1000) {
+    h.samples[rover::kLine].bytes = rover::sample(raw);
+    h.samples[rover::kLine].taken_at_us = taken_at;
+  }
+  Verdict send(Bytes bytes, uint16_t task = rover::kFollower, uint64_t now = 1000,
+               uint32_t job = 0) {
+    return h.check(task, 0x08, std::move(bytes), now, job);
+  }
+  Harness h;
+};
+
+TEST(CheckerTest, NothingLoadedRejectsEverything) {
+  Harness h;
+  const Verdict v = h.check(0, 0x08, {120, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kNotLoaded);
+  EXPECT_EQ(v.emit_count, 0);
+  ASSERT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].command, kNone);
+}
+
+TEST_F(RoverTest, UnknownTaskIsRejected) {
+  EXPECT_EQ(send({120, 0, 0, 0}, kUnknownTask).reason, Reason::kUnknownTask);
+  EXPECT_EQ(send({120, 0, 0, 0}, 3).reason, Reason::kUnknownTask);
+  EXPECT_EQ(send({120, 0, 0, 0}, 3).decision, Decision::kReject);
+}
+
+TEST_F(RoverTest, UnknownDeviceAddressOrBusIsRejected) {
+  Verdict v = h.check(rover::kFollower, 0x09, {120, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kUnknownDevice);
+  v = h.check(rover::kFollower, 0x08, {120, 0, 0, 0}, 1000, 0, TxKind::kWrite, /*bus=*/2);
+  EXPECT_EQ(v.reason, Reason::kUnknownDevice);
+}
+
+TEST_F(RoverTest, OverlongWriteIsRejected) {
+  const Verdict v = send(Bytes(kMaxWriteBytes + 1, 0));
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kTooLong);
+}
+
+TEST_F(RoverTest, ReadsNeedTheReadBit) {
+  Verdict v = h.check(rover::kLogger, 0x06, {}, 1000, 0, TxKind::kRead);
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(v.reason, Reason::kReadAllowed);
+  EXPECT_EQ(v.emit_count, 0);
+  v = h.check(rover::kIntruder, 0x06, {}, 1000, 0, TxKind::kRead);
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kReadDenied);
+  v = h.check(rover::kIntruder, 0x06, {}, 1000, 0, TxKind::kQuick);
+  EXPECT_EQ(v.reason, Reason::kReadDenied);
+  v = h.check(rover::kLogger, 0x08, {}, 1000, 0, TxKind::kQuick);  // gopigo: no read bit
+  EXPECT_EQ(v.reason, Reason::kReadDenied);
+}
+
+TEST_F(RoverTest, QueryCommandNeedsReadAccessAndIsEmittedAsIs) {
+  Verdict v = h.check(rover::kLogger, 0x06, {1, 3, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(v.reason, Reason::kReadAllowed);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 3, 0, 0, 0}}));
+  v = h.check(rover::kIntruder, 0x06, {1, 3, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kReadDenied);
+}
+
+TEST_F(RoverTest, FramesAreAcceptedWithAndWithoutThePrefix) {
+  sense(rover::kCentre);
+  Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 119, 0, 0, 0}}));
+  EXPECT_EQ(v.addr, 0x08);
+  v = send({119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{119, 0, 0, 0}}));
+}
+
+TEST_F(RoverTest, WrongFrameLengthsAreMalformed) {
+  for (size_t len : {0u, 1u, 3u, 6u, 9u}) {
+    const Verdict v = send(Bytes(len, 120));
+    EXPECT_EQ(v.decision, Decision::kReject) << len;
+    EXPECT_EQ(v.reason, Reason::kMalformed) << len;
+    EXPECT_EQ(v.reply_errno, 22) << len;
+  }
+}
+
+TEST_F(RoverTest, UnknownOpcodeIsRejected) {
+  const Verdict v = send({1, 200, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kUnknownCommand);
+}
+
+TEST_F(RoverTest, ForbiddenCommandIsRejected) {
+  const Verdict v = send({12, 7, 1, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kForbiddenCommand);
+}
+
+TEST_F(RoverTest, AccessIsDefaultDenyWithEperm) {
+  const Verdict v = send({120, 0, 0, 0}, rover::kLogger);
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kAccessDenied);
+  EXPECT_EQ(v.rule_kind, RuleKind::kAccess);
+  EXPECT_EQ(v.reply_errno, 1);
+  EXPECT_EQ(v.emit_count, 0);
+}
+
+TEST_F(RoverTest, CommandsOutsideEveryRuleAreAllowed) {
+  // stop is in no invariant's mask and no rate limit: no sensor needed.
+  const Verdict v = send({120, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(h.sample_reads, 0u);
+}
+
+TEST_F(RoverTest, RateLimitCountsPerJobNumber) {
+  EXPECT_EQ(send({70, 150, 0, 0}, rover::kFollower, 1000, 7).decision, Decision::kAllow);
+  EXPECT_EQ(send({71, 150, 0, 0}, rover::kFollower, 1001, 7).decision, Decision::kAllow);
+  const Verdict third = send({70, 80, 0, 0}, rover::kFollower, 1002, 7);
+  EXPECT_EQ(third.decision, Decision::kIgnore);
+  EXPECT_EQ(third.reason, Reason::kRateExceeded);
+  EXPECT_EQ(third.rule_kind, RuleKind::kRate);
+  EXPECT_EQ(third.rule, 0);
+  // Commands outside the rule's mask do not count and are not limited.
+  EXPECT_EQ(send({120, 0, 0, 0}, rover::kFollower, 1003, 7).decision, Decision::kAllow);
+  // The next job starts a new window even at the same time.
+  EXPECT_EQ(send({70, 80, 0, 0}, rover::kFollower, 1003, 8).decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, RateLimitFallsBackToPeriodWindowsWithoutJobNumbers) {
+  // follower period = 200 ms: [0, 200000) is one window.
+  EXPECT_EQ(send({70, 1, 0, 0}, rover::kFollower, 10).decision, Decision::kAllow);
+  EXPECT_EQ(send({70, 1, 0, 0}, rover::kFollower, 150000).decision, Decision::kAllow);
+  EXPECT_EQ(send({70, 1, 0, 0}, rover::kFollower, 199999).decision, Decision::kIgnore);
+  EXPECT_EQ(send({70, 1, 0, 0}, rover::kFollower, 200000).decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, RateLimitFailsafeUsesTheTemplateOnTheCheckedCommand) {
+  image::ImageModel m = rover::model();
+  m.rates[0].record.response = static_cast<uint8_t>(Response::kFailsafe);
+  m.rates[0].record.template_id = rover::kTplSpeed80;
+  load(m);
+  send({70, 200, 0, 0}, rover::kFollower, 1, 1);
+  send({70, 200, 0, 0}, rover::kFollower, 2, 1);
+  const Verdict v = send({1, 71, 250, 0, 0}, rover::kFollower, 3, 1);
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.reason, Reason::kRateExceeded);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 71, 80, 0, 0}}));  // prefix kept, speed forced
+}
+
+// Rule-based random test: the rate rule against a reference model of job
+// windows (job numbers, or now / period when the job is 0).
+TEST_F(RoverTest, RateLimitMatchesAReferenceModel) {
+  std::mt19937 rng(2024);
+  uint64_t now = 0;
+  uint32_t job = 1;
+  bool have_key = false;
+  uint64_t key = 0;
+  uint32_t count = 0;
+  for (int i = 0; i < 5000; ++i) {
+    now += rng() % 90000;
+    const bool use_jobs = (i / 500) % 2 == 0;
+    if (use_jobs && rng() % 4 == 0) ++job;
+    const uint32_t tx_job = use_jobs ? job : 0;
+    const uint64_t k = tx_job != 0 ? ((1ull << 63) | tx_job) : now / 200000;
+    if (!have_key || k != key) {
+      have_key = true;
+      key = k;
+      count = 0;
+    }
+    const auto pick = static_cast<uint32_t>(rng() % 3);
+    const uint8_t opcode = pick == 0 ? 70 : pick == 1 ? 71 : 120;
+    Decision expected = Decision::kAllow;
+    if (opcode != 120) {
+      ++count;
+      if (count > 2) expected = Decision::kIgnore;
+    }
+    const Verdict v = send({opcode, 5, 0, 0}, rover::kFollower, now, tx_job);
+    ASSERT_EQ(v.decision, expected) << "step " << i;
+  }
+}
+
+TEST_F(RoverTest, InvariantPassesWhenTheExpectedCommandIsSent) {
+  sense(rover::kLineLeft);
+  EXPECT_EQ(send({1, 100, 0, 0, 0}).decision, Decision::kAllow);  // right
+  sense(rover::kLineRight);
+  EXPECT_EQ(send({1, 97, 0, 0, 0}).decision, Decision::kAllow);  // left
+  sense(rover::kCentre);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}).decision, Decision::kAllow);  // fwd
+}
+
+TEST_F(RoverTest, InvariantFailWithTemplateSubstitutesKeepingThePrefix) {
+  sense(rover::kLineLeft);  // pos < -2500: INV1 expects right()
+  Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.reason, Reason::kInvariantViolated);
+  EXPECT_EQ(v.rule_kind, RuleKind::kInvariant);
+  EXPECT_EQ(v.rule, rover::kInv1);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 100, 0, 0, 0}}));
+  v = send({119, 0, 0, 0});
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{100, 0, 0, 0}}));
+}
+
+TEST_F(RoverTest, InvariantFailSubstEmitsTheComputedCommand) {
+  sense(rover::kCentre);  // INV3 expects fwd and substitutes it
+  const Verdict v = send({1, 97, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.rule, rover::kInv3);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 119, 0, 0, 0}}));
+}
+
+TEST_F(RoverTest, InvariantFailWithRejectResponse) {
+  image::ImageModel m = rover::model();
+  m.invariants[rover::kInv1].record.response = static_cast<uint8_t>(Response::kReject);
+  m.invariants[rover::kInv1].record.reply_errno = 121;
+  load(m);
+  sense(rover::kLineLeft);
+  const Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reply_errno, 121);
+  EXPECT_EQ(v.emit_count, 0);
+}
+
+TEST_F(RoverTest, InvariantFailsafeWithoutTemplateIgnores) {
+  image::ImageModel m = rover::model();
+  m.invariants[rover::kInv1].record.template_id = kNone;
+  load(m);
+  sense(rover::kLineLeft);
+  const Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kIgnore);
+  EXPECT_EQ(v.reason, Reason::kInvariantViolated);
+}
+
+TEST_F(RoverTest, MissingSampleMakesSignalsUnavailableAndFailsClosed) {
+  const Verdict v = send({1, 119, 0, 0, 0});   // no sample at all
+  EXPECT_EQ(v.decision, Decision::kFailsafe);  // INV1 has a template: right()
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
+  EXPECT_EQ(v.rule, rover::kInv1);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 100, 0, 0, 0}}));
+}
+
+TEST_F(RoverTest, StaleSampleIsUnavailable) {
+  sense(rover::kCentre, /*taken_at=*/1000);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 51000).decision, Decision::kAllow);
+  const Verdict v = send({1, 119, 0, 0, 0}, rover::kFollower, 51001);  // 50001 us old
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
+}
+
+TEST_F(RoverTest, OutOfRangeReadingIsUnavailable) {
+  const int32_t junk[5] = {767, 815, 0xFFFF, 710, 700};  // bus returned 0xFF bytes
+  sense(junk);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}).reason, Reason::kSignalUnavailable);
+}
+
+TEST_F(RoverTest, SensorIsSampledOncePerCheck) {
+  sense(rover::kCentre);
+  h.sample_reads = 0;
+  send({1, 119, 0, 0, 0});  // three invariants, five raw signals, one derived
+  EXPECT_EQ(h.sample_reads, 1u);
+  send({1, 119, 0, 0, 0});
+  EXPECT_EQ(h.sample_reads, 2u);  // memo is per check, not forever
+}
+
+TEST_F(RoverTest, ProgramFaultFailsClosed) {
+  image::ImageModel m = rover::model();
+  Prog div0;
+  div0.push(1).push(0).op(Op::kDiv).op(Op::kDrop).op(Op::kPass);
+  m.invariants[rover::kInv1].record.code_first = testing::add_code(m, div0);
+  m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(div0.size());
+  m.invariants[rover::kInv1].record.template_id = kNone;
+  load(m);
+  sense(rover::kCentre);
+  const Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kIgnore);
+  EXPECT_EQ(v.reason, Reason::kProgramFault);
+}
+
+TEST_F(RoverTest, OverflowFaultsTheProgram) {
+  image::ImageModel m = rover::model();
+  m.constants.push_back(INT64_MAX);
+  Prog ovf;
+  ovf.op(Op::kPushConst, 0).push(1).op(Op::kAdd).op(Op::kDrop).op(Op::kPass);
+  m.invariants[rover::kInv1].record.code_first = testing::add_code(m, ovf);
+  m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(ovf.size());
+  load(m);
+  sense(rover::kCentre);
+  const Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.reason, Reason::kProgramFault);
+  EXPECT_EQ(v.decision, Decision::kFailsafe);  // INV1's template
+}
+
+// An invariant on set_left_speed with a computed substitute: speed > 100 →
+// the same command with speed 80.
+image::ImageModel with_speed_cap(int32_t substitute) {
+  image::ImageModel m = rover::model();
+  Prog cap;
+  cap.field(0).push(100).op(Op::kGt);
+  const size_t ok = cap.jump(Op::kJumpIfZero);
+  cap.op(Op::kSubstBegin, kNone).push(substitute).op(Op::kSubstField, 0).op(Op::kFailSubst);
+  cap.land(ok).op(Op::kPass);
+  Named<InvariantRecord> v;
+  v.name = "speed_cap";
+  v.record.device = rover::kGopigo;
+  v.record.code_first = testing::add_code(m, cap);
+  v.record.code_len = static_cast<uint16_t>(cap.size());
+  v.record.response = static_cast<uint8_t>(Response::kIgnore);
+  v.record.template_id = kNone;
+  v.record.commands = testing::mask_of({rover::kSetLeftSpeed});
+  m.invariants.push_back(v);
+  return m;
+}
+
+TEST_F(RoverTest, FailSubstEncodesComputedFieldValues) {
+  load(with_speed_cap(80));
+  Verdict v = send({1, 70, 200, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{1, 70, 80, 0, 0}}));
+  v = send({70, 90, 0, 0}, rover::kFollower, 1000, 99);
+  EXPECT_EQ(v.decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, SubstituteThatDoesNotFitItsFieldFailsClosed) {
+  load(with_speed_cap(300));  // speed is an 8-bit field
+  const Verdict v = send({1, 70, 200, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kIgnore);
+  EXPECT_EQ(v.reason, Reason::kEncodeFailed);
+  EXPECT_EQ(v.emit_count, 0);
+}
+
+TEST_F(RoverTest, LastFieldAndSinceLastSeeWhatReachedTheBus) {
+  // speed may change by at most 50 per command and not within 10 ms; with no
+  // history yet the program faults and the template (speed 80) is written,
+  // which then becomes the history.
+  image::ImageModel m = rover::model();
+  Prog slew;
+  slew.field(0).op(Op::kLastField, 0).op(Op::kSub).op(Op::kAbs).push(50).op(Op::kGt);
+  const size_t small = slew.jump(Op::kJumpIfZero);
+  slew.op(Op::kFail);
+  slew.land(small).op(Op::kSinceLast).push(10000).op(Op::kLt);
+  const size_t late = slew.jump(Op::kJumpIfZero);
+  slew.op(Op::kFail);
+  slew.land(late).op(Op::kPass);
+  Named<InvariantRecord> v;
+  v.name = "slew";
+  v.record.device = rover::kGopigo;
+  v.record.code_first = testing::add_code(m, slew);
+  v.record.code_len = static_cast<uint16_t>(slew.size());
+  v.record.response = static_cast<uint8_t>(Response::kIgnore);
+  v.record.template_id = rover::kTplSpeed80;
+  v.record.commands = testing::mask_of({rover::kSetRightSpeed});
+  m.invariants.push_back(v);
+  m.rates.clear();
+  load(m);
+  Verdict first = send({71, 200, 0, 0}, rover::kFollower, 1000);
+  EXPECT_EQ(first.reason, Reason::kProgramFault);
+  EXPECT_EQ(emits(first), (std::vector<Bytes>{{71, 80, 0, 0}}));
+  EXPECT_EQ(send({71, 120, 0, 0}, rover::kFollower, 20000).decision, Decision::kAllow);
+  EXPECT_EQ(send({71, 190, 0, 0}, rover::kFollower, 40000).decision, Decision::kIgnore);  // +70
+  EXPECT_EQ(send({71, 150, 0, 0}, rover::kFollower, 25000).decision, Decision::kIgnore);  // 5 ms
+  EXPECT_EQ(send({71, 150, 0, 0}, rover::kFollower, 60000).decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, LatchAfterKViolationsDrivesSafeStateThenIgnores) {
+  image::ImageModel m = rover::model();
+  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(LatchMode::kHoldSafe);
+  m.devices[rover::kGopigo].record.latch_count = 3;
+  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
+  load(m);
+  sense(rover::kCentre, 0);
+  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 1000).decision, Decision::kFailsafe);
+  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 2000).decision, Decision::kFailsafe);
+  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+  const Verdict third = send({1, 97, 0, 0, 0}, rover::kFollower, 3000);
+  EXPECT_EQ(third.decision, Decision::kFailsafe);
+  EXPECT_EQ(third.reason, Reason::kLatched);
+  EXPECT_EQ(third.rule_kind, RuleKind::kLatch);
+  EXPECT_EQ(emits(third), (std::vector<Bytes>{{120, 0, 0, 0}}));  // safe state: stop
+  EXPECT_TRUE(h.checker->latched(rover::kGopigo));
+  // Even a valid command is now ignored.
+  const Verdict held = send({1, 119, 0, 0, 0}, rover::kFollower, 4000);
+  EXPECT_EQ(held.decision, Decision::kIgnore);
+  EXPECT_EQ(held.reason, Reason::kLatched);
+  h.checker->reset_latch(rover::kGopigo);
+  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 5000).decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, ViolationsSpreadBeyondTheWindowDoNotLatch) {
+  image::ImageModel m = rover::model();
+  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(LatchMode::kHoldSafe);
+  m.devices[rover::kGopigo].record.latch_count = 2;
+  m.devices[rover::kGopigo].record.latch_window_us = 10000;
+  load(m);
+  h.samples[rover::kLine].bytes = rover::sample(rover::kCentre);
+  for (uint64_t t = 0; t < 10; ++t) {
+    h.samples[rover::kLine].taken_at_us = t * 20000;
+    EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, t * 20000).reason,
+              Reason::kInvariantViolated);
+  }
+  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+}
+
+TEST_F(RoverTest, SafeStateIsTheEncodedTemplates) {
+  Verdict v{};
+  ASSERT_TRUE(h.checker->safe_state(rover::kGopigo, &v));
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.addr, 0x08);
+  EXPECT_EQ(emits(v), (std::vector<Bytes>{{120, 0, 0, 0}}));
+  EXPECT_FALSE(h.checker->safe_state(rover::kLine, &v));  // none declared
+  EXPECT_FALSE(h.checker->safe_state(17, &v));
+}
+
+TEST_F(RoverTest, AuditRecordCarriesRuleFieldsAndBothByteStrings) {
+  load(with_speed_cap(80));
+  const Verdict v = send({1, 70, 200, 0, 0}, rover::kFollower, 4242, 9);
+  ASSERT_EQ(v.decision, Decision::kFailsafe);
+  ASSERT_EQ(h.audits.size(), 1u);
+  const AuditRecord& a = h.audits[0];
+  EXPECT_EQ(a.time_us, 4242u);
+  EXPECT_EQ(a.job, 9u);
+  EXPECT_EQ(a.task, rover::kFollower);
+  EXPECT_EQ(a.device, rover::kGopigo);
+  EXPECT_EQ(a.command, rover::kSetLeftSpeed);
+  EXPECT_EQ(a.rule_kind, RuleKind::kInvariant);
+  EXPECT_EQ(a.rule, 3);
+  EXPECT_EQ(a.decision, Decision::kFailsafe);
+  EXPECT_EQ(a.reason, Reason::kInvariantViolated);
+  EXPECT_EQ(a.field_count, 1);
+  EXPECT_EQ(a.fields[0], 200);
+  EXPECT_EQ(a.original_len, 5);
+  EXPECT_EQ(h.audit_substitutes[0], (Bytes{1, 70, 80, 0, 0}));
+}
+
+TEST_F(RoverTest, UndecodedTransactionGetsOneAuditRecord) {
+  send({1, 200, 0, 0, 0});
+  ASSERT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].command, kNone);
+  EXPECT_EQ(h.audits[0].reason, Reason::kUnknownCommand);
+  EXPECT_EQ(h.audits[0].device, rover::kGopigo);
+}
+
+}  // namespace
+}  // namespace contego::core

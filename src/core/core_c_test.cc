@@ -1,0 +1,86 @@
+// The C facade: storage provided by the caller, C host callbacks, verdicts.
+#include "contego/core_c.h"
+
+#include <gtest/gtest.h>
+#include <vector>
+
+#include "core/test_fixtures.h"
+
+namespace contego::core {
+namespace {
+
+namespace rover = testing::rover;
+
+struct CHost {
+  std::vector<uint8_t> sample;
+  int audits = 0;
+  uint8_t last_reason = 0xFF;
+};
+
+uint32_t c_read_sample(void* ctx, uint16_t, uint8_t* buf, uint32_t capacity, uint64_t* taken) {
+  auto* h = static_cast<CHost*>(ctx);
+  if (h->sample.size() > capacity) return 0;
+  std::copy(h->sample.begin(), h->sample.end(), buf);
+  *taken = 0;
+  return static_cast<uint32_t>(h->sample.size());
+}
+
+void c_audit(void* ctx, const contego_audit_record* r) {
+  auto* h = static_cast<CHost*>(ctx);
+  ++h->audits;
+  h->last_reason = r->reason;
+}
+
+TEST(CoreCTest, InitRefusesSmallOrMisalignedStorage) {
+  std::vector<uint8_t> small(16);
+  EXPECT_EQ(contego_checker_init(small.data(), small.size()), nullptr);
+  EXPECT_EQ(contego_checker_init(nullptr, contego_checker_size()), nullptr);
+  EXPECT_GE(contego_checker_align(), 8u);
+}
+
+TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
+  std::vector<uint64_t> storage(contego_checker_size() / 8 + 1);
+  contego_checker* c = contego_checker_init(storage.data(), storage.size() * 8);
+  ASSERT_NE(c, nullptr);
+
+  std::vector<uint8_t> img = image::serialize(rover::model());
+  img[img.size() - 1] ^= 1;
+  contego_load_result bad = contego_load(c, img.data(), static_cast<uint32_t>(img.size()));
+  EXPECT_EQ(bad.status, static_cast<uint8_t>(LoadStatus::kBadChecksum));
+  EXPECT_STREQ(contego_load_status_name(bad.status), "bad-checksum");
+  img[img.size() - 1] ^= 1;
+  ASSERT_EQ(contego_load(c, img.data(), static_cast<uint32_t>(img.size())).status, 0);
+  EXPECT_GT(contego_worst_case_cost(c), 0u);
+
+  CHost host;
+  host.sample = rover::sample(rover::kLineLeft);
+  contego_host h{&host, c_read_sample, c_audit};
+  contego_set_host(c, &h);
+
+  const uint8_t fwd[] = {1, 119, 0, 0, 0};
+  contego_transaction tx{};
+  tx.task = rover::kFollower;
+  tx.bus = 1;
+  tx.kind = CONTEGO_TX_WRITE;
+  tx.addr = 0x08;
+  tx.len = sizeof(fwd);
+  tx.bytes = fwd;
+  tx.now_us = 10;
+  contego_verdict v{};
+  contego_check(c, &tx, &v);
+  EXPECT_EQ(v.decision, CONTEGO_FAILSAFE);  // line far left: right() instead
+  EXPECT_STREQ(contego_decision_name(v.decision), "failsafe");
+  EXPECT_STREQ(contego_reason_name(v.reason), "invariant-violated");
+  ASSERT_EQ(v.emit_count, 1);
+  EXPECT_EQ(v.emit_bytes[1], 100);
+  EXPECT_EQ(host.audits, 1);
+  EXPECT_EQ(host.last_reason, static_cast<uint8_t>(Reason::kInvariantViolated));
+
+  EXPECT_EQ(contego_safe_state(c, rover::kGopigo, &v), 1);
+  EXPECT_EQ(v.emit_bytes[0], 120);
+  EXPECT_EQ(contego_latched(c, rover::kGopigo), 0);
+  contego_reset_latch(c, rover::kGopigo);
+}
+
+}  // namespace
+}  // namespace contego::core

@@ -1,0 +1,296 @@
+// Device profiles inside the core: decoding a write into commands (frame and
+// register-map, with staging of partial register groups) and encoding
+// substitutes (templates, FAIL_SUBST, safe states) back into bus writes.
+#include "contego/core/checker.h"
+
+#include "core/internal.h"
+
+namespace contego::core {
+namespace {
+
+constexpr uint8_t kEperm = 1;
+constexpr uint8_t kEinval = 22;
+
+template <typename O>  // O = Checker::Outcome (private; deduced, not named)
+void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
+  if (o == nullptr) return;
+  o->command = command;
+  o->decision = Decision::kReject;
+  o->reason = reason;
+  o->rule_kind = RuleKind::kNone;
+  o->rule = kNone;
+  o->reply_errno = err;
+}
+
+}  // namespace
+
+void Checker::check_frame(const Transaction& tx, uint16_t dev) {
+  const DeviceRecord& dr = devices_[dev];
+  uint32_t prefix = 0;
+  if (tx.len == dr.frame_len) {
+    prefix = 0;
+  } else if (dr.prefix_len != 0 && tx.len == static_cast<uint32_t>(dr.frame_len) + dr.prefix_len) {
+    prefix = dr.prefix_len;
+  } else {
+    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  }
+  const uint8_t* frame = tx.bytes + prefix;
+  const uint8_t k = state_[dev].lookup[frame[0]];
+  if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+  Decoded& d = decoded_;
+  d.device = dev;
+  d.command = static_cast<uint16_t>(dr.command_first + k);
+  d.index = 0;
+  d.prefix = static_cast<uint8_t>(prefix);
+  d.prefix_byte = prefix ? tx.bytes[0] : 0;
+  d.base_reg = 0;
+  d.len = dr.frame_len;
+  __builtin_memcpy(d.bytes, frame, dr.frame_len);
+  const CommandRecord& c = commands_[d.command];
+  d.field_count = c.field_count;
+  for (uint32_t f = 0; f < c.field_count; ++f) {
+    d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
+  }
+  Outcome* o = new_outcome(dev);
+  if (o == nullptr) return;
+  evaluate(tx, *o);
+  if (o->decision == Decision::kAllow) {
+    // The checked bytes, exactly as checked (prefix included).
+    emit(tx.bytes, tx.len);
+    o->emit_len = static_cast<uint16_t>(tx.len);
+    o->bus_command = d.command;
+    for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+  }
+}
+
+void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
+  const DeviceRecord& dr = devices_[dev];
+  DeviceState& st = state_[dev];
+  if (tx.len == 0) return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  if (tx.len == 1 && general_call_) {
+    // One byte to the general-call address is a command (0x06 = software
+    // reset on a PCA9685), not a register pointer.
+    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  }
+  if (tx.len == 1) {
+    // Register pointer only (the first half of a register read): no register
+    // changes, so it needs read access like the read that follows.
+    Outcome* o = new_outcome(dev);
+    if (o == nullptr) return;
+    if ((access_[tx.task].read_devices >> dev) & 1u) {
+      o->reason = Reason::kReadAllowed;
+      emit(tx.bytes, 1);
+      o->emit_len = 1;
+    } else {
+      refuse(o, Reason::kReadDenied, kEperm, kNone);
+      o->rule_kind = RuleKind::kAccess;
+      o->rule = tx.task;
+    }
+    return;
+  }
+  const bool ai = dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kAlways) ||
+                  (dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kBit) &&
+                   ((st.shadow[dr.ai_reg] >> dr.ai_bit) & 1u));
+  const uint32_t first = tx.bytes[0];
+  const uint32_t n = tx.len - 1;
+  if (ai && first + n > kMaxRegisters) {
+    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  }
+  for (uint32_t i = 0; i < n; ++i) {
+    const uint8_t reg = static_cast<uint8_t>(ai ? first + i : first);
+    const uint8_t val = tx.bytes[1 + i];
+    const uint8_t k = st.lookup[reg];
+    if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+    const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
+    const CommandRecord& c = commands_[cid];
+    if (c.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+      // Decoded far enough to know it is forbidden: evaluate() records the violation.
+      Decoded& d = decoded_;
+      d.device = dev;
+      d.command = cid;
+      d.index = 0;
+      d.field_count = 0;
+      Outcome* o = new_outcome(dev);
+      if (o != nullptr) evaluate(tx, *o);
+      return;
+    }
+    const uint32_t off = reg - c.match;
+    const uint32_t index = c.stride != 0 ? off / c.stride : 0;
+    const uint32_t base = c.match + index * c.stride;
+    const uint32_t j = reg - base;
+    // Another task's staged bytes of this group are dropped.
+    bool conflict = false;
+    uint8_t victim = 0;
+    for (uint32_t q = 0; q < c.group_len; ++q) {
+      const uint32_t r = base + q;
+      if (internal::bit_test(st.staged_bits, r) && st.staged_task[r] != tx.task) {
+        undo_save(dev, static_cast<uint8_t>(r));
+        internal::bit_clear(st.staged_bits, r);
+        victim = st.staged_task[r];
+        conflict = true;
+      }
+    }
+    if (conflict && host_.audit != nullptr) {
+      AuditRecord a{};
+      a.time_us = tx.now_us;
+      a.job = tx.job;
+      a.task = victim;
+      a.device = dev;
+      a.command = cid;
+      a.rule = kNone;
+      a.rule_kind = RuleKind::kNone;
+      a.decision = Decision::kIgnore;
+      a.reason = Reason::kStagingConflict;
+      a.index = static_cast<uint8_t>(index);
+      a.bus = tx.bus;
+      a.addr = tx.addr;
+      a.original_len = static_cast<uint16_t>(tx.len);
+      a.original = tx.bytes;
+      host_.audit(host_.context, &a);
+    }
+    if (j + 1 < c.group_len) {
+      undo_save(dev, reg);
+      st.staged[reg] = val;
+      st.staged_task[reg] = static_cast<uint8_t>(tx.task);
+      internal::bit_set(st.staged_bits, reg);
+      if (tx_.staged_command == kNone) {
+        tx_.staged_command = cid;
+        tx_.staged_index = static_cast<uint8_t>(index);
+      }
+      continue;
+    }
+    // The group's last register: commit = shadow overlaid with staged bytes.
+    Decoded& d = decoded_;
+    d.device = dev;
+    d.command = cid;
+    d.index = static_cast<uint8_t>(index);
+    d.prefix = 0;
+    d.prefix_byte = 0;
+    d.base_reg = static_cast<uint8_t>(base);
+    d.len = c.group_len;
+    __builtin_memset(d.written, 0, sizeof(d.written));
+    for (uint32_t q = 0; q < c.group_len; ++q) {
+      const uint32_t r = base + q;
+      if (internal::bit_test(st.staged_bits, r)) {
+        d.bytes[q] = st.staged[r];
+        internal::bit_set(d.written, q);
+        undo_save(dev, static_cast<uint8_t>(r));
+        internal::bit_clear(st.staged_bits, r);
+      } else {
+        d.bytes[q] = st.shadow[r];
+      }
+    }
+    d.bytes[j] = val;
+    internal::bit_set(d.written, j);
+    d.field_count = c.field_count;
+    for (uint32_t f = 0; f < c.field_count; ++f) {
+      d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
+    }
+    Outcome* o = new_outcome(dev);
+    if (o == nullptr) return;
+    o->base_reg = d.base_reg;
+    o->group_len = c.group_len;
+    evaluate(tx, *o);
+    if (o->decision == Decision::kAllow) {
+      for (uint32_t q = 0; q < c.group_len; ++q) {
+        if (!internal::bit_test(d.written, q)) continue;
+        const uint8_t r = static_cast<uint8_t>(base + q);
+        const uint8_t pair[2] = {r, d.bytes[q]};
+        emit(pair, 2);
+        undo_save(dev, r);
+        st.shadow[r] = d.bytes[q];
+      }
+      o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
+      o->bus_command = cid;
+      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+    }
+  }
+}
+
+// Encodes a substitute command: the base bytes (the checked frame for the
+// checked command, else the opcode and zeros; for register maps the shadow
+// group), with the selected fields replaced. False if a value does not fit.
+bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
+                               uint8_t* bytes, uint32_t* len, uint16_t* command, uint8_t* index,
+                               int32_t* fields) {
+  const uint16_t cid = subst.command != kNone ? subst.command
+                       : request != nullptr   ? request->command
+                                              : kNone;
+  if (cid == kNone || cid >= command_count_ || commands_[cid].device != dev) return false;
+  const CommandRecord& c = commands_[cid];
+  const DeviceRecord& dr = devices_[dev];
+  uint8_t idx = 0;
+  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
+    *len = dr.frame_len;
+    if (request != nullptr && request->command == cid) {
+      __builtin_memcpy(bytes, request->bytes, dr.frame_len);
+    } else {
+      __builtin_memset(bytes, 0, dr.frame_len);
+      bytes[0] = c.match;
+    }
+  } else {
+    // Same channel as the checked command when the substitute has it, else channel 0.
+    if (request != nullptr && request->index < c.repeat) idx = request->index;
+    const uint32_t base = c.match + static_cast<uint32_t>(idx) * c.stride;
+    *len = c.group_len;
+    __builtin_memcpy(bytes, state_[dev].shadow + base, c.group_len);
+  }
+  for (uint32_t f = 0; f < c.field_count; ++f) {
+    if (((subst.set_mask >> f) & 1u) == 0) continue;
+    if (!internal::field_put(fields_[c.field_first + f], subst.values[f], bytes)) return false;
+  }
+  if ((subst.set_mask >> c.field_count) != 0) return false;  // a field the command lacks
+  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) {
+    fields[f] = f < c.field_count ? internal::field_get(fields_[c.field_first + f], bytes) : 0;
+  }
+  *command = cid;
+  *index = idx;
+  return true;
+}
+
+bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
+                           uint16_t command, uint8_t index) {
+  const DeviceRecord& dr = devices_[dev];
+  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
+    uint8_t framed[kMaxWriteBytes + 1];
+    uint32_t n = 0;
+    if (request != nullptr && request->prefix != 0) framed[n++] = request->prefix_byte;
+    __builtin_memcpy(framed + n, bytes, len);
+    return emit(framed, n + len);
+  }
+  const CommandRecord& c = commands_[command];
+  const uint32_t base = c.match + static_cast<uint32_t>(index) * c.stride;
+  for (uint32_t q = 0; q < len; ++q) {
+    const uint8_t r = static_cast<uint8_t>(base + q);
+    const uint8_t pair[2] = {r, bytes[q]};
+    if (!emit(pair, 2)) return false;
+    undo_save(dev, r);
+    state_[dev].shadow[r] = bytes[q];
+  }
+  return true;
+}
+
+bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
+  uint8_t bytes[kMaxRegisters];
+  uint32_t len = 0;
+  uint16_t command = kNone;
+  uint8_t index = 0;
+  int32_t fields[kMaxFieldsPerCommand];
+  const Verdict& v = *tx_.out;
+  if (!subst.active ||
+      !build_substitute(subst, &decoded_, decoded_.device, bytes, &len, &command, &index, fields)) {
+    return false;
+  }
+  if (!emit_encoded(decoded_.device, &decoded_, bytes, len, command, index)) {
+    tx_.emit_failed = false;  // this command fails closed on its own; others are unaffected
+    tx_.out->emit_count = o.emit_index;
+    tx_.out->emit_bytes_used = o.emit_offset;
+    return false;
+  }
+  o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
+  o.bus_command = command;
+  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o.bus_fields[f] = fields[f];
+  return true;
+}
+
+}  // namespace contego::core

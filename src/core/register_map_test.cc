@@ -1,0 +1,221 @@
+// Register-map decoding on the PCA9685-like arm: staging of byte writes,
+// word and auto-increment block writes, several groups per transaction,
+// templates encoded as register pairs, aliases, state words.
+#include <gtest/gtest.h>
+
+#include "core/test_fixtures.h"
+
+namespace contego::core {
+namespace {
+
+using testing::emits;
+using testing::Harness;
+namespace arm = testing::arm;
+using Bytes = std::vector<uint8_t>;
+using Writes = std::vector<Bytes>;
+
+constexpr uint16_t kAddr = 0x40;
+constexpr uint8_t kLed4 = 0x06 + 4 * 4;  // LED4_ON_L
+constexpr uint8_t kLed5 = 0x06 + 4 * 5;  // LED5_ON_L (the gripper: sequence rule)
+
+class ArmTest : public ::testing::Test {
+ protected:
+  void SetUp() override { load(arm::model()); }
+  void load(const image::ImageModel& m) {
+    const LoadResult r = h.load(m);
+    ASSERT_EQ(r.status, LoadStatus::kOk)
+        << load_status_name(r.status) << " section " << r.section << " index " << r.index;
+  }
+  Verdict send(Bytes bytes, uint16_t task = arm::kController, uint16_t addr = kAddr) {
+    return h.check(task, addr, std::move(bytes), ++now);
+  }
+  void auto_increment_on() { ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x21)); }
+  uint64_t now = 1000;
+  Harness h;
+};
+
+TEST_F(ArmTest, ByteWiseWritesStageUntilOffHighThenCommitOnce) {
+  // set_pwm(5, 0, 420) as the Adafruit library sends it: four 2-byte writes.
+  for (Bytes w : {Bytes{kLed5, 0x00}, Bytes{kLed5 + 1, 0x00}, Bytes{kLed5 + 2, 0xA4}}) {
+    const Verdict v = send(w);
+    EXPECT_EQ(v.decision, Decision::kAllow);
+    EXPECT_EQ(v.reason, Reason::kStaged);
+    EXPECT_EQ(v.emit_count, 0);
+  }
+  ASSERT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStaged);
+  const Verdict commit = send({kLed5 + 3, 0x01});
+  EXPECT_EQ(commit.decision, Decision::kAllow);
+  EXPECT_EQ(commit.reason, Reason::kAllowed);
+  EXPECT_EQ(emits(commit),
+            (Writes{{kLed5, 0x00}, {kLed5 + 1, 0x00}, {kLed5 + 2, 0xA4}, {kLed5 + 3, 0x01}}));
+  ASSERT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].command, arm::kLed);
+  EXPECT_EQ(h.audits[0].index, 5);
+  EXPECT_EQ(h.audits[0].fields[1], 420);
+  // The staging is consumed: OFF_H alone now commits with the shadow values.
+  const Verdict again = send({kLed5 + 3, 0x02});  // off = 0x2A4 = 676: out of range
+  EXPECT_EQ(again.decision, Decision::kFailsafe);
+}
+
+TEST_F(ArmTest, WordWriteStagesLowAndCommitsInOneTransaction) {
+  auto_increment_on();
+  const Verdict v = send({kLed5 + 2, 0xA4, 0x01});  // WORD_DATA: OFF_L, OFF_H = 420
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (Writes{{kLed5 + 2, 0xA4}, {kLed5 + 3, 0x01}}));
+}
+
+TEST_F(ArmTest, AutoIncrementBlockSpanningGroupsChecksEveryCommand) {
+  auto_increment_on();
+  // Channels 0 and 1: on = 0, off = 300 and 400.
+  const Verdict v = send({0x06, 0, 0, 0x2C, 0x01, 0, 0, 0x90, 0x01});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(v.emit_count, 8);
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].index, 0);
+  EXPECT_EQ(h.audits[0].fields[1], 300);
+  EXPECT_EQ(h.audits[1].index, 1);
+  EXPECT_EQ(h.audits[1].fields[1], 400);
+  // One bad channel in the block rejects nothing by itself (failsafe), but a
+  // forbidden register anywhere rejects the whole transaction.
+  const Verdict mixed = send({0x06, 0, 0, 0x2C, 0x01, 0, 0, 0xFF, 0x0F});  // ch1 off = 4095
+  EXPECT_EQ(mixed.decision, Decision::kFailsafe);
+  EXPECT_EQ(mixed.reason, Reason::kInvariantViolated);
+  // ch0 as written, ch1 replaced by the template (off = 375 = 0x177)
+  EXPECT_EQ(emits(mixed), (Writes{{0x06, 0},
+                                  {0x07, 0},
+                                  {0x08, 0x2C},
+                                  {0x09, 0x01},
+                                  {0x0A, 0},
+                                  {0x0B, 0},
+                                  {0x0C, 0x77},
+                                  {0x0D, 0x01}}));
+}
+
+TEST_F(ArmTest, WithoutAutoIncrementAllBytesGoToOneRegister) {
+  // MODE1 = 0x11 at power-on: AI clear. Two data bytes both land in OFF_H of
+  // channel 0, so the group commits twice (off = 0x100, then 0x200).
+  const Verdict v = send({0x09, 0x01, 0x02});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (Writes{{0x09, 0x01}, {0x09, 0x02}}));
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].fields[1], 256);
+  EXPECT_EQ(h.audits[1].fields[1], 512);
+}
+
+TEST_F(ArmTest, AutoIncrementFollowsTheShadowOfMode1) {
+  EXPECT_EQ(send({0x00, 0x21}).decision, Decision::kAllow);  // MODE1: AI on, SLEEP off
+  const Verdict v = send({kLed5 + 2, 0xA4, 0x01});
+  EXPECT_EQ(emits(v), (Writes{{kLed5 + 2, 0xA4}, {kLed5 + 3, 0x01}}));
+}
+
+TEST_F(ArmTest, RangeViolationSubstitutesTheWholeGroupFromTheShadow) {
+  h.checker->seed_register(arm::kArm, kLed5, 0x10);  // ON_L as the device holds it
+  const Verdict v = send({kLed5 + 3, 0x0F});         // off = 0xF00: out of range
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.rule, arm::kRange);
+  EXPECT_EQ(emits(v),
+            (Writes{{kLed5, 0x10}, {kLed5 + 1, 0}, {kLed5 + 2, 0x77}, {kLed5 + 3, 0x01}}));
+  ASSERT_EQ(h.audit_substitutes.size(), 1u);
+  EXPECT_EQ(h.audit_substitutes[0].size(), 8u);
+}
+
+TEST_F(ArmTest, UnknownAndForbiddenRegistersAreRejected) {
+  Verdict v = send({0x50, 0x01});  // reserved
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kUnknownCommand);
+  v = send({0xFF, 0x01});  // TestMode
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kForbiddenCommand);
+  auto_increment_on();
+  v = send({0xFE, 0x65, 0x00});  // PRE_SCALE then wraps past the map
+  EXPECT_EQ(v.decision, Decision::kReject);
+}
+
+TEST_F(ArmTest, RegisterPointerWriteIsARead) {
+  EXPECT_EQ(send({0x00}, arm::kOther).decision, Decision::kAllow);
+  const Verdict v = send({0x00}, arm::kController);
+  EXPECT_EQ(emits(v), (Writes{{0x00}}));
+}
+
+TEST_F(ArmTest, AllCallAliasIsCheckedAsTheArmAndEmittedToItsAddress) {
+  const Verdict v = send({0x00, 0x31}, arm::kController, 0x70);
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(v.device, arm::kArm);
+  EXPECT_EQ(v.addr, kAddr);
+  EXPECT_EQ(send({0x00, 0x31}, arm::kOther, 0x70).reason, Reason::kAccessDenied);
+}
+
+TEST_F(ArmTest, GeneralCallChecksEveryListener) {
+  // SWRST (general call, one byte 0x06) is not a register-pointer write.
+  const Verdict swrst = send({0x06}, arm::kController, 0x00);
+  EXPECT_NE(swrst.decision, Decision::kAllow);
+  EXPECT_EQ(swrst.emit_count, 0);
+  const Verdict ok = send({0x01, 0x04}, arm::kController, 0x00);  // MODE2 on every listener
+  EXPECT_EQ(ok.decision, Decision::kAllow);
+  EXPECT_EQ(ok.addr, 0);
+  EXPECT_EQ(emits(ok), (Writes{{0x01, 0x04}}));
+  EXPECT_EQ(send({0x01, 0x04}, arm::kOther, 0x00).decision, Decision::kReject);
+}
+
+TEST_F(ArmTest, StagingConflictDropsTheOtherTasksBytes) {
+  image::ImageModel m = arm::model();
+  m.access[arm::kOther].actuate_devices = 1u << arm::kArm;
+  load(m);
+  EXPECT_EQ(send({kLed4 + 2, 0xA4}, arm::kController).reason, Reason::kStaged);
+  send({kLed4 + 2, 0x41}, arm::kOther);
+  ASSERT_GE(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagingConflict);
+  EXPECT_EQ(h.audits[0].task, arm::kController);
+  // The other task's OFF_L (0x41) is what commits with OFF_H 0x02: 577.
+  const Verdict v = send({kLed4 + 3, 0x02}, arm::kOther);
+  EXPECT_EQ(emits(v), (Writes{{kLed4 + 2, 0x41}, {kLed4 + 3, 0x02}}));
+}
+
+TEST_F(ArmTest, RejectedTransactionLeavesNoStagedBytes) {
+  auto_increment_on();
+  // ch15 OFF_L, OFF_H (commits off = 0x201), then reserved 0x46: all refused.
+  const Verdict v = send({0x44, 0x01, 0x02, 0x03});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  // ch15 OFF_H alone now commits from the shadow (zeros), not from 0x01/0x02/0x03.
+  const Verdict c = send({0x45, 0x00});
+  EXPECT_EQ(emits(c), (Writes{{0x45, 0x00}}));
+}
+
+TEST_F(ArmTest, SequenceStateCommitsOnlyWhenTheTransactionWrites) {
+  auto_increment_on();
+  Verdict v = send({kLed5, 0, 0, 0xA4, 0x01});  // 420: step 0 -> 1
+  ASSERT_EQ(v.decision, Decision::kAllow);
+  // AI off: OFF_L = 0x41 staged, then OFF_H written twice in one transaction.
+  // The first commit (577) passes step 1 and sets a pending step 0; the
+  // second (577 again) fails step 0, so the whole transaction is rejected and
+  // the pending step is discarded.
+  h.checker->seed_register(arm::kArm, 0x00, 0x01);
+  EXPECT_EQ(send({kLed5 + 2, 0x41}).reason, Reason::kStaged);
+  v = send({kLed5 + 3, 0x02, 0x02});
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.rule, arm::kSequence);
+  EXPECT_EQ(v.reply_errno, 1);
+  EXPECT_EQ(v.emit_count, 0);
+  // Still at step 1: 577 passes now, then 577 again does not.
+  auto_increment_on();
+  EXPECT_EQ(send({kLed5, 0, 0, 0x41, 0x02}).decision, Decision::kAllow);
+  EXPECT_EQ(send({kLed5, 0, 0, 0x41, 0x02}).decision, Decision::kReject);
+}
+
+TEST_F(ArmTest, SafeStateIsWrittenAsRegisterPairs) {
+  Verdict v{};
+  ASSERT_TRUE(h.checker->safe_state(arm::kArm, &v));
+  EXPECT_EQ(emits(v), (Writes{{0x00, 0x11}}));
+  EXPECT_EQ(v.addr, kAddr);
+}
+
+TEST_F(ArmTest, SeedRegisterRefusesBadDevices) {
+  EXPECT_FALSE(h.checker->seed_register(5, 0, 0));
+  Harness rover;
+  ASSERT_EQ(rover.load(testing::rover::model()).status, LoadStatus::kOk);
+  EXPECT_FALSE(rover.checker->seed_register(0, 0, 0));  // frame device
+}
+
+}  // namespace
+}  // namespace contego::core

@@ -1,0 +1,458 @@
+// Writer, reader and dumper of policy images (host side). The layout is the
+// one docs/image-format.md describes: header, section table in kind order,
+// then every payload on a 4-byte boundary, NAMES last.
+#include "image/image_model.h"
+
+#include <cstring>
+#include <fmt/format.h>
+#include <map>
+
+namespace contego::image {
+namespace {
+
+using core::SectionKind;
+
+uint32_t record_size(SectionKind kind) {
+  switch (kind) {
+    case SectionKind::kTasks:
+      return sizeof(core::TaskRecord);
+    case SectionKind::kDevices:
+      return sizeof(core::DeviceRecord);
+    case SectionKind::kAliases:
+      return sizeof(core::AliasRecord);
+    case SectionKind::kCommands:
+      return sizeof(core::CommandRecord);
+    case SectionKind::kFields:
+      return sizeof(core::FieldRecord);
+    case SectionKind::kSignals:
+      return sizeof(core::SignalRecord);
+    case SectionKind::kRates:
+      return sizeof(core::RateRecord);
+    case SectionKind::kInvariants:
+      return sizeof(core::InvariantRecord);
+    case SectionKind::kTemplates:
+      return sizeof(core::TemplateRecord);
+    case SectionKind::kCode:
+      return sizeof(core::Insn);
+    case SectionKind::kConstants:
+      return sizeof(int64_t);
+    case SectionKind::kAccess:
+      return sizeof(core::AccessRecord);
+    case SectionKind::kRegisterInit:
+      return sizeof(core::RegisterInitRecord);
+    case SectionKind::kNames:
+      return 1;
+  }
+  return 0;
+}
+
+const char* section_name(uint32_t kind) {
+  switch (static_cast<SectionKind>(kind)) {
+    case SectionKind::kTasks:
+      return "TASKS";
+    case SectionKind::kDevices:
+      return "DEVICES";
+    case SectionKind::kAliases:
+      return "ALIASES";
+    case SectionKind::kCommands:
+      return "COMMANDS";
+    case SectionKind::kFields:
+      return "FIELDS";
+    case SectionKind::kSignals:
+      return "SIGNALS";
+    case SectionKind::kRates:
+      return "RATES";
+    case SectionKind::kInvariants:
+      return "INVARIANTS";
+    case SectionKind::kTemplates:
+      return "TEMPLATES";
+    case SectionKind::kCode:
+      return "CODE";
+    case SectionKind::kConstants:
+      return "CONSTANTS";
+    case SectionKind::kAccess:
+      return "ACCESS";
+    case SectionKind::kRegisterInit:
+      return "REGISTER_INIT";
+    case SectionKind::kNames:
+      return "NAMES";
+  }
+  return "?";
+}
+
+}  // namespace
+
+Result<ImageModel> deserialize(std::span<const uint8_t> bytes) {
+  core::ImageHeader h{};
+  if (bytes.size() < sizeof(h)) {
+    return make_error(
+        fmt::format("image: {} bytes, shorter than the {}-byte header", bytes.size(), sizeof(h)));
+  }
+  std::memcpy(&h, bytes.data(), sizeof(h));
+  if (h.magic != core::kImageMagic) {
+    return make_error(fmt::format("image: bad magic 0x{:08x} at offset 0 (expected 0x{:08x})",
+                                  h.magic, core::kImageMagic));
+  }
+  if (h.version_major != core::kImageVersionMajor) {
+    return make_error(fmt::format("image: format version {}.{} (this build reads {}.x)",
+                                  h.version_major, h.version_minor, core::kImageVersionMajor));
+  }
+  if (h.total_size != bytes.size()) {
+    return make_error(
+        fmt::format("image: header says {} bytes, buffer has {}", h.total_size, bytes.size()));
+  }
+  const uint64_t table_end = sizeof(h) + uint64_t{h.section_count} * sizeof(core::SectionEntry);
+  if (h.section_count > 64 || table_end > bytes.size()) {
+    return make_error(
+        fmt::format("image: section table of {} entries runs past the end", h.section_count));
+  }
+  ImageModel m;
+  std::vector<uint8_t> names;
+  struct Loc {
+    uint32_t offset = 0, size = 0, count = 0;
+    bool present = false;
+  };
+  std::map<uint32_t, Loc> sections;
+  for (uint32_t i = 0; i < h.section_count; ++i) {
+    core::SectionEntry e{};
+    std::memcpy(&e, bytes.data() + sizeof(h) + i * sizeof(e), sizeof(e));
+    if (uint64_t{e.offset} + e.size > bytes.size()) {
+      return make_error(
+          fmt::format("image: section {} (kind {}) at offset {} size {} runs past "
+                      "the end ({} bytes)",
+                      i, e.kind, e.offset, e.size, bytes.size()));
+    }
+    const uint32_t rs = record_size(static_cast<SectionKind>(e.kind));
+    if (rs == 0) {
+      return make_error(fmt::format("image: section {} has unknown kind {}", i, e.kind));
+    }
+    if (uint64_t{e.count} * rs != e.size) {
+      return make_error(fmt::format("image: section {} ({}): size {} is not {} records of {} bytes",
+                                    i, section_name(e.kind), e.size, e.count, rs));
+    }
+    sections[e.kind] = Loc{e.offset, e.size, e.count, true};
+  }
+  auto read = [&]<typename R>(SectionKind kind, std::vector<R>& out) {
+    const Loc& l = sections[static_cast<uint32_t>(kind)];
+    out.resize(l.count);
+    if (l.size != 0) std::memcpy(out.data(), bytes.data() + l.offset, l.size);
+  };
+  read(SectionKind::kNames, names);
+  auto name_at = [&](uint32_t offset, std::string* out) -> bool {
+    if (offset >= names.size()) return false;
+    const auto* begin = reinterpret_cast<const char*>(names.data() + offset);
+    const void* nul = std::memchr(begin, 0, names.size() - offset);
+    if (nul == nullptr) return false;
+    out->assign(begin, static_cast<const char*>(nul));
+    return true;
+  };
+  std::string error;
+  auto read_named = [&]<typename R>(SectionKind kind, std::vector<Named<R>>& out) {
+    std::vector<R> records;
+    read(kind, records);
+    for (size_t i = 0; i < records.size(); ++i) {
+      Named<R> n;
+      n.record = records[i];
+      if (!name_at(records[i].name, &n.name) && error.empty()) {
+        error = fmt::format(
+            "image: {} record {}: name offset {} is outside NAMES ({} bytes) or "
+            "not NUL-terminated",
+            section_name(static_cast<uint32_t>(kind)), i, records[i].name, names.size());
+      }
+      out.push_back(std::move(n));
+    }
+  };
+  read_named(SectionKind::kTasks, m.tasks);
+  read_named(SectionKind::kDevices, m.devices);
+  read(SectionKind::kAliases, m.aliases);
+  read_named(SectionKind::kCommands, m.commands);
+  read_named(SectionKind::kFields, m.fields);
+  read_named(SectionKind::kSignals, m.signals);
+  read_named(SectionKind::kRates, m.rates);
+  read_named(SectionKind::kInvariants, m.invariants);
+  read(SectionKind::kTemplates, m.templates);
+  read(SectionKind::kCode, m.code);
+  read(SectionKind::kConstants, m.constants);
+  read(SectionKind::kAccess, m.access);
+  read(SectionKind::kRegisterInit, m.register_init);
+  if (!error.empty()) return make_error(error);
+  return m;
+}
+
+namespace {
+
+const char* op_name(uint8_t op) {
+  using core::Op;
+  switch (static_cast<Op>(op)) {
+    case Op::kNop:
+      return "nop";
+    case Op::kPush:
+      return "push";
+    case Op::kPushConst:
+      return "pushc";
+    case Op::kSignal:
+      return "signal";
+    case Op::kField:
+      return "field";
+    case Op::kCommand:
+      return "command";
+    case Op::kIndex:
+      return "index";
+    case Op::kJobCount:
+      return "jobcount";
+    case Op::kLastField:
+      return "lastfield";
+    case Op::kSinceLast:
+      return "sincelast";
+    case Op::kState:
+      return "state";
+    case Op::kSetState:
+      return "setstate";
+    case Op::kAdd:
+      return "add";
+    case Op::kSub:
+      return "sub";
+    case Op::kMul:
+      return "mul";
+    case Op::kDiv:
+      return "div";
+    case Op::kMod:
+      return "mod";
+    case Op::kNeg:
+      return "neg";
+    case Op::kAbs:
+      return "abs";
+    case Op::kMin:
+      return "min";
+    case Op::kMax:
+      return "max";
+    case Op::kEq:
+      return "eq";
+    case Op::kNe:
+      return "ne";
+    case Op::kLt:
+      return "lt";
+    case Op::kLe:
+      return "le";
+    case Op::kGt:
+      return "gt";
+    case Op::kGe:
+      return "ge";
+    case Op::kAnd:
+      return "and";
+    case Op::kOr:
+      return "or";
+    case Op::kNot:
+      return "not";
+    case Op::kDup:
+      return "dup";
+    case Op::kDrop:
+      return "drop";
+    case Op::kJumpIfZero:
+      return "jz";
+    case Op::kJump:
+      return "jmp";
+    case Op::kSubstBegin:
+      return "subst";
+    case Op::kSubstField:
+      return "substfield";
+    case Op::kPass:
+      return "pass";
+    case Op::kFail:
+      return "fail";
+    case Op::kFailSubst:
+      return "failsubst";
+    case Op::kReturn:
+      return "ret";
+  }
+  return nullptr;
+}
+
+const char* response_name(uint8_t r) {
+  switch (r) {
+    case 1:
+      return "ignore";
+    case 2:
+      return "failsafe";
+    case 3:
+      return "reject";
+  }
+  return "?";
+}
+
+std::string mask_list(const core::CommandMask& m) {
+  std::string out;
+  for (uint32_t c = 0; c < 128; ++c) {
+    if ((m.bits[c / 32] >> (c % 32)) & 1u) out += fmt::format("{}{}", out.empty() ? "" : ",", c);
+  }
+  return out.empty() ? "-" : out;
+}
+
+void disassemble(std::string& out, const ImageModel& m, uint32_t first, uint32_t len) {
+  for (uint32_t pc = 0; pc < len; ++pc) {
+    const uint32_t at = first + pc;
+    if (at >= m.code.size()) {
+      out += fmt::format("      {:4}  <outside CODE>\n", at);
+      return;
+    }
+    const core::Insn& in = m.code[at];
+    const char* name = op_name(in.op);
+    std::string text = name ? name : fmt::format("op{}", in.op);
+    using core::Op;
+    switch (static_cast<Op>(in.op)) {
+      case Op::kPush:
+        text += fmt::format(" {}", in.imm);
+        break;
+      case Op::kPushConst:
+        text += fmt::format(" c{}", in.b);
+        if (in.b < m.constants.size()) text += fmt::format("  ; = {}", m.constants[in.b]);
+        break;
+      case Op::kSignal:
+        text += fmt::format(" s{}", in.b);
+        if (in.b < m.signals.size()) text += fmt::format("  ; {}", m.signals[in.b].name);
+        break;
+      case Op::kField:
+      case Op::kLastField:
+      case Op::kSubstField:
+        text += fmt::format(" {}", in.b);
+        break;
+      case Op::kSubstBegin:
+        text += in.b == core::kNone ? std::string(" <checked>") : fmt::format(" cmd{}", in.b);
+        break;
+      case Op::kJumpIfZero:
+      case Op::kJump:
+        text += fmt::format(" +{}  ; -> {}", in.imm, static_cast<int64_t>(pc) + in.imm);
+        break;
+      default:
+        break;
+    }
+    out += fmt::format("      {:4}  {}\n", pc, text);
+  }
+}
+
+}  // namespace
+
+std::string dump(const ImageModel& m) {
+  std::string out;
+  out += fmt::format("tasks ({}):\n", m.tasks.size());
+  for (size_t i = 0; i < m.tasks.size(); ++i) {
+    const auto& t = m.tasks[i].record;
+    out += fmt::format(
+        "  t{} {}: period {}us deadline {}us wcet {}us priority {} "
+        "actuations/job {} overhead {}ns\n",
+        i, m.tasks[i].name, t.period_us, t.deadline_us, t.wcet_us, t.priority, t.actuations_per_job,
+        t.overhead_ns);
+  }
+  out += fmt::format("devices ({}):\n", m.devices.size());
+  for (size_t i = 0; i < m.devices.size(); ++i) {
+    const auto& d = m.devices[i].record;
+    out += fmt::format("  d{} {}: role {}{} profile {} i2c-{} 0x{:02x}{} commands {}+{} safe {}+{}",
+                       i, m.devices[i].name, (d.role & core::kRoleActuator) ? "A" : "",
+                       (d.role & core::kRoleSensor) ? "S" : "",
+                       d.profile == 1   ? "frame"
+                       : d.profile == 2 ? "regmap"
+                                        : "?",
+                       d.bus, d.addr, d.ten_bit ? " (10-bit)" : "", d.command_first,
+                       d.command_count, d.safe_first, d.safe_count);
+    if (d.profile == 1) out += fmt::format(" frame {}+{}", d.prefix_len, d.frame_len);
+    if (d.profile == 2) {
+      out += fmt::format(" ai {}", d.auto_increment == 0 ? "never"
+                                   : d.auto_increment == 1
+                                       ? "always"
+                                       : fmt::format("bit {} of 0x{:02x}", d.ai_bit, d.ai_reg));
+    }
+    if (d.latch_mode != 0) {
+      out += fmt::format(" latch after {} in {}us", d.latch_count, d.latch_window_us);
+    }
+    if (d.sample_len != 0) {
+      out += fmt::format(" sample {}B every {}us max age {}us", d.sample_len, d.sample_period_us,
+                         d.max_sample_age_us);
+    }
+    out += "\n";
+  }
+  out += fmt::format("aliases ({}):\n", m.aliases.size());
+  for (const auto& a : m.aliases) {
+    out += fmt::format("  i2c-{} 0x{:02x} {} -> d{}\n", a.bus, a.addr,
+                       a.kind == 0 ? "address" : "general-call", a.device);
+  }
+  out += fmt::format("commands ({}):\n", m.commands.size());
+  for (size_t i = 0; i < m.commands.size(); ++i) {
+    const auto& c = m.commands[i].record;
+    static const char* kClass[] = {"?", "actuate", "query", "forbidden"};
+    out += fmt::format("  cmd{} {} (d{}, {}): match 0x{:02x}", i, m.commands[i].name, c.device,
+                       kClass[c.command_class < 4 ? c.command_class : 0], c.match);
+    if (c.group_len != 0) {
+      out += fmt::format(" group {} x{} stride {}", c.group_len, c.repeat, c.stride);
+    }
+    out += " fields:";
+    for (uint32_t f = c.field_first; f < uint32_t{c.field_first} + c.field_count; ++f) {
+      if (f >= m.fields.size()) {
+        out += " <outside FIELDS>";
+        break;
+      }
+      const auto& fr = m.fields[f].record;
+      out += fmt::format(" {}@{}:{}b>>{}&{}{}{}", m.fields[f].name, fr.offset, fr.nbytes, fr.shift,
+                         fr.width, (fr.flags & core::kFieldBigEndian) ? "be" : "",
+                         (fr.flags & core::kFieldSigned) ? "s" : "");
+    }
+    out += "\n";
+  }
+  out += fmt::format("signals ({}):\n", m.signals.size());
+  for (size_t i = 0; i < m.signals.size(); ++i) {
+    const auto& s = m.signals[i].record;
+    if (s.kind == 1) {
+      out += fmt::format("  s{} {}: raw d{} byte {} ({}B) valid [{}, {}]\n", i, m.signals[i].name,
+                         s.device, s.field.offset, s.field.nbytes, s.valid_min, s.valid_max);
+    } else {
+      out += fmt::format("  s{} {}: derived, code {}+{}\n", i, m.signals[i].name, s.code_first,
+                         s.code_len);
+      disassemble(out, m, s.code_first, s.code_len);
+    }
+  }
+  out += fmt::format("rates ({}):\n", m.rates.size());
+  for (size_t i = 0; i < m.rates.size(); ++i) {
+    const auto& r = m.rates[i].record;
+    out += fmt::format("  r{} {}: t{} -> d{} max {} per job over [{}] else {}", i, m.rates[i].name,
+                       r.task, r.device, r.max_per_job, mask_list(r.commands),
+                       response_name(r.response));
+    if (r.template_id != core::kNone) out += fmt::format(" tpl{}", r.template_id);
+    if (r.response == 3) out += fmt::format(" errno {}", r.reply_errno);
+    out += "\n";
+  }
+  out += fmt::format("invariants ({}):\n", m.invariants.size());
+  for (size_t i = 0; i < m.invariants.size(); ++i) {
+    const auto& v = m.invariants[i].record;
+    out += fmt::format("  i{} {}: d{} over [{}] on fail {}", i, m.invariants[i].name, v.device,
+                       mask_list(v.commands), response_name(v.response));
+    if (v.template_id != core::kNone) out += fmt::format(" tpl{}", v.template_id);
+    out += fmt::format(", code {}+{}\n", v.code_first, v.code_len);
+    disassemble(out, m, v.code_first, v.code_len);
+  }
+  out += fmt::format("templates ({}):\n", m.templates.size());
+  for (size_t i = 0; i < m.templates.size(); ++i) {
+    const auto& t = m.templates[i];
+    out += fmt::format(
+        "  tpl{}: {}", i,
+        t.command == core::kNone ? std::string("<checked>") : fmt::format("cmd{}", t.command));
+    for (uint32_t f = 0; f < 8; ++f) {
+      if ((t.set_mask >> f) & 1u) out += fmt::format(" f{}={}", f, t.values[f]);
+    }
+    out += "\n";
+  }
+  out += fmt::format("constants ({}):", m.constants.size());
+  for (size_t i = 0; i < m.constants.size(); ++i) out += fmt::format(" c{}={}", i, m.constants[i]);
+  out += "\n";
+  out += fmt::format("access ({} tasks):\n", m.access.size());
+  for (size_t i = 0; i < m.access.size(); ++i) {
+    out += fmt::format("  t{}: actuate 0x{:08x} read 0x{:08x}\n", i, m.access[i].actuate_devices,
+                       m.access[i].read_devices);
+  }
+  out += fmt::format("register init ({}):", m.register_init.size());
+  for (const auto& r : m.register_init) {
+    out += fmt::format(" d{}[0x{:02x}]=0x{:02x}", r.device, r.reg, r.value);
+  }
+  out += "\n";
+  return out;
+}
+
+}  // namespace contego::image
