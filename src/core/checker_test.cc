@@ -275,6 +275,15 @@ TEST_F(RoverTest, OutOfRangeReadingIsUnavailable) {
   EXPECT_EQ(send({1, 119, 0, 0, 0}).reason, Reason::kSignalUnavailable);
 }
 
+TEST_F(RoverTest, ExecutedInstructionsStayWithinTheWorstCase) {
+  sense(rover::kCentre);
+  const uint64_t before = h.checker->executed_instructions();
+  send({1, 119, 0, 0, 0});  // every invariant passes: the longest path here
+  const uint64_t used = h.checker->executed_instructions() - before;
+  EXPECT_GT(used, 0u);
+  EXPECT_LE(used, h.checker->worst_case_cost());
+}
+
 TEST_F(RoverTest, SensorIsSampledOncePerCheck) {
   sense(rover::kCentre);
   h.sample_reads = 0;

@@ -83,7 +83,14 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
   uint32_t sp = 0;
   const Insn* prog = code_ + code_first;
   uint32_t pc = 0;
+  uint32_t steps = 0;
   *status = kFault;
+  // Every exit adds the instructions this run executed to executed_.
+  struct Count {
+    uint64_t& total;
+    const uint32_t& steps;
+    ~Count() { total += steps; }
+  } count{executed_, steps};
 #define FAULT()       \
   do {                \
     *status = kFault; \
@@ -91,6 +98,7 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
   } while (0)
   while (pc < code_len) {
     const Insn& in = prog[pc];
+    ++steps;
     switch (static_cast<Op>(in.op)) {
       case Op::kNop:
         break;

@@ -108,6 +108,7 @@ void Checker::clear_tables() {
   __builtin_memset(rate_used_, 0, sizeof(rate_used_));
   __builtin_memset(state_words_, 0, sizeof(state_words_));
   epoch_ = 0;
+  executed_ = 0;
 }
 
 LoadResult Checker::load(const uint8_t* image, uint32_t size) {

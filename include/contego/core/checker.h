@@ -95,6 +95,10 @@ class Checker {
   // single command, over all commands of the image (computed at load).
   uint32_t worst_case_cost() const { return worst_case_cost_; }
 
+  // Bytecode instructions executed by all check() calls since load()
+  // (benchmarks report instructions per check with it).
+  uint64_t executed_instructions() const { return executed_; }
+
   // Read access to the loaded tables (for hosts, tools and tests).
   uint32_t task_count() const { return task_count_; }
   uint32_t device_count() const { return device_count_; }
@@ -270,6 +274,7 @@ class Checker {
   uint64_t derived_mask_ = 0;
   // Runtime state.
   uint32_t epoch_ = 0;
+  uint64_t executed_ = 0;
   uint64_t now_us_ = 0;
   bool general_call_ = false;  // this check() is a general call (no pointer-write reads)
   bool latch_event_ = false;   // a device latched during this check()
