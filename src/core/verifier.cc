@@ -257,6 +257,9 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
         d.pad0[1] != 0 || d.pad0[2] != 0) {
       return fail(S::kBadTag, kDevSec, i);
     }
+    // Bytes 30..31: alignment padding the struct leaves implicit; read raw.
+    const uint8_t* raw = image + entry(kSlotDevices).offset + sizeof(DeviceRecord) * i;
+    if (raw[30] != 0 || raw[31] != 0) return fail(S::kBadTag, kDevSec, i);
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
         d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes) {
       return fail(S::kBadField, kDevSec, i);
