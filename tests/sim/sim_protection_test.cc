@@ -172,7 +172,7 @@ INSTANTIATE_TEST_SUITE_P(
                       PlantCase{"pump_overdose_dose_first", "dose_delivered", 5000.0, 50.0},
                       PlantCase{"camera_beyond_range", "max_pan_angle", 20.0, 2.0},  // deg
                       PlantCase{"camera_false_siren", "false_siren_time", 10.0, 0.5}),
-    [](const auto& case_info) { return std::string(case_info.param.scenario); });
+    [](const auto& test_info) { return std::string(test_info.param.scenario); });
 
 TEST_F(ProtectionTest, SameSeedGivesAByteIdenticalTraceAndAnotherSeedDoesNot) {
   const Runs a = run("rover_spoof");
