@@ -12,6 +12,8 @@
 
 #include "contego/core/checker.h"
 
+#include "core/internal.h"
+
 namespace {
 
 using namespace contego::core;
@@ -38,13 +40,29 @@ void check_well_formed(const Verdict& v) {
 
 }  // namespace
 
+void fuzz_one(const uint8_t* data, size_t size);
+
+// Each input is tried as is and with its checksum recomputed, so mutations
+// reach the structural checks behind the CRC.
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static Checker* checker = new Checker();  // ~200 KiB: not on the stack
   if (size > kMaxImageBytes) return 0;
+  fuzz_one(data, size);
+  if (size >= 16) {
+    std::unique_ptr<uint8_t[]> copy(new uint8_t[size]);
+    std::memcpy(copy.get(), data, size);
+    const uint32_t crc = contego::core::internal::crc32(copy.get() + 16, size - 16);
+    std::memcpy(copy.get() + 12, &crc, 4);
+    fuzz_one(copy.get(), size);
+  }
+  return 0;
+}
+
+void fuzz_one(const uint8_t* data, size_t size) {
+  static Checker* checker = new Checker();  // ~200 KiB: not on the stack
   const LoadResult r = checker->load(data, static_cast<uint32_t>(size));
   if (r.status != LoadStatus::kOk) {
     if (checker->loaded()) std::abort();  // a refused image must leave nothing loaded
-    return 0;
+    return;
   }
   Host host{};
   host.read_sample = read_sample;
@@ -75,5 +93,4 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (checker->safe_state(dev, &safe)) check_well_formed(safe);
     checker->reset_latch(dev);
   }
-  return 0;
 }
