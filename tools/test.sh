@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: installs dependencies, then builds and tests every
-# mode (debug, ASan+UBSan, fuzz smoke runs). Exits non-zero on any failure.
+# mode (debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
+# runs). Exits non-zero on any failure.
 # Usage: tools/test.sh [--quick]   (--quick: debug build and CTest only)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,6 +23,11 @@ step "asan+ubsan build + tests"
 cmake --preset asan-ubsan >/dev/null
 cmake --build --preset asan-ubsan
 ctest --preset asan-ubsan
+
+step "tsan build + monitor and supervisor tests"
+cmake --preset tsan >/dev/null
+cmake --build --preset tsan --target supervisor_test monitor_test
+ctest --preset tsan -L 'monitor|supervisor'
 
 if [[ -f fuzz/CMakeLists.txt ]]; then
   step "fuzz smoke runs (clang, libFuzzer)"

@@ -14,6 +14,7 @@ namespace contego::cli {
 void register_version(CLI::App& app);
 void register_sched(CLI::App& app);
 void register_bench(CLI::App& app);
+void register_audit(CLI::App& app);
 // run and monitor need the policy compiler (built when src/policy is present).
 void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);

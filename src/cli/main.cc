@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   contego::cli::register_version(app);
   contego::cli::register_sched(app);
   contego::cli::register_bench(app);
+  contego::cli::register_audit(app);
 #ifdef CONTEGO_HAVE_POLICY
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);

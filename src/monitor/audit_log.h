@@ -1,12 +1,17 @@
 // The monitor's audit log: one JSON object per line, written and flushed
 // before the decision it records takes effect on the bus, so a monitor that
-// is killed loses nothing it already decided. docs/audit-format.md describes
-// the fields. Thread-safety: internally locked.
+// is killed loses nothing it already decided. Every line carries "prev", the
+// SHA-256 of the previous line's bytes, so an edited, removed or inserted
+// line breaks the chain (verify_audit, `contego audit`). docs/audit-format.md
+// describes the fields. Thread-safety: internally locked.
 #ifndef CONTEGO_MONITOR_AUDIT_LOG_H_
 #define CONTEGO_MONITOR_AUDIT_LOG_H_
 
 #include <cstdio>
+#include <istream>
+#include <map>
 #include <mutex>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "contego/core/verdict.h"
@@ -22,7 +27,8 @@ class AuditLog {
   AuditLog(const AuditLog&) = delete;
   AuditLog& operator=(const AuditLog&) = delete;
 
-  // Appends to `path` ("-" = standard error).
+  // Appends to `path` ("-" = standard error), continuing the hash chain from
+  // the file's last line.
   Status open(const std::string& path);
   void decision(const core::AuditRecord& record, const char* task_name);
   // Monitor events: start, safe-state, fault, task-exit, peer ...
@@ -30,12 +36,38 @@ class AuditLog {
   uint64_t lines() const;
 
  private:
-  void write_line(const std::string& line);
+  void write_line(nlohmann::json& j);
   mutable std::mutex mu_;
+  std::string prev_;  // SHA-256 (hex) of the last line written
   FILE* file_ = nullptr;
   bool owned_ = false;
   uint64_t lines_ = 0;
 };
+
+// The "prev" of the first line of a new log.
+inline constexpr const char* kAuditGenesis =
+    "0000000000000000000000000000000000000000000000000000000000000000";
+
+struct AuditSummary {
+  uint64_t lines = 0;
+  uint64_t decisions = 0;
+  std::map<std::string, uint64_t> by_decision;  // allow, ignore, failsafe, reject
+  std::map<std::string, uint64_t> by_task;      // task name (or id) -> decisions
+  std::map<std::string, uint64_t> events;       // start, safe-state, ... -> count
+  uint64_t first_us = 0, last_us = 0;
+  bool starts_at_genesis = false;  // else it continues a rotated-away log
+  std::string last_hash;           // anchor: SHA-256 of the last line
+};
+
+struct AuditCheck {
+  bool ok = true;
+  uint64_t bad_line = 0;  // 1-based, when !ok
+  std::string error;
+  AuditSummary summary;  // of the lines up to the first bad one
+};
+
+// Verifies the chain line by line and summarises the log.
+AuditCheck verify_audit(std::istream& in);
 
 }  // namespace contego::monitor
 

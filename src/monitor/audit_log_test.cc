@@ -1,0 +1,113 @@
+#include "monitor/audit_log.h"
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+
+namespace contego::monitor {
+namespace {
+
+class AuditChain : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char name[] = "/tmp/contego-audit-chain-XXXXXX";
+    const int fd = mkstemp(name);
+    ASSERT_GE(fd, 0);
+    close(fd);
+    path = name;
+  }
+  void TearDown() override { unlink(path.c_str()); }
+
+  void write_some(int decisions) {
+    AuditLog log;
+    ASSERT_TRUE(log.open(path).ok());
+    log.event("start", "test");
+    const uint8_t bytes[] = {0x01, 0x46, 0x64, 0x00, 0x00};
+    for (int i = 0; i < decisions; ++i) {
+      core::AuditRecord r{};
+      r.task = 0;
+      r.job = static_cast<uint32_t>(i);
+      r.decision = i % 3 == 0 ? core::Decision::kReject : core::Decision::kAllow;
+      r.addr = 0x08;
+      r.original = bytes;
+      r.original_len = 5;
+      log.decision(r, "follower");
+    }
+  }
+  std::vector<std::string> lines() {
+    std::ifstream in(path);
+    std::vector<std::string> v;
+    for (std::string l; std::getline(in, l);) v.push_back(l);
+    return v;
+  }
+  void put(const std::vector<std::string>& v) {
+    std::ofstream out(path, std::ios::trunc);
+    for (const auto& l : v) out << l << '\n';
+  }
+  AuditCheck verify() {
+    std::ifstream in(path);
+    return verify_audit(in);
+  }
+  std::string path;
+};
+
+TEST_F(AuditChain, AFreshLogVerifiesAndIsSummarised) {
+  write_some(6);
+  const AuditCheck c = verify();
+  ASSERT_TRUE(c.ok) << c.error;
+  EXPECT_EQ(c.summary.lines, 7u);
+  EXPECT_EQ(c.summary.decisions, 6u);
+  EXPECT_EQ(c.summary.by_decision.at("reject"), 2u);
+  EXPECT_EQ(c.summary.by_decision.at("allow"), 4u);
+  EXPECT_EQ(c.summary.by_task.at("follower"), 6u);
+  EXPECT_EQ(c.summary.events.at("start"), 1u);
+  EXPECT_TRUE(c.summary.starts_at_genesis);
+  EXPECT_EQ(c.summary.last_hash.size(), 64u);
+}
+
+TEST_F(AuditChain, ReopeningContinuesTheChain) {
+  write_some(2);
+  write_some(2);  // a restarted monitor appends
+  const AuditCheck c = verify();
+  ASSERT_TRUE(c.ok) << c.error;
+  EXPECT_EQ(c.summary.lines, 6u);
+}
+
+TEST_F(AuditChain, AnEditedDecisionBreaksTheChainAtTheNextLine) {
+  write_some(4);
+  auto v = lines();
+  const size_t pos = v[1].find("\"decision\":\"reject\"");
+  ASSERT_NE(pos, std::string::npos) << v[1];
+  v[1].replace(pos, 19, "\"decision\":\"allow\"");  // hide a refusal
+  put(v);
+  const AuditCheck c = verify();
+  EXPECT_FALSE(c.ok);
+  EXPECT_EQ(c.bad_line, 3u);
+  EXPECT_NE(c.error.find("line 3"), std::string::npos) << c.error;
+}
+
+TEST_F(AuditChain, ARemovedLineBreaksTheChain) {
+  write_some(4);
+  auto v = lines();
+  v.erase(v.begin() + 2);
+  put(v);
+  const AuditCheck c = verify();
+  EXPECT_FALSE(c.ok);
+  EXPECT_EQ(c.bad_line, 3u);
+}
+
+TEST_F(AuditChain, ALineWithoutAHashIsRefused) {
+  write_some(1);
+  auto v = lines();
+  v.push_back("{\"kind\":\"decision\",\"decision\":\"allow\"}");
+  put(v);
+  const AuditCheck c = verify();
+  EXPECT_FALSE(c.ok);
+  EXPECT_NE(c.error.find("no \"prev\""), std::string::npos) << c.error;
+}
+
+}  // namespace
+}  // namespace contego::monitor
