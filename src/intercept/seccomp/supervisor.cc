@@ -10,6 +10,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <linux/audit.h>
 #include <linux/close_range.h>
 #include <linux/filter.h>
@@ -173,6 +174,27 @@ class RemoteMemory final : public i2c_abi::Memory {
 
  private:
   pid_t pid_;
+};
+
+// Writes into the program only after `still_valid` said yes (asked once).
+class ValidatedWrites final : public i2c_abi::Memory {
+ public:
+  template <typename F>
+  ValidatedWrites(i2c_abi::Memory& inner, F still_valid)
+      : inner_(inner), still_valid_(std::move(still_valid)) {}
+  bool read(uint64_t addr, void* dst, size_t len) override { return inner_.read(addr, dst, len); }
+  bool write(uint64_t addr, const void* src, size_t len) override {
+    if (!checked_) {
+      if (!still_valid_()) return false;
+      checked_ = true;
+    }
+    return inner_.write(addr, src, len);
+  }
+
+ private:
+  i2c_abi::Memory& inner_;
+  std::function<bool()> still_valid_;
+  bool checked_ = false;
 };
 
 bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
@@ -429,8 +451,11 @@ void Loop::bus_call(const seccomp_notif& n, Process& p, const std::shared_ptr<Ha
   if (!valid(n.id)) return;
   ++result_.emulated;
   const gate::TransferReply r = endpoint_.transfer(options_.task, d.transfer);
-  if (!valid(n.id)) return;
-  const int64_t ret = i2c_abi::complete(d.completion, r, mem);
+  // Results are copied back only into the call we are answering: the id is
+  // re-validated before the first write into the program (a write-only call
+  // copies nothing back and saves that system call).
+  ValidatedWrites out(mem, [this, id = n.id] { return valid(id); });
+  const int64_t ret = i2c_abi::complete(d.completion, r, out);
   if (ret < 0) return reply(n.id, 0, static_cast<int>(-ret));
   reply(n.id, ret, 0);
 }
