@@ -360,6 +360,15 @@ TEST_P(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
   for (int ch = 0; ch < 16; ++ch) EXPECT_EQ(pca->led_off(ch), 0x1000) << ch;
 }
 
+TEST_P(Supervised, CloseOnExecBusDescriptorIsGoneAfterExec) {
+  if (preload()) GTEST_SKIP() << "the preload client does not follow exec";
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/cloexec_exec.py"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  EXPECT_NE(output.find("before exec ok"), std::string::npos) << output;
+  EXPECT_NE(output.find("after exec errno 9"), std::string::npos) << output;  // EBADF
+  EXPECT_EQ(pca->reg(0x06), 0x00);
+}
+
 TEST_P(Supervised, TaskExitDrivesTheSafeState) {
   run({"/usr/sbin/i2cset", "-y", "1", "0x08", "0x01", "0x77", "0", "0", "0", "i"});
   EXPECT_EQ(gpg->motion(), 0x78);  // fwd was allowed, then the exit stopped the rover
@@ -445,6 +454,35 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   EXPECT_FALSE((*c)->has_bus(2));
   server.stop();
   t.join();
+}
+
+TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
+  char name[] = "/tmp/contego-peercred-XXXXXX";
+  const int afd = mkstemp(name);
+  ASSERT_GE(afd, 0);
+  close(afd);
+  monitor::AuditLog audit;
+  ASSERT_TRUE(audit.open(name).ok());
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-peercred-" + std::to_string(getpid()) + ".sock";
+  // Only a uid this test does not run as may connect.
+  monitor::Server server(mon, audit, {{"t0", 0}}, {getuid() + 4242});
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+  auto c = gate::SocketClient::connect(path, "t0");
+  EXPECT_FALSE(c.ok());
+  server.stop();
+  t.join();
+  std::ifstream in(name);
+  std::stringstream log;
+  log << in.rdbuf();
+  EXPECT_NE(log.str().find("\"kind\":\"peer-refused\""), std::string::npos) << log.str();
+  EXPECT_NE(log.str().find("uid " + std::to_string(getuid())), std::string::npos) << log.str();
+  EXPECT_EQ(log.str().find("\"kind\":\"peer\""), std::string::npos) << log.str();
+  unlink(name);
 }
 
 TEST(Preload, UnreachableMonitorRefusesTheBusAndLeavesOtherFilesAlone) {

@@ -17,6 +17,7 @@
 #include <linux/seccomp.h>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
@@ -67,6 +68,8 @@ std::vector<Entry> filtered_syscalls() {
       {__NR_openat2, Class::kNotify},
       {__NR_close_range, Class::kNotify},
       {__NR_nanosleep, Class::kNotify},
+      {__NR_execve, Class::kNotify},
+      {__NR_execveat, Class::kNotify},
       {__NR_clock_nanosleep, Class::kNotify},
       {__NR_io_uring_setup, Class::kEnosys},
       {__NR_ioctl, Class::kFd0},
@@ -293,6 +296,7 @@ struct Handle {
 
 struct Process {
   std::map<int, std::shared_ptr<Handle>> fds;
+  std::set<int> cloexec;  // bus descriptors that a successful exec closes
 };
 
 class Loop {
@@ -383,7 +387,10 @@ Process& Loop::process_of(pid_t tid) {
   // (same open file descriptions, so the same address and flags).
   Process& p = processes_[tgid];
   auto parent = processes_.find(ppid);
-  if (parent != processes_.end() && ppid != 0) p.fds = parent->second.fds;
+  if (parent != processes_.end() && ppid != 0) {
+    p.fds = parent->second.fds;
+    p.cloexec = parent->second.cloexec;
+  }
   return p;
 }
 
@@ -425,6 +432,7 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   auto h = std::make_shared<Handle>();
   h->state.bus = static_cast<uint8_t>(bus);
   p.fds[slot] = h;
+  if ((flags & O_CLOEXEC) != 0) p.cloexec.insert(slot);
 }
 
 void Loop::bus_call(const seccomp_notif& n, Process& p, const std::shared_ptr<Handle>& h) {
@@ -471,6 +479,13 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
     bool cloexec = false;
     if (nr == __NR_fcntl) {
       const int cmd = static_cast<int>(a[1]);
+      if (cmd == F_SETFD) {
+        if ((a[2] & FD_CLOEXEC) != 0) {
+          p.cloexec.insert(oldfd);
+        } else {
+          p.cloexec.erase(oldfd);
+        }
+      }
       if (cmd != F_DUPFD && cmd != F_DUPFD_CLOEXEC) return continue_call(n.id);
       minimum = static_cast<int>(a[2]);
       cloexec = cmd == F_DUPFD_CLOEXEC;
@@ -478,7 +493,10 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
     const int slot = free_slot(p, minimum);
     if (slot < 0) return reply(n.id, 0, EMFILE);
     auto handle = old->second;
-    if (install(n.id, slot, cloexec) >= 0) p.fds[slot] = handle;
+    if (install(n.id, slot, cloexec) >= 0) {
+      p.fds[slot] = handle;
+      if (cloexec) p.cloexec.insert(slot);
+    }
     return;
   }
   // dup2 / dup3
@@ -497,7 +515,14 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   }
   const bool cloexec = nr == __NR_dup3 && (a[2] & O_CLOEXEC) != 0;
   auto handle = old->second;
-  if (install(n.id, newfd, cloexec) >= 0) p.fds[newfd] = handle;
+  if (install(n.id, newfd, cloexec) >= 0) {
+    p.fds[newfd] = handle;
+    if (cloexec) {
+      p.cloexec.insert(newfd);
+    } else {
+      p.cloexec.erase(newfd);
+    }
+  }
 }
 
 void Loop::handle(const seccomp_notif& n) {
@@ -518,17 +543,34 @@ void Loop::handle(const seccomp_notif& n) {
   is_open = is_open || nr == __NR_creat;
 #endif
   if (is_open) return open_call(n, p);
+  if (nr == __NR_execve || nr == __NR_execveat) {
+    // The kernel closes O_CLOEXEC descriptors when the exec succeeds: forget
+    // them now, so the new image cannot use a number it no longer holds.
+    // (Were the exec to fail, those placeholders stay open but inert:
+    // /dev/null answers ENOTTY, nothing reaches a bus.)
+    for (int fd : p.cloexec) p.fds.erase(fd);
+    p.cloexec.clear();
+    return continue_call(n.id);
+  }
   if (nr == __NR_close) {
     p.fds.erase(static_cast<int>(a[0]));
+    p.cloexec.erase(static_cast<int>(a[0]));
     return continue_call(n.id);  // closes the placeholder; no payload
   }
   if (nr == __NR_close_range) {
-    if ((a[2] & CLOSE_RANGE_CLOEXEC) == 0) {
-      const uint32_t first = static_cast<uint32_t>(a[0]);
-      const uint32_t last = static_cast<uint32_t>(a[1]);
-      for (auto it = p.fds.begin(); it != p.fds.end();) {
-        const auto fd = static_cast<uint32_t>(it->first);
-        it = (fd >= first && fd <= last) ? p.fds.erase(it) : std::next(it);
+    const uint32_t first = static_cast<uint32_t>(a[0]);
+    const uint32_t last = static_cast<uint32_t>(a[1]);
+    const bool mark_only = (a[2] & CLOSE_RANGE_CLOEXEC) != 0;
+    for (auto it = p.fds.begin(); it != p.fds.end();) {
+      const auto fd = static_cast<uint32_t>(it->first);
+      if (fd < first || fd > last) {
+        ++it;
+      } else if (mark_only) {
+        p.cloexec.insert(it->first);
+        ++it;
+      } else {
+        p.cloexec.erase(it->first);
+        it = p.fds.erase(it);
       }
     }
     return continue_call(n.id);

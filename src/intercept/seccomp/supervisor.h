@@ -13,6 +13,7 @@
 //  - dup/dup2/dup3/fcntl(F_DUPFD) on reserved descriptors: emulated so that
 //    bus descriptors stay in the range; a copy outside it is refused;
 //  - close/close_range: bookkeeping, then continued (no payload);
+//  - execve/execveat: O_CLOEXEC bus descriptors are forgotten, then continued;
 //  - nanosleep/clock_nanosleep: a job boundary, then continued (no payload).
 // Other system calls never reach the supervisor.
 //
