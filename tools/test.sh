@@ -26,7 +26,7 @@ ctest --preset asan-ubsan
 
 step "tsan build + monitor and supervisor tests"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan --target supervisor_test monitor_test
+cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test
 ctest --preset tsan -L 'monitor|supervisor'
 
 if [[ -f fuzz/CMakeLists.txt ]]; then
