@@ -269,6 +269,51 @@ TEST_F(RoverTest, StaleSampleIsUnavailable) {
   EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
 }
 
+// The derived line position is kept across checks while the sample's bytes
+// and freshness stay the same (docs/core.md, "Signals"): the second check runs
+// only the invariants, not the five-term position program.
+TEST_F(RoverTest, DerivedSignalIsKeptWhileTheSampleBytesAreUnchanged) {
+  sense(rover::kCentre, 1000);
+  uint64_t before = h.checker->executed_instructions();
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 1000).decision, Decision::kAllow);
+  const uint64_t first = h.checker->executed_instructions() - before;
+  sense(rover::kCentre, 1010);  // a new sample with the same bytes
+  before = h.checker->executed_instructions();
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 1010).decision, Decision::kAllow);
+  const uint64_t second = h.checker->executed_instructions() - before;
+  EXPECT_LT(second, first);
+  EXPECT_GT(second, 0u);  // the invariants still ran
+}
+
+TEST_F(RoverTest, KeptDerivedSignalIsRecomputedWhenTheSampleBytesChange) {
+  sense(rover::kCentre, 1000);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}).decision, Decision::kAllow);
+  // Same timestamp and length, other bytes: only comparing the bytes catches it.
+  sense(rover::kLineLeft, 1000);
+  Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.rule, rover::kInv1);
+  sense(rover::kCentre, 1000);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}).decision, Decision::kAllow);
+  h.samples[rover::kLine].bytes.clear();  // the host lost the sensor
+  v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
+}
+
+TEST_F(RoverTest, KeptDerivedSignalBecomesUnavailableWhenTheSampleGoesStale) {
+  sense(rover::kCentre, 1000);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 1000).decision, Decision::kAllow);
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 51000).decision, Decision::kAllow);
+  // Same bytes, but now 50001 us old: staleness is judged on every check.
+  Verdict v = send({1, 119, 0, 0, 0}, rover::kFollower, 51001);
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
+  v = send({1, 119, 0, 0, 0}, rover::kFollower, 60000);
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
+  sense(rover::kCentre, 60000);  // a fresh sample with the same bytes again
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 60000).decision, Decision::kAllow);
+}
+
 TEST_F(RoverTest, OutOfRangeReadingIsUnavailable) {
   const int32_t junk[5] = {767, 815, 0xFFFF, 710, 700};  // bus returned 0xFF bytes
   sense(junk);

@@ -16,29 +16,47 @@ constexpr uint8_t kFault = 2;
 
 }  // namespace
 
-uint8_t Checker::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
-  const SignalRecord& s = signals_[id];
-  SampleMemo& m = sample_memo_[s.device];
-  if (m.epoch != epoch_) {
-    m.epoch = epoch_;
-    m.len = 0;
-    m.taken_at_us = 0;
-    if (host_.read_sample != nullptr) {
-      uint64_t taken = 0;
-      const uint32_t n =
-          host_.read_sample(host_.context, s.device, m.bytes, kMaxSampleBytes, &taken);
-      m.len = n > kMaxSampleBytes ? 0 : n;  // a host that overran the buffer is not believed
-      m.taken_at_us = taken;
+// The latest sample of sensor `device`, read from the host once per check().
+// Its generation moves whenever what a signal could make of it changes: the
+// bytes, the length, or whether it is still fresh at `now_us`.
+Checker::SampleMemo& Checker::sample(uint16_t device, uint64_t now_us) {
+  SampleMemo& m = sample_memo_[device];
+  if (m.epoch == epoch_) return m;
+  m.epoch = epoch_;
+  uint8_t buf[kMaxSampleBytes];
+  uint32_t len = 0;
+  uint64_t taken = 0;
+  if (host_.read_sample != nullptr) {
+    const uint32_t n = host_.read_sample(host_.context, device, buf, kMaxSampleBytes, &taken);
+    len = n > kMaxSampleBytes ? 0 : n;  // a host that overran the buffer is not believed
+  }
+  bool changed = len != m.len;
+  for (uint32_t i = 0; i < len; ++i) {
+    if (m.bytes[i] != buf[i]) {
+      m.bytes[i] = buf[i];
+      changed = true;
     }
   }
-  const DeviceRecord& d = devices_[s.device];
+  m.len = len;
+  m.taken_at_us = len != 0 ? taken : 0;
+  const uint64_t max_age = devices_[device].max_sample_age_us;
+  const uint64_t age = now_us > m.taken_at_us ? now_us - m.taken_at_us : 0;
+  const bool fresh = max_age == 0 || age <= max_age;
+  if (fresh != m.fresh) changed = true;
+  m.fresh = fresh;
+  if (changed) ++m.generation;
+  return m;
+}
+
+static_assert(kMaxDevices <= 32, "signal_devices_ holds one bit per device");
+
+uint8_t Checker::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
+  const SignalRecord& s = signals_[id];
+  const SampleMemo& m = sample(s.device, now_us);
   if (m.len == 0 || static_cast<uint32_t>(s.field.offset) + s.field.nbytes > m.len) {
     return kUnavailable;
   }
-  if (d.max_sample_age_us != 0) {
-    const uint64_t age = now_us > m.taken_at_us ? now_us - m.taken_at_us : 0;
-    if (age > d.max_sample_age_us) return kUnavailable;
-  }
+  if (!m.fresh) return kUnavailable;
   const int32_t v = internal::field_get(s.field, m.bytes);
   if (v < s.valid_min || v > s.valid_max) return kUnavailable;
   *value = v;
@@ -47,6 +65,9 @@ uint8_t Checker::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
 
 // Memoised per check(). A derived signal first evaluates, in ascending id
 // order, every derived signal it depends on, so programs never recurse.
+// A derived program reads nothing but signals and constants, so its result is
+// also kept across checks while every sensor it can reach holds the same
+// sample bytes and the same freshness (docs/core.md, "Signals").
 uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
   SignalMemo& memo = signal_memo_[id];
   if (memo.epoch != epoch_) {
@@ -62,6 +83,12 @@ uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
         todo &= todo - 1;
         SignalMemo& m = signal_memo_[s];
         if (m.epoch == epoch_) continue;
+        uint64_t inputs = 0;
+        for (uint32_t devs = signal_devices_[s]; devs != 0; devs &= devs - 1) {
+          inputs += sample(static_cast<uint16_t>(__builtin_ctz(devs)), now_us).generation;
+        }
+        m.epoch = epoch_;
+        if (m.kept && m.inputs == inputs) continue;
         const SignalRecord& rec = signals_[s];
         int64_t v = 0;
         uint8_t status = kOk;
@@ -69,7 +96,8 @@ uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
         const uint8_t term = run(rec.code_first, rec.code_len, env, &v, &status);
         m.status = term == static_cast<uint8_t>(Op::kReturn) ? kOk : status;
         m.value = v;
-        m.epoch = epoch_;
+        m.kept = true;
+        m.inputs = inputs;
       }
     }
   }

@@ -99,6 +99,7 @@ void Checker::clear_tables() {
   constant_count_ = 0;
   derived_mask_ = 0;
   __builtin_memset(signal_deps_, 0, sizeof(signal_deps_));
+  __builtin_memset(signal_devices_, 0, sizeof(signal_devices_));
   __builtin_memset(state_, 0, sizeof(state_));
   __builtin_memset(last_, 0, sizeof(last_));
   __builtin_memset(signal_memo_, 0, sizeof(signal_memo_));
@@ -662,6 +663,21 @@ bool Checker::verify_program(uint32_t code_first, uint32_t code_len, bool derive
 // Worst case of one command: the invariants whose mask holds it, plus the
 // derived signals those programs can reach (transitively), each counted once.
 void Checker::compute_costs() {
+  // The sensors each signal can read: a derived program's own SIGNAL operands
+  // (all of lower id, so already known) and theirs.
+  for (uint32_t s = 0; s < signal_count_; ++s) {
+    const SignalRecord& rec = signals_[s];
+    if (rec.kind == static_cast<uint8_t>(SignalKind::kRaw)) {
+      signal_devices_[s] = uint32_t{1} << rec.device;
+      continue;
+    }
+    uint32_t devs = 0;
+    for (uint32_t pc = 0; pc < rec.code_len; ++pc) {
+      const Insn& in = code_[rec.code_first + pc];
+      if (in.op == static_cast<uint8_t>(Op::kSignal)) devs |= signal_devices_[in.b];
+    }
+    signal_devices_[s] = devs;
+  }
   uint32_t worst = 0;
   uint64_t inv_deps[kMaxInvariants];
   for (uint32_t i = 0; i < invariant_count_; ++i) {

@@ -128,12 +128,18 @@ class Checker {
   struct SignalMemo {
     uint32_t epoch;
     uint8_t status;  // 0 ok, 1 unavailable, 2 program fault
+    bool kept;       // derived: value/status stay valid while `inputs` is unchanged
     int64_t value;
+    uint64_t inputs;  // derived: sum of its sensors' SampleMemo::generation when computed
   };
   struct SampleMemo {
     uint32_t epoch;
     uint32_t len;
     uint64_t taken_at_us;
+    // Bumped whenever the sample's bytes, its length or its freshness change;
+    // never decreases, so a sum over fixed sensors is unchanged only if each is.
+    uint64_t generation;
+    bool fresh;  // not older than the device's max_sample_age_us
     uint8_t bytes[kMaxSampleBytes];
   };
   struct TaskWindow {
@@ -243,6 +249,7 @@ class Checker {
               uint8_t* status);
   uint8_t signal(uint16_t id, uint64_t now_us, int64_t* value);  // 0 ok, 1 unavailable, 2 fault
   uint8_t raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
+  SampleMemo& sample(uint16_t device, uint64_t now_us);  // sampled at most once per check()
 
   bool loaded_ = false;
   Host host_{};
@@ -272,6 +279,7 @@ class Checker {
   AccessRecord access_[kMaxTasks]{};
   uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
   uint64_t derived_mask_ = 0;
+  uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
   // Runtime state.
   uint32_t epoch_ = 0;
   uint64_t executed_ = 0;
