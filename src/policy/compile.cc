@@ -110,6 +110,9 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
           fmt::format("{} = derived, {} ({} instructions)", sig.name, type_phrase(sig.type), len));
     }
   }
+  for (const auto& [name, id] : p.signal_aliases) {
+    s.signals.push_back(fmt::format("{} = {}", name, p.signals[id].name));
+  }
   for (const RateLimit& r : p.rates) s.rates.push_back(r.text);
   for (const Invariant& i : p.invariants) s.invariants.push_back(i.text);
   return s;

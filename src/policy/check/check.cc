@@ -607,6 +607,7 @@ class Sema {
         return copy;
       }
       case SymKind::kSignal:
+        if (out_.signals[sym->index].name != n) used_aliases_.insert(n);
         return signal_ref(static_cast<uint16_t>(sym->index), e.span, c);
       case SymKind::kListSignal:
         diags_.emit(DiagKind::kTypeMismatch, e.span, "`" + n + "`", "a list of signals",
@@ -1632,14 +1633,13 @@ class Sema {
     s.hi = v->hi;
     if (v->op == IOp::kSignal && !v->kids.size()) {
       // `signal level = tank.level`: an alias of a raw signal.
+      // The raw signal keeps its `device.value` name (tools map sample
+      // values by it); the new name is an alias in the namespace.
       const Signal& target = out_.signals[v->slot];
-      if (target.raw && target.implicit) {
+      if (target.raw) {
         if (!declare(d.name.name, SymKind::kSignal, v->slot, d.name.span)) return;
-        Signal& t = out_.signals[v->slot];
-        t.name = d.name.name;
-        t.span = d.name.span;
-        t.implicit = false;
-        t.used = false;
+        aliases_.push_back({d.name.name, d.name.span});
+        out_.signal_aliases.emplace_back(d.name.name, v->slot);
         return;
       }
     }
@@ -2025,6 +2025,11 @@ class Sema {
         diags_.emit(DiagKind::kUnusedDeclaration, s.span, "signal", s.name);
       }
     }
+    for (const auto& [name, span] : aliases_) {
+      if (!used_aliases_.count(name)) {
+        diags_.emit(DiagKind::kUnusedDeclaration, span, "signal", name);
+      }
+    }
     // Invariants with the same condition on the same commands.
     for (size_t i = 0; i < out_.invariants.size(); ++i) {
       const Invariant& a = out_.invariants[i];
@@ -2084,6 +2089,8 @@ class Sema {
   std::vector<Span> list_spans_;
   std::vector<bool> dev_ok_;
   std::set<size_t> bad_signals_;
+  std::vector<std::pair<std::string, Span>> aliases_;  // `signal level = tank.level`
+  std::set<std::string> used_aliases_;
   bool overhead_seen_ = false;
 };
 

@@ -173,6 +173,7 @@ struct Invariant {
 struct CheckedPolicy {
   std::vector<Device> devices;
   std::vector<Signal> signals;
+  std::vector<std::pair<std::string, uint16_t>> signal_aliases;  // name → raw signal
   std::vector<Task> tasks;
   std::vector<RateLimit> rates;
   std::vector<Invariant> invariants;
