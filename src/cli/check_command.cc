@@ -9,6 +9,7 @@
 #include <string>
 
 #include "cli/command.h"
+#include "cli/sched_closure.h"
 #include "policy/compile.h"
 #include "policy/diag/diag.h"
 
@@ -150,6 +151,7 @@ void register_check(CLI::App& app) {
   cmd->callback([] {
     policy::CompileOptions options;
     options.strict = strict;
+    options.task_model_check = sched_closure;
     const policy::CompileOutput out = policy::compile_file(path, options);
     if (out.ok && !emit.empty()) {
       std::ofstream f(emit, std::ios::binary | std::ios::trunc);

@@ -145,6 +145,15 @@ CompileOutput compile_source(const std::string& file_name, const std::string& te
       } else {
         out.worst_case_cost = checker->worst_case_cost();
       }
+      if (options.task_model_check && !out.image.empty()) {
+        for (const TaskFinding& f : options.task_model_check(lowered.model)) {
+          Span at{};
+          for (const Task& t : policy.tasks) {
+            if (t.name == f.task || (f.task.empty() && at.end == 0)) at = t.span;
+          }
+          diags.emit(DiagKind::kSchedulabilityWarning, at, f.message);
+        }
+      }
       out.summary = summarize(policy, source, &lowered.model);
       out.model = std::move(lowered.model);
       for (const Device& d : policy.devices) out.profiles.push_back(d.profile);

@@ -27,8 +27,18 @@ struct Diagnostic {
   std::vector<Diagnostic> notes;  // secondary locations ("declared here")
 };
 
+// A finding of an analysis of the task model that the compiler reports as a
+// warning (W0708) at the task's declaration (or the first task if `task` is empty).
+struct TaskFinding {
+  std::string task;
+  std::string message;
+};
+
 struct CompileOptions {
   bool strict = false;  // warnings are errors
+  // Run on the lowered image when set (contego check: the schedulability
+  // analysis of src/sched, which src/policy may not depend on).
+  std::function<std::vector<TaskFinding>(const image::ImageModel&)> task_model_check;
   // Device profiles by name; empty = devices::find_builtin_profile (tests inject their own).
   std::function<const devices::ProfileSpec*(std::string_view)> profiles;
 };

@@ -250,5 +250,17 @@ allow t -> gopigo
   EXPECT_FALSE(compile_source("w.policy", text, strict).ok);
 }
 
+TEST(CompilePolicy, MoreDevicesThanTheImageHoldsIsReported) {
+  std::string text = "task t { period 100ms; wcet 1ms }\n";
+  for (int i = 0; i < 33; ++i) {
+    text += "device d" + std::to_string(i) + " : line_follower at i2c-1 " +
+            std::to_string(10 + i) + "\n";
+  }
+  const CompileOutput out = compile_source("big.policy", text);
+  EXPECT_FALSE(out.ok);
+  ASSERT_FALSE(out.diagnostics.empty());
+  EXPECT_EQ(out.diagnostics.back().id, "E0508");
+}
+
 }  // namespace
 }  // namespace contego::policy

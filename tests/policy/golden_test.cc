@@ -19,6 +19,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli/sched_closure.h"
 #include "policy/compile.h"
 #include "policy/diag/diag.h"
 
@@ -33,19 +34,15 @@ const fs::path kDir = kRoot / "tests" / "policy";
 // Kinds no golden file can produce, each with the reason.
 const std::set<std::string> kExempt = {
     // Produced only when the core's verifier refuses an image the compiler
-    // built: a compiler bug by definition. Reached by a unit test that feeds
-    // lowering a deliberately broken model instead.
+    // built: a compiler bug by definition, so no policy should reach it. The
+    // policy_parser fuzzer aborts if any input does.
     "E0901",
     // A limit of the image format (kMaxDevices ...) needs a policy larger than
-    // a golden file should be; lower_test.cc exercises it.
+    // a golden file should be; compile_test.cc generates one.
     "E0508",
-    // Emitted by --strict's schedulability closure when the sched library
-    // provides it; not wired yet.
-    "E0610",
     // Reading the file fails before there is any source to point into; the
     // CTest test check_reports_missing_file covers it through the CLI.
     "E0902",
-    "W0708",
 };
 
 std::string read(const fs::path& p) {
@@ -74,7 +71,9 @@ GoldenRun run(const fs::path& file) {
   // The name as seen from the repository root, so output does not depend on
   // where the tree is checked out.
   const std::string name = fs::relative(file, kRoot).generic_string();
-  const CompileOutput out = compile_source(name, read(file));
+  CompileOptions options;
+  options.task_model_check = cli::sched_closure;  // as `contego check` does
+  const CompileOutput out = compile_source(name, read(file), options);
   GoldenRun r;
   r.rendered = render_text(out.diagnostics);
   for (const auto& d : out.diagnostics) {
