@@ -14,6 +14,7 @@
 #include "sched/analysis.h"
 #include "sched/assign.h"
 #include "sched/duration.h"
+#include "sched/experiment.h"
 #include "sched/reader.h"
 #include "sched/sensitivity.h"
 
@@ -208,14 +209,151 @@ void run_sched(const SchedArgs& args) {
       "max N: the others unchanged, whole set still schedulable)\n");
 }
 
+struct ExperimentArgs {
+  int64_t tasks = 20;
+  int64_t sets = 5000;
+  std::string utilisation = "0.05:1:0.05";
+  std::string overheads = "0,50us,100us,200us,500us";
+  std::string periods = "10ms:1s";
+  std::string actuations = "1:5";
+  std::string deadlines = "implicit";
+  std::string assign = "dm";
+  uint64_t seed = 1;
+  std::string out = "sched_experiment";
+  bool no_plot = false;
+};
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (true) {
+    const size_t at = s.find(sep, start);
+    out.push_back(s.substr(start, at - start));
+    if (at == std::string::npos) return out;
+    start = at + 1;
+  }
+}
+
+Result<double> parse_number(const std::string& s, const std::string& what) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size()) {
+    return make_error(what + ": '" + s + "' is not a number");
+  }
+  return v;
+}
+
+Status parse_experiment(const ExperimentArgs& a, sched::ExperimentOptions* o) {
+  if (a.tasks < 1 || a.tasks > 10000) return make_error("--tasks must be between 1 and 10000");
+  o->generator.tasks = static_cast<size_t>(a.tasks);
+  o->sets_per_point = a.sets;
+  o->seed = a.seed;
+  const std::vector<std::string> u = split(a.utilisation, ':');
+  if (u.size() != 3) return make_error("--utilisation: expected MIN:MAX:STEP, e.g. 0.05:1:0.05");
+  double* slots[] = {&o->u_min, &o->u_max, &o->u_step};
+  for (size_t k = 0; k < 3; ++k) {
+    Result<double> v = parse_number(u[k], "--utilisation");
+    if (!v) return make_error(v.error());
+    *slots[k] = *v;
+  }
+  o->overheads.clear();
+  for (const std::string& part : split(a.overheads, ',')) {
+    Result<sched::Nanos> d = sched::parse_duration(part);
+    if (!d) return make_error("--overheads: " + d.error());
+    o->overheads.push_back(*d);
+  }
+  const std::vector<std::string> p = split(a.periods, ':');
+  if (p.size() != 2) return make_error("--periods: expected MIN:MAX, e.g. 10ms:1s");
+  Result<sched::Nanos> pmin = sched::parse_duration(p[0]);
+  Result<sched::Nanos> pmax = sched::parse_duration(p[1]);
+  if (!pmin) return make_error("--periods: " + pmin.error());
+  if (!pmax) return make_error("--periods: " + pmax.error());
+  o->generator.period_min = *pmin;
+  o->generator.period_max = *pmax;
+  o->generator.period_granularity =
+      std::min(sched::kNanosPerMicro, std::max<sched::Nanos>(*pmin, 1));
+  const std::vector<std::string> n = split(a.actuations, ':');
+  if (n.size() != 2) return make_error("--actuations: expected MIN:MAX, e.g. 1:5");
+  for (size_t k = 0; k < 2; ++k) {
+    Result<double> v = parse_number(n[k], "--actuations");
+    if (!v || *v != std::floor(*v)) return make_error("--actuations: expected whole numbers");
+    (k == 0 ? o->generator.actuations_min : o->generator.actuations_max) = static_cast<int64_t>(*v);
+  }
+  if (a.deadlines != "implicit" && a.deadlines != "constrained") {
+    return make_error("--deadlines: expected implicit or constrained");
+  }
+  o->generator.constrained = a.deadlines == "constrained";
+  Result<sched::Assignment> how = sched::parse_assignment(a.assign);
+  if (!how) return make_error("--assign: " + how.error());
+  o->assignment = *how;
+  return sched::validate(*o);
+}
+
+Status write_file(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f << text;
+  f.close();
+  if (!f) return make_error(path + ": cannot write");
+  return {};
+}
+
+void run_experiment(const ExperimentArgs& args) {
+  sched::ExperimentOptions o;
+  if (Status st = parse_experiment(args, &o); !st.ok()) {
+    fmt::print(stderr, "contego sched experiment: {}\n", st.error());
+    set_exit_code(kExitBadInput);
+    return;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const sched::ExperimentResult r = sched::run_experiment(o);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::string csv = args.out + ".csv";
+  const std::string gp = args.out + ".gp";
+  const std::string svg = args.out + ".svg";
+  const std::string png = args.out + ".png";
+  for (const auto& [path, text] : {std::pair{csv, sched::experiment_csv(r)},
+                                   std::pair{gp, sched::experiment_gnuplot(r, o, csv, svg, png)}}) {
+    if (Status st = write_file(path, text); !st.ok()) {
+      fmt::print(stderr, "contego sched experiment: {}\n", st.error());
+      set_exit_code(kExitBadInput);
+      return;
+    }
+  }
+  fmt::print("generated {} task sets of {} tasks, {} analyses in {:.2f} s ({:.0f} task sets/s)\n",
+             r.sets, o.generator.tasks, r.analyses, seconds,
+             seconds > 0 ? static_cast<double>(r.analyses) / seconds : 0.0);
+  fmt::print("wrote {} and {}\n", csv, gp);
+  // Utilisation at which each curve drops below 50 %: the headline number.
+  for (sched::Nanos c : o.overheads) {
+    double last_ok = 0;
+    for (const sched::ExperimentRow& row : r.rows) {
+      if (row.overhead == c && row.ratio() >= 0.5) last_ok = std::max(last_ok, row.utilisation);
+    }
+    fmt::print("  C^o = {:>8}: at least half the sets schedulable up to U = {:.2f}\n",
+               sched::format_duration(c), last_ok);
+  }
+  if (args.no_plot) return;
+  const std::string cmd = "gnuplot '" + gp + "'";
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    fmt::print(stderr, "contego sched experiment: gnuplot not found; run `{}` later\n", cmd);
+    return;
+  }
+  if (std::system(cmd.c_str()) != 0) {
+    fmt::print(stderr, "contego sched experiment: `{}` failed\n", cmd);
+    set_exit_code(kExitBadInput);
+    return;
+  }
+  fmt::print("wrote {} and {}\n", svg, png);
+}
+
 }  // namespace
 
 void register_sched(CLI::App& app) {
   auto args = std::make_shared<SchedArgs>();
   auto* cmd = app.add_subcommand(
       "sched", "Schedulability with checking overhead (response-time analysis, sensitivity)");
-  cmd->add_option("taskset", args->input, "Task set: CSV or JSON (docs/sched.md), or a policy")
-      ->required();
+  cmd->add_option("taskset", args->input, "Task set: CSV or JSON (docs/sched.md), or a policy");
   auto* over = cmd->add_option("--overhead", args->overhead,
                                "Per-command checking cost C^o for every task, e.g. 40us");
   cmd->add_option("--overhead-from", args->overhead_from,
@@ -224,7 +362,39 @@ void register_sched(CLI::App& app) {
   cmd->add_option("--assign", args->assign, "Priorities: given (default), rm, dm or audsley");
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_flag("--no-sensitivity", args->no_sensitivity, "Skip the sensitivity analysis");
-  cmd->callback([args] { run_sched(*args); });
+  cmd->require_subcommand(0, 1);
+
+  auto ex = std::make_shared<ExperimentArgs>();
+  auto* exp = cmd->add_subcommand(
+      "experiment", "Schedulability ratio of random task sets against utilisation, per C^o");
+  exp->add_option("--tasks", ex->tasks, "Tasks per set")->capture_default_str();
+  exp->add_option("--sets", ex->sets, "Task sets per utilisation point")->capture_default_str();
+  exp->add_option("--utilisation", ex->utilisation, "MIN:MAX:STEP (checking-free utilisation)")
+      ->capture_default_str();
+  exp->add_option("--overheads", ex->overheads, "Comma-separated C^o values, one curve each")
+      ->capture_default_str();
+  exp->add_option("--periods", ex->periods, "MIN:MAX, log-uniform")->capture_default_str();
+  exp->add_option("--actuations", ex->actuations, "MIN:MAX checked commands per job, uniform")
+      ->capture_default_str();
+  exp->add_option("--deadlines", ex->deadlines, "implicit (D = T) or constrained (D in [C, T])")
+      ->capture_default_str();
+  exp->add_option("--assign", ex->assign, "Priority assignment: rm, dm or audsley")
+      ->capture_default_str();
+  exp->add_option("--seed", ex->seed, "Random seed")->capture_default_str();
+  exp->add_option("--out", ex->out, "Output prefix: PREFIX.csv, .gp, .svg, .png")
+      ->capture_default_str();
+  exp->add_flag("--no-plot", ex->no_plot, "Write CSV and gnuplot script, do not run gnuplot");
+  exp->callback([ex] { run_experiment(*ex); });
+
+  // The task-set positional is required unless the experiment runs.
+  cmd->callback([args, exp] {
+    if (exp->parsed()) return;
+    if (args->input.empty()) {
+      fail("a task-set file is required (or use `contego sched experiment`)");
+      return;
+    }
+    run_sched(*args);
+  });
 }
 
 }  // namespace contego::cli
