@@ -89,14 +89,19 @@ std::string shade_windows(const Scenario& sc, double scale) {
   return s;
 }
 
+// The x axis of a time series: time in seconds divided by `unit_s`.
+struct XAxis {
+  double unit_s;
+  std::string label;
+};
+
 std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& runs,
                              const std::string& dir, const std::string& stem,
-                             const std::vector<Panel>& panels, bool by_job, double period_s) {
+                             const std::vector<Panel>& panels, const XAxis& x) {
   std::string b;
-  const double scale = by_job ? 1.0 / period_s : 1.0;
-  const std::string xexpr = by_job ? fmt::format("($1/{})", num(period_s)) : "1";
-  const std::string xlabel =
-      by_job ? fmt::format("controller job ({:g} ms period)", period_s * 1000.0) : "time (s)";
+  const double scale = 1.0 / x.unit_s;
+  const std::string xexpr = x.unit_s == 1.0 ? "1" : fmt::format("($1/{})", num(x.unit_s));
+  const std::string& xlabel = x.label;
   b += fmt::format("set multiplot layout {},1 title {}\n", panels.size(), quote(sc.title));
   for (const auto& p : panels) {
     b += "unset object\n" + shade_windows(sc, scale);
@@ -122,8 +127,8 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
 // protected below, the accesses made during the attack shaded.
 std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
                       const std::string& dir, const std::string& stem) {
-  std::string b = fmt::format("set multiplot layout 2,1 title {}\nset key outside right top vertical\n",
-                              quote(sc.title));
+  std::string b = fmt::format(
+      "set multiplot layout 2,1 title {}\nset key outside right top vertical\n", quote(sc.title));
   for (const char* label : {"unprotected", "protected"}) {
     const RunResult* run = nullptr;
     for (const auto& r : runs) {
@@ -252,18 +257,34 @@ Result<std::vector<std::string>> plot_runs(const Scenario& sc, const std::vector
       static_cast<double>(setting_duration_us(sc.settings, "period", 200'000)) * 1e-6;
   std::string body;
   int height = 700;
+  const XAxis jobs{period_s, fmt::format("controller job ({:g} ms period)", period_s * 1000.0)};
+  const XAxis seconds{1.0, "time (s)"};
   if (fig == "fig1") {
     body = fig1_body(sc, runs, dir, stem);
   } else if (fig == "fig4a") {
     body = time_series_body(sc, runs, dir, stem,
-                            {{"distance_cm", "distance travelled (cm, from the encoders)"}}, true,
-                            period_s);
+                            {{"distance_cm", "distance travelled (cm, from the encoders)"}}, jobs);
     height = 450;
   } else if (fig == "fig4b" || fig == "rover") {
     body = time_series_body(sc, runs, dir, stem,
                             {{"distance_cm", "distance travelled (cm, from the encoders)"},
                              {"speed_cm_s", "speed (cm/s, encoders, 1 s window)"}},
-                            true, period_s);
+                            jobs);
+  } else if (fig == "tank") {
+    body = time_series_body(
+        sc, runs, dir, stem,
+        {{"level_mm", "water level (mm; alarm above 800)"}, {"buzzer", "buzzer (1 = sounding)"}},
+        seconds);
+  } else if (fig == "pump") {
+    body = time_series_body(
+        sc, runs, dir, stem,
+        {{"delivered_ul", "volume delivered (uL)"}, {"rate_ul_h", "pump rate (uL/h)"}},
+        XAxis{3600.0, "time (h)"});
+  } else if (fig == "camera") {
+    body = time_series_body(
+        sc, runs, dir, stem,
+        {{"pan_deg", "pan angle (deg; allowed -60..60)"}, {"siren", "siren (1 = sounding)"}},
+        seconds);
   } else {
     return make_error("no figure layout '" + fig + "'");
   }

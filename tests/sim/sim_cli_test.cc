@@ -1,0 +1,95 @@
+// `contego sim` and `contego demo` as a user runs them: the files they say
+// they write are there, the demo is quick, bad scenario files are refused
+// with the file and line.
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string source(const std::string& rel) { return std::string(CONTEGO_SOURCE_DIR) + "/" + rel; }
+
+struct Ran {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+Ran contego(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(CONTEGO_BINARY) + " " + args + " > " + log.string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::ifstream f(log);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, ss.str()};
+}
+
+bool non_empty(const fs::path& p) { return fs::exists(p) && fs::file_size(p) > 0; }
+
+class SimCliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("contego_sim_cli_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+TEST_F(SimCliTest, DemoWritesThePapersFiguresInUnderAMinute) {
+  const auto start = std::chrono::steady_clock::now();
+  const Ran r = contego("demo --out " + (dir_ / "demo").string(), dir_ / "log");
+  const double secs =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_LT(secs, 60.0);
+  for (const char* fig : {"fig1", "fig4a", "fig4b"}) {
+    for (const char* ext : {".png", ".svg"}) {
+      const fs::path p = dir_ / "demo" / (std::string(fig) + ext);
+      EXPECT_TRUE(non_empty(p)) << p;
+      EXPECT_NE(r.output.find(p.string()), std::string::npos) << "the demo names " << p;
+    }
+    EXPECT_TRUE(non_empty(dir_ / "demo" / (std::string(fig) + "-protected.csv")));
+  }
+  EXPECT_NE(r.output.find("distance (cm)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("objects_handled"), std::string::npos) << r.output;
+}
+
+TEST_F(SimCliTest, SimWritesTracesFigureAndSummary) {
+  const Ran r = contego(
+      "sim " + source("scenarios/tank_false_alarm.scn") + " --out " + dir_.string(), dir_ / "log");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* label : {"baseline", "unprotected", "protected"}) {
+    EXPECT_TRUE(non_empty(dir_ / (std::string("tank_false_alarm-") + label + ".csv")));
+    EXPECT_TRUE(non_empty(dir_ / (std::string("tank_false_alarm-") + label + "-ops.csv")));
+  }
+  EXPECT_TRUE(non_empty(dir_ / "tank_false_alarm.svg"));
+  EXPECT_TRUE(non_empty(dir_ / "tank_false_alarm.png"));
+  EXPECT_NE(r.output.find("false_alarm_time"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("first violation"), std::string::npos) << r.output;
+}
+
+TEST_F(SimCliTest, BadScenarioIsRefusedWithFileAndLine) {
+  const fs::path bad = dir_ / "bad.scn";
+  std::ofstream(bad) << "platform rover\nduration ten seconds\n";
+  const Ran r = contego("sim " + bad.string() + " --out " + dir_.string(), dir_ / "log");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find(bad.string() + ":2:"), std::string::npos) << r.output;
+}
+
+TEST_F(SimCliTest, MissingScenarioFileIsNamed) {
+  const Ran r = contego("sim " + (dir_ / "nope.scn").string(), dir_ / "log");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("nope.scn: cannot open"), std::string::npos) << r.output;
+}
+
+}  // namespace
