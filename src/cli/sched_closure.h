@@ -14,7 +14,9 @@
 
 namespace contego::cli {
 
-inline std::vector<policy::TaskFinding> sched_closure(const image::ImageModel& model) {
+// The image's task records as the analysis' task set (microseconds to
+// nanoseconds; an overhead of 0 in the record means "not declared").
+inline sched::TaskSet tasks_from_image(const image::ImageModel& model) {
   sched::TaskSet set;
   for (const auto& t : model.tasks) {
     sched::Task task;
@@ -28,6 +30,11 @@ inline std::vector<policy::TaskFinding> sched_closure(const image::ImageModel& m
         t.record.overhead_ns ? sched::Nanos{t.record.overhead_ns} : sched::kOverheadUnset;
     set.tasks.push_back(task);
   }
+  return set;
+}
+
+inline std::vector<policy::TaskFinding> sched_closure(const image::ImageModel& model) {
+  const sched::TaskSet set = tasks_from_image(model);
   std::vector<sched::RateLimitInfo> limits;
   for (const auto& r : model.rates) {
     if (r.record.task >= model.tasks.size()) continue;

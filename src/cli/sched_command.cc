@@ -5,10 +5,14 @@
 //
 // Exit status: 0 schedulable, 1 some task can miss its deadline, 2 bad input.
 #include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdlib>
 #include <fmt/core.h>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cli/command.h"
 #include "sched/analysis.h"
@@ -17,6 +21,11 @@
 #include "sched/experiment.h"
 #include "sched/reader.h"
 #include "sched/sensitivity.h"
+
+#ifdef CONTEGO_HAVE_POLICY
+#include "cli/sched_closure.h"
+#include "policy/compile.h"
+#endif
 
 namespace contego::cli {
 namespace {
@@ -55,14 +64,30 @@ nlohmann::json json_figure(int64_t v) {
   return v;
 }
 
-void run_sched(const SchedArgs& args) {
-  if (ends_with(args.input, ".policy")) {
-    fail(args.input +
-         ": reading the task model from a policy file is not supported yet (the policy "
-         "compiler is not part of this build); give the tasks as CSV or JSON, see docs/sched.md");
-    return;
+// A task-set file, or a policy whose task model the compiler extracts.
+Result<sched::TaskSet> read_input(const std::string& path) {
+  if (!ends_with(path, ".policy")) return sched::read_task_set_file(path);
+#ifdef CONTEGO_HAVE_POLICY
+  const policy::CompileOutput out = policy::compile_file(path);
+  if (!out.ok) {
+    std::string text = path + ": the policy does not compile:";
+    for (const policy::Diagnostic& d : out.diagnostics) {
+      if (d.severity == "error") text += "\n" + d.rendered;
+    }
+    return make_error(text);
   }
-  Result<sched::TaskSet> read = sched::read_task_set_file(args.input);
+  sched::TaskSet set = tasks_from_image(out.model);
+  if (Status st = sched::validate(set); !st.ok()) return make_error(path + ": " + st.error());
+  return set;
+#else
+  return make_error(path +
+                    ": reading the task model from a policy needs the policy compiler, which "
+                    "this build lacks; give the tasks as CSV or JSON (docs/sched.md)");
+#endif
+}
+
+void run_sched(const SchedArgs& args) {
+  Result<sched::TaskSet> read = read_input(args.input);
   if (!read) return fail(read.error());
   sched::TaskSet set = std::move(*read);
 

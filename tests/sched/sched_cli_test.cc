@@ -113,4 +113,19 @@ TEST(SchedCliTest, AssignDeadlineMonotonic) {
   EXPECT_GT((*find_task(doc, "t1"))["priority"], (*find_task(doc, "t3"))["priority"]);
 }
 
+#ifdef CONTEGO_HAVE_POLICY
+// The rover policy's task model, by hand at C^o = 50 us: follower C = 40 ms,
+// N = 3, alone: C^TEE = R = 40 + 3 * 0.05 = 40.15 ms <= 200 ms; it tolerates
+// C^o up to (200 - 40) / 3 = 53.333333 ms.
+TEST(SchedCliTest, TaskModelFromPolicy) {
+  const CliRun r = run("sched " + std::string(POLICY_DIR) + "/rover.policy --overhead 50us --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(r.out);
+  const nlohmann::json* f = find_task(doc, "follower");
+  ASSERT_NE(f, nullptr) << r.out;
+  EXPECT_EQ((*f)["response_ns"], 40'150'000);
+  EXPECT_EQ(doc["max_overhead_ns"], 53'333'333);
+}
+#endif
+
 }  // namespace
