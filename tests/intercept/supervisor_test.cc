@@ -392,15 +392,19 @@ TEST_P(Supervised, ProgramThatDoesNotExistFailsCleanly) {
 
 TEST_P(Supervised, MonitorLostMidRunFailsTheNextActuationAndLeavesTheSafeState) {
   if (!uses_socket()) GTEST_SKIP() << "needs a separate monitor";
-  std::thread killer([this] {
-    // The script's first write happens at once; the second after 1 s.
-    for (int i = 0;
-         i < 300 && audit_text().find("\"bytes\":\"01 77 00 00 00\"") == std::string::npos; ++i) {
+  // The script's first write happens at once, the second 1 s after the first
+  // returned. The cue is the script's own file, written once the first write
+  // has its answer: the audit line alone comes before the answer is sent.
+  const std::string cue = "/tmp/contego-first-write-" + std::to_string(getpid());
+  unlink(cue.c_str());
+  std::thread killer([this, &cue] {
+    for (int i = 0; i < 500 && access(cue.c_str(), F_OK) != 0; ++i) {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     server->stop();
   });
-  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/two_writes.py"});
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/two_writes.py", cue});
+  unlink(cue.c_str());
   killer.join();
   EXPECT_NE(output.find("first ok"), std::string::npos) << output;
   EXPECT_NE(output.find("second failed 5"), std::string::npos) << output;  // EIO: fail closed
