@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sys/stat.h>
 
+#include "base/json_text.h"
 #include "cli/command.h"
 #include "perf/overhead.h"
 
@@ -44,8 +45,8 @@ void bench(const BenchArgs& a) {
   fmt::print("{}", perf::table(*report));
   mkdir(a.out_dir.c_str(), 0755);
   const std::string json = a.out_dir + "/bench.json", overhead = a.out_dir + "/overhead.json";
-  if (!write_file(json, perf::to_json(*report).dump(2) + "\n") ||
-      !write_file(overhead, perf::sched_overhead(*report).dump(2) + "\n")) {
+  if (!write_file(json, json_text(perf::to_json(*report), 2) + "\n") ||
+      !write_file(overhead, json_text(perf::sched_overhead(*report), 2) + "\n")) {
     fmt::print(stderr, "contego bench: cannot write into {}\n", a.out_dir);
     return set_exit_code(1);
   }

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "base/json_text.h"
 #include "cli/command.h"
 #include "cli/sched_closure.h"
 #include "policy/compile.h"
@@ -169,7 +170,7 @@ void register_check(CLI::App& app) {
       j["ok"] = out.ok;
       j["diagnostics"] = nlohmann::json::parse(policy::render_json(out.diagnostics));
       if (out.ok) j["summary"] = summary_json(out);
-      fmt::print("{}\n", j.dump(2));
+      fmt::print("{}\n", json_text(j, 2));
     } else {
       fmt::print(stderr, "{}", policy::render_text(out.diagnostics));
       if (out.ok) print_summary(path, out);

@@ -23,6 +23,7 @@
 #include "sched/sensitivity.h"
 
 #ifdef CONTEGO_HAVE_POLICY
+#include "base/json_text.h"
 #include "cli/sched_closure.h"
 #include "policy/compile.h"
 #endif
@@ -179,7 +180,7 @@ void run_sched(const SchedArgs& args) {
       out["tasks"].push_back(std::move(jt));
     }
     if (sens) out["max_overhead_ns"] = json_figure(sens->max_overhead);
-    fmt::print("{}\n", out.dump(2));
+    fmt::print("{}\n", json_text(out, 2));
     return;
   }
 

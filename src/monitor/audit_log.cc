@@ -7,6 +7,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "base/json_text.h"
 #include "monitor/sha256.h"
 
 namespace contego::monitor {
@@ -91,7 +92,7 @@ void AuditLog::write_line(nlohmann::json& j) {
   ++lines_;
   if (file_ == nullptr) return;
   j["prev"] = prev_;
-  const std::string line = j.dump();
+  const std::string line = json_text(j);
   prev_ = sha256_hex(line);
   fputs(line.c_str(), file_);
   fputc('\n', file_);
@@ -171,7 +172,7 @@ AuditCheck verify_audit(std::istream& in) {
       ++s.by_decision[j.value("decision", std::string("?"))];
       std::string task = j.contains("task_name") && j["task_name"].is_string()
                              ? j["task_name"].get<std::string>()
-                             : (j.contains("task") ? j["task"].dump() : std::string("?"));
+                             : (j.contains("task") ? json_text(j["task"]) : std::string("?"));
       ++s.by_task[task];
     } else {
       ++s.events[kind];

@@ -54,6 +54,21 @@ class AuditChain : public ::testing::Test {
   std::string path;
 };
 
+// A client's bytes reach the log (a task name in a refused hello, say): they
+// must not be able to stop the monitor, and the chain must still verify.
+TEST_F(AuditChain, InvalidUtf8FromAClientIsWrittenNotThrown) {
+  {
+    AuditLog log;
+    ASSERT_TRUE(log.open(path).ok());
+    log.event("malformed", std::string("no task named '\xff\xfe\x80'"));
+    core::AuditRecord r{};
+    log.decision(r, "\xc3");
+  }
+  const AuditCheck c = verify();
+  ASSERT_TRUE(c.ok) << c.error;
+  EXPECT_EQ(c.summary.lines, 2u);
+}
+
 TEST_F(AuditChain, AFreshLogVerifiesAndIsSummarised) {
   write_some(6);
   const AuditCheck c = verify();

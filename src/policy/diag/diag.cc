@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <numeric>
 
+#include "base/json_text.h"
+
 namespace contego::policy {
 namespace {
 
@@ -125,7 +127,7 @@ std::string render_text(const std::vector<Diagnostic>& diagnostics) {
 std::string render_json(const std::vector<Diagnostic>& diagnostics) {
   nlohmann::json arr = nlohmann::json::array();
   for (const auto& d : diagnostics) arr.push_back(to_json(d));
-  return arr.dump(2);
+  return json_text(arr, 2);
 }
 
 }  // namespace contego::policy
