@@ -275,10 +275,15 @@ class Parser {
       } while (accept(Tok::kComma));
       d.safe_span = {begin, prev_end_};
     } else if (accept_word("latch")) {
+      // Items of more than one part are kept whole or not at all: the checker
+      // may rely on every part of a clause it is given.
       if (!expect_word("after")) return;
-      d.latch_count = additive();
+      ExprPtr count = additive();
       if (failed_ || !expect_word("violations") || !expect_word("within")) return;
-      d.latch_window = additive();
+      ExprPtr window = additive();
+      if (failed_) return;
+      d.latch_count = std::move(count);
+      d.latch_window = std::move(window);
       d.latch_span = {begin, prev_end_};
     } else if (accept_word("auto_increment")) {
       d.auto_increment = true;
@@ -303,9 +308,12 @@ class Parser {
       d.forbid.emplace_back(std::move(first), std::move(last));
       d.forbid_spans.push_back({begin, prev_end_});
     } else if (accept_word("read")) {
-      d.sample_request = primary();
+      ExprPtr request = primary();
       if (failed_ || !expect_word("length")) return;
-      d.sample_length = additive();
+      ExprPtr length = additive();
+      if (failed_) return;
+      d.sample_request = std::move(request);
+      d.sample_length = std::move(length);
       d.read_span = {begin, prev_end_};
     } else if (accept_word("value")) {
       ast::ValueDecl v;
