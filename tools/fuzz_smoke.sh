@@ -15,7 +15,10 @@ while IFS= read -r fuzzer; do
   mkdir -p "$work/$name"
   if [[ -d "fuzz/corpus/$name" ]]; then cp -r "fuzz/corpus/$name/." "$work/$name/"; fi
   printf '== %s (%ss)\n' "$name" "$seconds"
-  "$fuzzer" -max_total_time="$seconds" -print_final_stats=1 "$work/$name" 2>&1 | tail -n 12
+  # A fixed seed keeps the gate reproducible; longer, seeded-at-random runs
+  # are for hunting (CONTEGO_FUZZ_SEED=0 lets libFuzzer pick).
+  "$fuzzer" -seed="${CONTEGO_FUZZ_SEED:-1}" -max_total_time="$seconds" -print_final_stats=1 \
+    "$work/$name" 2>&1 | tail -n 12
 done < <(find "$build" -type f -name '*_fuzzer' -perm -u+x | sort)
 if ((found == 0)); then
   echo "no fuzzers found under $build" >&2
