@@ -106,7 +106,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const uint8_t* bytes = data + pos + 2;
     pos += 2 + len;
     core::Transaction tx{};
-    tx.task = (header & 8) != 0 ? core::kUnknownTask : 0;
+    tx.task = (header & 8) != 0 ? core::kNoTask : 0;
     tx.bus = 1;
     tx.kind = (header >> 4) % 3 == 0   ? core::TxKind::kRead
               : (header >> 4) % 3 == 1 ? core::TxKind::kQuick
@@ -127,7 +127,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (uint32_t k = 0; k < v.emit_count; ++k) total += v.emit_len[k];
     if (total != v.emit_bytes_used) die("emit lengths do not add up");
     if (static_cast<uint8_t>(v.decision) > 3) die("unknown decision");
-    if (tx.task == core::kUnknownTask && tx.kind == core::TxKind::kWrite &&
+    if (tx.task == core::kNoTask && tx.kind == core::TxKind::kWrite &&
         v.decision == core::Decision::kAllow) {
       die("a write from an unknown task was allowed");
     }

@@ -7,12 +7,10 @@
 #include <memory>
 #include <vector>
 
+#include "contego/core/checker.h"
+
 #include "cli/command.h"
 #include "image/image_model.h"
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"  // verdict.h's RuleKind::kNone vs core::kNone
-#include "contego/core/checker.h"
-#pragma GCC diagnostic pop
 
 namespace contego::cli {
 

@@ -106,12 +106,11 @@ Result<sim::RunResult> run_realtime(const RealtimeRequest& req) {
     return make_error(std::string("the checker refused the policy image: ") +
                       core::load_status_name(lr.status));
   }
-  uint16_t task = core::kUnknownTask;
+  uint16_t task = core::kNoTask;
   for (size_t i = 0; i < req.image.task_names.size(); ++i) {
     if (req.image.task_names[i] == req.task) task = static_cast<uint16_t>(i);
   }
-  if (task == core::kUnknownTask)
-    return make_error("the policy declares no task '" + req.task + "'");
+  if (task == core::kNoTask) return make_error("the policy declares no task '" + req.task + "'");
 
   monitor::AuditLog audit;
   if (!req.audit_path.empty()) {

@@ -30,13 +30,14 @@ Checker::Outcome* Checker::new_outcome(uint16_t dev) {
   o.group_len = 0;
   o.decision = Decision::kAllow;
   o.reason = Reason::kAllowed;
-  o.rule_kind = RuleKind::kNone;
+  o.rule_kind = RuleKind::kNoRule;
   o.reply_errno = 0;
   o.rule = kNone;
   o.emit_offset = tx_.out->emit_bytes_used;
   o.emit_len = 0;
   o.emit_index = tx_.out->emit_count;
   o.bus_command = kNone;
+  o.bus_index = 0;
   return &o;
 }
 
@@ -83,6 +84,22 @@ void Checker::undo_save(uint16_t dev, uint8_t reg) {
                                     internal::bit_test(s.staged_bits, reg)};
 }
 
+void Checker::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
+  DeviceState& s = state_[dev];
+  undo_save(dev, reg);
+  s.shadow[reg] = value;
+  const DeviceRecord& d = devices_[dev];
+  if (d.broadcast == d.broadcast_target || command != d.command_first + d.broadcast) return;
+  const CommandRecord& from = commands_[command];
+  const CommandRecord& to = commands_[d.command_first + d.broadcast_target];
+  const uint32_t q = static_cast<uint32_t>(reg - from.match);  // offset in the group
+  for (uint32_t n = 0; n < to.repeat; ++n) {
+    const uint8_t r = static_cast<uint8_t>(to.match + n * to.stride + q);
+    undo_save(dev, r);
+    s.shadow[r] = value;
+  }
+}
+
 void Checker::rollback() {
   for (uint32_t i = tx_.undo_count; i-- > 0;) {
     const Undo& u = tx_.undo[i];
@@ -112,6 +129,13 @@ void Checker::update_window(const Transaction& tx) {
   for (uint32_t r = 0; r < rate_count_; ++r) {
     if (rates_[r].task == tx.task) rate_used_[r] = 0;
   }
+}
+
+Checker::LastCommand& Checker::last(uint16_t command, uint8_t index) {
+  // The verifier sized the history so that every (command, channel) has a slot.
+  const CommandRecord& c = commands_[command];
+  const uint32_t channel = index < c.repeat ? index : 0;
+  return last_[last_first_[command] + channel];
 }
 
 bool Checker::record_violation(uint16_t dev, uint64_t now_us) {
@@ -153,7 +177,7 @@ bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
 static void init_verdict(Verdict* out, const Transaction* tx) {
   out->decision = Decision::kReject;
   out->reason = Reason::kNotLoaded;
-  out->rule_kind = RuleKind::kNone;
+  out->rule_kind = RuleKind::kNoRule;
   out->reply_errno = kEperm;
   out->rule = kNone;
   out->device = kNone;
@@ -215,11 +239,11 @@ void Checker::check(const Transaction& tx, Verdict* out) {
 
   auto refuse = [&](uint16_t dev, Reason reason, uint8_t err) {
     Outcome* o = new_outcome(dev);
-    if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNone, kNone, err);
+    if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNoRule, kNone, err);
     finish(tx, out);
   };
   if (!loaded_) return refuse(kNone, Reason::kNotLoaded, kEperm);
-  if (tx.task == kUnknownTask || tx.task >= task_count_) {
+  if (tx.task == kNoTask || tx.task >= task_count_) {
     return refuse(kNone, Reason::kUnknownTask, kEperm);
   }
 
@@ -263,23 +287,88 @@ void Checker::check(const Transaction& tx, Verdict* out) {
 
   update_window(tx);
   for (uint32_t i = 0; i < target_count; ++i) check_device(tx, targets[i]);
-  if (general_call) {
-    // The checked bytes go to the general-call address only if every listener
-    // allowed them as they are; substitutes cannot be addressed to all.
-    bool all_allow = true;
+  bool broadcast = false;
+  if (general_call) broadcast = resolve_general_call(tx, out);
+  finish(tx, out);
+  if (broadcast && out->decision == Decision::kAllow) out->addr = 0;
+}
+
+// A general call reaches every device on the bus, so (docs/core.md):
+// - every listener allows it as it is: the bytes go to the general-call address;
+// - a listener's FAIL-SAFE (a substitute, or its safe state on latching) is
+//   written to that listener's own address, and nothing to the general call:
+//   the policy's response holds whatever address the task chose. One verdict
+//   has one address and the other listeners' state must not move, so when
+//   another listener needs a substitute too, or would have had registers
+//   written, the call is rejected instead (EPERM, nothing written);
+// - otherwise the usual combination (reject over ignore over fail-safe) decides.
+// Returns true if the verdict is the broadcast itself.
+bool Checker::resolve_general_call(const Transaction& tx, Verdict* out) {
+  Verdict& v = *out;
+  uint32_t substituting = 0;
+  Outcome* sub = nullptr;
+  bool all_allow = true;
+  bool others_written = false;
+  for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+    Outcome& o = tx_.outcomes[i];
+    if (o.decision == Decision::kFailsafe) {
+      ++substituting;
+      sub = &o;
+    }
+    all_allow = all_allow && o.decision == Decision::kAllow;
+  }
+  for (uint32_t i = 0; i < tx_.outcome_count && sub != nullptr; ++i) {
+    const Outcome& o = tx_.outcomes[i];
+    if (&o != sub && o.decision == Decision::kAllow && o.emit_len != 0) {
+      others_written = true;
+    }
+  }
+  if (all_allow) {
+    v.emit_count = 0;
+    v.emit_bytes_used = 0;
+    if (tx.kind == TxKind::kWrite && !emit(tx.bytes, tx.len)) tx_.overflow = true;
+    return true;
+  }
+  if (substituting > 1 || others_written) {
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       Outcome& o = tx_.outcomes[i];
       if (o.decision == Decision::kFailsafe) {
-        decide(o, Decision::kIgnore, o.reason, o.rule_kind, o.rule, 0);
+        decide(o, Decision::kReject, o.reason, o.rule_kind, o.rule, kEperm);
       }
-      all_allow = all_allow && o.decision == Decision::kAllow;
     }
-    out->emit_count = 0;
-    out->emit_bytes_used = 0;
-    if (all_allow && tx.kind == TxKind::kWrite && !emit(tx.bytes, tx.len)) tx_.overflow = true;
+    return false;
   }
-  finish(tx, out);
-  if (general_call) out->addr = 0;
+  if (sub != nullptr && !latch_event_) {
+    // Keep only the substitute's writes, addressed to its device.
+    uint8_t bytes[kMaxEmitBytes];
+    uint16_t lens[kMaxEmits];
+    const uint32_t count = [&] {
+      uint32_t n = 0;
+      uint32_t used = 0;
+      for (uint32_t e = sub->emit_index; e < v.emit_count && used < sub->emit_len; ++e) {
+        lens[n++] = v.emit_len[e];
+        used += v.emit_len[e];
+      }
+      return n;
+    }();
+    __builtin_memcpy(bytes, v.emit_bytes + sub->emit_offset, sub->emit_len);
+    v.emit_count = 0;
+    v.emit_bytes_used = 0;
+    uint32_t at = 0;
+    for (uint32_t e = 0; e < count; ++e) {
+      emit(bytes + at, lens[e]);
+      at += lens[e];
+    }
+    sub->emit_offset = 0;
+    sub->emit_index = 0;
+    // Commands allowed without writes (staged) do not reach the bus either.
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      Outcome& o = tx_.outcomes[i];
+      if (o.decision == Decision::kAllow) o.bus_command = kNone;
+    }
+  }
+  if (sub != nullptr) v.device = sub->device;
+  return false;
 }
 
 void Checker::check_device(const Transaction& tx, uint16_t dev) {
@@ -288,7 +377,7 @@ void Checker::check_device(const Transaction& tx, uint16_t dev) {
     Outcome* o = new_outcome(dev);
     if (o == nullptr) return;
     if (may_read) {
-      decide(*o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNone, kNone, 0);
+      decide(*o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
     } else {
       decide(*o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
     }
@@ -297,7 +386,7 @@ void Checker::check_device(const Transaction& tx, uint16_t dev) {
   if (tx.kind != TxKind::kWrite) {
     Outcome* o = new_outcome(dev);
     if (o != nullptr)
-      decide(*o, Decision::kReject, Reason::kMalformed, RuleKind::kNone, kNone, kEinval);
+      decide(*o, Decision::kReject, Reason::kMalformed, RuleKind::kNoRule, kNone, kEinval);
     return;
   }
   if (devices_[dev].profile == static_cast<uint8_t>(Profile::kFrame)) {
@@ -320,6 +409,7 @@ void Checker::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t templa
     Subst s{};
     s.active = true;
     s.command = t.command;
+    s.index = t.index;
     s.set_mask = t.set_mask;
     for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
     decide(o, Decision::kFailsafe, reason, kind, rule, 0);
@@ -341,14 +431,14 @@ void Checker::evaluate(const Transaction& tx, Outcome& o) {
   const CommandRecord& cmd = commands_[d.command];
   if (cmd.command_class == static_cast<uint8_t>(CommandClass::kQuery)) {
     if ((access_[tx.task].read_devices >> dev) & 1u) {
-      decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNone, kNone, 0);
+      decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
     } else {
       decide(o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
     }
     return;
   }
   if (cmd.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
-    decide(o, Decision::kReject, Reason::kForbiddenCommand, RuleKind::kNone, kNone, kEperm);
+    decide(o, Decision::kReject, Reason::kForbiddenCommand, RuleKind::kNoRule, kNone, kEperm);
   } else if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0) {
     decide(o, Decision::kReject, Reason::kAccessDenied, RuleKind::kAccess, tx.task, kEperm);
   } else if (state_[dev].latched) {
@@ -430,6 +520,7 @@ bool Checker::emit_safe_state(uint16_t dev) {
     Subst s{};
     s.active = true;
     s.command = tr.command;
+    s.index = tr.index;
     s.set_mask = tr.set_mask;
     for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = tr.values[i];
     uint8_t bytes[kMaxRegisters];
@@ -475,7 +566,7 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     Outcome* o = tx_.outcome_count < kMaxCommandsPerTransaction
                      ? new_outcome(out->device)
                      : &tx_.outcomes[tx_.outcome_count - 1];
-    decide(*o, Decision::kReject, Reason::kTooLong, RuleKind::kNone, kNone, kEinval);
+    decide(*o, Decision::kReject, Reason::kTooLong, RuleKind::kNoRule, kNone, kEinval);
     decision = Decision::kReject;
     decider = o;
   } else if (latch_event_) {
@@ -537,7 +628,7 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     out->reply_errno = decision == Decision::kReject ? decider->reply_errno : 0;
   } else {
     out->reason = Reason::kStaged;  // only staged register writes
-    out->rule_kind = RuleKind::kNone;
+    out->rule_kind = RuleKind::kNoRule;
     out->rule = kNone;
     out->reply_errno = 0;
   }
@@ -564,10 +655,19 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       const Outcome& o = tx_.outcomes[i];
       if (o.bus_command == kNone || !writes(o.decision)) continue;
-      LastCommand& l = last_[o.bus_command];
+      LastCommand& l = last(o.bus_command, o.bus_index);
       l.valid = true;
       l.time_us = tx.now_us;
       for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
+      const CommandRecord& c = commands_[o.bus_command];
+      if (c.group_len == 0 &&
+          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
+        // A general-call command (software reset) reached the device: its
+        // registers are back at their power-on values, nothing is staged.
+        DeviceState& s = state_[o.device];
+        __builtin_memcpy(s.shadow, s.power_on, kMaxRegisters);
+        __builtin_memset(s.staged_bits, 0, sizeof(s.staged_bits));
+      }
     }
   }
 

@@ -45,7 +45,7 @@ TEST(CheckerTest, NothingLoadedRejectsEverything) {
 }
 
 TEST_F(RoverTest, UnknownTaskIsRejected) {
-  EXPECT_EQ(send({120, 0, 0, 0}, kUnknownTask).reason, Reason::kUnknownTask);
+  EXPECT_EQ(send({120, 0, 0, 0}, kNoTask).reason, Reason::kUnknownTask);
   EXPECT_EQ(send({120, 0, 0, 0}, 3).reason, Reason::kUnknownTask);
   EXPECT_EQ(send({120, 0, 0, 0}, 3).decision, Decision::kReject);
 }

@@ -17,7 +17,7 @@ void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
   o->command = command;
   o->decision = Decision::kReject;
   o->reason = reason;
-  o->rule_kind = RuleKind::kNone;
+  o->rule_kind = RuleKind::kNoRule;
   o->rule = kNone;
   o->reply_errno = err;
 }
@@ -69,8 +69,31 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
   if (tx.len == 0) return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
   if (tx.len == 1 && general_call_) {
     // One byte to the general-call address is a command (0x06 = software
-    // reset on a PCA9685), not a register pointer.
-    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+    // reset on a PCA9685), not a register pointer: one of the device's
+    // general-call commands, or refused.
+    for (uint32_t k = 0; k < dr.command_count; ++k) {
+      const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
+      const CommandRecord& c = commands_[cid];
+      if (c.group_len != 0 || c.match != tx.bytes[0]) continue;
+      Decoded& d = decoded_;
+      d.device = dev;
+      d.command = cid;
+      d.index = 0;
+      d.prefix = 0;
+      d.prefix_byte = 0;
+      d.base_reg = 0;
+      d.len = 0;
+      d.field_count = 0;
+      Outcome* o = new_outcome(dev);
+      if (o == nullptr) return;
+      evaluate(tx, *o);
+      if (o->decision == Decision::kAllow) {
+        o->bus_command = cid;  // check() emits the broadcast
+        for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = 0;
+      }
+      return;
+    }
+    return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
   }
   if (tx.len == 1) {
     // Register pointer only (the first half of a register read): no register
@@ -138,7 +161,7 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
       a.device = dev;
       a.command = cid;
       a.rule = kNone;
-      a.rule_kind = RuleKind::kNone;
+      a.rule_kind = RuleKind::kNoRule;
       a.decision = Decision::kIgnore;
       a.reason = Reason::kStagingConflict;
       a.index = static_cast<uint8_t>(index);
@@ -197,11 +220,11 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
         const uint8_t r = static_cast<uint8_t>(base + q);
         const uint8_t pair[2] = {r, d.bytes[q]};
         emit(pair, 2);
-        undo_save(dev, r);
-        st.shadow[r] = d.bytes[q];
+        store_shadow(dev, cid, r, d.bytes[q]);
       }
       o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
       o->bus_command = cid;
+      o->bus_index = d.index;
       for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
     }
   }
@@ -229,8 +252,13 @@ bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint1
       bytes[0] = c.match;
     }
   } else {
-    // Same channel as the checked command when the substitute has it, else channel 0.
-    if (request != nullptr && request->index < c.repeat) idx = request->index;
+    // The template's channel; else the checked command's when the substitute
+    // has it; else channel 0. The verifier keeps a template's index < repeat.
+    if (subst.index != kSameIndex) {
+      idx = subst.index;
+    } else if (request != nullptr && request->index < c.repeat) {
+      idx = request->index;
+    }
     const uint32_t base = c.match + static_cast<uint32_t>(idx) * c.stride;
     *len = c.group_len;
     __builtin_memcpy(bytes, state_[dev].shadow + base, c.group_len);
@@ -264,8 +292,7 @@ bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* 
     const uint8_t r = static_cast<uint8_t>(base + q);
     const uint8_t pair[2] = {r, bytes[q]};
     if (!emit(pair, 2)) return false;
-    undo_save(dev, r);
-    state_[dev].shadow[r] = bytes[q];
+    store_shadow(dev, command, r, bytes[q]);
   }
   return true;
 }
@@ -289,6 +316,7 @@ bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
   }
   o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
   o.bus_command = command;
+  o.bus_index = index;
   for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o.bus_fields[f] = fields[f];
   return true;
 }

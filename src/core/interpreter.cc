@@ -160,13 +160,13 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
         stack[sp++] = job_count_[env.tx->task][env.d->device];
         break;
       case Op::kLastField: {
-        const LastCommand& l = last_[env.d->command];
+        const LastCommand& l = last(env.d->command, env.d->index);
         if (!l.valid || in.b >= commands_[env.d->command].field_count) FAULT();
         stack[sp++] = l.fields[in.b];
         break;
       }
       case Op::kSinceLast: {
-        const LastCommand& l = last_[env.d->command];
+        const LastCommand& l = last(env.d->command, env.d->index);
         if (!l.valid) FAULT();
         const uint64_t dt = now_us_ > l.time_us ? now_us_ - l.time_us : 0;
         if (dt > 0x7FFFFFFFFFFFFFFFull) FAULT();
@@ -274,6 +274,7 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
         Subst& s = *env.subst;
         s.active = true;
         s.command = in.b == kNone ? env.d->command : in.b;
+        s.index = kSameIndex;
         s.set_mask = 0;
         for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = 0;
         break;

@@ -76,10 +76,14 @@ inline FieldRecord field_rec(uint8_t offset, uint8_t nbytes, uint8_t width, uint
   return f;
 }
 
+// `index`: the channel of a register-map command (a safe state must name
+// one); kSameIndex = the checked command's channel.
 inline TemplateRecord template_rec(uint16_t command,
-                                   std::initializer_list<std::pair<int, int32_t>> values = {}) {
+                                   std::initializer_list<std::pair<int, int32_t>> values = {},
+                                   uint8_t index = kSameIndex) {
   TemplateRecord t{};
   t.command = command;
+  t.index = index;
   for (auto [f, v] : values) {
     t.set_mask = static_cast<uint8_t>(t.set_mask | (1u << f));
     t.values[f] = v;
@@ -359,8 +363,8 @@ inline ImageModel model(bool with_sequence = true) {
   command("prescale", 0xFE, 1, 1, 0, CommandClass::kActuate, {{"value", field_rec(0, 1, 8)}});
   command("test_mode", 0xFF, 1, 1, 0, CommandClass::kForbidden, {});
 
-  m.templates.push_back(template_rec(kMode1, {{0, 0x11}}));  // kTplSafe
-  m.templates.push_back(template_rec(kNone, {{1, 375}}));    // kTplCentre
+  m.templates.push_back(template_rec(kMode1, {{0, 0x11}}, 0));  // kTplSafe
+  m.templates.push_back(template_rec(kNone, {{1, 375}}));       // kTplCentre
 
   auto invariant = [&](const char* name, const Prog& p, CommandMask mask, Response response,
                        uint8_t err, uint16_t tpl) {

@@ -102,6 +102,7 @@ void Checker::clear_tables() {
   __builtin_memset(signal_devices_, 0, sizeof(signal_devices_));
   __builtin_memset(state_, 0, sizeof(state_));
   __builtin_memset(last_, 0, sizeof(last_));
+  __builtin_memset(last_first_, 0, sizeof(last_first_));
   __builtin_memset(signal_memo_, 0, sizeof(signal_memo_));
   __builtin_memset(sample_memo_, 0, sizeof(sample_memo_));
   __builtin_memset(windows_, 0, sizeof(windows_));
@@ -258,9 +259,6 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
         d.pad0[1] != 0 || d.pad0[2] != 0) {
       return fail(S::kBadTag, kDevSec, i);
     }
-    // Bytes 30..31: alignment padding the struct leaves implicit; read raw.
-    const uint8_t* raw = image + entry(kSlotDevices).offset + sizeof(DeviceRecord) * i;
-    if (raw[30] != 0 || raw[31] != 0) return fail(S::kBadTag, kDevSec, i);
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
         d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes) {
       return fail(S::kBadField, kDevSec, i);
@@ -333,6 +331,22 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     if (d.profile == static_cast<uint8_t>(Profile::kFrame)) {
       if (c.group_len != 0 || c.repeat != 0 || c.stride != 0) return fail(S::kBadField, kCmdSec, i);
       limit = d.frame_len;
+    } else if (c.group_len == 0) {
+      // A general-call command: one byte, no fields, on a general-call listener.
+      if (c.repeat != 0 || c.stride != 0 || c.field_count != 0) {
+        return fail(S::kBadField, kCmdSec, i);
+      }
+      bool listens = false;
+      for (uint32_t a = 0; a < alias_count_; ++a) {
+        listens = listens || (aliases_[a].device == c.device &&
+                              aliases_[a].kind == static_cast<uint8_t>(AliasKind::kGeneralCall));
+      }
+      if (!listens) return fail(S::kBadReference, kCmdSec, i);
+      for (uint32_t k = d.command_first; k < i; ++k) {
+        if (commands_[k].group_len == 0 && commands_[k].match == c.match) {
+          return fail(S::kBadField, kCmdSec, i);  // two general-call commands, one byte
+        }
+      }
     } else {
       if (c.group_len < 1 || c.repeat < 1 || (c.repeat > 1 && c.stride < c.group_len)) {
         return fail(S::kBadField, kCmdSec, i);
@@ -372,16 +386,60 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     }
   }
 
+  // Broadcast commands (PCA9685 ALL_LED_*): both ends are commands of the
+  // device, a single group loaded onto every channel of a group as long.
+  for (uint32_t dv = 0; dv < device_count_; ++dv) {
+    const DeviceRecord& d = devices_[dv];
+    if (d.broadcast == 0 && d.broadcast_target == 0) continue;
+    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) ||
+        d.broadcast >= d.command_count || d.broadcast_target >= d.command_count ||
+        d.broadcast == d.broadcast_target) {
+      return fail(S::kBadReference, kDevSec, dv);
+    }
+    const CommandRecord& from = commands_[d.command_first + d.broadcast];
+    const CommandRecord& to = commands_[d.command_first + d.broadcast_target];
+    if (from.repeat != 1 || from.group_len != to.group_len) return fail(S::kBadField, kDevSec, dv);
+  }
+
+  // History slots for LAST_FIELD / SINCE_LAST: one per frame command, one per
+  // channel of a register group (channels never share a "last value").
+  uint32_t slots = 0;
+  for (uint32_t i = 0; i < command_count_; ++i) {
+    last_first_[i] = static_cast<uint16_t>(slots);
+    slots += commands_[i].repeat > 1 ? commands_[i].repeat : 1;
+    if (slots > kMaxHistorySlots) return fail(S::kTooMany, kCmdSec, i);
+  }
+
   // --- templates ----------------------------------------------------------------------
   for (uint32_t i = 0; i < template_count_; ++i) {
     const TemplateRecord& t = templates_[i];
-    if (t.pad != 0) return fail(S::kBadTag, sec(SectionKind::kTemplates), i);
     if (t.command != kNone) {
       if (t.command >= command_count_) {
         return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
       }
-      const uint32_t fc = commands_[t.command].field_count;
+      const CommandRecord& c = commands_[t.command];
+      const uint32_t fc = c.field_count;
+      if (devices_[c.device].profile == static_cast<uint8_t>(Profile::kRegisterMap) &&
+          c.group_len == 0) {
+        return fail(S::kBadReference, sec(SectionKind::kTemplates), i);  // cannot be addressed
+      }
       if ((t.set_mask >> fc) != 0) return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
+      // A channel must exist; frame commands have none.
+      const bool frame = devices_[c.device].profile == static_cast<uint8_t>(Profile::kFrame);
+      if (t.index != kSameIndex && (frame || t.index >= c.repeat)) {
+        return fail(S::kBadField, sec(SectionKind::kTemplates), i);
+      }
+    } else if (t.index != kSameIndex) {
+      return fail(S::kBadField, sec(SectionKind::kTemplates), i);  // "the checked one" has its own
+    }
+  }
+  // A safe state is written with no command being checked: on a register map
+  // each of its templates names its channel.
+  for (uint32_t i = 0; i < device_count_; ++i) {
+    const DeviceRecord& d = devices_[i];
+    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) continue;
+    for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
+      if (templates_[t].index == kSameIndex) return fail(S::kBadField, kDevSec, i);
     }
   }
   // A rule's template must encode a command of the rule's own device.
@@ -469,6 +527,9 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
       return fail(S::kBadReference, sec(SectionKind::kRegisterInit), i);
     }
     state_[r.device].shadow[r.reg] = r.value;
+  }
+  for (uint32_t dv = 0; dv < device_count_; ++dv) {
+    __builtin_memcpy(state_[dv].power_on, state_[dv].shadow, kMaxRegisters);
   }
 
   // --- programs -------------------------------------------------------------------------------

@@ -1,5 +1,6 @@
 // The verifier: every LoadStatus it can produce, one test each, plus the
 // bit-flip and truncation sweeps of a valid image.
+#include <algorithm>
 #include <gtest/gtest.h>
 #include <random>
 
@@ -109,7 +110,10 @@ TEST_F(VerifierTest, BadVersionMajorIsRefusedNewerMinorAccepted) {
   minor[6] = 7;  // version_minor
   reseal(minor);
   EXPECT_EQ(load_bytes(minor).status, LoadStatus::kOk);
-  valid[4] = 2;  // version_major
+  std::vector<uint8_t> old_major = valid;
+  old_major[4] = 1;  // a 1.0 image: byte 3 of a template meant padding, now a channel
+  EXPECT_EQ(load_bytes(old_major).status, LoadStatus::kBadVersion);
+  valid[4] = 3;  // version_major
   EXPECT_EQ(load_bytes(valid).status, LoadStatus::kBadVersion);
 }
 
@@ -238,6 +242,55 @@ TEST_F(VerifierTest, BadReferences) {
   m = rover::model();  // command range of a device outside COMMANDS
   m.devices[1].record.command_count = 5;
   EXPECT_EQ(load_model(m), LoadStatus::kBadReference);
+}
+
+TEST_F(VerifierTest, TemplateChannelsAreBoundedAndSafeStatesNameTheirs) {
+  image::ImageModel m = testing::arm::model();
+  m.templates[testing::arm::kTplCentre].index = 3;  // kNone: the checked command has its own
+  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
+  m = testing::arm::model();  // MODE1 has one "channel", 0
+  m.templates[testing::arm::kTplSafe].index = 1;
+  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
+  m = testing::arm::model();  // a safe state is written with nothing checked: name the channel
+  m.templates[testing::arm::kTplSafe].index = kSameIndex;
+  const LoadResult r = h.load(m);
+  EXPECT_EQ(r.status, LoadStatus::kBadField);
+  EXPECT_EQ(r.section, static_cast<uint32_t>(SectionKind::kDevices));
+  m = rover::model();  // frame commands have no channel
+  m.templates[rover::kTplStop].index = 0;
+  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
+}
+
+TEST_F(VerifierTest, BroadcastAndGeneralCallCommandsAreCrossChecked) {
+  image::ImageModel m = testing::arm::model();
+  m.devices[0].record.broadcast = testing::arm::kAllLed;
+  m.devices[0].record.broadcast_target = testing::arm::kLed;
+  EXPECT_EQ(load_model(m), LoadStatus::kOk);
+  m.devices[0].record.broadcast_target = 9;  // outside the device's commands
+  EXPECT_EQ(load_model(m), LoadStatus::kBadReference);
+  m.devices[0].record.broadcast = testing::arm::kLed;  // a repeated group cannot broadcast
+  m.devices[0].record.broadcast_target = testing::arm::kAllLed;
+  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
+  m = rover::model();  // frames have no shadow to broadcast into
+  m.devices[0].record.broadcast = 1;
+  EXPECT_EQ(load_model(m), LoadStatus::kBadReference);
+  // A general-call command (group_len 0) needs no fields and a general-call alias.
+  m = testing::arm::model();
+  m.commands[testing::arm::kTestMode].record.group_len = 0;
+  m.commands[testing::arm::kTestMode].record.repeat = 0;
+  m.commands[testing::arm::kTestMode].record.stride = 0;
+  m.commands[testing::arm::kTestMode].record.field_count = 0;
+  EXPECT_EQ(load_model(m), LoadStatus::kOk);
+  image::ImageModel no_alias = m;
+  no_alias.aliases.erase(std::remove_if(no_alias.aliases.begin(), no_alias.aliases.end(),
+                                        [](const AliasRecord& a) {
+                                          return a.kind ==
+                                                 static_cast<uint8_t>(AliasKind::kGeneralCall);
+                                        }),
+                         no_alias.aliases.end());
+  EXPECT_EQ(load_model(no_alias), LoadStatus::kBadReference);
+  m.commands[testing::arm::kTestMode].record.stride = 4;  // a general-call command has no group
+  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
 }
 
 TEST_F(VerifierTest, BadFieldGeometry) {

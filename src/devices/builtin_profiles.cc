@@ -238,6 +238,14 @@ ProfileSpec make_pca9685() {
       "PWM frequency: 25 MHz / (4096 * (prescale + 1)); only while asleep"));
   c.push_back(register_command("testmode", 0xFF, 1, 1, 1, CommandClass::kForbidden,
                                {byte_field("value", 0)}, "TestMode: reserved, never written"));
+  // The software reset: one byte 0x06 to the general-call address resets every
+  // PCA9685 on the bus to its power-on registers (all outputs off). A command
+  // of its own, so a policy can name it (`limit t -> arm.swrst 0 per job`).
+  c.push_back(register_command("swrst", 0x06, 0, 0, 0, kAct, {},
+                               "SWRST: general call 0x00 then 0x06; every PCA9685 resets"));
+  // ALL_LED_* writes load every LEDn register (the shadow must follow, or a
+  // fail-safe built from a channel's shadow could carry a stale full-off bit).
+  p.broadcast = BroadcastSpec{"all_led", "led"};
   // 0x46..0xF9 are reserved: no command covers them, so the core refuses writes there.
   return p;
 }

@@ -88,6 +88,10 @@ Result<std::vector<std::vector<uint8_t>>> encode_command(const ProfileSpec& prof
     writes.push_back(std::move(write));
     return writes;
   }
+  if (c->group_len == 0) {
+    return make_error(fmt::format(
+        "{}: a general-call command; write [0x{:02x}] to address 0x00 instead", where, c->match));
+  }
   if (options.index >= c->repeat) {
     return make_error(
         fmt::format("{}: index {} outside 0..{}", where, options.index, c->repeat - 1));

@@ -91,6 +91,7 @@ Status validate_profile(const ProfileSpec& p) {
   std::array<int, 256> owner;  // register-map coverage: command index or -1
   owner.fill(-1);
   std::set<uint8_t> opcodes;
+  std::set<uint8_t> general_calls;  // register map: general-call command bytes
   for (size_t k = 0; k < p.commands.size(); ++k) {
     const CommandSpec& c = p.commands[k];
     if (c.name.empty()) return make_error(fmt::format("{}: command {} has no name", prof, k));
@@ -116,6 +117,18 @@ Status validate_profile(const ProfileSpec& p) {
         return make_error(fmt::format("{}: opcode {} used twice", where, c.match));
       }
       if (Status s = validate_fields(where, c.fields, p.frame_len); !s) return s;
+    } else if (c.group_len == 0 && c.repeat == 0 && c.stride == 0) {
+      // A general-call command: the byte [match] sent to the general-call address.
+      const bool listens = std::any_of(p.aliases.begin(), p.aliases.end(), [](const AliasSpec& a) {
+        return a.kind == core::AliasKind::kGeneralCall;
+      });
+      if (!listens || !c.fields.empty()) {
+        return make_error(fmt::format(
+            "{}: a general-call command needs a general-call alias and has no fields", where));
+      }
+      if (!general_calls.insert(c.match).second) {
+        return make_error(fmt::format("{}: general-call byte {} used twice", where, c.match));
+      }
     } else {
       if (c.group_len < 1 || c.repeat < 1 || (c.repeat > 1 && c.stride < c.group_len)) {
         return make_error(fmt::format("{}: group_len {} repeat {} stride {} invalid", where,
@@ -149,6 +162,22 @@ Status validate_profile(const ProfileSpec& p) {
   if (Status s = validate_fields(prof + " sample", p.sample_fields, p.sample_len); !s) return s;
   if (!p.sample_fields.empty() && (p.role & core::kRoleSensor) == 0) {
     return make_error(fmt::format("{}: sample fields on a device that is no sensor", prof));
+  }
+  if (p.broadcast) {
+    auto find = [&](const std::string& n) {
+      return std::find_if(p.commands.begin(), p.commands.end(),
+                          [&](const CommandSpec& c) { return c.name == n; });
+    };
+    const auto from = find(p.broadcast->from);
+    const auto to = find(p.broadcast->to);
+    if (p.kind != core::Profile::kRegisterMap || from == p.commands.end() ||
+        to == p.commands.end() || from == to || from->repeat != 1 ||
+        from->group_len != to->group_len) {
+      return make_error(fmt::format(
+          "{}: broadcast `{}` -> `{}` needs two register groups of one length, the first "
+          "not repeated",
+          prof, p.broadcast->from, p.broadcast->to));
+    }
   }
   for (const AliasSpec& a : p.aliases) {
     if (a.kind == core::AliasKind::kAddress && (a.addr == 0 || a.addr > 0x7F)) {
@@ -221,6 +250,15 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
   }
   r.safe_first = 0;
   r.safe_count = 0;
+  if (profile.broadcast) {
+    for (size_t k = 0; k < profile.commands.size(); ++k) {
+      if (profile.commands[k].name == profile.broadcast->from)
+        r.broadcast = static_cast<uint8_t>(k);
+      if (profile.commands[k].name == profile.broadcast->to) {
+        r.broadcast_target = static_cast<uint8_t>(k);
+      }
+    }
+  }
   model.devices.push_back(std::move(d));
 
   for (const CommandSpec& c : profile.commands) {

@@ -20,6 +20,7 @@ bool matches(const ProfileSpec& p, const image::ImageModel& m, const core::Devic
       p.prefix_len != d.prefix_len) {
     return false;
   }
+  if (p.broadcast.has_value() != (d.broadcast != d.broadcast_target)) return false;
   if ((p.role & core::kRoleSensor) != 0 &&
       (p.sample_len != d.sample_len || p.sample_request.size() != d.sample_request_len ||
        !std::equal(p.sample_request.begin(), p.sample_request.end(), d.sample_request))) {
@@ -106,6 +107,10 @@ Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t devi
       c.fields.push_back(field_from_record(m.fields[fid].name, m.fields[fid].record));
     }
     p.commands.push_back(std::move(c));
+  }
+  if (d.broadcast != d.broadcast_target && d.broadcast < p.commands.size() &&
+      d.broadcast_target < p.commands.size()) {
+    p.broadcast = BroadcastSpec{p.commands[d.broadcast].name, p.commands[d.broadcast_target].name};
   }
   p.sample_request.assign(d.sample_request,
                           d.sample_request + std::min<size_t>(d.sample_request_len, 8));

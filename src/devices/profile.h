@@ -52,6 +52,13 @@ struct AliasSpec {
   uint16_t addr;  // kAddress: the extra address (e.g. PCA9685 all-call 0x70); 0 for general call
 };
 
+// Register map: a command whose writes the device also loads into every
+// channel of a repeated command (PCA9685: ALL_LED_* fill all LEDn registers).
+struct BroadcastSpec {
+  std::string from;  // a command with one group (repeat 1)
+  std::string to;    // a repeated command with groups as long
+};
+
 struct ProfileSpec {
   std::string name;  // as written after ':' in a policy: "gopigo2"
   core::Profile kind = core::Profile::kFrame;
@@ -66,6 +73,7 @@ struct ProfileSpec {
   std::vector<RegisterValue> power_on;  // registers whose reset value is not 0
   std::vector<AliasSpec> aliases;
   std::vector<CommandSpec> commands;
+  std::optional<BroadcastSpec> broadcast;
   // Sensors: how the trusted side takes a sample and what is in it.
   std::vector<uint8_t> sample_request;  // written before each sample read (may be empty)
   uint8_t sample_len = 0;

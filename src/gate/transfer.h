@@ -13,13 +13,8 @@
 #include <string>
 #include <vector>
 
-// Reason::kUnknownTask (verdict.h) shadows core::kUnknownTask (transaction.h)
-// under -Wshadow when transaction.h comes first; include both here, quietly.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
 #include "contego/core/transaction.h"
 #include "contego/core/verdict.h"
-#pragma GCC diagnostic pop
 
 namespace contego::gate {
 

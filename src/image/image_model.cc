@@ -364,6 +364,10 @@ std::string dump(const ImageModel& m) {
     if (d.latch_mode != 0) {
       out += fmt::format(" latch after {} in {}us", d.latch_count, d.latch_window_us);
     }
+    if (d.broadcast != d.broadcast_target) {
+      out += fmt::format(" broadcast cmd{} -> cmd{}", d.command_first + d.broadcast,
+                         d.command_first + d.broadcast_target);
+    }
     if (d.sample_len != 0) {
       out += fmt::format(" sample {}B every {}us max age {}us", d.sample_len, d.sample_period_us,
                          d.max_sample_age_us);
@@ -434,6 +438,7 @@ std::string dump(const ImageModel& m) {
     out += fmt::format(
         "  tpl{}: {}", i,
         t.command == core::kNone ? std::string("<checked>") : fmt::format("cmd{}", t.command));
+    if (t.index != core::kSameIndex) out += fmt::format("[{}]", t.index);
     for (uint32_t f = 0; f < 8; ++f) {
       if ((t.set_mask >> f) & 1u) out += fmt::format(" f{}={}", f, t.values[f]);
     }

@@ -10,16 +10,11 @@
 
 #include <cstdint>
 
-// Reason::kUnknownTask (verdict.h) shadows core::kUnknownTask (transaction.h)
-// under -Wshadow when both are included; harmless (one is scoped).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
 #include "contego/core/checker.h"
 #include "contego/core/host.h"
 #include "contego/core/image.h"
 #include "contego/core/transaction.h"
 #include "contego/core/verdict.h"
-#pragma GCC diagnostic pop
 
 namespace contego::monitor {
 

@@ -5,12 +5,8 @@
 #include <memory>
 #include <sstream>
 
-// verdict.h's RuleKind::kNone trips -Wshadow when image.h's core::kNone is
-// already visible (compile.h includes it first).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"
 #include "contego/core/checker.h"
-#pragma GCC diagnostic pop
+
 #include "policy/check/check.h"
 #include "policy/diag/diag.h"
 #include "policy/lex/lex.h"

@@ -7,10 +7,8 @@
 #include <gtest/gtest.h>
 #include <memory>
 #include <vector>
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wshadow"  // verdict.h's RuleKind::kNone vs core::kNone
+
 #include "contego/core/checker.h"
-#pragma GCC diagnostic pop
 
 namespace contego::policy {
 namespace {
@@ -253,8 +251,8 @@ allow t -> gopigo
 TEST(CompilePolicy, MoreDevicesThanTheImageHoldsIsReported) {
   std::string text = "task t { period 100ms; wcet 1ms }\n";
   for (int i = 0; i < 33; ++i) {
-    text += "device d" + std::to_string(i) + " : line_follower at i2c-1 " +
-            std::to_string(10 + i) + "\n";
+    text += "device d" + std::to_string(i) + " : line_follower at i2c-1 " + std::to_string(10 + i) +
+            "\n";
   }
   const CompileOutput out = compile_source("big.policy", text);
   EXPECT_FALSE(out.ok);

@@ -24,7 +24,7 @@ struct Sample {
 
 // Everything one case changes as it runs.
 struct CaseState {
-  uint16_t task = core::kUnknownTask;
+  uint16_t task = core::kNoTask;
   bool task_set = false;
   uint32_t job = 0;
   uint64_t now_us = 0;
@@ -158,7 +158,7 @@ class Runner {
   void set_task(const SetTask& t, CaseState& state) {
     state.task_set = true;
     if (t.task == "none") {
-      state.task = core::kUnknownTask;
+      state.task = core::kNoTask;
       return;
     }
     for (uint16_t i = 0; i < model_.tasks.size(); ++i) {
@@ -334,7 +334,7 @@ class Runner {
         return "access";
       case core::RuleKind::kLatch:
         return "latch";
-      case core::RuleKind::kNone:
+      case core::RuleKind::kNoRule:
         break;
     }
     return "-";

@@ -22,8 +22,6 @@
 #include <variant>
 #include <vector>
 
-// host.h first: it brings verdict.h in before transaction.h, whose
-// kUnknownTask would otherwise be shadowed by Reason::kUnknownTask (-Wshadow).
 #include "contego/core/host.h"
 #include "contego/core/transaction.h"
 #include "contego/core/verdict.h"

@@ -68,7 +68,7 @@ uint16_t CheckerGuard::task_id(const std::string& name) const {
   for (size_t i = 0; i < task_names_.size(); ++i) {
     if (task_names_[i] == name) return static_cast<uint16_t>(i);
   }
-  return core::kUnknownTask;
+  return core::kNoTask;
 }
 
 GuardResult CheckerGuard::check(const std::string& task, uint64_t job, const BusOp& op,

@@ -169,7 +169,7 @@ INSTANTIATE_TEST_SUITE_P(
                       PlantCase{"arm_all_led", "objects_handled", 2.0, 0.0},
                       PlantCase{"arm_unauthorised", "objects_handled", 2.0, 0.0},
                       PlantCase{"tank_false_alarm", "false_alarm_time", 10.0, 0.5},  // s
-                      PlantCase{"pump_overdose_dose_first", "dose_delivered", 5000.0, 50.0},
+                      PlantCase{"pump_overdose", "dose_delivered", 5000.0, 50.0},
                       PlantCase{"camera_beyond_range", "max_pan_angle", 20.0, 2.0},  // deg
                       PlantCase{"camera_false_siren", "false_siren_time", 10.0, 0.5}),
     [](const auto& test_info) { return std::string(test_info.param.scenario); });
@@ -185,15 +185,15 @@ TEST_F(ProtectionTest, SameSeedGivesAByteIdenticalTraceAndAnotherSeedDoesNot) {
   }
 }
 
-// With the example pump policy the rate cap is checked before the dose, so
-// after the dose an over-fast rate becomes the maximum rate, not 0: a small
-// over-dose leaks through (the dose-first variant above has none).
-TEST_F(ProtectionTest, ExamplePumpPolicyLimitsTheOverdoseToTheCappedRate) {
+// The example pump policy checks the dose before the rate cap: after the
+// dose an over-fast rate becomes 0, not the capped maximum, so no over-dose
+// leaks through (with the cap first, about 600 uL did).
+TEST_F(ProtectionTest, ExamplePumpPolicyStopsTheMotorOnceTheDoseIsDelivered) {
   const Runs r = run("pump_overdose");
   const double unprotected = metric(r.unprotected, "overdose");
   const double protected_ = metric(r.protected_, "overdose");
-  EXPECT_GT(unprotected, 20000.0);            // uL
-  EXPECT_LT(protected_, 0.05 * unprotected);  // capped at 200 uL/h for the rest of the attack
+  EXPECT_GT(unprotected, 20000.0);  // uL
+  EXPECT_LT(protected_, 50.0);
   EXPECT_LE(metric(r.protected_, "max_rate"), 200.0);
 }
 

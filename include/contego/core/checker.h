@@ -115,6 +115,7 @@ class Checker {
     uint8_t staged_task[kMaxRegisters];  // which task staged each register
     uint32_t staged_bits[kMaxRegisters / 32];
     uint8_t lookup[kMaxRegisters];        // opcode / register -> offset in the device's commands
+    uint8_t power_on[kMaxRegisters];      // register-map: values after reset (kRegisterInit)
     uint64_t violations[kMaxLatchCount];  // ring of the last violation times
     uint8_t violation_count;
     uint8_t violation_next;
@@ -165,6 +166,7 @@ class Checker {
     uint16_t emit_len;
     uint8_t emit_index;    // its first write in the verdict
     uint16_t bus_command;  // the command whose fields reached the bus (kNone: none)
+    uint8_t bus_index;     // and its channel (register-map group index)
     int32_t bus_fields[kMaxFieldsPerCommand];
   };
   // The command being checked: its bytes (frame after the prefix, or the
@@ -185,6 +187,7 @@ class Checker {
   struct Subst {
     bool active;
     uint16_t command;  // kNone: the checked command
+    uint8_t index;     // channel, kSameIndex: the checked command's
     uint8_t set_mask;
     int32_t values[kMaxFieldsPerCommand];
   };
@@ -222,8 +225,10 @@ class Checker {
   LoadResult verify(const uint8_t* image, uint32_t size);
   void clear_tables();
   void compute_costs();
+  LastCommand& last(uint16_t command, uint8_t index);
 
   void check_device(const Transaction& tx, uint16_t dev);
+  bool resolve_general_call(const Transaction& tx, Verdict* out);
   void check_frame(const Transaction& tx, uint16_t dev);
   void check_register_map(const Transaction& tx, uint16_t dev);
   void evaluate(const Transaction& tx, Outcome& o);
@@ -241,6 +246,9 @@ class Checker {
   void update_window(const Transaction& tx);
   bool record_violation(uint16_t dev, uint64_t now_us);
   void undo_save(uint16_t dev, uint8_t reg);
+  // Records that `command` wrote `value` to register `reg` of `dev` (undoable),
+  // with the device's broadcast into other channels.
+  void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
   void rollback();
   void audit(const Transaction& tx, const Outcome& o);
   // Interpreter: returns the terminator op (kPass/kFail/kFailSubst/kReturn) or
@@ -288,7 +296,10 @@ class Checker {
   bool latch_event_ = false;   // a device latched during this check()
   uint16_t latch_device_ = kNone;
   DeviceState state_[kMaxDevices]{};
-  LastCommand last_[kMaxCommandDefs]{};
+  // LAST_FIELD / SINCE_LAST history, kept per (command, channel): command c's
+  // channel i lives in last_[last_first_[c] + i] (frame commands have one).
+  uint16_t last_first_[kMaxCommandDefs]{};
+  LastCommand last_[kMaxHistorySlots]{};
   SignalMemo signal_memo_[kMaxSignals]{};
   SampleMemo sample_memo_[kMaxDevices]{};
   TaskWindow windows_[kMaxTasks]{};

@@ -14,16 +14,15 @@
 
 #include <stdint.h>
 
-// verdict.h first: its RuleKind::kNone must be declared before the
-// namespace-scope kNone below, or GCC's -Wshadow fires in every includer.
 #include "contego/core/verdict.h"
 
 namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
-inline constexpr uint16_t kImageVersionMajor = 1;
+inline constexpr uint16_t kImageVersionMajor = 2;
 inline constexpr uint16_t kImageVersionMinor = 0;
 inline constexpr uint16_t kNone = 0xFFFF;
+inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
 struct ImageHeader {
   uint32_t magic;
@@ -32,7 +31,7 @@ struct ImageHeader {
   uint32_t total_size;     // bytes, header included
   uint32_t checksum;       // CRC-32 (IEEE, reflected, as zlib) of bytes [16, total_size)
   uint32_t section_count;
-  uint32_t flags;        // must be 0 in version 1.0
+  uint32_t flags;        // must be 0 in version 2.0
   uint32_t reserved[2];  // must be 0
 };
 static_assert(sizeof(ImageHeader) == 32);
@@ -117,6 +116,13 @@ struct DeviceRecord {
   uint8_t sample_request[8];
   uint8_t sample_len;  // sensors: bytes read per sample (<= kMaxSampleBytes)
   uint8_t pad0[3];
+  // kRegisterMap (since 2.0): the bytes a commit of command
+  // `command_first + broadcast` writes are also loaded into the same group
+  // offsets of every channel of command `command_first + broadcast_target`, as
+  // the device does (PCA9685: ALL_LED_* fill every LEDn register), so the
+  // shadow follows. 0 / 0 = none (a command cannot broadcast onto itself).
+  uint8_t broadcast;
+  uint8_t broadcast_target;
   uint32_t latch_window_us;
   uint32_t sample_period_us;   // sensors: how often the host samples
   uint32_t max_sample_age_us;  // sensors: older samples make signals unavailable
@@ -160,6 +166,11 @@ struct CommandRecord {
   // and `index` of a decoded command is i. The group commits (is checked and
   // written) when its last register (j = group_len-1) is written; writes of
   // earlier registers are staged.
+  // kRegisterMap with group_len = repeat = stride = 0 (since 2.0): a
+  // general-call command, the one-byte write [match] to the general-call
+  // address (PCA9685 SWRST = 0x06). No fields; the device needs a kGeneralCall
+  // alias. When one reaches the bus the device's shadow returns to its
+  // power-on values (kRegisterInit).
   uint8_t match;
   uint8_t group_len;
   uint8_t repeat;
@@ -243,10 +254,14 @@ static_assert(sizeof(InvariantRecord) == 32);
 
 // A constant command. `command` == kNone means "the command being checked",
 // so a template can force one field (speed = 80) and keep the others.
+// `index` is the register-map channel the command is written to: kSameIndex
+// means the checked command's channel (channel 0 when the substitute command
+// has no such channel); a safe state, written when no command is being
+// checked, names its channel explicitly. Frame commands and kNone use kSameIndex.
 struct TemplateRecord {
   uint16_t command;
   uint8_t set_mask;  // bit f: values[f] replaces field f; other fields keep their current value
-  uint8_t pad;
+  uint8_t index;     // channel (group index) of `command`, or kSameIndex (since version 2.0)
   int32_t values[8];
 };
 static_assert(sizeof(TemplateRecord) == 36);

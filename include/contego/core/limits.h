@@ -32,7 +32,9 @@ inline constexpr uint32_t kMaxSampleBytes = 64;       // longest sensor sample
 inline constexpr uint32_t kMaxEmitBytes = 256;        // bytes a verdict may ask the host to write
 inline constexpr uint32_t kMaxEmits = 64;             // separate bus writes in one verdict
 inline constexpr uint32_t kMaxCommandsPerTransaction = 32;
-inline constexpr uint32_t kMaxLatchCount = 16;  // K of "latch after K violations"
+inline constexpr uint32_t kMaxHistorySlots = 1024;  // "last command" memories: one per frame
+                                                    // command, one per channel of a register group
+inline constexpr uint32_t kMaxLatchCount = 16;      // K of "latch after K violations"
 inline constexpr uint32_t kMaxImageBytes = 256 * 1024;
 
 }  // namespace contego::core

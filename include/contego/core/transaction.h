@@ -8,7 +8,7 @@
 
 namespace contego::core {
 
-inline constexpr uint16_t kUnknownTask = 0xFFFF;  // a client that is no declared task
+inline constexpr uint16_t kNoTask = 0xFFFF;  // a client that is no declared task
 
 enum class TxKind : uint8_t {
   kWrite = 1,  // `bytes` are the bytes on the wire after the address (SMBus forms expanded:
@@ -19,7 +19,7 @@ enum class TxKind : uint8_t {
 };
 
 struct Transaction {
-  uint16_t task;  // task id from the image, or kUnknownTask
+  uint16_t task;  // task id from the image, or kNoTask
   uint8_t bus;    // i2c-N
   TxKind kind;
   uint16_t addr;  // 7-bit address (or 10-bit when ten_bit)

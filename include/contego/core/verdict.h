@@ -45,7 +45,7 @@ enum class Reason : uint8_t {
   kEncodeFailed = 25,       // a substitute could not be encoded (value out of field range)
 };
 
-enum class RuleKind : uint8_t { kNone = 0, kAccess = 1, kRate = 2, kInvariant = 3, kLatch = 4 };
+enum class RuleKind : uint8_t { kNoRule = 0, kAccess = 1, kRate = 2, kInvariant = 3, kLatch = 4 };
 
 struct Verdict {
   Decision decision;

@@ -1242,10 +1242,11 @@ class Sema {
       auto cv = command_value(*call, static_cast<uint16_t>(sym->index), CallMode::kTemplate,
                               nullptr, "the safe state of `" + dev.name + "`");
       if (!cv) continue;
-      if (cv->index && dev.profile.commands[cv->command].repeat > 1) {
-        // TemplateRecord carries no channel: a safe state of one channel is unsupported.
-        diags_.emit(DiagKind::kNotSupported, call->span,
-                    "a safe state for one channel of a repeated register group");
+      const auto& spec = dev.profile.commands[cv->command];
+      if (!cv->index && spec.repeat > 1) {
+        // Nothing is being checked when a safe state is written: say which channel.
+        diags_.emit(DiagKind::kMissingProperty, call->span, "the safe-state command", spec.name,
+                    "channel", "the channel first, e.g. `" + spec.name + "(0, ...)`");
         continue;
       }
       dev.safe.push_back(std::move(*cv));
@@ -1712,10 +1713,12 @@ class Sema {
         auto cv = command_value(*r.command, dev_id, CallMode::kComputed, &cmds,
                                 "the fail-safe command of " + rule);
         if (!cv) return std::nullopt;
-        if (cv->index) {
+        if (cv->index && !cv->constant()) {
+          // A constant command carries its channel (TemplateRecord::index); a
+          // computed one (FAIL_SUBST) is always written to the checked channel.
           diags_.emit(DiagKind::kNotSupported, r.command->span,
-                      "a fail-safe command for another channel (the substitute keeps the "
-                      "checked command's channel)");
+                      "a computed fail-safe command for another channel (a computed "
+                      "substitute keeps the checked command's channel)");
           return std::nullopt;
         }
         out.kind =

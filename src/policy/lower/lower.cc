@@ -82,7 +82,7 @@ class Lowerer {
       auto& rec = m_.devices[i].record;
       rec.safe_first = static_cast<uint16_t>(m_.templates.size());
       rec.safe_count = static_cast<uint16_t>(d.safe.size());
-      for (const CommandValue& cv : d.safe) m_.templates.push_back(make_template(i, cv));
+      for (const CommandValue& cv : d.safe) m_.templates.push_back(make_template(i, cv, true));
     }
     for (const Task& t : p_.tasks) {
       image::Named<core::TaskRecord> rec;
@@ -173,9 +173,12 @@ class Lowerer {
   }
 
   // A constant command: every field it names set, the others 0 (for another
-  // command) or kept (command == kNone: the checked command).
-  core::TemplateRecord make_template(size_t device, const CommandValue& cv) {
+  // command) or kept (command == kNone: the checked command). Its channel is
+  // the one named; unnamed, a safe state's register-map command goes to
+  // channel 0 (it has no checked command) and a rule's keeps the checked one.
+  core::TemplateRecord make_template(size_t device, const CommandValue& cv, bool safe_state) {
     core::TemplateRecord t{};
+    t.index = core::kSameIndex;
     if (cv.command == core::kNone) {
       t.command = core::kNone;
       for (const FieldValue& f : cv.fields) {
@@ -186,6 +189,13 @@ class Lowerer {
     }
     t.command = global(device, cv.command);
     const auto& spec = p_.devices[device].profile.commands[cv.command];
+    if (p_.devices[device].profile.kind == core::Profile::kRegisterMap) {
+      if (cv.index) {
+        t.index = static_cast<uint8_t>(*cv.index);
+      } else if (safe_state) {
+        t.index = 0;
+      }
+    }
     for (size_t s = 0; s < spec.fields.size(); ++s) {
       t.set_mask = static_cast<uint8_t>(t.set_mask | (1u << s));
       t.values[s] =
@@ -316,7 +326,7 @@ class Lowerer {
         return;
       case ResponseKind::kFailsafeTemplate:
         response = static_cast<uint8_t>(core::Response::kFailsafe);
-        tmpl = add_template(make_template(device, *r.command));
+        tmpl = add_template(make_template(device, *r.command, false));
         return;
     }
   }
