@@ -246,6 +246,7 @@ ProfileSpec make_pca9685() {
   // ALL_LED_* writes load every LEDn register (the shadow must follow, or a
   // fail-safe built from a channel's shadow could carry a stale full-off bit).
   p.broadcast = BroadcastSpec{"all_led", "led"};
+  p.read_back = true;  // the Adafruit library reads MODE1 in set_pwm_freq
   // 0x46..0xF9 are reserved: no command covers them, so the core refuses writes there.
   return p;
 }

@@ -74,6 +74,9 @@ struct ProfileSpec {
   std::vector<AliasSpec> aliases;
   std::vector<CommandSpec> commands;
   std::optional<BroadcastSpec> broadcast;
+  // Register map: drivers read registers back (a task may be given `reads`
+  // without the device being a sensor). Host-side only; not in the image.
+  bool read_back = false;
   // Sensors: how the trusted side takes a sample and what is in it.
   std::vector<uint8_t> sample_request;  // written before each sample read (may be empty)
   uint8_t sample_len = 0;

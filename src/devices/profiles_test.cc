@@ -107,7 +107,12 @@ TEST(BuiltinProfiles, Pca9685RegisterMap) {
 
 TEST(ValidateProfile, RefusesOverlappingRegisterGroups) {
   ProfileSpec p = *find_builtin_profile("pca9685");
-  p.commands.push_back(p.commands.back());
+  for (const CommandSpec& c : p.commands) {
+    if (c.name == "prescale") {
+      p.commands.push_back(c);
+      break;
+    }
+  }
   p.commands.back().name = "clash";
   p.commands.back().match = 0x07;  // inside led channel 0
   Status s = validate_profile(p);

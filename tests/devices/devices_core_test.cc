@@ -177,6 +177,7 @@ TEST_F(DevicesThroughCore, HostEncodingDecodesTheSameInTheCore) {
     for (const devices::CommandSpec& c : p.commands) {
       if (c.command_class == core::CommandClass::kForbidden) continue;
       std::vector<devices::FieldValue> values;
+      if (c.group_len == 0 && p.kind == core::Profile::kRegisterMap) continue;  // general call
       std::string want = c.name + "(";
       devices::EncodeOptions o;
       o.index = c.repeat > 1 ? c.repeat - 1u : 0u;

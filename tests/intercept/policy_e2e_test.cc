@@ -203,11 +203,15 @@ TEST_P(PolicyE2e, ArmGripperPythonSmbus2PulseAllowedPrescaleRefused) {
       << output;
   EXPECT_NE(output.find("pulse sent"), std::string::npos) << output;
   EXPECT_NE(output.find("prescale refused"), std::string::npos) << output;
-  // The pulse was allowed and performed (audited as such); when the task
-  // ended the monitor drove the gripper channel to the policy's safe state.
+  // The pulse was allowed (audited as such); when the task ended the monitor
+  // drove the gripper channel to the policy's per-channel safe state, open at
+  // 420 with the full-off bit cleared (before arm.policy had a safe state the
+  // channel kept its power-on full off, 0x1000).
   EXPECT_NE(audit_text().find("\"bytes\":\"1a 00 00 a4 01\",\"command\":6,\"decision\":\"allow\""),
             std::string::npos);
-  EXPECT_EQ(pca->led_off(5), 0x1000);
+  EXPECT_NE(audit_text().find("safe-state"), std::string::npos);
+  EXPECT_EQ(pca->led_on(5), 0);
+  EXPECT_EQ(pca->led_off(5), 420);
   EXPECT_EQ(pca->reg(0xFE), 0x1E);  // PRE_SCALE untouched
 }
 

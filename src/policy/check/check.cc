@@ -1659,7 +1659,9 @@ class Sema {
       t.read.resize(out_.devices.size());
       if (a.reads) {
         const Device& device = out_.devices[*dev];
-        const bool readable = (device.role & core::kRoleSensor) ||
+        // Sensors, devices with query commands, and devices whose registers
+        // drivers read back (the PCA9685's MODE1 before changing it).
+        const bool readable = (device.role & core::kRoleSensor) || device.profile.read_back ||
                               std::any_of(device.profile.commands.begin(),
                                           device.profile.commands.end(), [](const auto& c) {
                                             return c.command_class == core::CommandClass::kQuery;
