@@ -3,46 +3,108 @@
 #include <errno.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 
 namespace contego::gate {
 
 bool send_frame(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload) {
-  const std::vector<uint8_t> f = wire::frame(type, seq, payload);
-  size_t off = 0;
-  while (off < f.size()) {
-    const ssize_t n = ::send(fd, f.data() + off, f.size() - off, MSG_NOSIGNAL);
+  // Header on the stack, payload where it is: one sendmsg, no copy, no allocation.
+  uint8_t header[wire::kHeaderSize];
+  wire::encode_header(type, seq, static_cast<uint32_t>(payload.size()), header);
+  iovec iov[2] = {{header, sizeof header}, {const_cast<uint8_t*>(payload.data()), payload.size()}};
+  msghdr msg{};
+  msg.msg_iov = iov;
+  msg.msg_iovlen = payload.empty() ? 1 : 2;
+  size_t left = sizeof header + payload.size();
+  while (left > 0) {
+    const ssize_t n = ::sendmsg(fd, &msg, MSG_NOSIGNAL);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) return false;
-    off += static_cast<size_t>(n);
+    left -= static_cast<size_t>(n);
+    // A partial send (a large frame, a full socket buffer): skip what went out.
+    size_t sent = static_cast<size_t>(n);
+    while (sent > 0 && msg.msg_iovlen > 0) {
+      const size_t take = std::min(sent, msg.msg_iov[0].iov_len);
+      msg.msg_iov[0].iov_base = static_cast<uint8_t*>(msg.msg_iov[0].iov_base) + take;
+      msg.msg_iov[0].iov_len -= take;
+      sent -= take;
+      if (msg.msg_iov[0].iov_len == 0) {
+        ++msg.msg_iov;
+        --msg.msg_iovlen;
+      }
+    }
   }
   return true;
 }
 
-namespace {
-bool read_all(int fd, uint8_t* buf, size_t len, bool* eof) {
-  size_t off = 0;
-  while (off < len) {
-    const ssize_t n = ::recv(fd, buf + off, len - off, 0);
+FrameReader::FrameReader(int fd) : fd_(fd), buf_(kInitialCapacity) {}
+
+std::string FrameReader::next(wire::Header* header, std::span<const uint8_t>* payload) {
+  // Drop the frame handed out last time; keep whatever followed it.
+  start_ += consumed_;
+  consumed_ = 0;
+  if (start_ == end_) start_ = end_ = 0;
+  bool have_header = false;
+  for (;;) {
+    const size_t avail = end_ - start_;
+    if (!have_header && avail >= wire::kHeaderSize) {
+      if (std::string why = wire::decode_header({buf_.data() + start_, wire::kHeaderSize}, header);
+          !why.empty()) {
+        return why;
+      }
+      have_header = true;
+    }
+    if (have_header) {
+      const size_t need = wire::kHeaderSize + header->length;
+      if (avail >= need) {
+        *payload = {buf_.data() + start_ + wire::kHeaderSize, header->length};
+        consumed_ = need;
+        return {};
+      }
+      if (buf_.size() - start_ < need) {  // make room: move to the front, grow if needed
+        std::memmove(buf_.data(), buf_.data() + start_, avail);
+        start_ = 0;
+        end_ = avail;
+        if (buf_.size() < need) buf_.resize(need);
+      }
+    } else if (start_ > 0 && buf_.size() - end_ < wire::kHeaderSize) {
+      std::memmove(buf_.data(), buf_.data() + start_, avail);
+      start_ = 0;
+      end_ = avail;
+    }
+    // Usually one recv brings the whole frame (header and payload).
+    const ssize_t n = ::recv(fd_, buf_.data() + end_, buf_.size() - end_, 0);
     if (n < 0 && errno == EINTR) continue;
-    if (n == 0 && off == 0) *eof = true;
-    if (n <= 0) return false;
-    off += static_cast<size_t>(n);
+    if (n == 0 && avail == 0) return "closed";
+    if (n <= 0) return have_header ? "truncated payload" : "truncated header";
+    end_ += static_cast<size_t>(n);
   }
-  return true;
 }
-}  // namespace
 
 std::string recv_frame(int fd, wire::Header* header, std::vector<uint8_t>* payload) {
+  // Unbuffered (reads exactly one frame, never past it): for callers that
+  // do not keep a FrameReader. Two recv calls per frame.
   uint8_t raw[wire::kHeaderSize];
-  bool eof = false;
-  if (!read_all(fd, raw, sizeof raw, &eof)) return eof ? "closed" : "truncated header";
+  size_t off = 0;
+  while (off < sizeof raw) {
+    const ssize_t n = ::recv(fd, raw + off, sizeof raw - off, 0);
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0 && off == 0) return "closed";
+    if (n <= 0) return "truncated header";
+    off += static_cast<size_t>(n);
+  }
   if (std::string why = wire::decode_header(raw, header); !why.empty()) return why;
   payload->resize(header->length);
-  if (header->length != 0 && !read_all(fd, payload->data(), header->length, &eof)) {
-    return "truncated payload";
+  off = 0;
+  while (off < header->length) {
+    const ssize_t n = ::recv(fd, payload->data() + off, header->length - off, 0);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return "truncated payload";
+    off += static_cast<size_t>(n);
   }
   return {};
 }
@@ -62,7 +124,7 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
   }
   std::unique_ptr<SocketClient> c(new SocketClient(fd));
   wire::Header h;
-  std::vector<uint8_t> answer;
+  std::span<const uint8_t> answer;
   if (!c->exchange(wire::Type::kHello, wire::encode_hello(task), &h, &answer)) {
     return make_error("the monitor at " + path + " closed the connection during hello");
   }
@@ -80,12 +142,11 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
 
 SocketClient::~SocketClient() { ::close(fd_); }
 
-bool SocketClient::exchange(wire::Type type, const std::vector<uint8_t>& payload, wire::Header* h,
-                            std::vector<uint8_t>* answer) {
+bool SocketClient::exchange(wire::Type type, std::span<const uint8_t> payload, wire::Header* h,
+                            std::span<const uint8_t>* answer) {
   if (broken_) return false;
   const uint32_t seq = ++seq_;
-  if (!send_frame(fd_, type, seq, payload) || !recv_frame(fd_, h, answer).empty() ||
-      h->seq != seq) {
+  if (!send_frame(fd_, type, seq, payload) || !reader_.next(h, answer).empty() || h->seq != seq) {
     broken_ = true;  // fail closed from now on
     return false;
   }
@@ -96,8 +157,9 @@ TransferReply SocketClient::transfer(uint16_t /*task: bound by hello*/, const Tr
   std::lock_guard lock(mu_);
   TransferReply reply;
   wire::Header h;
-  std::vector<uint8_t> answer;
-  if (!exchange(wire::Type::kTransfer, wire::encode_transfer(t), &h, &answer)) {
+  std::span<const uint8_t> answer;
+  wire::encode_transfer(t, &out_);
+  if (!exchange(wire::Type::kTransfer, out_, &h, &answer)) {
     reply.err = EIO;  // monitor unreachable: the actuation fails
     return reply;
   }
@@ -131,9 +193,10 @@ wire::BusInfo SocketClient::bus_info(uint8_t bus) {
   auto it = buses_.find(bus);
   if (it != buses_.end()) return it->second;
   wire::Header h;
-  std::vector<uint8_t> answer;
+  std::span<const uint8_t> answer;
   wire::BusInfo info;
-  if (exchange(wire::Type::kBusInfo, {bus}, &h, &answer) &&
+  const uint8_t request[1] = {bus};
+  if (exchange(wire::Type::kBusInfo, request, &h, &answer) &&
       h.type == static_cast<uint8_t>(wire::Type::kBusInfoOk) &&
       wire::decode_bus_info(answer, &info).empty()) {
     buses_[bus] = info;

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -19,9 +20,28 @@ namespace contego::gate {
 
 // Writes one frame completely. False on any error.
 bool send_frame(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload);
-// Reads one frame. Returns "" or why not ("closed" at end of stream).
-// A header the decoder refuses is reported and the stream is unusable.
+// Reads one frame with two recv calls (never reads past it). Returns "" or
+// why not ("closed" at end of stream). A header the decoder refuses is
+// reported and the stream is unusable.
 std::string recv_frame(int fd, wire::Header* header, std::vector<uint8_t>* payload);
+
+// Buffered frame reader for one connection: one recv() per frame in the
+// usual case (it asks for as much as the buffer holds and keeps bytes that
+// belong to the next frame), no allocation once the buffer has grown to the
+// largest frame seen. Same results as recv_frame.
+class FrameReader {
+ public:
+  explicit FrameReader(int fd);
+  // *payload stays valid until the next call.
+  std::string next(wire::Header* header, std::span<const uint8_t>* payload);
+
+ private:
+  static constexpr size_t kInitialCapacity = 16 * 1024;
+  int fd_;
+  std::vector<uint8_t> buf_;
+  size_t start_ = 0, end_ = 0;  // unconsumed bytes are buf_[start_, end_)
+  size_t consumed_ = 0;         // bytes of the frame handed out last
+};
 
 class SocketClient final : public Endpoint {
  public:
@@ -38,13 +58,16 @@ class SocketClient final : public Endpoint {
   uint64_t funcs(uint8_t bus) override;
 
  private:
-  explicit SocketClient(int fd) : fd_(fd) {}
+  explicit SocketClient(int fd) : fd_(fd), reader_(fd) {}
   // One request/answer exchange; false if the connection is unusable.
-  bool exchange(wire::Type type, const std::vector<uint8_t>& payload, wire::Header* h,
-                std::vector<uint8_t>* answer);
+  // *answer is valid until the next exchange.
+  bool exchange(wire::Type type, std::span<const uint8_t> payload, wire::Header* h,
+                std::span<const uint8_t>* answer);
   wire::BusInfo bus_info(uint8_t bus);
   std::mutex mu_;
   int fd_;
+  FrameReader reader_;
+  std::vector<uint8_t> out_;  // reused: the encoded transfer
   bool broken_ = false;
   uint32_t seq_ = 0;
   uint16_t task_id_ = 0;

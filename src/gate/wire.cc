@@ -1,5 +1,6 @@
 #include "gate/wire.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace contego::gate::wire {
@@ -7,6 +8,8 @@ namespace {
 
 class Writer {
  public:
+  Writer() : out(own_) {}
+  explicit Writer(std::vector<uint8_t>& into) : out(into) { out.clear(); }
   void u8(uint8_t v) { out.push_back(v); }
   void u16(uint16_t v) {
     u8(static_cast<uint8_t>(v));
@@ -21,7 +24,8 @@ class Writer {
     u32(static_cast<uint32_t>(v >> 32));
   }
   void bytes(std::span<const uint8_t> b) { out.insert(out.end(), b.begin(), b.end()); }
-  std::vector<uint8_t> out;
+  std::vector<uint8_t> own_;
+  std::vector<uint8_t>& out;
 };
 
 class Reader {
@@ -91,15 +95,27 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
   return "unknown message type " + std::to_string(h->type);
 }
 
+void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeaderSize]) {
+  const uint8_t h[kHeaderSize] = {static_cast<uint8_t>(kMagic),
+                                  static_cast<uint8_t>(kMagic >> 8),
+                                  kVersion,
+                                  static_cast<uint8_t>(type),
+                                  static_cast<uint8_t>(seq),
+                                  static_cast<uint8_t>(seq >> 8),
+                                  static_cast<uint8_t>(seq >> 16),
+                                  static_cast<uint8_t>(seq >> 24),
+                                  static_cast<uint8_t>(length),
+                                  static_cast<uint8_t>(length >> 8),
+                                  static_cast<uint8_t>(length >> 16),
+                                  static_cast<uint8_t>(length >> 24)};
+  std::memcpy(out, h, kHeaderSize);
+}
+
 std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> payload) {
-  Writer w;
-  w.u16(kMagic);
-  w.u8(kVersion);
-  w.u8(static_cast<uint8_t>(type));
-  w.u32(seq);
-  w.u32(static_cast<uint32_t>(payload.size()));
-  w.bytes(payload);
-  return std::move(w.out);
+  std::vector<uint8_t> out(kHeaderSize + payload.size());
+  encode_header(type, seq, static_cast<uint32_t>(payload.size()), out.data());
+  std::copy(payload.begin(), payload.end(), out.begin() + kHeaderSize);
+  return out;
 }
 
 std::vector<uint8_t> encode_hello(const std::string& task) {
@@ -133,7 +149,13 @@ std::string decode_u16(std::span<const uint8_t> p, uint16_t* v) {
 }
 
 std::vector<uint8_t> encode_transfer(const Transfer& t) {
-  Writer w;
+  std::vector<uint8_t> out;
+  encode_transfer(t, &out);
+  return out;
+}
+
+void encode_transfer(const Transfer& t, std::vector<uint8_t>* out) {
+  Writer w(*out);
   w.u8(t.bus);
   w.u8(
       static_cast<uint8_t>((t.quick ? 1 : 0) | (t.quick_read ? 2 : 0) | (t.quick_ten_bit ? 4 : 0)));
@@ -145,7 +167,6 @@ std::vector<uint8_t> encode_transfer(const Transfer& t) {
     w.u16(m.len);
     if (!m.is_read()) w.bytes(m.data);
   }
-  return std::move(w.out);
 }
 
 std::string decode_transfer(std::span<const uint8_t> p, Transfer* t) {
@@ -160,27 +181,32 @@ std::string decode_transfer(std::span<const uint8_t> p, Transfer* t) {
   t->quick_read = flags & 2;
   t->quick_ten_bit = flags & 4;
   if (count > kMaxMessages) return "more than 42 messages";
-  t->messages.clear();
-  for (uint16_t i = 0; i < count; ++i) {
-    Message m;
+  // Reuses the messages (and their buffers) of a Transfer decoded before.
+  t->messages.resize(count);
+  for (Message& m : t->messages) {
+    m.data.clear();
     if (!r.u16(&m.addr) || !r.u16(&m.flags) || !r.u16(&m.len)) return "truncated message header";
     if (m.len > kMaxMessageLen) return "message longer than 8192 bytes";
     if (!m.is_read() && !r.bytes(m.len, &m.data)) return "truncated message data";
-    t->messages.push_back(std::move(m));
   }
   if (!r.done()) return "trailing bytes after the transfer";
   return validate(*t);
 }
 
 std::vector<uint8_t> encode_reply(const TransferReply& rep) {
-  Writer w;
+  std::vector<uint8_t> out;
+  encode_reply(rep, &out);
+  return out;
+}
+
+void encode_reply(const TransferReply& rep, std::vector<uint8_t>* out) {
+  Writer w(*out);
   w.u32(static_cast<uint32_t>(rep.err));
   w.u16(static_cast<uint16_t>(rep.reads.size()));
   for (const auto& rd : rep.reads) {
     w.u16(static_cast<uint16_t>(rd.size()));
     w.bytes(rd);
   }
-  return std::move(w.out);
 }
 
 std::string decode_reply(std::span<const uint8_t> p, TransferReply* rep) {
@@ -191,7 +217,7 @@ std::string decode_reply(std::span<const uint8_t> p, TransferReply* rep) {
   if (err > 4095) return "errno out of range";
   if (count > kMaxMessages) return "more than 42 reads";
   rep->err = static_cast<int>(err);
-  rep->reads.assign(count, {});
+  rep->reads.resize(count);  // reuses the buffers of a reply decoded before
   for (auto& rd : rep->reads) {
     uint16_t n = 0;
     if (!r.u16(&n) || n > kMaxMessageLen || !r.bytes(n, &rd)) return "truncated read data";

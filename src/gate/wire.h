@@ -56,14 +56,19 @@ struct ErrorMsg {
 // Header: returns "" or why it is refused (bad magic, version, type, length).
 std::string decode_header(std::span<const uint8_t> bytes, Header* out);
 std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> payload);
+// The 12 header bytes of a frame with `length` payload bytes.
+void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeaderSize]);
 
 std::vector<uint8_t> encode_hello(const std::string& task);
 std::string decode_hello(std::span<const uint8_t> payload, std::string* task);
 std::vector<uint8_t> encode_u16(uint16_t v);
 std::string decode_u16(std::span<const uint8_t> payload, uint16_t* v);
 std::vector<uint8_t> encode_transfer(const Transfer& t);
+// The same into *out (cleared first): a reused buffer, no allocation once grown.
+void encode_transfer(const Transfer& t, std::vector<uint8_t>* out);
 std::string decode_transfer(std::span<const uint8_t> payload, Transfer* t);
 std::vector<uint8_t> encode_reply(const TransferReply& r);
+void encode_reply(const TransferReply& r, std::vector<uint8_t>* out);
 std::string decode_reply(std::span<const uint8_t> payload, TransferReply* r);
 std::vector<uint8_t> encode_bus_info(const BusInfo& b);
 std::string decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);

@@ -1,11 +1,16 @@
 #include "monitor/audit_log.h"
 
+#include <fcntl.h>
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
-#include <nlohmann/json.hpp>
+#include <fmt/format.h>
+#include <iterator>
+#include <nlohmann/json.hpp>  // the verifier only
+#include <sys/stat.h>
 
 #include "base/json_text.h"
 #include "monitor/sha256.h"
@@ -19,15 +24,90 @@ uint64_t wall_us() {
   return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
 }
 
-std::string hex(const uint8_t* bytes, uint32_t len) {
+using Out = std::back_insert_iterator<std::string>;
+
+void put_hex(std::string& out, const uint8_t* bytes, uint32_t len) {
   static const char* digits = "0123456789abcdef";
-  std::string out;
   for (uint32_t i = 0; bytes != nullptr && i < len; ++i) {
     if (i) out += ' ';
     out += digits[bytes[i] >> 4];
     out += digits[bytes[i] & 15];
   }
-  return out;
+}
+
+// Length of the valid UTF-8 sequence at text[i], or 0 if it is not one.
+size_t utf8_length(std::string_view text, size_t i) {
+  const auto c = static_cast<unsigned char>(text[i]);
+  size_t n = 0;
+  uint32_t cp = 0;
+  if (c >= 0xC2 && c <= 0xDF) {
+    n = 2;
+    cp = c & 0x1Fu;
+  } else if (c >= 0xE0 && c <= 0xEF) {
+    n = 3;
+    cp = c & 0x0Fu;
+  } else if (c >= 0xF0 && c <= 0xF4) {
+    n = 4;
+    cp = c & 0x07u;
+  } else {
+    return 0;
+  }
+  if (i + n > text.size()) return 0;
+  for (size_t k = 1; k < n; ++k) {
+    const auto cc = static_cast<unsigned char>(text[i + k]);
+    if ((cc & 0xC0) != 0x80) return 0;
+    cp = (cp << 6) | (cc & 0x3Fu);
+  }
+  const bool overlong = (n == 3 && cp < 0x800) || (n == 4 && cp < 0x10000);
+  if (overlong || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return 0;
+  return n;
+}
+
+// A JSON string literal. Invalid UTF-8 (a client's task name, say) becomes
+// U+FFFD: a hostile string costs a replacement character, never a line the
+// verifier cannot read.
+void put_string(std::string& out, std::string_view text) {
+  out += '"';
+  for (size_t i = 0; i < text.size();) {
+    const char ch = text[i];
+    const auto c = static_cast<unsigned char>(ch);
+    if (c >= 0x80) {
+      const size_t n = utf8_length(text, i);
+      if (n == 0) {
+        out += "\\ufffd";
+        ++i;
+      } else {
+        out.append(text.substr(i, n));
+        i += n;
+      }
+      continue;
+    }
+    ++i;
+    switch (c) {
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      default:
+        if (c < 0x20) {
+          fmt::format_to(Out(out), "\\u{:04x}", c);
+        } else {
+          out += ch;
+        }
+    }
+  }
+  out += '"';
 }
 
 // Local names so the log does not depend on the core's string tables.
@@ -50,15 +130,13 @@ std::string fmt_line(uint64_t n, const std::string& why) {
 }
 
 // The last non-empty line of an existing log, or "" (a new log).
-std::string last_line(FILE* f) {
-  if (fseek(f, 0, SEEK_END) != 0) return {};
-  const long size = ftell(f);
-  if (size <= 0) return {};
-  const long start = size > 65536 ? size - 65536 : 0;
+std::string last_line(int fd) {
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || st.st_size <= 0) return {};
+  const off_t size = st.st_size;
+  const off_t start = size > 65536 ? size - 65536 : 0;
   std::string tail(static_cast<size_t>(size - start), '\0');
-  if (fseek(f, start, SEEK_SET) != 0 || fread(tail.data(), 1, tail.size(), f) != tail.size()) {
-    return {};
-  }
+  if (pread(fd, tail.data(), tail.size(), start) != static_cast<ssize_t>(tail.size())) return {};
   while (!tail.empty() && tail.back() == '\n') tail.pop_back();
   const size_t nl = tail.rfind('\n');
   return nl == std::string::npos ? tail : tail.substr(nl + 1);
@@ -67,67 +145,90 @@ std::string last_line(FILE* f) {
 }  // namespace
 
 AuditLog::~AuditLog() {
-  if (owned_ && file_ != nullptr) fclose(file_);
+  if (owned_ && fd_ >= 0) close(fd_);
 }
 
 Status AuditLog::open(const std::string& path) {
   std::lock_guard lock(mu_);
-  prev_ = kAuditGenesis;
+  std::memcpy(prev_, kAuditGenesis, sizeof prev_);
+  line_.reserve(1024);
   if (path == "-") {
-    file_ = stderr;
+    fd_ = STDERR_FILENO;
     owned_ = false;
     return {};
   }
-  FILE* f = fopen(path.c_str(), "a+e");
-  if (f == nullptr) return make_error("cannot open audit log " + path + ": " + strerror(errno));
-  const std::string last = last_line(f);
-  if (!last.empty()) prev_ = sha256_hex(last);
-  file_ = f;
+  const int fd = ::open(path.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC, 0666);
+  if (fd < 0) return make_error("cannot open audit log " + path + ": " + strerror(errno));
+  const std::string last = last_line(fd);
+  if (!last.empty()) sha256_hex(last, prev_);
+  fd_ = fd;
   owned_ = true;
   return {};
 }
 
-void AuditLog::write_line(nlohmann::json& j) {
-  std::lock_guard lock(mu_);
-  ++lines_;
-  if (file_ == nullptr) return;
-  j["prev"] = prev_;
-  const std::string line = json_text(j);
-  prev_ = sha256_hex(line);
-  fputs(line.c_str(), file_);
-  fputc('\n', file_);
-  fflush(file_);  // on disk (page cache) before the decision acts: survives a killed monitor
+void AuditLog::finish_line_locked() {
+  line_ += ",\"prev\":\"";
+  line_.append(prev_, 64);
+  line_ += "\"}";
+  sha256_hex(line_, prev_);
+  line_ += '\n';
+  // One write(2): in the page cache before the decision acts, so it
+  // survives a killed monitor. O_APPEND keeps concurrent writers (another
+  // monitor on the same file) from interleaving inside a line.
+  size_t off = 0;
+  while (off < line_.size()) {
+    const ssize_t n = ::write(fd_, line_.data() + off, line_.size() - off);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    off += static_cast<size_t>(n);
+  }
 }
 
+// Keys sorted as the earlier JSON writer had them, except "prev", which
+// comes last (it is appended when the rest of the line is known).
 void AuditLog::decision(const core::AuditRecord& r, const char* task_name) {
-  nlohmann::json j;
-  j["t_us"] = wall_us();
-  j["kind"] = "decision";
-  j["task"] = r.task;
-  if (task_name != nullptr) j["task_name"] = task_name;
-  j["job"] = r.job;
-  j["bus"] = r.bus;
-  j["addr"] = r.addr;
-  j["device"] = r.device;
-  j["command"] = r.command;
-  j["decision"] = decision_str(r.decision);
-  j["reason"] = static_cast<int>(r.reason);
-  j["rule_kind"] = static_cast<int>(r.rule_kind);
-  j["rule"] = r.rule;
-  j["index"] = r.index;
-  std::vector<int32_t> fields(r.fields, r.fields + std::min<uint8_t>(r.field_count, 8));
-  j["fields"] = fields;
-  j["bytes"] = hex(r.original, r.original_len);
-  if (r.substitute != nullptr) j["substitute"] = hex(r.substitute, r.substitute_len);
-  write_line(j);
+  const uint64_t t = wall_us();
+  std::lock_guard lock(mu_);
+  ++lines_;
+  if (fd_ < 0) return;
+  line_.clear();
+  fmt::format_to(Out(line_), "{{\"addr\":{},\"bus\":{},\"bytes\":\"", r.addr, r.bus);
+  put_hex(line_, r.original, r.original_len);
+  fmt::format_to(Out(line_), "\",\"command\":{},\"decision\":\"{}\",\"device\":{},\"fields\":[",
+                 r.command, decision_str(r.decision), r.device);
+  const uint8_t nfields = std::min<uint8_t>(r.field_count, 8);
+  for (uint8_t i = 0; i < nfields; ++i) {
+    fmt::format_to(Out(line_), "{}{}", i ? "," : "", r.fields[i]);
+  }
+  fmt::format_to(Out(line_),
+                 "],\"index\":{},\"job\":{},\"kind\":\"decision\",\"reason\":{},\"rule\":{},"
+                 "\"rule_kind\":{}",
+                 r.index, r.job, static_cast<int>(r.reason), r.rule, static_cast<int>(r.rule_kind));
+  if (r.substitute != nullptr) {
+    line_ += ",\"substitute\":\"";
+    put_hex(line_, r.substitute, r.substitute_len);
+    line_ += '"';
+  }
+  fmt::format_to(Out(line_), ",\"t_us\":{},\"task\":{}", t, r.task);
+  if (task_name != nullptr) {
+    line_ += ",\"task_name\":";
+    put_string(line_, task_name);
+  }
+  finish_line_locked();
 }
 
 void AuditLog::event(const std::string& kind, const std::string& detail) {
-  nlohmann::json j;
-  j["t_us"] = wall_us();
-  j["kind"] = kind;
-  j["detail"] = detail;
-  write_line(j);
+  const uint64_t t = wall_us();
+  std::lock_guard lock(mu_);
+  ++lines_;
+  if (fd_ < 0) return;
+  line_.clear();
+  line_ += "{\"detail\":";
+  put_string(line_, detail);
+  line_ += ",\"kind\":";
+  put_string(line_, kind);
+  fmt::format_to(Out(line_), ",\"t_us\":{}", t);
+  finish_line_locked();
 }
 
 uint64_t AuditLog::lines() const {

@@ -1,17 +1,17 @@
-// The monitor's audit log: one JSON object per line, written and flushed
-// before the decision it records takes effect on the bus, so a monitor that
-// is killed loses nothing it already decided. Every line carries "prev", the
+// The monitor's audit log: one JSON object per line, handed to the kernel
+// with one write(2) before the decision it records takes effect on the bus,
+// so a monitor that is killed loses nothing it already decided. The line is
+// formatted with fmt into a buffer the log keeps (no JSON library, no stdio,
+// no allocation per decision once the buffer has grown). Every line carries "prev", the
 // SHA-256 of the previous line's bytes, so an edited, removed or inserted
 // line breaks the chain (verify_audit, `contego audit`). docs/audit-format.md
 // describes the fields. Thread-safety: internally locked.
 #ifndef CONTEGO_MONITOR_AUDIT_LOG_H_
 #define CONTEGO_MONITOR_AUDIT_LOG_H_
 
-#include <cstdio>
 #include <istream>
 #include <map>
 #include <mutex>
-#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "contego/core/verdict.h"
@@ -36,10 +36,12 @@ class AuditLog {
   uint64_t lines() const;
 
  private:
-  void write_line(nlohmann::json& j);
+  // Appends ,"prev":"..."} and the newline to line_, hashes, writes. mu_ held.
+  void finish_line_locked();
   mutable std::mutex mu_;
-  std::string prev_;  // SHA-256 (hex) of the last line written
-  FILE* file_ = nullptr;
+  char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
+  std::string line_;    // reused: the line being formatted
+  int fd_ = -1;
   bool owned_ = false;
   uint64_t lines_ = 0;
 };

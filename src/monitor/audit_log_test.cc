@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 namespace contego::monitor {
@@ -122,6 +123,59 @@ TEST_F(AuditChain, ALineWithoutAHashIsRefused) {
   const AuditCheck c = verify();
   EXPECT_FALSE(c.ok);
   EXPECT_NE(c.error.find("no \"prev\""), std::string::npos) << c.error;
+}
+
+// The lines are formatted by hand (no JSON library on the decision path):
+// every field must still come out as JSON, whatever an event quotes.
+TEST_F(AuditChain, HandFormattedLinesAreJsonWithEveryField) {
+  {
+    AuditLog log;
+    ASSERT_TRUE(log.open(path).ok());
+    log.event("malformed", "quote \" back\\slash\nnew\x01line \xff\xfe");
+    const uint8_t bytes[] = {0x1A, 0x00, 0xFF};
+    const uint8_t sub[] = {0x1A, 0x00, 0x00};
+    core::AuditRecord r{};
+    r.task = 3;
+    r.job = 77;
+    r.device = 2;
+    r.command = 0xFFFF;
+    r.rule = 5;
+    r.decision = core::Decision::kFailsafe;
+    r.index = 4;
+    r.field_count = 2;
+    r.fields[0] = -12;
+    r.fields[1] = 4095;
+    r.bus = 1;
+    r.addr = 0x40;
+    r.original = bytes;
+    r.original_len = 3;
+    r.substitute = sub;
+    r.substitute_len = 3;
+    log.decision(r, "grip\"per");
+  }
+  const auto v = lines();
+  ASSERT_EQ(v.size(), 2u);
+  const auto e = nlohmann::json::parse(v[0]);
+  EXPECT_EQ(e["kind"], "malformed");
+  EXPECT_EQ(e["detail"].get<std::string>().substr(0, 27), "quote \" back\\slash\nnew\x01line");
+  const auto d = nlohmann::json::parse(v[1]);
+  EXPECT_EQ(d["kind"], "decision");
+  EXPECT_EQ(d["task"], 3);
+  EXPECT_EQ(d["task_name"], "grip\"per");
+  EXPECT_EQ(d["job"], 77);
+  EXPECT_EQ(d["device"], 2);
+  EXPECT_EQ(d["command"], 0xFFFF);
+  EXPECT_EQ(d["rule"], 5);
+  EXPECT_EQ(d["index"], 4);
+  EXPECT_EQ(d["decision"], "failsafe");
+  EXPECT_EQ(d["fields"], nlohmann::json::array({-12, 4095}));
+  EXPECT_EQ(d["bus"], 1);
+  EXPECT_EQ(d["addr"], 0x40);
+  EXPECT_EQ(d["bytes"], "1a 00 ff");
+  EXPECT_EQ(d["substitute"], "1a 00 00");
+  EXPECT_GT(d["t_us"].get<uint64_t>(), 0u);
+  const AuditCheck c = verify();
+  EXPECT_TRUE(c.ok) << c.error;
 }
 
 }  // namespace

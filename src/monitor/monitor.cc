@@ -66,9 +66,10 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
   for (uint32_t i = 0; i < v.emit_count && i < core::kMaxEmits; ++i) {
     const uint16_t len = v.emit_len[i];
     if (offset + len > core::kMaxEmitBytes) return EIO;  // malformed verdict: fail closed
-    std::vector<uint8_t> bytes(v.emit_bytes + offset, v.emit_bytes + offset + len);
+    uint8_t bytes[core::kMaxEmitBytes];  // the bus gets a copy it may not write back into v
+    std::copy_n(v.emit_bytes + offset, len, bytes);
     offset += len;
-    bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes.data()};
+    bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes};
     if (int err = it->second->transfer({&m, 1}); err != 0) return err;
   }
   return 0;
@@ -96,7 +97,8 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   const uint64_t now = monotonic_us();
   auto job_it = jobs_.find(task);
   const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
-  std::vector<core::Verdict> verdicts(planned.size());
+  std::vector<core::Verdict>& verdicts = verdicts_;
+  verdicts.resize(planned.size());
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
     core::Transaction tx{};

@@ -80,6 +80,7 @@ class Monitor final : public gate::Endpoint {
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
   std::vector<std::string> task_names_;
+  std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   std::map<uint16_t, Sample> samples_;
   std::map<uint16_t, JobState> jobs_;
   std::atomic<uint64_t> decisions_{0};

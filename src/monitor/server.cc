@@ -83,10 +83,15 @@ void Server::stop() {
 void Server::connection(int fd) {
   bool bound = false;
   uint16_t task = 0;
+  // Per connection and reused for every message: no allocation per
+  // exchange once they have grown (one recv and one send per transfer).
+  gate::FrameReader reader(fd);
+  gate::Transfer t;
+  std::vector<uint8_t> out;
   for (;;) {
     wire::Header h;
-    std::vector<uint8_t> payload;
-    const std::string why = gate::recv_frame(fd, &h, &payload);
+    std::span<const uint8_t> payload;
+    const std::string why = reader.next(&h, &payload);
     if (why == "closed") break;
     if (!why.empty()) {
       // The framing is lost: answer once, then drop this connection only.
@@ -116,7 +121,6 @@ void Server::connection(int fd) {
         break;
       }
       case wire::Type::kTransfer: {
-        gate::Transfer t;
         if (!bound) {
           refuse(EPERM, "transfer before hello");
           break;
@@ -126,7 +130,8 @@ void Server::connection(int fd) {
           break;
         }
         const gate::TransferReply r = monitor_.transfer(task, t);
-        gate::send_frame(fd, wire::Type::kReply, h.seq, wire::encode_reply(r));
+        wire::encode_reply(r, &out);
+        gate::send_frame(fd, wire::Type::kReply, h.seq, out);
         break;
       }
       case wire::Type::kJobEnd:

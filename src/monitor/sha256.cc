@@ -95,15 +95,21 @@ std::array<uint8_t, 32> Sha256::finish() {
   return out;
 }
 
-std::string sha256_hex(std::string_view text) {
+void sha256_hex(std::string_view text, char out[65]) {
   Sha256 s;
   s.update(text.data(), text.size());
   static const char* digits = "0123456789abcdef";
-  std::string out;
+  size_t i = 0;
   for (uint8_t b : s.finish()) {
-    out += digits[b >> 4];
-    out += digits[b & 15];
+    out[i++] = digits[b >> 4];
+    out[i++] = digits[b & 15];
   }
+  out[i] = 0;
+}
+
+std::string sha256_hex(std::string_view text) {
+  char out[65];
+  sha256_hex(text, out);
   return out;
 }
 

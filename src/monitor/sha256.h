@@ -27,6 +27,8 @@ class Sha256 {
 
 // Lower-case hex digest of `text`.
 std::string sha256_hex(std::string_view text);
+// The same into `out` (64 digits and a NUL), without allocating.
+void sha256_hex(std::string_view text, char out[65]);
 
 }  // namespace contego::monitor
 

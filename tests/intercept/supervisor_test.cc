@@ -376,6 +376,16 @@ TEST_P(Supervised, TaskExitDrivesTheSafeState) {
   EXPECT_NE(audit_text().find("safe-state"), std::string::npos);
 }
 
+// The supervisor blocks in the notification receive; the direct child's
+// exit must not end supervision while a grandchild still uses the bus.
+TEST_P(Supervised, GrandchildThatOutlivesTheProgramIsStillServed) {
+  if (preload()) GTEST_SKIP() << "seccomp supervisor only";
+  auto r = run({"/bin/sh", "-c", "(sleep 0.3; /usr/sbin/i2cset -y 1 0x40 0x07 0x5a) & exit 0"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(pca->reg(0x07), 0x5A);  // written after the shell had exited
+  EXPECT_GT(r.emulated, 0u);
+}
+
 TEST_P(Supervised, MonitorSamplesSensorsItself) {
   lf->set_values({1, 2, 3, 4, 1023});
   mon.sample_all();

@@ -4,10 +4,13 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <poll.h>
+#include <pthread.h>
+#include <signal.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -17,6 +20,7 @@
 #include <linux/seccomp.h>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <string>
 #include <sys/ioctl.h>
@@ -25,6 +29,7 @@
 #include <sys/syscall.h>
 #include <sys/uio.h>
 #include <sys/wait.h>
+#include <thread>
 #include <vector>
 
 #include "intercept/i2c_abi/i2c_abi.h"
@@ -586,6 +591,41 @@ void Loop::handle(const seccomp_notif& n) {
   bus_call(n, p, handle);
 }
 
+// Interrupts the supervisor's blocking SECCOMP_IOCTL_NOTIF_RECV (installed
+// once, without SA_RESTART, and kept: concurrent run()s share it).
+const int kWakeSignal = SIGRTMIN + 3;
+void on_wake(int) {}
+void install_wake_handler() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    struct sigaction sa {};
+    sa.sa_handler = on_wake;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = 0;  // no SA_RESTART: the RECV returns EINTR
+    sigaction(kWakeSignal, &sa, nullptr);
+  });
+}
+
+struct ChildStatus {
+  bool reaped = false;
+  int exit_code = 0;
+  int signal = 0;
+  void reap(pid_t child) {
+    int status = 0;
+    pid_t r;
+    do {
+      r = waitpid(child, &status, 0);
+    } while (r < 0 && errno == EINTR);
+    if (r != child) return;
+    reaped = true;
+    if (WIFEXITED(status)) exit_code = WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) {
+      signal = WTERMSIG(status);
+      exit_code = 128 + signal;
+    }
+  }
+};
+
 }  // namespace
 
 FdRange reserved_range() {
@@ -665,43 +705,56 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
 
   {
     Loop loop(listener, range, options, endpoint, result);
-    bool child_done = false;
-    for (;;) {
-      pollfd fds[2] = {{listener, POLLIN, 0}, {pidfd, POLLIN, 0}};
-      const int nfds = child_done ? 1 : 2;
-      if (poll(fds, nfds, -1) < 0) {
-        if (errno == EINTR) continue;
-        break;
-      }
-      if (!child_done && (fds[1].revents & POLLIN)) {
-        int status = 0;
-        if (waitpid(child, &status, 0) == child) {
-          child_done = true;
-          if (WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
-          if (WIFSIGNALED(status)) {
-            result.signal = WTERMSIG(status);
-            result.exit_code = 128 + result.signal;
-          }
+    // The loop blocks in SECCOMP_IOCTL_NOTIF_RECV itself (not poll() then
+    // RECV): only a task waiting inside RECV gets the sync wake-up, so the
+    // supervised thread hands the CPU straight to us. A blocked RECV is not
+    // woken when the last supervised task goes away, so a watcher thread
+    // waits for that (POLLHUP on the listener, after the direct child and
+    // any grandchildren that outlive it) and interrupts the RECV with
+    // kWakeSignal, repeating until the loop has seen it (a signal that lands
+    // just before the loop enters RECV would otherwise be lost).
+    install_wake_handler();
+    std::atomic<bool> done{false}, loop_left{false};
+    ChildStatus child_status;
+    const pthread_t loop_thread = pthread_self();
+    std::thread watcher([&] {
+      bool child_done = false;
+      for (;;) {
+        pollfd fds[2] = {{listener, 0, 0}, {pidfd, POLLIN, 0}};
+        if (poll(fds, child_done ? 1 : 2, -1) < 0) {
+          if (errno == EINTR) continue;
+          break;
         }
+        if (!child_done && (fds[1].revents & POLLIN)) {
+          child_done = true;
+          child_status.reap(child);
+        }
+        if (fds[0].revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
       }
-      if (fds[0].revents & POLLIN) {
-        std::memset(buf.data(), 0, buf.size());
-        auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
-        if (ioctl(listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) loop.handle(*n);
+      done.store(true, std::memory_order_release);
+      while (!loop_left.load(std::memory_order_acquire)) {
+        pthread_kill(loop_thread, kWakeSignal);
+        usleep(1000);
+      }
+    });
+    std::memset(buf.data(), 0, buf.size());
+    auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
+    while (!done.load(std::memory_order_acquire)) {
+      if (ioctl(listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
+        loop.handle(*n);
+        std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
         continue;
       }
-      if (fds[0].revents & (POLLHUP | POLLERR)) break;  // no supervised task is left
+      // EINTR: the watcher (or another signal); ENOENT: the task went away
+      // between the wake-up and the copy, or no task uses the filter any
+      // more (then the watcher sees POLLHUP). Either way: look at `done`.
+      if (errno != EINTR && errno != ENOENT) break;
     }
-    if (!child_done) {
-      int status = 0;
-      if (waitpid(child, &status, 0) == child) {
-        if (WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
-        if (WIFSIGNALED(status)) {
-          result.signal = WTERMSIG(status);
-          result.exit_code = 128 + result.signal;
-        }
-      }
-    }
+    loop_left.store(true, std::memory_order_release);
+    watcher.join();
+    if (!child_status.reaped) child_status.reap(child);
+    result.exit_code = child_status.exit_code;
+    result.signal = child_status.signal;
   }
   close(listener);
   close(pidfd);
