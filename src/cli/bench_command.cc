@@ -1,6 +1,12 @@
 // `contego bench`: the overhead measurement (see src/perf/overhead.h).
 //
 //   contego bench [--trials N] [--out-dir DIR] [--no-dos] [--no-chart]
+//                 [--policy-dir DIR] [--no-pass-through]
+//
+// The workloads are the example control tasks decided by their compiled
+// policies (policies/rover.policy task follower, policies/arm.policy task
+// gripper) in the real core, and the same command shapes under the
+// pass-through decider for comparison (the plumbing alone).
 //
 // Prints the table, writes DIR/bench.json (every figure), DIR/overhead.json
 // (for `contego sched --overhead-from`) and DIR/overhead.svg/.png (gnuplot).
@@ -12,6 +18,9 @@
 #include "base/json_text.h"
 #include "cli/command.h"
 #include "perf/overhead.h"
+#ifdef CONTEGO_HAVE_POLICY
+#include "policy/compile.h"
+#endif
 
 namespace contego::cli {
 namespace {
@@ -23,7 +32,42 @@ struct BenchArgs {
   bool no_chart = false;
   std::string task_exe = CONTEGO_BENCH_TASK_PATH;
   std::string preload = CONTEGO_PRELOAD_PATH;
+#ifdef CONTEGO_SOURCE_DIR
+  std::string policy_dir = CONTEGO_SOURCE_DIR "/policies";
+#else
+  std::string policy_dir;
+#endif
+  bool no_pass_through = false;
 };
+
+// A workload decided by the compiled example policy `file` in the real core.
+Result<perf::Workload> policy_workload(const std::string& dir, const std::string& file,
+                                       const std::string& task, uint8_t addr,
+                                       std::vector<uint8_t> bytes) {
+#ifdef CONTEGO_HAVE_POLICY
+  const std::string path = dir + "/" + file;
+  const policy::CompileOutput out = policy::compile_file(path);
+  if (!out.ok) return make_error("policy " + path + " does not compile");
+  perf::Workload w;
+  w.name = file + " " + task;
+  w.task = task;
+  w.addr = addr;
+  w.bytes = std::move(bytes);
+  w.image = out.image;
+  for (size_t i = 0; i < out.model.tasks.size(); ++i) {
+    if (out.model.tasks[i].name == task) {
+      w.task_id = static_cast<uint16_t>(i);
+      return w;
+    }
+  }
+  return make_error("policy " + path + " has no task " + task);
+#else
+  (void)addr;
+  (void)bytes;
+  return make_error("this contego was built without the policy compiler; cannot load " + dir + "/" +
+                    file + " for task " + task);
+#endif
+}
 
 bool write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path);
@@ -37,6 +81,24 @@ void bench(const BenchArgs& a) {
   o.task_exe = a.task_exe;
   o.preload_lib = a.preload;
   o.dos = !a.no_dos;
+  if (!a.policy_dir.empty()) {
+    // rover.policy's INV3 expects set_left_speed(80) first while the line is
+    // under the middle sensor; arm.policy's GRIP sequence starts at 420.
+    auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08,
+                                 {0x01, 0x46, 80, 0x00, 0x00});
+    auto arm = policy_workload(a.policy_dir, "arm.policy", "gripper", 0x40,
+                               {0x1A, 0x00, 0x00, 0xA4, 0x01});
+    for (auto* w : {&rover, &arm}) {
+      if (!w->ok()) {
+        fmt::print(stderr, "contego bench: {}\n", w->error());
+        return set_exit_code(1);
+      }
+      o.workloads.push_back(**w);
+    }
+  }
+  if (!a.no_pass_through || o.workloads.empty()) {
+    for (const perf::Workload& w : perf::example_workloads()) o.workloads.push_back(w);
+  }
   auto report = perf::run(o);
   if (!report.ok()) {
     fmt::print(stderr, "contego bench: {}\n", report.error());
@@ -72,6 +134,10 @@ void register_bench(CLI::App& app) {
   cmd->add_flag("--no-dos", args->no_dos, "skip the DoS measurement");
   cmd->add_flag("--no-chart", args->no_chart, "do not run gnuplot");
   cmd->add_option("--task-program", args->task_exe, "the timed task program (contego-bench-task)");
+  cmd->add_option("--policy-dir", args->policy_dir,
+                  "where rover.policy and arm.policy are (empty: pass-through rows only)");
+  cmd->add_flag("--no-pass-through", args->no_pass_through,
+                "time only the compiled example policies, not the pass-through decider");
   cmd->add_option("--preload-lib", args->preload,
                   "libcontego_preload.so; an empty value skips the preload path");
   cmd->callback([args] { bench(*args); });

@@ -1,5 +1,6 @@
 #include "monitor/audit_log.h"
 
+#include <signal.h>
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -7,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <sys/wait.h>
 
 namespace contego::monitor {
 namespace {
@@ -123,6 +125,44 @@ TEST_F(AuditChain, ALineWithoutAHashIsRefused) {
   const AuditCheck c = verify();
   EXPECT_FALSE(c.ok);
   EXPECT_NE(c.error.find("no \"prev\""), std::string::npos) << c.error;
+}
+
+// "Lose nothing already recorded": a record is in the file before the
+// decision acts. The child acts (a byte on a pipe) right after each record;
+// once the parent has seen N acts, SIGKILL must leave N verified decisions.
+TEST_F(AuditChain, AKilledWriterLosesNoRecordWhoseDecisionActed) {
+  int acted[2];
+  ASSERT_EQ(pipe(acted), 0);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    close(acted[0]);
+    AuditLog log;
+    if (!log.open(path).ok()) _exit(1);
+    const uint8_t bytes[] = {0x01, 0x46, 0x50, 0x00, 0x00};
+    for (uint32_t i = 0;; ++i) {
+      core::AuditRecord r{};
+      r.job = i;
+      r.decision = core::Decision::kAllow;
+      r.addr = 0x08;
+      r.original = bytes;
+      r.original_len = 5;
+      log.decision(r, "follower");
+      if (write(acted[1], "x", 1) != 1) _exit(1);  // the decision acts
+    }
+  }
+  close(acted[1]);
+  char c;
+  for (int i = 0; i < 300; ++i) ASSERT_EQ(read(acted[0], &c, 1), 1);
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  uint64_t total = 300;  // acts the child managed before the kill landed
+  while (read(acted[0], &c, 1) == 1) ++total;
+  close(acted[0]);
+  const AuditCheck check = verify();
+  ASSERT_TRUE(check.ok) << check.error;
+  EXPECT_GE(check.summary.decisions, total);
 }
 
 // The lines are formatted by hand (no JSON library on the decision path):

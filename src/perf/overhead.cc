@@ -22,6 +22,8 @@
 #include "bus/virtual_bus.h"
 #include "gate/socket.h"
 #include "intercept/seccomp/supervisor.h"
+#include "monitor/audit_log.h"
+#include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
 
@@ -78,23 +80,68 @@ const std::map<std::string, uint16_t>& task_ids() {
   return ids;
 }
 
-// A monitor with the virtual bus and its device models, auditing to a file.
-struct Rig {
-  explicit Rig(const std::string& audit_path) {
-    (void)audit.open(audit_path);
-    bus.attach(std::make_shared<bus::Pca9685>());
-    bus.attach(std::make_shared<bus::GoPiGo2>());
-    bus.attach(std::make_shared<bus::LineFollower>());
-    mon.add_bus(1, &bus);
+// A monitor with the virtual bus and its device models, auditing to a file,
+// decided by the workload's policy in the real core or by PassDecider.
+class Rig {
+ public:
+  static Result<std::unique_ptr<Rig>> make(const std::string& audit_path, const Workload& w) {
+    std::unique_ptr<Rig> r(new Rig);
+    if (Status s = r->audit.open(audit_path); !s.ok()) return make_error(s.error());
+    r->bus.attach(std::make_shared<bus::Pca9685>());
+    r->bus.attach(std::make_shared<bus::GoPiGo2>());
+    auto line = std::make_shared<bus::LineFollower>();
+    // Each sensor halfway between its white and black calibration in
+    // rover.policy: the line is under the middle sensor (pos 0), the state
+    // in which the rover's invariant INV3 (go forward) applies.
+    line->set_values({889, 914, 937, 856, 852});
+    r->bus.attach(line);
+    monitor::Decider* decider = &r->pass_;
     std::vector<std::string> names(task_ids().size());
     for (const auto& [name, id] : task_ids()) names[id] = name;
-    mon.set_task_names(names);
+    if (!w.image.empty()) {
+      r->core_ = std::make_unique<monitor::CoreDecider>();
+      const core::LoadResult lr =
+          r->core_->checker().load(w.image.data(), static_cast<uint32_t>(w.image.size()));
+      if (lr.status != core::LoadStatus::kOk) {
+        return make_error(fmt::format("{}: the policy image was refused ({})", w.name,
+                                      core::load_status_name(lr.status)));
+      }
+      decider = r->core_.get();
+      names.assign(std::max<size_t>(w.task_id + 1u, 1u), "");
+      names[w.task_id] = w.task;
+      r->policy_ = true;
+    }
+    r->mon = std::make_unique<monitor::Monitor>(*decider, r->audit);
+    r->mon->add_bus(1, &r->bus);
+    r->mon->set_task_names(names);
+    return r;
   }
+  // Samples the sensors now and then on their periods (policy rigs only).
+  // Starts a thread: call after the last fork of a monitor process.
+  void start() {
+    if (!policy_) return;
+    mon->sample_all();
+    mon->start_sampling();
+  }
+  ~Rig() {
+    if (mon) mon->stop_sampling();
+  }
+
   bus::VirtualBus bus;
-  PassDecider decider;
   monitor::AuditLog audit;
-  monitor::Monitor mon{decider, audit};
+  std::unique_ptr<monitor::Monitor> mon;
+
+ private:
+  Rig() = default;
+  PassDecider pass_;
+  std::unique_ptr<monitor::CoreDecider> core_;
+  bool policy_ = false;
 };
+
+std::map<std::string, uint16_t> server_tasks(const Workload& w) {
+  if (w.image.empty()) return task_ids();
+  return {{w.task, w.task_id}};
+}
 
 struct TempDir {
   TempDir() {
@@ -110,15 +157,17 @@ struct TempDir {
 // The separate monitor process. Forked before this process starts threads.
 class MonitorProcess {
  public:
-  Status start(const std::string& dir) {
-    socket_ = dir + "/monitor.sock";
-    const std::string audit = dir + "/monitor-audit.jsonl";
+  Status start(const std::string& dir, const std::string& name, const Workload& w) {
+    socket_ = dir + "/" + name + ".sock";
+    audit_ = dir + "/" + name + "-audit.jsonl";
     fflush(nullptr);
     pid_ = fork();
     if (pid_ < 0) return make_error(std::string("fork: ") + strerror(errno));
     if (pid_ == 0) {
-      Rig rig(audit);
-      monitor::Server server(rig.mon, rig.audit, task_ids(), {getuid()});
+      auto rig = Rig::make(audit_, w);
+      if (!rig.ok()) _exit(1);
+      (*rig)->start();
+      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()});
       if (!server.listen(socket_).ok()) _exit(1);
       server.serve();
       _exit(0);
@@ -143,11 +192,28 @@ class MonitorProcess {
     }
   }
   const std::string& socket() const { return socket_; }
+  const std::string& audit() const { return audit_; }
 
  private:
   pid_t pid_ = -1;
-  std::string socket_;
+  std::string socket_, audit_;
 };
+
+// Decisions recorded so far in an audit log, by outcome.
+std::map<std::string, uint64_t> decisions_in(const std::string& path) {
+  std::ifstream in(path);
+  return monitor::verify_audit(in).summary.by_decision;
+}
+
+std::map<std::string, uint64_t> minus(std::map<std::string, uint64_t> after,
+                                      const std::map<std::string, uint64_t>& before) {
+  for (auto& [k, v] : after) {
+    auto it = before.find(k);
+    if (it != before.end()) v -= std::min(v, it->second);
+  }
+  std::erase_if(after, [](const auto& kv) { return kv.second == 0; });
+  return after;
+}
 
 std::string hex(const std::vector<uint8_t>& bytes) {
   std::string s;
@@ -247,7 +313,7 @@ std::vector<uint64_t> time_core(monitor::Monitor& mon, const Workload& w, uint32
   m.len = static_cast<uint16_t>(w.bytes.size());
   m.data = w.bytes;
   t.messages.push_back(m);
-  const uint16_t task = task_ids().at(w.task);
+  const uint16_t task = w.task_id;
   for (uint32_t i = 0; i < trials; ++i) {
     const uint64_t t0 = now_ns();
     const gate::TransferReply r = mon.transfer(task, t);
@@ -282,9 +348,9 @@ Stats summarise(std::vector<uint64_t> ns) {
 std::vector<Workload> example_workloads() {
   return {
       // rover.policy, task follower: a GoPiGo2 set-left-speed frame.
-      {"rover follower", "follower", 0x08, {0x01, 0x46, 100, 0x00, 0x00}},
+      {"rover follower (pass-through)", "follower", 0, 0x08, {0x01, 0x46, 100, 0x00, 0x00}, {}},
       // arm.policy, task gripper: LED5 (the gripper servo) pulse 577 (grip_open).
-      {"arm gripper", "gripper", 0x40, {0x1A, 0x00, 0x00, 0x41, 0x02}},
+      {"arm gripper (pass-through)", "gripper", 1, 0x40, {0x1A, 0x00, 0x00, 0x41, 0x02}, {}},
   };
 }
 
@@ -334,37 +400,63 @@ Result<Report> run(const Options& o) {
   }
   TempDir dir;
   if (dir.path.empty()) return make_error(std::string("mkdtemp: ") + strerror(errno));
-  MonitorProcess monitor_process;
-  if (Status s = monitor_process.start(dir.path); !s.ok()) return make_error(s.error());
-  Rig local(dir.path + "/local-audit.jsonl");
+  const std::vector<Workload> workloads = o.workloads.empty() ? example_workloads() : o.workloads;
+  // Every monitor process is forked before this process starts a thread.
+  std::vector<std::unique_ptr<MonitorProcess>> processes;
+  for (size_t i = 0; i < workloads.size(); ++i) {
+    processes.push_back(std::make_unique<MonitorProcess>());
+    if (Status s = processes.back()->start(dir.path, fmt::format("monitor-{}", i), workloads[i]);
+        !s.ok()) {
+      return make_error(s.error());
+    }
+  }
+  const Workload pass = example_workloads()[0];
+  MonitorProcess dos_process;
+  if (o.dos) {
+    if (Status s = dos_process.start(dir.path, "monitor-dos", pass); !s.ok()) {
+      return make_error(s.error());
+    }
+  }
 
   Report report;
-  report.checker = "pass-through decider (allow + emit + audit line)";
+  report.checker =
+      "per workload: the real core with the named compiled policy, or the pass-through decider "
+      "(allow + emit + audit line)";
   report.trials = o.trials;
   const std::string out = dir.path + "/samples.bin";
-  for (const Workload& w : example_workloads()) {
+  for (size_t wi = 0; wi < workloads.size(); ++wi) {
+    const Workload& w = workloads[wi];
+    const MonitorProcess& proc = *processes[wi];
+    const std::string local_audit = fmt::format("{}/local-{}-audit.jsonl", dir.path, wi);
+    auto rig = Rig::make(local_audit, w);
+    if (!rig.ok()) return make_error(rig.error());
+    Rig& local = **rig;
+    local.start();
     for (Path p : kAllPaths) {
       Row row;
       row.workload = w.name;
       row.path = p;
       Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
       const auto argv = task_argv(o, w, o.trials, out, 0);
+      const bool remote = p == Path::kPreload || p == Path::kSeccompMonitor;
+      const std::string& audit = remote ? proc.audit() : local_audit;
+      const auto before = decisions_in(audit);
       switch (p) {
         case Path::kUnprotected:
           ns = time_unprotected(local.bus, w, o.trials);
           break;
         case Path::kCore:
-          ns = time_core(local.mon, w, o.trials, &row.failures);
+          ns = time_core(*local.mon, w, o.trials, &row.failures);
           break;
         case Path::kSeccompInProcess:
-          ns = run_seccomp(argv, local.mon, task_ids().at(w.task), &row);
+          ns = run_seccomp(argv, *local.mon, w.task_id, &row);
           break;
         case Path::kSeccompMonitor:
-          ns = run_over_socket(monitor_process.socket(), w, argv, &row);
+          ns = run_over_socket(proc.socket(), w, argv, &row);
           break;
         case Path::kPreload:
           if (o.preload_lib.empty()) continue;
-          ns = run_preload(o, monitor_process.socket(), w, argv, &row);
+          ns = run_preload(o, proc.socket(), w, argv, &row);
           break;
       }
       if (!ns.ok())
@@ -373,6 +465,7 @@ Result<Report> run(const Options& o) {
         return make_error(fmt::format("{} / {}: {} samples, expected {}", w.name, path_label(p),
                                       ns->size(), o.trials));
       }
+      if (p != Path::kUnprotected) row.decisions = minus(decisions_in(audit), before);
       row.stats = summarise(std::move(*ns));
       report.rows.push_back(row);
     }
@@ -383,11 +476,12 @@ Result<Report> run(const Options& o) {
     // both supervised, both through the separate monitor process.
     DosResult dos;
     dos.period_us = o.dos_period_us;
-    const Workload follower = example_workloads()[0];
+    const Workload follower = pass;
     Workload burst = follower;
     burst.task = "burst";
+    burst.task_id = task_ids().at("burst");
     const auto periodic = task_argv(o, follower, o.trials, out, o.dos_period_us);
-    auto quiet = run_over_socket(monitor_process.socket(), follower, periodic, nullptr);
+    auto quiet = run_over_socket(dos_process.socket(), follower, periodic, nullptr);
     if (!quiet.ok()) return make_error("DoS (quiet): " + quiet.error());
     dos.quiet = summarise(std::move(*quiet));
     const uint32_t burst_ms =
@@ -395,11 +489,11 @@ Result<Report> run(const Options& o) {
     const std::string burst_out = dir.path + "/burst.bin";
     Result<std::vector<uint64_t>> burst_result = std::vector<uint64_t>{};
     std::thread burster([&] {
-      burst_result = run_over_socket(monitor_process.socket(), burst,
+      burst_result = run_over_socket(dos_process.socket(), burst,
                                      task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr);
     });
     usleep(100000);  // the burst is under way
-    auto loaded = run_over_socket(monitor_process.socket(), follower, periodic, nullptr);
+    auto loaded = run_over_socket(dos_process.socket(), follower, periodic, nullptr);
     burster.join();
     if (!loaded.ok()) return make_error("DoS (under burst): " + loaded.error());
     if (!burst_result.ok()) return make_error("DoS (burst task): " + burst_result.error());
@@ -415,21 +509,25 @@ std::string table(const Report& r) {
       "contego bench: {} trials per cell, CLOCK_MONOTONIC around each write() in the task\n"
       "checker: {}\n\n",
       r.trials, r.checker);
-  s += fmt::format("{:<16} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "task", "path",
-                   "mean", "median", "p99", "worst", "+median", "+p99", "+worst");
-  s += fmt::format("{:<16} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "", "", "µs",
+  s += fmt::format("{:<30} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}   {}\n", "task",
+                   "path", "mean", "median", "p99", "worst", "+median", "+p99", "+worst",
+                   "decisions (audit log)");
+  s += fmt::format("{:<30} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "", "", "µs",
                    "µs", "µs", "µs", "µs", "µs", "µs");
   for (const Row& row : r.rows) {
     const Row* base = r.find(row.workload, Path::kUnprotected);
     const Stats& b = base != nullptr ? base->stats : row.stats;
     const Stats& x = row.stats;
-    s += fmt::format("{:<16} {:<20} {:>9.2f} {:>9.2f} {:>9.2f} {:>10.2f}", row.workload,
+    s += fmt::format("{:<30} {:<20} {:>9.2f} {:>9.2f} {:>9.2f} {:>10.2f}", row.workload,
                      path_label(row.path), x.mean_us, x.median_us, x.p99_us, x.worst_us);
     if (row.path == Path::kUnprotected) {
       s += "   (baseline)";
     } else {
-      s += fmt::format("   {:>9.2f} {:>9.2f} {:>9.2f}", x.median_us - b.median_us,
+      s += fmt::format("   {:>9.2f} {:>9.2f} {:>9.2f}  ", x.median_us - b.median_us,
                        x.p99_us - b.p99_us, x.worst_us - b.worst_us);
+      for (const auto& [decision, count] : row.decisions) {
+        s += fmt::format(" {} {}", decision, count);
+      }
     }
     if (row.failures != 0) s += "  (some commands failed)";
     s += "\n";
@@ -438,7 +536,7 @@ std::string table(const Report& r) {
   for (const Row& row : r.rows) {
     const Row* base = r.find(row.workload, Path::kUnprotected);
     if (row.path == Path::kUnprotected || base == nullptr) continue;
-    s += fmt::format("\n  {:<16} {:<20} {:>8.2f}", row.workload, path_label(row.path),
+    s += fmt::format("\n  {:<30} {:<20} {:>8.2f}", row.workload, path_label(row.path),
                      row.stats.mean_us - base->stats.mean_us);
   }
   s += "\n";
@@ -485,6 +583,7 @@ nlohmann::json to_json(const Report& r) {
       cell["added_worst_us"] = row.stats.worst_us - base->stats.worst_us;
     }
     cell["failures"] = row.failures;
+    cell["decisions"] = row.decisions;
     j["workloads"][row.workload][path_key(row.path)] = cell;
   }
   if (r.dos) {
@@ -516,13 +615,9 @@ Status write_chart(const Report& r, const std::string& stem) {
   {
     std::ofstream d(dat);
     d << "# path mean_us p99_us worst_us (per workload block)\n";
-    for (const Workload& w : example_workloads()) {
-      for (Path p : kAllPaths) {
-        const Row* row = r.find(w.name, p);
-        if (row == nullptr) continue;
-        d << fmt::format("\"{}\\n{}\" {:.3f} {:.3f} {:.3f}\n", w.name, path_label(p),
-                         row->stats.mean_us, row->stats.p99_us, row->stats.worst_us);
-      }
+    for (const Row& row : r.rows) {
+      d << fmt::format("\"{}\\n{}\" {:.3f} {:.3f} {:.3f}\n", row.workload, path_label(row.path),
+                       row.stats.mean_us, row.stats.p99_us, row.stats.worst_us);
     }
     if (!d) return make_error("cannot write " + dat);
   }

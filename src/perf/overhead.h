@@ -14,6 +14,7 @@
 #define CONTEGO_PERF_OVERHEAD_H_
 
 #include <cstdint>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -30,13 +31,18 @@ struct Stats {
 // Nearest-rank percentiles over nanosecond samples.
 Stats summarise(std::vector<uint64_t> ns);
 
-// One control task's actuation command (the example policies' shapes).
+// One control task's actuation command, and what decides it: a compiled
+// policy image loaded into the real core (core::Checker), or, with no image,
+// the pass-through decider (allow, emit, audit line).
 struct Workload {
-  std::string name;  // "rover follower" ...
-  std::string task;  // task name at the monitor
+  std::string name;      // "rover.policy follower", "rover follower (pass-through)" ...
+  std::string task;      // task name at the monitor
+  uint16_t task_id = 0;  // its id in the image (pass-through: task_ids())
   uint8_t addr = 0;
   std::vector<uint8_t> bytes;  // one write()
+  std::vector<uint8_t> image;  // compiled policy; empty = pass-through decider
 };
+// The pass-through workloads (rover follower, arm gripper command shapes).
 std::vector<Workload> example_workloads();
 
 enum class Path { kUnprotected, kPreload, kSeccompInProcess, kSeccompMonitor, kCore };
@@ -50,6 +56,7 @@ struct Row {
   Path path = Path::kUnprotected;
   Stats stats;
   uint64_t failures = 0;  // commands the task saw fail (must be 0 with the pass-through checker)
+  std::map<std::string, uint64_t> decisions;  // from the audit log: allow, ignore, failsafe, reject
 };
 
 struct DosResult {
@@ -61,8 +68,9 @@ struct DosResult {
 
 struct Options {
   uint32_t trials = 200;
-  std::string task_exe;     // contego-bench-task
-  std::string preload_lib;  // libcontego_preload.so ("" skips path b)
+  std::vector<Workload> workloads;  // empty: example_workloads()
+  std::string task_exe;             // contego-bench-task
+  std::string preload_lib;          // libcontego_preload.so ("" skips path b)
   bool dos = true;
   uint32_t dos_period_us = 1000;
 };
@@ -75,10 +83,12 @@ struct Report {
   const Row* find(const std::string& workload, Path p) const;
 };
 
-// Runs every workload on every path. The checker is a pass-through decider
-// (allows every command and emits it unchanged, with the audit line), so the
-// figures are the cost of interception, transport, decoding, auditing and
-// the bus, not of a particular policy.
+// Runs every workload on every path. A workload with a policy image is
+// decided by the real core with that policy (the virtual line follower reads
+// the middle of the line, a state the rover's invariants accept); without
+// one, by the pass-through decider (allows every command and emits it
+// unchanged, with the audit line): the cost of interception, transport,
+// decoding, auditing and the bus alone. The DoS measure uses pass-through.
 Result<Report> run(const Options& options);
 
 // The human table: mean, median, p99, worst (µs) and added µs vs path a.

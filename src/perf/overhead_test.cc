@@ -28,11 +28,11 @@ TEST(Summarise, OneOutlierIsTheWorstButNotTheP99) {
 TEST(SchedOverhead, IsTheLargestAddedWorstCaseOfTheMonitorProcessPath) {
   Report r;
   r.trials = 10;
-  Row base{"w", Path::kUnprotected, {}, 0};
+  Row base{"w", Path::kUnprotected, {}, 0, {}};
   base.stats.worst_us = 2.0;
-  Row mon{"w", Path::kSeccompMonitor, {}, 0};
+  Row mon{"w", Path::kSeccompMonitor, {}, 0, {}};
   mon.stats.worst_us = 42.5;
-  Row inproc{"w", Path::kSeccompInProcess, {}, 0};
+  Row inproc{"w", Path::kSeccompInProcess, {}, 0, {}};
   inproc.stats.worst_us = 400.0;  // not the deployment path: ignored
   r.rows = {base, mon, inproc};
   EXPECT_EQ(sched_overhead(r)["overhead_ns"].get<int64_t>(), 40500);
