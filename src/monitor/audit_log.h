@@ -1,8 +1,11 @@
-// The monitor's audit log: one JSON object per line, handed to the kernel
-// with one write(2) before the decision it records takes effect on the bus,
-// so a monitor that is killed loses nothing it already decided. The line is
-// formatted with fmt into a buffer the log keeps (no JSON library, no stdio,
-// no allocation per decision once the buffer has grown). Every line carries "prev", the
+// The monitor's audit log: one JSON object per line, in the page cache
+// before the decision it records takes effect on the bus, so a monitor that
+// is killed loses nothing it already decided. A regular file is mapped and
+// extended with zeros ahead of the writer (a record costs a memcpy, no
+// system call; a clean close cuts the padding off, a killed monitor leaves
+// it and open() and verify_audit skip it); other files get one write(2) per
+// line. The line is formatted with fmt into a buffer the log keeps (no JSON
+// library, no stdio, no allocation per decision once the buffer has grown). Every line carries "prev", the
 // SHA-256 of the previous line's bytes, so an edited, removed or inserted
 // line breaks the chain (verify_audit, `contego audit`). docs/audit-format.md
 // describes the fields. Thread-safety: internally locked.
@@ -13,6 +16,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <sys/types.h>
 
 #include "contego/core/verdict.h"
 
@@ -38,11 +42,19 @@ class AuditLog {
  private:
   // Appends ,"prev":"..."} and the newline to line_, hashes, writes. mu_ held.
   void finish_line_locked();
+  // Maps the file from `pos` with room for `need` more bytes, extending it
+  // with zeros in kMapChunk steps. False (and unmapped) on failure.
+  bool map_from_locked(off_t pos, size_t need);
+  static constexpr size_t kMapChunk = 1 << 20;
   mutable std::mutex mu_;
   char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
   std::string line_;    // reused: the line being formatted
   int fd_ = -1;
   bool owned_ = false;
+  char* map_ = nullptr;  // the mapped part of a regular file, or null (write(2))
+  off_t map_base_ = 0;   // file offset of map_[0]
+  size_t map_len_ = 0;
+  off_t pos_ = 0;  // file offset of the next record when mapped
   uint64_t lines_ = 0;
 };
 

@@ -6,8 +6,10 @@
 
 #include <fstream>
 #include <gtest/gtest.h>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 namespace contego::monitor {
@@ -163,6 +165,39 @@ TEST_F(AuditChain, AKilledWriterLosesNoRecordWhoseDecisionActed) {
   const AuditCheck check = verify();
   ASSERT_TRUE(check.ok) << check.error;
   EXPECT_GE(check.summary.decisions, total);
+  // A restarted monitor continues after the last record (not after the zero
+  // padding a mapped log may leave) and the chain still verifies.
+  write_some(1);
+  const AuditCheck again = verify();
+  ASSERT_TRUE(again.ok) << again.error;
+  EXPECT_EQ(again.summary.decisions, check.summary.decisions + 1);
+  std::ifstream in(path, std::ios::binary);
+  const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(all.find('\0'), std::string::npos);  // a clean close leaves no padding
+  EXPECT_EQ(all.back(), '\n');
+}
+
+// A reader of a running monitor's log sees the records and then zeros.
+TEST_F(AuditChain, AnOpenLogVerifiesWhileItIsBeingWritten) {
+  AuditLog log;
+  ASSERT_TRUE(log.open(path).ok());
+  log.event("start", "test");
+  log.event("peer", "pid 1");
+  const AuditCheck c = verify();
+  ASSERT_TRUE(c.ok) << c.error;
+  EXPECT_EQ(c.summary.lines, 2u);
+  // The file was extended ahead of the writer (records are mapped, not written).
+  struct stat st {};
+  ASSERT_EQ(stat(path.c_str(), &st), 0);
+  EXPECT_GE(st.st_size, 1 << 20);
+}
+
+// More than one mapping's worth of records: the log is remapped further on.
+TEST_F(AuditChain, ALogLargerThanOneMappingVerifies) {
+  write_some(5000);  // about 1.4 MB
+  const AuditCheck c = verify();
+  ASSERT_TRUE(c.ok) << c.error;
+  EXPECT_EQ(c.summary.decisions, 5000u);
 }
 
 // The lines are formatted by hand (no JSON library on the decision path):
