@@ -17,7 +17,14 @@
 //  - nanosleep/clock_nanosleep: a job boundary, then continued (no payload).
 // Other system calls never reach the supervisor.
 //
-// Thread-safety: run() is single-threaded; the endpoint may be shared.
+// The supervisor blocks in SECCOMP_IOCTL_NOTIF_RECV (so the descriptor's
+// sync wake-up applies); a watcher thread ends the loop once no supervised
+// process is left, interrupting the receive with a real-time signal
+// (SIGRTMIN + 3, handled process-wide by a no-op handler without
+// SA_RESTART, installed on first use and kept).
+//
+// Thread-safety: run() calls the endpoint from the calling thread only;
+// concurrent run()s are fine; the endpoint may be shared.
 #ifndef CONTEGO_INTERCEPT_SECCOMP_SUPERVISOR_H_
 #define CONTEGO_INTERCEPT_SECCOMP_SUPERVISOR_H_
 
