@@ -35,6 +35,11 @@ void register_audit(CLI::App& app) {
       fmt::print("chain BROKEN at line {}\n", c.bad_line);
       return set_exit_code(1);
     }
+    if (s.torn_tail) {
+      fmt::print(
+          "note: the last record was cut off (the monitor was killed while writing it; its "
+          "decision never acted)\n");
+    }
     fmt::print("chain intact{}; last line SHA-256 {}\n",
                s.starts_at_genesis ? " from the start of the log" : " (continues an older log)",
                s.last_hash.empty() ? "-" : s.last_hash);

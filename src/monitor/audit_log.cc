@@ -149,6 +149,23 @@ off_t data_end(int fd) {
   return 0;
 }
 
+// The end of the last complete line (after its newline) at or before `end`:
+// a record cut off by a killed monitor is not continued from.
+off_t complete_end(int fd, off_t end) {
+  char chunk[4096];
+  off_t pos = end;
+  while (pos > 0) {
+    const off_t start = pos > static_cast<off_t>(sizeof chunk) ? pos - sizeof chunk : 0;
+    const auto len = static_cast<size_t>(pos - start);
+    if (pread(fd, chunk, len, start) != static_cast<ssize_t>(len)) return end;
+    for (size_t i = len; i > 0; --i) {
+      if (chunk[i - 1] == '\n') return start + static_cast<off_t>(i);
+    }
+    pos = start;
+  }
+  return 0;
+}
+
 // The last non-empty line of an existing log whose records end at `size`,
 // or "" (a new log).
 std::string last_line(int fd, off_t size) {
@@ -204,7 +221,12 @@ Status AuditLog::open(const std::string& path) {
   }
   const int fd = ::open(path.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC, 0666);
   if (fd < 0) return make_error("cannot open audit log " + path + ": " + strerror(errno));
-  const off_t end = data_end(fd);
+  off_t end = data_end(fd);
+  end = complete_end(fd, end);
+  // Zero padding and a record torn by a kill are cut off before continuing.
+  if (ftruncate(fd, end) != 0) {
+    // A file we may not shorten (append-only attribute): keep appending.
+  }
   const std::string last = last_line(fd, end);
   if (!last.empty()) sha256_hex(last, prev_);
   fd_ = fd;
@@ -308,11 +330,21 @@ AuditCheck verify_audit(std::istream& in) {
   };
   while (std::getline(in, line)) {
     if (line.empty()) continue;
-    if (line.find_first_not_of('\0') == std::string::npos) {
-      // Zero padding after the last line of a mapped log whose monitor was
-      // killed (it has no newline, so it is the rest of the file).
-      if (in.peek() == std::char_traits<char>::eof()) break;
-      return fail("zero bytes inside the log");
+    // getline stopped at the end of the file, not at a newline: the tail of
+    // a mapped log whose monitor was killed. Zero padding is skipped; a
+    // record cut off by the kill (its decision never acted: a record is
+    // complete before its decision acts) is reported, not refused.
+    const bool unterminated = in.eof();
+    if (unterminated) {
+      const size_t last = line.find_last_not_of('\0');
+      if (last == std::string::npos) break;  // only padding
+      line.resize(last + 1);
+    }
+    if (line.find('\0') != std::string::npos) return fail("zero bytes inside the log");
+    if (unterminated &&
+        (line.back() != '}' || nlohmann::json::parse(line, nullptr, false).is_discarded())) {
+      s.torn_tail = true;
+      break;
     }
     const nlohmann::json j = nlohmann::json::parse(line, nullptr, false);
     if (j.is_discarded() || !j.is_object()) return fail("not a JSON object");

@@ -5,10 +5,10 @@
 // system call; a clean close cuts the padding off, a killed monitor leaves
 // it and open() and verify_audit skip it); other files get one write(2) per
 // line. The line is formatted with fmt into a buffer the log keeps (no JSON
-// library, no stdio, no allocation per decision once the buffer has grown). Every line carries "prev", the
-// SHA-256 of the previous line's bytes, so an edited, removed or inserted
-// line breaks the chain (verify_audit, `contego audit`). docs/audit-format.md
-// describes the fields. Thread-safety: internally locked.
+// library, no stdio, no allocation per decision once the buffer has grown). Every line carries
+// "prev", the SHA-256 of the previous line's bytes, so an edited, removed or inserted line breaks
+// the chain (verify_audit, `contego audit`). docs/audit-format.md describes the fields.
+// Thread-safety: internally locked.
 #ifndef CONTEGO_MONITOR_AUDIT_LOG_H_
 #define CONTEGO_MONITOR_AUDIT_LOG_H_
 
@@ -70,6 +70,7 @@ struct AuditSummary {
   std::map<std::string, uint64_t> events;       // start, safe-state, ... -> count
   uint64_t first_us = 0, last_us = 0;
   bool starts_at_genesis = false;  // else it continues a rotated-away log
+  bool torn_tail = false;          // the last record was cut off by a killed monitor
   std::string last_hash;           // anchor: SHA-256 of the last line
 };
 

@@ -163,7 +163,7 @@ TEST_F(AuditChain, AKilledWriterLosesNoRecordWhoseDecisionActed) {
   while (read(acted[0], &c, 1) == 1) ++total;
   close(acted[0]);
   const AuditCheck check = verify();
-  ASSERT_TRUE(check.ok) << check.error;
+  ASSERT_TRUE(check.ok) << check.error;  // a record torn by the kill is reported, not refused
   EXPECT_GE(check.summary.decisions, total);
   // A restarted monitor continues after the last record (not after the zero
   // padding a mapped log may leave) and the chain still verifies.
@@ -175,6 +175,26 @@ TEST_F(AuditChain, AKilledWriterLosesNoRecordWhoseDecisionActed) {
   const std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_EQ(all.find('\0'), std::string::npos);  // a clean close leaves no padding
   EXPECT_EQ(all.back(), '\n');
+}
+
+// A record cut off by a kill (a partial line, then the zero padding) is
+// dropped when the log is reopened: the chain continues from the last
+// complete line.
+TEST_F(AuditChain, ARecordTornByAKillIsReportedAndNotContinuedFrom) {
+  write_some(2);
+  {
+    std::ofstream out(path, std::ios::app | std::ios::binary);
+    out << "{\"addr\":8,\"bus\":1,\"byt" << std::string(100, '\0');
+  }
+  const AuditCheck torn = verify();
+  ASSERT_TRUE(torn.ok) << torn.error;
+  EXPECT_TRUE(torn.summary.torn_tail);
+  EXPECT_EQ(torn.summary.lines, 3u);
+  write_some(1);
+  const AuditCheck again = verify();
+  ASSERT_TRUE(again.ok) << again.error;
+  EXPECT_FALSE(again.summary.torn_tail);
+  EXPECT_EQ(again.summary.lines, 5u);
 }
 
 // A reader of a running monitor's log sees the records and then zeros.
