@@ -12,6 +12,12 @@ bash tools/bootstrap.sh
 
 step() { printf '\n==== %s ====\n' "$*"; }
 
+# Formatting first: it takes a second and fails before any build does.
+if command -v clang-format >/dev/null; then
+  step "clang-format check"
+  git ls-files '*.h' '*.cc' | xargs clang-format --dry-run --Werror
+fi
+
 step "debug build + tests"
 cmake --preset dev >/dev/null
 cmake --build --preset dev
@@ -36,8 +42,4 @@ if [[ -f fuzz/CMakeLists.txt ]]; then
   bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-10}"
 fi
 
-if command -v clang-format >/dev/null; then
-  step "clang-format check"
-  git ls-files '*.h' '*.cc' | xargs clang-format --dry-run --Werror
-fi
 step "all tests passed"

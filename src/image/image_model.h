@@ -12,8 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "base/result.h"
 #include "contego/core/image.h"
+
+#include "base/result.h"
 
 namespace contego::image {
 
