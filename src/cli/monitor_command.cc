@@ -18,6 +18,7 @@ void register_monitor(CLI::App& app) {
     std::map<int, std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<unsigned> uids;
+    uint32_t spin_us = gate::SpinPolicy{}.spin_us;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();
@@ -26,6 +27,9 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--bus", args->buses, "N=/dev/i2c-N: a real adapter");
   cmd->add_option("--virtual-bus", args->virtual_buses, "N: a virtual bus with device models");
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
+  cmd->add_option("--spin-us", args->spin_us,
+                  "busy-wait this long for a channel client's next request before sleeping")
+      ->capture_default_str();
   cmd->callback([args] {
     // SIGINT/SIGTERM are taken by a waiting thread, which stops the server.
     sigset_t set;
@@ -49,7 +53,9 @@ void register_monitor(CLI::App& app) {
     }
     std::set<uid_t> uids{getuid(), 0};
     for (unsigned u : args->uids) uids.insert(u);
-    monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids);
+    gate::SpinPolicy spin;
+    spin.spin_us = args->spin_us;
+    monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin);
     if (Status s = server.listen(args->socket); !s.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);

@@ -16,6 +16,8 @@ void register_run(CLI::App& app) {
     std::map<int, std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<std::string> program;
+    uint32_t spin_us = gate::SpinPolicy{}.spin_us;
+    bool no_channel = false;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file (embedded monitor)");
@@ -24,12 +26,22 @@ void register_run(CLI::App& app) {
   cmd->add_option("--audit", args->audit, "audit log of the embedded monitor (- = stderr)");
   cmd->add_option("--bus", args->buses, "N=/dev/i2c-N: a real adapter (embedded monitor)");
   cmd->add_option("--virtual-bus", args->virtual_buses, "N: a virtual bus with device models");
+  cmd->add_option("--spin-us", args->spin_us,
+                  "with --socket: busy-wait this long for the monitor's answer before sleeping")
+      ->capture_default_str();
+  cmd->add_flag("--no-channel", args->no_channel,
+                "with --socket: talk over the socket only, no shared-memory channel");
   cmd->add_option("program", args->program, "program and its arguments (after --)")->required();
   cmd->callback([args] {
     intercept::seccomp::Options opt;
     opt.argv = args->program;
     if (!args->socket.empty()) {
-      auto client = gate::SocketClient::connect(args->socket, args->task);
+      std::optional<gate::SpinPolicy> channel;
+      if (!args->no_channel) {
+        channel = gate::SpinPolicy{};
+        channel->spin_us = args->spin_us;
+      }
+      auto client = gate::SocketClient::connect(args->socket, args->task, channel);
       if (!client.ok()) {
         fmt::print(stderr, "contego run: {}\n", client.error());
         return set_exit_code(2);

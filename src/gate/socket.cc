@@ -110,7 +110,8 @@ std::string recv_frame(int fd, wire::Header* header, std::vector<uint8_t>* paylo
 }
 
 Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& path,
-                                                            const std::string& task) {
+                                                            const std::string& task,
+                                                            std::optional<SpinPolicy> channel) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
@@ -137,14 +138,51 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
       !wire::decode_u16(answer, &c->task_id_).empty()) {
     return make_error("unexpected answer to hello from " + path);
   }
+  if (channel) c->open_channel(*channel);
   return c;
 }
 
 SocketClient::~SocketClient() { ::close(fd_); }
 
+void SocketClient::open_channel(SpinPolicy policy) {
+  if (!send_frame(fd_, wire::Type::kChannel, ++seq_, {})) {
+    broken_ = true;
+    return;
+  }
+  wire::Header h;
+  std::vector<uint8_t> answer;
+  int memfd = -1;
+  if (!recv_frame_with_fd(fd_, &h, &answer, &memfd).empty() || h.seq != seq_) {
+    if (memfd >= 0) ::close(memfd);
+    broken_ = true;
+    return;
+  }
+  if (h.type != static_cast<uint8_t>(wire::Type::kChannelOk) || memfd < 0) {
+    if (memfd >= 0) ::close(memfd);
+    return;  // refused: keep using the socket
+  }
+  if (auto c = Channel::attach(memfd, fd_, policy)) {
+    channel_ = std::move(*c);
+  } else {
+    // The monitor switched this connection to the channel; without it the
+    // connection cannot go on.
+    broken_ = true;
+  }
+}
+
 bool SocketClient::exchange(wire::Type type, std::span<const uint8_t> payload, wire::Header* h,
                             std::span<const uint8_t>* answer) {
   if (broken_) return false;
+  if (channel_) {
+    uint32_t seq = 0;
+    if (!channel_->post(type, payload, &seq) || !channel_->await_reply(seq, &h->type, answer)) {
+      broken_ = true;  // fail closed from now on
+      return false;
+    }
+    h->seq = seq;
+    h->length = static_cast<uint32_t>(answer->size());
+    return true;
+  }
   const uint32_t seq = ++seq_;
   if (!send_frame(fd_, type, seq, payload) || !reader_.next(h, answer).empty() || h->seq != seq) {
     broken_ = true;  // fail closed from now on
@@ -178,13 +216,19 @@ TransferReply SocketClient::transfer(uint16_t /*task: bound by hello*/, const Tr
 
 void SocketClient::job_boundary(uint16_t /*task*/) {
   std::lock_guard lock(mu_);
-  if (!broken_ && !send_frame(fd_, wire::Type::kJobEnd, ++seq_, {})) broken_ = true;
+  if (broken_) return;
+  uint32_t seq = 0;
+  // Through the channel: posted, not awaited (the next post waits for the slot).
+  const bool sent = channel_ ? channel_->post(wire::Type::kJobEnd, {}, &seq)
+                             : send_frame(fd_, wire::Type::kJobEnd, ++seq_, {});
+  if (!sent) broken_ = true;
 }
 
 void SocketClient::task_exited(uint16_t /*task*/) {
   // The monitor sees the connection close and drives the safe state itself.
   std::lock_guard lock(mu_);
   ::shutdown(fd_, SHUT_RDWR);
+  if (channel_) channel_->hang_up();  // wake the monitor's thread to see it now
   broken_ = true;
 }
 

@@ -8,11 +8,13 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "base/result.h"
+#include "gate/channel.h"
 #include "gate/endpoint.h"
 #include "gate/wire.h"
 
@@ -45,11 +47,16 @@ class FrameReader {
 
 class SocketClient final : public Endpoint {
  public:
-  // Connects to the monitor at `path` and announces `task` (its name in the policy).
-  static Result<std::unique_ptr<SocketClient>> connect(const std::string& path,
-                                                       const std::string& task);
+  // Connects to the monitor at `path` and announces `task` (its name in the
+  // policy). With `channel`, it then asks for a shared-memory channel and
+  // uses it for every later exchange (the socket otherwise, e.g. if the
+  // monitor refuses).
+  static Result<std::unique_ptr<SocketClient>> connect(
+      const std::string& path, const std::string& task,
+      std::optional<SpinPolicy> channel = SpinPolicy{});
   ~SocketClient() override;
   uint16_t task_id() const { return task_id_; }
+  bool uses_channel() const { return channel_ != nullptr; }
 
   TransferReply transfer(uint16_t task, const Transfer& transfer) override;
   void job_boundary(uint16_t task) override;
@@ -64,6 +71,7 @@ class SocketClient final : public Endpoint {
   bool exchange(wire::Type type, std::span<const uint8_t> payload, wire::Header* h,
                 std::span<const uint8_t>* answer);
   wire::BusInfo bus_info(uint8_t bus);
+  void open_channel(SpinPolicy policy);
   std::mutex mu_;
   int fd_;
   FrameReader reader_;
@@ -72,6 +80,7 @@ class SocketClient final : public Endpoint {
   uint32_t seq_ = 0;
   uint16_t task_id_ = 0;
   std::map<uint8_t, wire::BusInfo> buses_;
+  std::unique_ptr<Channel> channel_;
 };
 
 }  // namespace contego::gate

@@ -89,6 +89,9 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kJobEnd:
     case Type::kBusInfo:
     case Type::kBusInfoOk:
+    case Type::kChannel:
+    case Type::kChannelOk:
+    case Type::kJobEndOk:
     case Type::kError:
       return {};
   }

@@ -32,6 +32,9 @@ enum class Type : uint8_t {
   kJobEnd = 5,     // client: job boundary (no answer)
   kBusInfo = 6,    // client: bus number                -> kBusInfoOk | kError
   kBusInfoOk = 7,  // server: present flag and I2C_FUNCS
+  kChannel = 8,    // client: empty; asks for a shared-memory channel -> kChannelOk | kError
+  kChannelOk = 9,  // server: u32 channel size; the memfd rides along (SCM_RIGHTS)
+  kJobEndOk = 10,  // server, channel only: the job-end was taken
   kError = 0x7F,   // server: errno and reason text
 };
 

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <sys/un.h>
 
+#include "gate/channel.h"
 #include "gate/socket.h"
 #include "gate/wire.h"
 
@@ -17,11 +18,12 @@ namespace contego::monitor {
 namespace wire = gate::wire;
 
 Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t> tasks,
-               std::set<uid_t> allowed_uids)
+               std::set<uid_t> allowed_uids, gate::SpinPolicy spin)
     : monitor_(monitor),
       audit_(audit),
       tasks_(std::move(tasks)),
-      allowed_(std::move(allowed_uids)) {}
+      allowed_(std::move(allowed_uids)),
+      spin_(spin) {}
 
 Server::~Server() {
   stop();
@@ -80,14 +82,66 @@ void Server::stop() {
   for (int fd : open_fds_) shutdown(fd, SHUT_RDWR);
 }
 
-void Server::connection(int fd) {
+// One connection's state and its answers, the same whether a message came
+// over the socket or through the shared-memory channel.
+struct Server::Session {
   bool bound = false;
   uint16_t task = 0;
-  // Per connection and reused for every message: no allocation per
-  // exchange once they have grown (one recv and one send per transfer).
-  gate::FrameReader reader(fd);
-  gate::Transfer t;
+  gate::Transfer transfer;  // reused: no allocation per exchange once grown
   std::vector<uint8_t> out;
+};
+
+// Answers one well-framed message into *out; returns the answer's type, or
+// nullopt for a message that has none (job-end over the socket).
+std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
+                                           std::span<const uint8_t> payload, bool channel) {
+  auto refuse = [&](int err, const std::string& reason) {
+    audit_.event("malformed", reason);
+    s.out = wire::encode_error({err, reason});
+    return wire::Type::kError;
+  };
+  switch (static_cast<wire::Type>(type)) {
+    case wire::Type::kHello: {
+      std::string name;
+      if (std::string e = wire::decode_hello(payload, &name); !e.empty()) return refuse(EPROTO, e);
+      auto it = tasks_.find(name);
+      if (s.bound || it == tasks_.end()) {
+        return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
+      }
+      s.bound = true;
+      s.task = it->second;
+      s.out = wire::encode_u16(s.task);
+      return wire::Type::kHelloOk;
+    }
+    case wire::Type::kTransfer: {
+      if (!s.bound) return refuse(EPERM, "transfer before hello");
+      if (std::string e = wire::decode_transfer(payload, &s.transfer); !e.empty()) {
+        return refuse(EINVAL, e);
+      }
+      const gate::TransferReply r = monitor_.transfer(s.task, s.transfer);
+      wire::encode_reply(r, &s.out);
+      return wire::Type::kReply;
+    }
+    case wire::Type::kJobEnd:
+      if (s.bound) monitor_.job_boundary(s.task);
+      if (!channel) return std::nullopt;
+      s.out.clear();  // the channel's slot needs an answer to be free again
+      return wire::Type::kJobEndOk;
+    case wire::Type::kBusInfo: {
+      if (payload.size() != 1) return refuse(EPROTO, "malformed bus info request");
+      wire::BusInfo info{monitor_.has_bus(payload[0]), monitor_.funcs(payload[0])};
+      s.out = wire::encode_bus_info(info);
+      return wire::Type::kBusInfoOk;
+    }
+    default:
+      return refuse(EPROTO, fmt::format("unexpected message type {}", type));
+  }
+}
+
+void Server::connection(int fd) {
+  Session s;
+  gate::FrameReader reader(fd);
+  std::unique_ptr<gate::Channel> channel;
   for (;;) {
     wire::Header h;
     std::span<const uint8_t> payload;
@@ -99,64 +153,58 @@ void Server::connection(int fd) {
       gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({EPROTO, why}));
       break;
     }
-    auto refuse = [&](int err, const std::string& reason) {
-      audit_.event("malformed", reason);
-      gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({err, reason}));
-    };
-    switch (static_cast<wire::Type>(h.type)) {
-      case wire::Type::kHello: {
-        std::string name;
-        if (std::string e = wire::decode_hello(payload, &name); !e.empty()) {
-          refuse(EPROTO, e);
-          break;
+    if (h.type == static_cast<uint8_t>(wire::Type::kChannel)) {
+      std::string refusal;
+      if (!s.bound) refusal = "channel before hello";
+      if (!payload.empty()) refusal = "malformed channel request";
+      if (refusal.empty()) {
+        auto c = gate::Channel::create(fd, spin_);
+        if (c) {
+          const uint8_t size[4] = {static_cast<uint8_t>(gate::Channel::kSize),
+                                   static_cast<uint8_t>(gate::Channel::kSize >> 8),
+                                   static_cast<uint8_t>(gate::Channel::kSize >> 16),
+                                   static_cast<uint8_t>(gate::Channel::kSize >> 24)};
+          if (!gate::send_frame_with_fd(fd, wire::Type::kChannelOk, h.seq, size, (*c)->memfd())) {
+            break;
+          }
+          channel = std::move(*c);
+          break;  // from here on, messages come through the channel
         }
-        auto it = tasks_.find(name);
-        if (bound || it == tasks_.end()) {
-          refuse(EPERM, bound ? "already bound to a task" : "no task named '" + name + "'");
-          break;
-        }
-        bound = true;
-        task = it->second;
-        gate::send_frame(fd, wire::Type::kHelloOk, h.seq, wire::encode_u16(task));
-        break;
+        refusal = c.error();
       }
-      case wire::Type::kTransfer: {
-        if (!bound) {
-          refuse(EPERM, "transfer before hello");
-          break;
-        }
-        if (std::string e = wire::decode_transfer(payload, &t); !e.empty()) {
-          refuse(EINVAL, e);
-          break;
-        }
-        const gate::TransferReply r = monitor_.transfer(task, t);
-        wire::encode_reply(r, &out);
-        gate::send_frame(fd, wire::Type::kReply, h.seq, out);
-        break;
-      }
-      case wire::Type::kJobEnd:
-        if (bound) monitor_.job_boundary(task);
-        break;
-      case wire::Type::kBusInfo: {
-        if (payload.size() != 1) {
-          refuse(EPROTO, "malformed bus info request");
-          break;
-        }
-        wire::BusInfo info{monitor_.has_bus(payload[0]), monitor_.funcs(payload[0])};
-        gate::send_frame(fd, wire::Type::kBusInfoOk, h.seq, wire::encode_bus_info(info));
-        break;
-      }
-      default:
-        refuse(EPROTO, fmt::format("unexpected message type {}", h.type));
-        break;
+      audit_.event("malformed", refusal);
+      gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({EPROTO, refusal}));
+      continue;
+    }
+    if (auto answer = dispatch(s, h.type, payload, false)) {
+      gate::send_frame(fd, *answer, h.seq, s.out);
     }
   }
+  if (channel) serve_channel(s, *channel);
   {
     std::lock_guard lock(mu_);
     open_fds_.erase(fd);
   }
   close(fd);
-  if (bound) monitor_.task_exited(task);
+  if (s.bound) monitor_.task_exited(s.task);
+}
+
+void Server::serve_channel(Session& s, gate::Channel& channel) {
+  std::vector<uint8_t> request;  // the monitor's own copy of each request
+  for (;;) {
+    uint8_t type = 0;
+    uint32_t len = 0;
+    const auto next = channel.next_request(&type, &len, &request);
+    if (next == gate::Channel::Next::kClosed || stopping_) return;
+    if (next == gate::Channel::Next::kOversized) {
+      const std::string why = fmt::format("request of {} bytes exceeds {}", len, wire::kMaxPayload);
+      audit_.event("malformed", why);
+      channel.answer(static_cast<uint8_t>(wire::Type::kError), wire::encode_error({EPROTO, why}));
+      continue;
+    }
+    const auto answer = dispatch(s, type, request, true);
+    channel.answer(static_cast<uint8_t>(answer.value_or(wire::Type::kJobEndOk)), s.out);
+  }
 }
 
 }  // namespace contego::monitor

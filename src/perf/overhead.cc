@@ -264,15 +264,17 @@ Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
 }
 
 Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
-                                              const std::vector<std::string>& argv, Row* row) {
-  auto c = gate::SocketClient::connect(socket, w.task);
+                                              const std::vector<std::string>& argv, Row* row,
+                                              bool channel = true) {
+  auto c = gate::SocketClient::connect(
+      socket, w.task, channel ? std::optional<gate::SpinPolicy>(gate::SpinPolicy{}) : std::nullopt);
   if (!c.ok()) return make_error(c.error());
   return run_seccomp(argv, **c, (*c)->task_id(), row);
 }
 
 Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& socket,
                                           const Workload& w, const std::vector<std::string>& argv,
-                                          Row* row) {
+                                          Row* row, bool channel) {
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -283,6 +285,7 @@ Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& s
     setenv("LD_PRELOAD", o.preload_lib.c_str(), 1);
     setenv("CONTEGO_SOCKET", socket.c_str(), 1);
     setenv("CONTEGO_TASK", w.task.c_str(), 1);
+    setenv("CONTEGO_CHANNEL", channel ? "1" : "0", 1);
     execv(args[0], args.data());
     _exit(127);
   }
@@ -360,10 +363,14 @@ const char* path_label(Path p) {
       return "a unprotected";
     case Path::kPreload:
       return "b preload";
+    case Path::kPreloadSocket:
+      return "b-sock preload";
     case Path::kSeccompInProcess:
       return "c1 seccomp+checker";
     case Path::kSeccompMonitor:
       return "c2 seccomp+monitor";
+    case Path::kSeccompMonitorSocket:
+      return "c2-sock seccomp+mon.";
     case Path::kCore:
       return "d in-process core";
   }
@@ -376,10 +383,14 @@ const char* path_key(Path p) {
       return "unprotected";
     case Path::kPreload:
       return "preload";
+    case Path::kPreloadSocket:
+      return "preload_socket_only";
     case Path::kSeccompInProcess:
       return "seccomp_in_process";
     case Path::kSeccompMonitor:
       return "seccomp_monitor_process";
+    case Path::kSeccompMonitorSocket:
+      return "seccomp_monitor_process_socket_only";
     case Path::kCore:
       return "in_process_core";
   }
@@ -438,7 +449,8 @@ Result<Report> run(const Options& o) {
       row.path = p;
       Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
       const auto argv = task_argv(o, w, o.trials, out, 0);
-      const bool remote = p == Path::kPreload || p == Path::kSeccompMonitor;
+      const bool remote = p == Path::kPreload || p == Path::kSeccompMonitor ||
+                          p == Path::kPreloadSocket || p == Path::kSeccompMonitorSocket;
       const std::string& audit = remote ? proc.audit() : local_audit;
       const auto before = decisions_in(audit);
       switch (p) {
@@ -452,11 +464,13 @@ Result<Report> run(const Options& o) {
           ns = run_seccomp(argv, *local.mon, w.task_id, &row);
           break;
         case Path::kSeccompMonitor:
-          ns = run_over_socket(proc.socket(), w, argv, &row);
+        case Path::kSeccompMonitorSocket:
+          ns = run_over_socket(proc.socket(), w, argv, &row, p == Path::kSeccompMonitor);
           break;
         case Path::kPreload:
+        case Path::kPreloadSocket:
           if (o.preload_lib.empty()) continue;
-          ns = run_preload(o, proc.socket(), w, argv, &row);
+          ns = run_preload(o, proc.socket(), w, argv, &row, p == Path::kPreload);
           break;
       }
       if (!ns.ok())

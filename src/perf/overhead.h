@@ -2,9 +2,11 @@
 // control task timing each actuation command with CLOCK_MONOTONIC over many
 // trials), applied to every path a command can take here:
 //   a  unprotected: the transfer on the virtual bus, called directly;
-//   b  preload: the task under libcontego_preload.so, monitor in another process;
+//   b  preload: the task under libcontego_preload.so, monitor in another process
+//      (shared-memory channel; b-sock: the socket only, CONTEGO_CHANNEL=0);
 //   c1 seccomp, checker in the supervising process (contego run --policy);
-//   c2 seccomp, checker in a separate monitor process (contego run --socket);
+//   c2 seccomp, checker in a separate monitor process (contego run --socket;
+//      c2-sock: the socket only, --no-channel);
 //   d  the in-process core: Monitor::transfer called directly (decode-free).
 // Paths b, c1, c2 run the real contego-bench-task program; a and d are timed
 // in this process. The monitor process is forked before any thread starts.
@@ -45,9 +47,22 @@ struct Workload {
 // The pass-through workloads (rover follower, arm gripper command shapes).
 std::vector<Workload> example_workloads();
 
-enum class Path { kUnprotected, kPreload, kSeccompInProcess, kSeccompMonitor, kCore };
-inline constexpr Path kAllPaths[] = {Path::kUnprotected, Path::kPreload, Path::kSeccompInProcess,
-                                     Path::kSeccompMonitor, Path::kCore};
+enum class Path {
+  kUnprotected,
+  kPreload,
+  kPreloadSocket,
+  kSeccompInProcess,
+  kSeccompMonitor,
+  kSeccompMonitorSocket,
+  kCore
+};
+inline constexpr Path kAllPaths[] = {Path::kUnprotected,
+                                     Path::kPreload,
+                                     Path::kPreloadSocket,
+                                     Path::kSeccompInProcess,
+                                     Path::kSeccompMonitor,
+                                     Path::kSeccompMonitorSocket,
+                                     Path::kCore};
 const char* path_label(Path p);  // short, for tables and the chart
 const char* path_key(Path p);    // JSON key
 

@@ -17,6 +17,7 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -144,9 +145,11 @@ class ScriptedDecider final : public monitor::Decider {
 // The enclave clients every test runs against:
 //  - kInProcess: seccomp supervisor, monitor in the supervising process;
 //  - kSocket: seccomp supervisor, monitor behind its Unix socket (gate
-//    protocol, SO_PEERCRED);
-//  - kPreload: libcontego_preload.so in the program, monitor behind the socket.
-enum class Client { kInProcess, kSocket, kPreload };
+//    protocol, SO_PEERCRED), exchanges through the shared-memory channel;
+//  - kSocketOnly: the same with every exchange over the socket itself;
+//  - kPreload: libcontego_preload.so in the program, monitor behind the
+//    socket, through the channel.
+enum class Client { kInProcess, kSocket, kSocketOnly, kPreload };
 
 class Supervised : public ::testing::TestWithParam<Client> {
  protected:
@@ -203,8 +206,11 @@ class Supervised : public ::testing::TestWithParam<Client> {
     opt.argv = std::move(argv);
     std::unique_ptr<gate::SocketClient> client;
     gate::Endpoint* endpoint = &mon;
-    if (GetParam() == Client::kSocket) {
-      auto c = gate::SocketClient::connect(socket_path, "t0");
+    if (GetParam() == Client::kSocket || GetParam() == Client::kSocketOnly) {
+      std::optional<gate::SpinPolicy> channel;
+      if (GetParam() == Client::kSocket) channel = gate::SpinPolicy{};
+      auto c = gate::SocketClient::connect(socket_path, "t0", channel);
+      EXPECT_EQ(c.ok() && (*c)->uses_channel(), GetParam() == Client::kSocket);
       EXPECT_TRUE(c.ok()) << (c.ok() ? "" : c.error());
       if (c.ok()) client = std::move(*c);
       endpoint = client.get();
@@ -527,12 +533,15 @@ TEST(Preload, UnreachableMonitorRefusesTheBusAndLeavesOtherFilesAlone) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Clients, Supervised,
-                         ::testing::Values(Client::kInProcess, Client::kSocket, Client::kPreload),
+                         ::testing::Values(Client::kInProcess, Client::kSocket, Client::kSocketOnly,
+                                           Client::kPreload),
                          [](const auto& p) {
                            switch (p.param) {
                              case Client::kInProcess:
                                return "seccomp_in_process";
                              case Client::kSocket:
+                               return "seccomp_channel";
+                             case Client::kSocketOnly:
                                return "seccomp_socket";
                              case Client::kPreload:
                                return "preload_socket";

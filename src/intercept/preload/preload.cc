@@ -9,7 +9,9 @@
 // C library after one table look-up.
 //
 // Configuration (environment): CONTEGO_SOCKET (default
-// /run/contego/monitor.sock) and CONTEGO_TASK (the task name in the policy).
+// /run/contego/monitor.sock), CONTEGO_TASK (the task name in the policy),
+// CONTEGO_CHANNEL=0 (socket only, no shared-memory channel) and
+// CONTEGO_SPIN_US (busy-wait for an answer this long before sleeping).
 // Without a task name, or with the monitor unreachable, opening a bus fails
 // with EACCES; a lost monitor makes every later transfer fail with EIO.
 //
@@ -136,7 +138,17 @@ gate::SocketClient* client() {
     s.warned = true;
     return nullptr;
   }
-  auto c = gate::SocketClient::connect(path != nullptr ? path : "/run/contego/monitor.sock", task);
+  // The shared-memory channel unless CONTEGO_CHANNEL=0; CONTEGO_SPIN_US sets
+  // how long to busy-wait for an answer before sleeping.
+  std::optional<gate::SpinPolicy> channel = gate::SpinPolicy{};
+  if (const char* c = getenv("CONTEGO_CHANNEL"); c != nullptr && strcmp(c, "0") == 0) {
+    channel.reset();
+  }
+  if (const char* spin = getenv("CONTEGO_SPIN_US"); spin != nullptr && channel) {
+    channel->spin_us = static_cast<uint32_t>(strtoul(spin, nullptr, 10));
+  }
+  auto c = gate::SocketClient::connect(path != nullptr ? path : "/run/contego/monitor.sock", task,
+                                       channel);
   if (!c.ok()) {
     if (!s.warned) fprintf(stderr, "contego preload: %s; buses refused\n", c.error().c_str());
     s.warned = true;

@@ -1,0 +1,124 @@
+// Channel: the shared-memory fast path of the gate protocol.
+//
+// A Unix-socket round trip to another process costs each side a send and a
+// receive and, worse, a wake-up of a thread sleeping on the other vCPU. Once
+// a client has said hello, it may ask for a channel: the monitor creates a
+// sealed memfd with one request slot and one reply slot, passes it over the
+// socket (SCM_RIGHTS), and from then on the same wire payloads travel through
+// the shared memory. Each side spins for a bounded time (SpinPolicy) before
+// it sleeps on a futex, so back-to-back commands cross without any system
+// call, and an idle connection costs no CPU.
+//
+// Trust: the memory is writable by the client. The monitor reads each
+// request's type and length once, bounds-checks the length and copies the
+// payload into its own buffer before decoding it (one copy, then never the
+// shared bytes again). The seals (no shrink, no grow) keep a client from
+// truncating the file under the monitor's mapping. A client that scribbles
+// over the control words only delays itself: every futex wait has a timeout,
+// after which the socket is polled to see whether the peer is still there.
+//
+// The socket stays open for the channel's lifetime: it is how each side
+// learns that the other one is gone (POLLHUP), and a closed socket ends the
+// session as before (the monitor drives the task's actuators safe).
+//
+// Thread-safety: one client thread and one server thread per channel.
+#ifndef CONTEGO_GATE_CHANNEL_H_
+#define CONTEGO_GATE_CHANNEL_H_
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "base/result.h"
+#include "gate/wire.h"
+
+namespace contego::gate {
+
+struct SpinPolicy {
+  uint32_t spin_us = 50;  // busy-wait this long before sleeping on the futex (0: never spin)
+  uint32_t poll_ms = 20;  // futex sleep between checks that the peer is still connected
+};
+
+// The first page of the shared file. Every field is an atomic: the other
+// process may write any of them at any time.
+struct ChannelControl {
+  alignas(64) std::atomic<uint32_t> request_seq;  // client: bumped after a request is written
+  std::atomic<uint32_t> request_type;
+  std::atomic<uint32_t> request_len;
+  alignas(64) std::atomic<uint32_t> reply_seq;  // server: the request seq it answered
+  std::atomic<uint32_t> reply_type;
+  std::atomic<uint32_t> reply_len;
+  alignas(64) std::atomic<uint32_t> server_sleeping;  // server waits on request_seq's futex
+  alignas(64) std::atomic<uint32_t> client_sleeping;  // client waits on reply_seq's futex
+};
+static_assert(std::atomic<uint32_t>::is_always_lock_free);
+
+class Channel {
+ public:
+  static constexpr size_t kControlSize = 4096;
+  static constexpr size_t kSlotSize = wire::kMaxPayload;
+  static constexpr size_t kSize = kControlSize + 2 * kSlotSize;
+
+  // Monitor side: a new sealed memfd, mapped. `socket_fd` (not owned) is
+  // the connection's socket, polled to detect a vanished peer.
+  static Result<std::unique_ptr<Channel>> create(int socket_fd, SpinPolicy policy);
+  // Client side: maps the descriptor the monitor sent (taking ownership);
+  // refuses one of the wrong size or without the seals.
+  static Result<std::unique_ptr<Channel>> attach(int memfd, int socket_fd, SpinPolicy policy);
+  ~Channel();
+  Channel(const Channel&) = delete;
+  Channel& operator=(const Channel&) = delete;
+
+  int memfd() const { return memfd_; }
+
+  // --- client ---
+  // Waits until the previous request was answered, then writes this one.
+  // False if the peer is gone (then nothing was posted).
+  bool post(wire::Type type, std::span<const uint8_t> payload, uint32_t* seq);
+  // Waits for the answer to `seq`; *payload points into the shared memory
+  // and stays valid until the next post. False if the peer is gone.
+  bool await_reply(uint32_t seq, uint8_t* type, std::span<const uint8_t>* payload);
+  // After the client shut its socket down: wakes a sleeping server thread so
+  // that it sees the hang-up now rather than at its next poll.
+  void hang_up();
+
+  // --- server ---
+  enum class Next { kRequest, kOversized, kClosed };
+  // Waits for the next request and copies it into *payload (resized). A
+  // request longer than a slot is kOversized (answer it with an error); the
+  // peer's socket closing (or shut down by Server::stop) is kClosed.
+  Next next_request(uint8_t* type, uint32_t* claimed_len, std::vector<uint8_t>* payload);
+  // Answers the request next_request() returned last.
+  void answer(uint8_t type, std::span<const uint8_t> payload);
+
+ private:
+  Channel(int memfd, int socket_fd, uint8_t* base, SpinPolicy policy)
+      : memfd_(memfd), socket_fd_(socket_fd), base_(base), policy_(policy) {}
+  ChannelControl& control() { return *reinterpret_cast<ChannelControl*>(base_); }
+  uint8_t* request_slot() { return base_ + kControlSize; }
+  uint8_t* reply_slot() { return base_ + kControlSize + kSlotSize; }
+  // Waits while `word` == `old`: spins, then sleeps on its futex announcing
+  // it in `sleeping`. False if the peer went away meanwhile.
+  bool wait_change(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping);
+  bool peer_connected();
+
+  int memfd_;
+  int socket_fd_;
+  uint8_t* base_;
+  SpinPolicy policy_;
+  uint32_t last_seq_ = 0;  // client: last posted; server: last taken
+};
+
+// Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the
+// kChannelOk answer. recv_frame_with_fd reads exactly one frame.
+bool send_frame_with_fd(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload,
+                        int passed_fd);
+std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t>* payload,
+                               int* passed_fd);
+
+}  // namespace contego::gate
+
+#endif  // CONTEGO_GATE_CHANNEL_H_

@@ -1,0 +1,197 @@
+#include "gate/channel.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <sys/socket.h>
+#include <thread>
+
+namespace contego::gate {
+namespace {
+
+class ChannelPair : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_EQ(socketpair(AF_UNIX, SOCK_STREAM, 0, fds), 0);
+    SpinPolicy quick{/*spin_us=*/20, /*poll_ms=*/5};
+    auto s = Channel::create(fds[0], quick);
+    ASSERT_TRUE(s.ok()) << s.error();
+    server = std::move(*s);
+    auto c = Channel::attach(dup(server->memfd()), fds[1], quick);
+    ASSERT_TRUE(c.ok()) << c.error();
+    client = std::move(*c);
+  }
+  void TearDown() override {
+    client.reset();
+    server.reset();
+    close(fds[0]);
+    if (fds[1] >= 0) close(fds[1]);
+  }
+  int fds[2] = {-1, -1};
+  std::unique_ptr<Channel> server, client;
+};
+
+// Requests cross in order, each answered before the next is posted; the
+// server's payload is its own copy.
+TEST_F(ChannelPair, RequestsAndAnswersCrossInOrder) {
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    for (int i = 0; i < 1000; ++i) {
+      uint8_t type = 0;
+      uint32_t len = 0;
+      ASSERT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
+      ASSERT_EQ(type, static_cast<uint8_t>(wire::Type::kTransfer));
+      ASSERT_EQ(req.size(), static_cast<size_t>(i % 7));
+      std::vector<uint8_t> ans(req.rbegin(), req.rend());
+      ans.push_back(static_cast<uint8_t>(i));
+      server->answer(static_cast<uint8_t>(wire::Type::kReply), ans);
+    }
+  });
+  for (int i = 0; i < 1000; ++i) {
+    std::vector<uint8_t> req;
+    for (int j = 0; j < i % 7; ++j) req.push_back(static_cast<uint8_t>(i + j));
+    uint32_t seq = 0;
+    ASSERT_TRUE(client->post(wire::Type::kTransfer, req, &seq));
+    uint8_t type = 0;
+    std::span<const uint8_t> ans;
+    ASSERT_TRUE(client->await_reply(seq, &type, &ans));
+    EXPECT_EQ(type, static_cast<uint8_t>(wire::Type::kReply));
+    ASSERT_EQ(ans.size(), req.size() + 1);
+    EXPECT_TRUE(std::equal(req.rbegin(), req.rend(), ans.begin()));
+    EXPECT_EQ(ans.back(), static_cast<uint8_t>(i));
+  }
+  monitor.join();
+}
+
+// With no spinning at all both sides sleep on the futex every time.
+TEST_F(ChannelPair, WorksWhenBothSidesSleep) {
+  SpinPolicy sleepy{0, 5};
+  auto s = Channel::create(fds[0], sleepy);
+  ASSERT_TRUE(s.ok());
+  auto c = Channel::attach(dup((*s)->memfd()), fds[1], sleepy);
+  ASSERT_TRUE(c.ok());
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    for (int i = 0; i < 50; ++i) {
+      uint8_t type = 0;
+      uint32_t len = 0;
+      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
+      usleep(200);  // the client is asleep by now
+      (*s)->answer(static_cast<uint8_t>(wire::Type::kReply), req);
+    }
+  });
+  for (int i = 0; i < 50; ++i) {
+    const uint8_t b[1] = {static_cast<uint8_t>(i)};
+    uint32_t seq = 0;
+    ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
+    uint8_t type = 0;
+    std::span<const uint8_t> ans;
+    ASSERT_TRUE((*c)->await_reply(seq, &type, &ans));
+    ASSERT_EQ(ans.size(), 1u);
+    EXPECT_EQ(ans[0], i);
+  }
+  monitor.join();
+}
+
+// A posted job-end is not awaited; the next post waits for the slot.
+TEST_F(ChannelPair, APostedRequestIsAwaitedByTheNextPost) {
+  uint32_t first = 0, second = 0;
+  ASSERT_TRUE(client->post(wire::Type::kJobEnd, {}, &first));
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    ASSERT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
+    EXPECT_EQ(type, static_cast<uint8_t>(wire::Type::kJobEnd));
+    usleep(2000);
+    server->answer(static_cast<uint8_t>(wire::Type::kJobEndOk), {});
+    ASSERT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
+    EXPECT_EQ(type, static_cast<uint8_t>(wire::Type::kBusInfo));
+    server->answer(static_cast<uint8_t>(wire::Type::kBusInfoOk), req);
+  });
+  const uint8_t bus[1] = {1};
+  ASSERT_TRUE(client->post(wire::Type::kBusInfo, bus, &second));
+  EXPECT_EQ(second, first + 1);
+  uint8_t type = 0;
+  std::span<const uint8_t> ans;
+  ASSERT_TRUE(client->await_reply(second, &type, &ans));
+  EXPECT_EQ(type, static_cast<uint8_t>(wire::Type::kBusInfoOk));
+  monitor.join();
+}
+
+// A client that claims more than a slot holds gets kOversized, and the
+// server goes on with the next request.
+TEST_F(ChannelPair, AnOversizedClaimIsReportedNotRead) {
+  auto* control = static_cast<ChannelControl*>(
+      mmap(nullptr, Channel::kControlSize, PROT_READ | PROT_WRITE, MAP_SHARED, server->memfd(), 0));
+  ASSERT_NE(control, MAP_FAILED);
+  control->request_type.store(3);
+  control->request_len.store(0xFFFFFFFF);
+  control->request_seq.store(1);
+  std::vector<uint8_t> req;
+  uint8_t type = 0;
+  uint32_t len = 0;
+  EXPECT_EQ(server->next_request(&type, &len, &req), Channel::Next::kOversized);
+  EXPECT_EQ(len, 0xFFFFFFFFu);
+  control->request_len.store(2);
+  control->request_seq.store(2);
+  EXPECT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
+  EXPECT_EQ(req.size(), 2u);
+  munmap(control, Channel::kControlSize);
+}
+
+// Either side learns that the other is gone from the socket: the server
+// returns kClosed, a waiting client gives up (fail closed).
+TEST_F(ChannelPair, APeerThatHangsUpEndsTheWait) {
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    EXPECT_EQ(server->next_request(&type, &len, &req), Channel::Next::kClosed);
+  });
+  shutdown(fds[1], SHUT_RDWR);
+  client->hang_up();
+  monitor.join();
+
+  uint32_t seq = 0;
+  ASSERT_TRUE(client->post(wire::Type::kTransfer, {}, &seq));  // the server never answers
+  EXPECT_FALSE(client->await_reply(seq, nullptr, nullptr));
+}
+
+// The client refuses a descriptor that is not a sealed channel of the right size.
+TEST(ChannelAttach, RefusesAnUnsealedOrMisSizedFile) {
+  const int fd = memfd_create("not-a-channel", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(ftruncate(fd, static_cast<off_t>(Channel::kSize)), 0);
+  auto c = Channel::attach(fd, -1, {});
+  EXPECT_FALSE(c.ok());
+  const int small = memfd_create("small", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+  ASSERT_EQ(ftruncate(small, 4096), 0);
+  ASSERT_EQ(fcntl(small, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL), 0);
+  EXPECT_FALSE(Channel::attach(small, -1, {}).ok());
+}
+
+// The descriptor rides along with its frame.
+TEST(ChannelHandOver, AFrameCarriesItsDescriptor) {
+  int sv[2];
+  ASSERT_EQ(socketpair(AF_UNIX, SOCK_STREAM, 0, sv), 0);
+  const int fd = memfd_create("x", MFD_CLOEXEC);
+  const uint8_t payload[4] = {1, 2, 3, 4};
+  ASSERT_TRUE(send_frame_with_fd(sv[0], wire::Type::kChannelOk, 9, payload, fd));
+  wire::Header h;
+  std::vector<uint8_t> got;
+  int passed = -1;
+  ASSERT_EQ(recv_frame_with_fd(sv[1], &h, &got, &passed), "");
+  EXPECT_EQ(h.seq, 9u);
+  EXPECT_EQ(got, std::vector<uint8_t>(payload, payload + 4));
+  EXPECT_GE(passed, 0);
+  close(passed);
+  close(fd);
+  close(sv[0]);
+  close(sv[1]);
+}
+
+}  // namespace
+}  // namespace contego::gate
