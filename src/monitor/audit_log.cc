@@ -207,7 +207,30 @@ bool AuditLog::map_from_locked(off_t pos, size_t need) {
   map_base_ = base;
   map_len_ = len;
   pos_ = pos;
+  populated_ =
+      static_cast<size_t>(pos - base) / static_cast<size_t>(page) * static_cast<size_t>(page);
+  prefault_locked();
   return true;
+}
+
+// A record that is the first to touch a page of the mapping pays a page
+// fault (a few µs, on the path of the command it records). So the pages
+// are faulted in writable ahead of the writer, kPrefault bytes at a time,
+// once the writer is within half of that of the populated end: about one
+// record in 250 pays for 16 pages at once instead of one in 16 paying for one.
+void AuditLog::prefault_locked() {
+#ifndef MADV_POPULATE_WRITE
+  constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14
+#endif
+  if (!prefault_ || map_ == nullptr) return;
+  const auto at = static_cast<size_t>(pos_ - map_base_);
+  if (at + kPrefault / 2 < populated_ || populated_ >= map_len_) return;
+  const size_t len = std::min(kPrefault, map_len_ - populated_);
+  if (madvise(map_ + populated_, len, MADV_POPULATE_WRITE) != 0) {
+    prefault_ = false;  // an older kernel: records fault their pages in themselves
+    return;
+  }
+  populated_ += len;
 }
 
 Status AuditLog::open(const std::string& path) {
@@ -250,6 +273,7 @@ void AuditLog::finish_line_locked() {
     if (at + line_.size() <= map_len_ || map_from_locked(pos_, line_.size())) {
       std::memcpy(map_ + (pos_ - map_base_), line_.data(), line_.size());
       pos_ += static_cast<off_t>(line_.size());
+      prefault_locked();
       return;
     }
     (void)!ftruncate(fd_, pos_);  // no mapping any more: continue with write(2)

@@ -45,7 +45,10 @@ class AuditLog {
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kMapChunk steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
+  // Faults the next pages of the mapping in ahead of the writer.
+  void prefault_locked();
   static constexpr size_t kMapChunk = 1 << 20;
+  static constexpr size_t kPrefault = 64 * 1024;
   mutable std::mutex mu_;
   char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
   std::string line_;    // reused: the line being formatted
@@ -54,6 +57,8 @@ class AuditLog {
   char* map_ = nullptr;  // the mapped part of a regular file, or null (write(2))
   off_t map_base_ = 0;   // file offset of map_[0]
   size_t map_len_ = 0;
+  size_t populated_ = 0;  // bytes of the mapping faulted in writable (from map_[0])
+  bool prefault_ = true;
   off_t pos_ = 0;  // file offset of the next record when mapped
   uint64_t lines_ = 0;
 };

@@ -1,5 +1,7 @@
-// SHA-256 (FIPS 180-4) for the audit log's hash chain. Host code; small and
-// dependency-free so the monitor needs no crypto library.
+// SHA-256 (FIPS 180-4) for the audit log's hash chain. Host code, backed by
+// OpenSSL's libcrypto, which uses the CPU's SHA extensions where it has them
+// (x86 SHA-NI, Armv8 crypto): a record's hash is on the path of every
+// checked command (docs/libraries.md).
 #ifndef CONTEGO_MONITOR_SHA256_H_
 #define CONTEGO_MONITOR_SHA256_H_
 
@@ -9,20 +11,21 @@
 #include <string>
 #include <string_view>
 
+struct evp_md_ctx_st;
+
 namespace contego::monitor {
 
 class Sha256 {
  public:
   Sha256();
+  ~Sha256();
+  Sha256(const Sha256&) = delete;
+  Sha256& operator=(const Sha256&) = delete;
   void update(const void* data, size_t len);
   std::array<uint8_t, 32> finish();
 
  private:
-  void block(const uint8_t* p);
-  uint32_t h_[8];
-  uint8_t buf_[64];
-  size_t used_ = 0;
-  uint64_t total_ = 0;
+  evp_md_ctx_st* ctx_;
 };
 
 // Lower-case hex digest of `text`.
