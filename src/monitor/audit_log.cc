@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <fmt/format.h>
 #include <iterator>
@@ -181,6 +182,15 @@ std::string last_line(int fd, off_t size) {
 }  // namespace
 
 AuditLog::~AuditLog() {
+  if (grower_.joinable()) {
+    {
+      std::lock_guard g(grow_mu_);
+      grow_stop_ = true;
+    }
+    grow_cv_.notify_one();
+    grower_.join();
+  }
+  for (const auto& [addr, len] : retired_) munmap(addr, len);
   if (map_ != nullptr) {
     munmap(map_, map_len_);
     // A clean close removes the padding; a killed monitor leaves it, and
@@ -190,47 +200,86 @@ AuditLog::~AuditLog() {
   if (owned_ && fd_ >= 0) close(fd_);
 }
 
+// The file behind the window reaches at least `upto` bytes into it (in
+// kMapChunk steps, zero-filled) and, while prefaulting works, the window's
+// pages up to `upto` are faulted in writable. Publishes the result in
+// ready_. grow_mu_ held.
+bool AuditLog::grow_locked(size_t upto) {
+#ifndef MADV_POPULATE_WRITE
+  constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14
+#endif
+  upto = std::min(upto, map_len_);
+  if (upto > file_room_) {
+    const size_t room = std::min(map_len_, (upto + kMapChunk - 1) / kMapChunk * kMapChunk);
+    if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
+    file_room_ = room;
+  }
+  if (!prefault_) {
+    ready_.store(file_room_, std::memory_order_release);
+    return true;
+  }
+  size_t populated = ready_.load(std::memory_order_relaxed);
+  while (populated < upto) {
+    const size_t len = std::min(kPrefault, file_room_ - populated);
+    if (madvise(map_ + populated, len, MADV_POPULATE_WRITE) != 0) {
+      prefault_ = false;  // an older kernel: records fault their pages in themselves
+      ready_.store(file_room_, std::memory_order_release);
+      return true;
+    }
+    populated += len;
+    ready_.store(populated, std::memory_order_release);
+  }
+  return true;
+}
+
+// Maps a window of the file from the page holding `pos`, with room for
+// `need` bytes. An old window is left to the grower to unmap (a munmap of
+// many dirty pages is slow). mu_ and grow_mu_ held.
 bool AuditLog::map_from_locked(off_t pos, size_t need) {
-  if (map_ != nullptr) munmap(map_, map_len_);
+  if (map_ != nullptr) retired_.emplace_back(map_, map_len_);
   map_ = nullptr;
+  ready_.store(0, std::memory_order_release);
   const long page = sysconf(_SC_PAGESIZE);
   const off_t base = pos - pos % page;
-  // At least one chunk of room beyond what is needed now.
-  const size_t len = (static_cast<size_t>(pos - base) + need) / kMapChunk * kMapChunk + kMapChunk;
-  if (ftruncate(fd_, base + static_cast<off_t>(len)) != 0) return false;
+  const auto at = static_cast<size_t>(pos - base);
+  const size_t len = std::max(kWindow, (at + need + kMapChunk) / kMapChunk * kMapChunk);
+  // Address space only: what lies beyond the file's end is never touched.
   void* m = mmap(nullptr, len, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, base);
-  if (m == MAP_FAILED) {
-    (void)!ftruncate(fd_, pos);
-    return false;
-  }
+  if (m == MAP_FAILED) return false;
   map_ = static_cast<char*>(m);
   map_base_ = base;
   map_len_ = len;
   pos_ = pos;
-  populated_ =
-      static_cast<size_t>(pos - base) / static_cast<size_t>(page) * static_cast<size_t>(page);
-  prefault_locked();
+  file_room_ = at;
+  ready_.store(at / static_cast<size_t>(page) * static_cast<size_t>(page),
+               std::memory_order_release);
+  written_.store(at, std::memory_order_release);
+  if (!grow_locked(at + need + kPrefault)) {
+    munmap(map_, map_len_);
+    map_ = nullptr;
+    ready_.store(0, std::memory_order_release);
+    (void)!ftruncate(fd_, pos);
+    return false;
+  }
   return true;
 }
 
-// A record that is the first to touch a page of the mapping pays a page
-// fault (a few µs, on the path of the command it records). So the pages
-// are faulted in writable ahead of the writer, kPrefault bytes at a time,
-// once the writer is within half of that of the populated end: about one
-// record in 250 pays for 16 pages at once instead of one in 16 paying for one.
-void AuditLog::prefault_locked() {
-#ifndef MADV_POPULATE_WRITE
-  constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14
-#endif
-  if (!prefault_ || map_ == nullptr) return;
-  const auto at = static_cast<size_t>(pos_ - map_base_);
-  if (at + kPrefault / 2 < populated_ || populated_ >= map_len_) return;
-  const size_t len = std::min(kPrefault, map_len_ - populated_);
-  if (madvise(map_ + populated_, len, MADV_POPULATE_WRITE) != 0) {
-    prefault_ = false;  // an older kernel: records fault their pages in themselves
-    return;
+// The grower thread: keeps the file extended and its pages faulted in
+// kAhead bytes ahead of the writer, off the path of the commands being
+// recorded, and unmaps retired windows.
+void AuditLog::grow_ahead() {
+  std::unique_lock g(grow_mu_);
+  while (!grow_stop_) {
+    for (const auto& [addr, len] : retired_) munmap(addr, len);
+    retired_.clear();
+    const size_t want = std::min(written_.load(std::memory_order_acquire) + kAhead, map_len_);
+    if (map_ != nullptr && ready_.load(std::memory_order_acquire) < want && grow_locked(want)) {
+      continue;
+    }
+    // The writer notifies once it is within kAhead / 2 of ready_; the
+    // timeout covers a notification sent just before this wait began.
+    grow_cv_.wait_for(g, std::chrono::milliseconds(20));
   }
-  populated_ += len;
 }
 
 Status AuditLog::open(const std::string& path) {
@@ -258,7 +307,12 @@ Status AuditLog::open(const std::string& path) {
   // A regular file is extended ahead of the writer and mapped: a record is
   // a memcpy into the page cache (no system call), as durable against a
   // killed monitor as write(2) is. Anything else, or a failed mapping: write(2).
-  if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) (void)map_from_locked(end, 0);
+  if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
+    std::lock_guard g(grow_mu_);
+    if (map_from_locked(end, 0) && !grower_.joinable()) {
+      grower_ = std::thread([this] { grow_ahead(); });
+    }
+  }
   return {};
 }
 
@@ -269,13 +323,28 @@ void AuditLog::finish_line_locked() {
   sha256_hex(line_, prev_);
   line_ += '\n';
   if (map_ != nullptr) {
-    const auto at = static_cast<size_t>(pos_ - map_base_);
-    if (at + line_.size() <= map_len_ || map_from_locked(pos_, line_.size())) {
-      std::memcpy(map_ + (pos_ - map_base_), line_.data(), line_.size());
+    size_t at = static_cast<size_t>(pos_ - map_base_);
+    bool room = at + line_.size() <= ready_.load(std::memory_order_acquire);
+    if (!room) {
+      // The grower fell behind, or the window is full: make room here.
+      std::lock_guard g(grow_mu_);
+      room = at + line_.size() <= map_len_ ? grow_locked(at + line_.size() + kPrefault)
+                                           : map_from_locked(pos_, line_.size());
+      at = static_cast<size_t>(pos_ - map_base_);
+    }
+    if (room && map_ != nullptr) {
+      std::memcpy(map_ + at, line_.data(), line_.size());
       pos_ += static_cast<off_t>(line_.size());
-      prefault_locked();
+      const size_t written = at + line_.size();
+      written_.store(written, std::memory_order_release);
+      if (ready_.load(std::memory_order_relaxed) < written + kAhead / 2) {
+        grow_cv_.notify_one();  // no system call unless the grower is waiting
+      }
       return;
     }
+    std::lock_guard g(grow_mu_);
+    if (map_ != nullptr) retired_.emplace_back(map_, map_len_);
+    map_ = nullptr;
     (void)!ftruncate(fd_, pos_);  // no mapping any more: continue with write(2)
   }
   // One write(2): in the page cache before the decision acts, so it

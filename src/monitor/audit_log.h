@@ -2,8 +2,9 @@
 // before the decision it records takes effect on the bus, so a monitor that
 // is killed loses nothing it already decided. A regular file is mapped and
 // extended with zeros ahead of the writer (a record costs a memcpy, no
-// system call; a clean close cuts the padding off, a killed monitor leaves
-// it and open() and verify_audit skip it); other files get one write(2) per
+// system call and no page fault: a helper thread grows the file and faults
+// its pages in ahead of the writer; a clean close cuts the padding off, a
+// killed monitor leaves it and open() and verify_audit skip it); other files get one write(2) per
 // line. The line is formatted with fmt into a buffer the log keeps (no JSON
 // library, no stdio, no allocation per decision once the buffer has grown). Every line carries
 // "prev", the SHA-256 of the previous line's bytes, so an edited, removed or inserted line breaks
@@ -12,11 +13,16 @@
 #ifndef CONTEGO_MONITOR_AUDIT_LOG_H_
 #define CONTEGO_MONITOR_AUDIT_LOG_H_
 
+#include <atomic>
+#include <condition_variable>
 #include <istream>
 #include <map>
 #include <mutex>
 #include <string>
 #include <sys/types.h>
+#include <thread>
+#include <utility>
+#include <vector>
 
 #include "contego/core/verdict.h"
 
@@ -45,22 +51,34 @@ class AuditLog {
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kMapChunk steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
-  // Faults the next pages of the mapping in ahead of the writer.
-  void prefault_locked();
-  static constexpr size_t kMapChunk = 1 << 20;
-  static constexpr size_t kPrefault = 64 * 1024;
+  bool grow_locked(size_t upto);                        // grow_mu_ held
+  void grow_ahead();                                    // the grower thread
+  static constexpr size_t kWindow = size_t{256} << 20;  // mapped at once (address space only)
+  static constexpr size_t kMapChunk = 1 << 20;          // the file grows by this much
+  static constexpr size_t kPrefault = 64 * 1024;        // pages faulted in per step
+  static constexpr size_t kAhead = 256 * 1024;          // kept ready ahead of the writer
   mutable std::mutex mu_;
   char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
   std::string line_;    // reused: the line being formatted
   int fd_ = -1;
   bool owned_ = false;
-  char* map_ = nullptr;  // the mapped part of a regular file, or null (write(2))
+  char* map_ = nullptr;  // the mapped window of a regular file, or null (write(2))
   off_t map_base_ = 0;   // file offset of map_[0]
   size_t map_len_ = 0;
-  size_t populated_ = 0;  // bytes of the mapping faulted in writable (from map_[0])
-  bool prefault_ = true;
   off_t pos_ = 0;  // file offset of the next record when mapped
   uint64_t lines_ = 0;
+  // The grower: extends the file and faults its pages in ahead of the
+  // writer. Lock order: mu_, then grow_mu_. The writer's fast path takes
+  // no lock but mu_: it writes below ready_ only.
+  std::mutex grow_mu_;
+  std::condition_variable grow_cv_;
+  std::thread grower_;
+  bool grow_stop_ = false;                         // grow_mu_
+  size_t file_room_ = 0;                           // window bytes the file backs; grow_mu_
+  bool prefault_ = true;                           // MADV_POPULATE_WRITE works; grow_mu_
+  std::vector<std::pair<char*, size_t>> retired_;  // old windows to unmap; grow_mu_
+  std::atomic<size_t> ready_{0};    // window bytes the writer may fill without a fault
+  std::atomic<size_t> written_{0};  // window bytes filled so far
 };
 
 // The "prev" of the first line of a new log.
