@@ -55,6 +55,11 @@ struct ChannelControl {
   alignas(64) std::atomic<uint32_t> client_sleeping;  // client waits on reply_seq's futex
 };
 static_assert(std::atomic<uint32_t>::is_always_lock_free);
+// The offsets docs/gate-protocol.md gives.
+static_assert(offsetof(ChannelControl, request_seq) == 0 &&
+              offsetof(ChannelControl, reply_seq) == 64 &&
+              offsetof(ChannelControl, server_sleeping) == 128 &&
+              offsetof(ChannelControl, client_sleeping) == 192);
 
 class Channel {
  public:
