@@ -30,6 +30,7 @@ struct BenchArgs {
   std::string out_dir = "bench-out";
   bool no_dos = false;
   bool no_chart = false;
+  uint32_t spin_us = perf::Options{}.spin_us;
   std::string task_exe = CONTEGO_BENCH_TASK_PATH;
   std::string preload = CONTEGO_PRELOAD_PATH;
 #ifdef CONTEGO_SOURCE_DIR
@@ -81,6 +82,7 @@ void bench(const BenchArgs& a) {
   o.task_exe = a.task_exe;
   o.preload_lib = a.preload;
   o.dos = !a.no_dos;
+  o.spin_us = a.spin_us;
   if (!a.policy_dir.empty()) {
     // rover.policy's INV3 expects set_left_speed(80) first while the line is
     // under the middle sensor; arm.policy's GRIP sequence starts at 420.
@@ -133,6 +135,9 @@ void register_bench(CLI::App& app) {
   cmd->add_option("--out-dir", args->out_dir, "where bench.json, overhead.json and the chart go");
   cmd->add_flag("--no-dos", args->no_dos, "skip the DoS measurement");
   cmd->add_flag("--no-chart", args->no_chart, "do not run gnuplot");
+  cmd->add_option("--spin-us", args->spin_us,
+                  "busy-wait of both ends of a shared-memory channel before they sleep")
+      ->capture_default_str();
   cmd->add_option("--task-program", args->task_exe, "the timed task program (contego-bench-task)");
   cmd->add_option("--policy-dir", args->policy_dir,
                   "where rover.policy and arm.policy are (empty: pass-through rows only)");

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <sched.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -107,16 +108,19 @@ bool Channel::peer_connected() {
 }
 
 bool Channel::wait_change(std::atomic<uint32_t>& word, uint32_t old,
-                          std::atomic<uint32_t>& sleeping) {
+                          std::atomic<uint32_t>& sleeping, uint32_t spin_us) {
   if (word.load(std::memory_order_acquire) != old) return true;
-  if (policy_.spin_us > 0) {
-    const uint64_t deadline = now_ns() + uint64_t{policy_.spin_us} * 1000u;
+  if (spin_us > 0) {
+    const uint64_t deadline = now_ns() + uint64_t{spin_us} * 1000u;
     for (;;) {
       for (int i = 0; i < 64; ++i) {
         if (word.load(std::memory_order_acquire) != old) return true;
         cpu_relax();
       }
       if (now_ns() >= deadline) break;
+      // A spinner gives way to any other thread that is ready on this CPU
+      // (a periodic task's wake-up must not queue behind a busy-wait).
+      sched_yield();
     }
   }
   for (;;) {
@@ -153,7 +157,7 @@ bool Channel::await_reply(uint32_t seq, uint8_t* type, std::span<const uint8_t>*
   for (;;) {
     const uint32_t now = c.reply_seq.load(std::memory_order_acquire);
     if (now == seq) break;
-    if (!wait_change(c.reply_seq, now, c.client_sleeping)) return false;
+    if (!wait_change(c.reply_seq, now, c.client_sleeping, policy_.spin_us)) return false;
   }
   if (type != nullptr) *type = static_cast<uint8_t>(c.reply_type.load(std::memory_order_relaxed));
   if (payload != nullptr) {
@@ -168,7 +172,12 @@ void Channel::hang_up() { futex_wake(&control().request_seq); }
 Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
                                     std::vector<uint8_t>* payload) {
   ChannelControl& c = control();
-  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping)) return Next::kClosed;
+  // Spin only for a client that sends back to back: one whose last request
+  // came within the spin time of the answer before it. A periodic task's
+  // connection sleeps at once and costs no CPU between its jobs.
+  const uint32_t spin = bursting_ ? policy_.spin_us : 0;
+  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin)) return Next::kClosed;
+  bursting_ = now_ns() - answered_at_ns_ <= uint64_t{policy_.spin_us} * 1000u;
   last_seq_ = c.request_seq.load(std::memory_order_acquire);
   // Read each field once; the client may be rewriting them as we go.
   const uint32_t t = c.request_type.load(std::memory_order_relaxed);
@@ -189,6 +198,7 @@ void Channel::answer(uint8_t type, std::span<const uint8_t> payload) {
   c.reply_len.store(static_cast<uint32_t>(len), std::memory_order_relaxed);
   c.reply_seq.store(last_seq_, std::memory_order_seq_cst);
   if (c.client_sleeping.load(std::memory_order_seq_cst) != 0) futex_wake(&c.reply_seq);
+  answered_at_ns_ = now_ns();
 }
 
 bool send_frame_with_fd(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload,

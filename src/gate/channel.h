@@ -37,9 +37,16 @@
 
 namespace contego::gate {
 
+// How long each side busy-waits before it sleeps on the futex. The client
+// spins for its answer (a monitor thread that was asleep takes tens of µs
+// to wake on a virtual machine; a second sleep would double that). The
+// monitor spins for the next request only while the client sends back to
+// back (its last request came within spin_us of the answer before it);
+// between a periodic task's jobs it sleeps. Spinners yield the CPU to any
+// other ready thread.
 struct SpinPolicy {
-  uint32_t spin_us = 50;  // busy-wait this long before sleeping on the futex (0: never spin)
-  uint32_t poll_ms = 20;  // futex sleep between checks that the peer is still connected
+  uint32_t spin_us = 100;  // 0: never spin
+  uint32_t poll_ms = 20;   // futex sleep between checks that the peer is still connected
 };
 
 // The first page of the shared file. Every field is an atomic: the other
@@ -107,14 +114,17 @@ class Channel {
   uint8_t* reply_slot() { return base_ + kControlSize + kSlotSize; }
   // Waits while `word` == `old`: spins, then sleeps on its futex announcing
   // it in `sleeping`. False if the peer went away meanwhile.
-  bool wait_change(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping);
+  bool wait_change(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
+                   uint32_t spin_us);
   bool peer_connected();
 
   int memfd_;
   int socket_fd_;
   uint8_t* base_;
   SpinPolicy policy_;
-  uint32_t last_seq_ = 0;  // client: last posted; server: last taken
+  uint32_t last_seq_ = 0;        // client: last posted; server: last taken
+  bool bursting_ = false;        // server: the last request followed its predecessor closely
+  uint64_t answered_at_ns_ = 0;  // server: when the last answer was written
 };
 
 // Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the

@@ -157,7 +157,8 @@ struct TempDir {
 // The separate monitor process. Forked before this process starts threads.
 class MonitorProcess {
  public:
-  Status start(const std::string& dir, const std::string& name, const Workload& w) {
+  Status start(const std::string& dir, const std::string& name, const Workload& w,
+               uint32_t spin_us) {
     socket_ = dir + "/" + name + ".sock";
     audit_ = dir + "/" + name + "-audit.jsonl";
     fflush(nullptr);
@@ -167,7 +168,9 @@ class MonitorProcess {
       auto rig = Rig::make(audit_, w);
       if (!rig.ok()) _exit(1);
       (*rig)->start();
-      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()});
+      gate::SpinPolicy spin;
+      spin.spin_us = spin_us;
+      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()}, spin);
       if (!server.listen(socket_).ok()) _exit(1);
       server.serve();
       _exit(0);
@@ -286,6 +289,7 @@ Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& s
     setenv("CONTEGO_SOCKET", socket.c_str(), 1);
     setenv("CONTEGO_TASK", w.task.c_str(), 1);
     setenv("CONTEGO_CHANNEL", channel ? "1" : "0", 1);
+    setenv("CONTEGO_SPIN_US", std::to_string(o.spin_us).c_str(), 1);
     execv(args[0], args.data());
     _exit(127);
   }
@@ -416,7 +420,8 @@ Result<Report> run(const Options& o) {
   std::vector<std::unique_ptr<MonitorProcess>> processes;
   for (size_t i = 0; i < workloads.size(); ++i) {
     processes.push_back(std::make_unique<MonitorProcess>());
-    if (Status s = processes.back()->start(dir.path, fmt::format("monitor-{}", i), workloads[i]);
+    if (Status s = processes.back()->start(dir.path, fmt::format("monitor-{}", i), workloads[i],
+                                           o.spin_us);
         !s.ok()) {
       return make_error(s.error());
     }
@@ -424,7 +429,7 @@ Result<Report> run(const Options& o) {
   const Workload pass = example_workloads()[0];
   MonitorProcess dos_process;
   if (o.dos) {
-    if (Status s = dos_process.start(dir.path, "monitor-dos", pass); !s.ok()) {
+    if (Status s = dos_process.start(dir.path, "monitor-dos", pass, o.spin_us); !s.ok()) {
       return make_error(s.error());
     }
   }
@@ -464,9 +469,11 @@ Result<Report> run(const Options& o) {
           ns = run_seccomp(argv, *local.mon, w.task_id, &row);
           break;
         case Path::kSeccompMonitor:
-        case Path::kSeccompMonitorSocket:
-          ns = run_over_socket(proc.socket(), w, argv, &row, p == Path::kSeccompMonitor);
+        case Path::kSeccompMonitorSocket: {
+          const int64_t channel_spin = p == Path::kSeccompMonitor ? int64_t{o.spin_us} : -1;
+          ns = run_over_socket(proc.socket(), w, argv, &row, channel_spin);
           break;
+        }
         case Path::kPreload:
         case Path::kPreloadSocket:
           if (o.preload_lib.empty()) continue;
@@ -487,33 +494,38 @@ Result<Report> run(const Options& o) {
 
   if (o.dos) {
     // The follower keeps its period while the burst task sends back to back,
-    // both supervised, both through the separate monitor process.
-    DosResult dos;
-    dos.period_us = o.dos_period_us;
+    // both supervised, both through the separate monitor process: once
+    // through the shared-memory channel, once over the socket alone.
     const Workload follower = pass;
     Workload burst = follower;
     burst.task = "burst";
     burst.task_id = task_ids().at("burst");
     const auto periodic = task_argv(o, follower, o.trials, out, o.dos_period_us);
-    auto quiet = run_over_socket(dos_process.socket(), follower, periodic, nullptr);
-    if (!quiet.ok()) return make_error("DoS (quiet): " + quiet.error());
-    dos.quiet = summarise(std::move(*quiet));
     const uint32_t burst_ms =
         static_cast<uint32_t>(uint64_t{o.trials} * o.dos_period_us / 1000u) + 500u;
     const std::string burst_out = dir.path + "/burst.bin";
-    Result<std::vector<uint64_t>> burst_result = std::vector<uint64_t>{};
-    std::thread burster([&] {
-      burst_result = run_over_socket(dos_process.socket(), burst,
-                                     task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr);
-    });
-    usleep(100000);  // the burst is under way
-    auto loaded = run_over_socket(dos_process.socket(), follower, periodic, nullptr);
-    burster.join();
-    if (!loaded.ok()) return make_error("DoS (under burst): " + loaded.error());
-    if (!burst_result.ok()) return make_error("DoS (burst task): " + burst_result.error());
-    dos.under_burst = summarise(std::move(*loaded));
-    dos.burst_commands = burst_result->empty() ? 0 : burst_result->front();
-    report.dos = dos;
+    for (const int64_t spin : {int64_t{o.spin_us}, int64_t{-1}}) {
+      DosResult dos;
+      dos.transport = spin >= 0 ? "channel" : "socket";
+      dos.period_us = o.dos_period_us;
+      auto quiet = run_over_socket(dos_process.socket(), follower, periodic, nullptr, spin);
+      if (!quiet.ok()) return make_error("DoS (quiet): " + quiet.error());
+      dos.quiet = summarise(std::move(*quiet));
+      Result<std::vector<uint64_t>> burst_result = std::vector<uint64_t>{};
+      std::thread burster([&] {
+        burst_result =
+            run_over_socket(dos_process.socket(), burst,
+                            task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr, spin);
+      });
+      usleep(100000);  // the burst is under way
+      auto loaded = run_over_socket(dos_process.socket(), follower, periodic, nullptr, spin);
+      burster.join();
+      if (!loaded.ok()) return make_error("DoS (under burst): " + loaded.error());
+      if (!burst_result.ok()) return make_error("DoS (burst task): " + burst_result.error());
+      dos.under_burst = summarise(std::move(*loaded));
+      dos.burst_commands = burst_result->empty() ? 0 : burst_result->front();
+      report.dos.push_back(dos);
+    }
   }
   return report;
 }
@@ -554,14 +566,15 @@ std::string table(const Report& r) {
                      row.stats.mean_us - base->stats.mean_us);
   }
   s += "\n";
-  if (r.dos) {
-    const DosResult& d = *r.dos;
+  for (const DosResult& d : r.dos) {
     s += fmt::format(
-        "\nDoS: follower every {} µs through the monitor process; p99 {:.2f} µs alone, {:.2f} µs "
-        "while another supervised task bursts ({} commands sent); worst {:.2f} / {:.2f} µs\n",
-        d.period_us, d.quiet.p99_us, d.under_burst.p99_us, d.burst_commands, d.quiet.worst_us,
-        d.under_burst.worst_us);
+        "\nDoS: follower every {} µs through the monitor process ({}); p99 {:.2f} µs alone, "
+        "{:.2f} µs while another supervised task bursts ({} commands sent); worst {:.2f} / "
+        "{:.2f} µs",
+        d.period_us, d.transport, d.quiet.p99_us, d.under_burst.p99_us, d.burst_commands,
+        d.quiet.worst_us, d.under_burst.worst_us);
   }
+  if (!r.dos.empty()) s += "\n";
   return s;
 }
 
@@ -600,11 +613,11 @@ nlohmann::json to_json(const Report& r) {
     cell["decisions"] = row.decisions;
     j["workloads"][row.workload][path_key(row.path)] = cell;
   }
-  if (r.dos) {
-    j["dos"] = {{"period_us", r.dos->period_us},
-                {"quiet", stats_json(r.dos->quiet)},
-                {"under_burst", stats_json(r.dos->under_burst)},
-                {"burst_commands", r.dos->burst_commands}};
+  for (const DosResult& d : r.dos) {
+    j["dos"][d.transport] = {{"period_us", d.period_us},
+                             {"quiet", stats_json(d.quiet)},
+                             {"under_burst", stats_json(d.under_burst)},
+                             {"burst_commands", d.burst_commands}};
   }
   j["sched_overhead"] = sched_overhead(r);
   return j;
@@ -626,12 +639,24 @@ nlohmann::json sched_overhead(const Report& r) {
 
 Status write_chart(const Report& r, const std::string& stem) {
   const std::string dat = stem + ".dat", gp = stem + ".gp";
+  // One data block per workload (gnuplot `index`), one row per path.
+  std::vector<std::string> workloads;
+  for (const Row& row : r.rows) {
+    if (std::find(workloads.begin(), workloads.end(), row.workload) == workloads.end()) {
+      workloads.push_back(row.workload);
+    }
+  }
   {
     std::ofstream d(dat);
-    d << "# path mean_us p99_us worst_us (per workload block)\n";
-    for (const Row& row : r.rows) {
-      d << fmt::format("\"{}\\n{}\" {:.3f} {:.3f} {:.3f}\n", row.workload, path_label(row.path),
-                       row.stats.mean_us, row.stats.p99_us, row.stats.worst_us);
+    d << "# path mean_us p99_us worst_us; one block per workload\n";
+    for (const std::string& w : workloads) {
+      d << "# " << w << "\n";
+      for (const Row& row : r.rows) {
+        if (row.workload != w) continue;
+        d << fmt::format("\"{}\" {:.3f} {:.3f} {:.3f}\n", path_label(row.path), row.stats.mean_us,
+                         row.stats.p99_us, row.stats.worst_us);
+      }
+      d << "\n\n";
     }
     if (!d) return make_error("cannot write " + dat);
   }
@@ -639,22 +664,33 @@ Status write_chart(const Report& r, const std::string& stem) {
   const auto plot = [&](const std::string& term, const std::string& out) {
     g << "set terminal " << term << "\n"
       << "set output '" << out << "'\n"
-      << "set title 'contego: time per actuation command, " << r.trials << " trials'\n"
+      << "set title 'contego: time per actuation command (" << r.trials
+      << " trials per bar; a = unprotected transfer)'\n"
       << "set ylabel 'microseconds (log scale)'\n"
       << "set logscale y\n"
+      << "set yrange [0.01:*]\n"  // also where each group's title goes
       << "set grid ytics\n"
       << "set style data histograms\n"
       << "set style histogram clustered gap 1\n"
       << "set style fill solid 0.85 border -1\n"
       << "set boxwidth 0.9\n"
-      << "set xtics rotate by -40 font ',9'\n"
-      << "set key top left\n"
-      << "plot '" << dat << "' using 2:xtic(1) title 'mean' lc rgb '#4c72b0', "
-      << "'' using 3 title '99th percentile' lc rgb '#dd8452', "
-      << "'' using 4 title 'worst case' lc rgb '#c44e52'\n";
+      << "set xtics rotate by -45 font ',8' nomirror\n"
+      << "set bmargin 10\n"
+      << "set key top left horizontal\n"
+      << "plot ";
+    for (size_t i = 0; i < workloads.size(); ++i) {
+      const bool first = i == 0;
+      if (!first) g << ", \\\n  ";
+      g << "newhistogram '" << workloads[i] << "', '" << dat << "' index " << i
+        << " using 2:xtic(1) " << (first ? "title 'mean'" : "notitle")
+        << " lc rgb '#4c72b0', '' index " << i << " using 3 "
+        << (first ? "title '99th percentile'" : "notitle") << " lc rgb '#dd8452', '' index " << i
+        << " using 4 " << (first ? "title 'worst case'" : "notitle") << " lc rgb '#c44e52'";
+    }
+    g << "\n";
   };
-  plot("svg size 1100,560 dynamic", stem + ".svg");
-  plot("pngcairo size 1100,560", stem + ".png");
+  plot("svg size 1400,640 dynamic", stem + ".svg");
+  plot("pngcairo size 1400,640", stem + ".png");
   g.close();
   if (!g) return make_error("cannot write " + gp);
   const int rc = system(("gnuplot '" + gp + "' 2>&1").c_str());

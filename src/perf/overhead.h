@@ -75,6 +75,7 @@ struct Row {
 };
 
 struct DosResult {
+  std::string transport;  // "channel" or "socket"
   uint32_t period_us = 0;
   Stats quiet;        // the periodic task alone
   Stats under_burst;  // while another supervised task bursts
@@ -88,13 +89,14 @@ struct Options {
   std::string preload_lib;          // libcontego_preload.so ("" skips path b)
   bool dos = true;
   uint32_t dos_period_us = 1000;
+  uint32_t spin_us = 100;  // channel busy-wait of both ends (gate::SpinPolicy)
 };
 
 struct Report {
   std::string checker;  // what decided (see run())
   uint32_t trials = 0;
   std::vector<Row> rows;
-  std::optional<DosResult> dos;
+  std::vector<DosResult> dos;  // one per transport (empty: not measured)
   const Row* find(const std::string& workload, Path p) const;
 };
 
