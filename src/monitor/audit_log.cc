@@ -12,6 +12,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>  // the verifier only
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include "base/json_text.h"
@@ -204,16 +205,20 @@ AuditLog::~AuditLog() {
 // kMapChunk steps, zero-filled) and, while prefaulting works, the window's
 // pages up to `upto` are faulted in writable. Publishes the result in
 // ready_. grow_mu_ held.
+bool AuditLog::extend_locked(size_t upto) {
+  if (upto <= file_room_) return true;
+  const size_t room = std::min(map_len_, (upto + kMapChunk - 1) / kMapChunk * kMapChunk);
+  if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
+  file_room_ = room;
+  return true;
+}
+
 bool AuditLog::grow_locked(size_t upto) {
 #ifndef MADV_POPULATE_WRITE
   constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14
 #endif
   upto = std::min(upto, map_len_);
-  if (upto > file_room_) {
-    const size_t room = std::min(map_len_, (upto + kMapChunk - 1) / kMapChunk * kMapChunk);
-    if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
-    file_room_ = room;
-  }
+  if (!extend_locked(upto)) return false;
   if (!prefault_) {
     ready_.store(file_room_, std::memory_order_release);
     return true;
@@ -268,17 +273,58 @@ bool AuditLog::map_from_locked(off_t pos, size_t need) {
 // kAhead bytes ahead of the writer, off the path of the commands being
 // recorded, and unmaps retired windows.
 void AuditLog::grow_ahead() {
+#ifndef MADV_POPULATE_WRITE
+  constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14
+#endif
+  // Page work runs when nothing more important is ready: it must not
+  // preempt the threads that check commands. (It never holds grow_mu_
+  // while it works, so the writer never waits for it.)
+  (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19);
   std::unique_lock g(grow_mu_);
   while (!grow_stop_) {
-    for (const auto& [addr, len] : retired_) munmap(addr, len);
-    retired_.clear();
-    const size_t want = std::min(written_.load(std::memory_order_acquire) + kAhead, map_len_);
-    if (map_ != nullptr && ready_.load(std::memory_order_acquire) < want && grow_locked(want)) {
+    if (!retired_.empty()) {
+      std::vector<std::pair<char*, size_t>> old;
+      old.swap(retired_);
+      g.unlock();
+      for (const auto& [addr, len] : old) munmap(addr, len);
+      g.lock();
       continue;
     }
-    // The writer notifies once it is within kAhead / 2 of ready_; the
-    // timeout covers a notification sent just before this wait began.
-    grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+    const size_t want = std::min(written_.load(std::memory_order_acquire) + kAhead, map_len_);
+    const size_t from = ready_.load(std::memory_order_acquire);
+    if (map_ == nullptr || from >= want) {
+      // The writer notifies once it is within kAhead / 2 of ready_; the
+      // timeout covers a notification sent just before this wait began.
+      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      continue;
+    }
+    if (!extend_locked(want)) {
+      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      continue;
+    }
+    if (!prefault_) {
+      ready_.store(file_room_, std::memory_order_release);
+      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      continue;
+    }
+    // Fault the next pages in without the lock: a window the writer
+    // replaces meanwhile stays mapped until this thread unmaps it.
+    char* const window = map_;
+    const size_t len = std::min(kPrefault, file_room_ - from);
+    if (len == 0) continue;
+    g.unlock();
+    const bool ok = madvise(window + from, len, MADV_POPULATE_WRITE) == 0;
+    g.lock();
+    if (window != map_) continue;
+    if (!ok) {
+      prefault_ = false;  // an older kernel: records fault their pages in themselves
+      ready_.store(file_room_, std::memory_order_release);
+      continue;
+    }
+    // The writer may have made room itself meanwhile: ready_ only grows.
+    if (ready_.load(std::memory_order_relaxed) < from + len) {
+      ready_.store(from + len, std::memory_order_release);
+    }
   }
 }
 

@@ -51,8 +51,9 @@ class AuditLog {
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kMapChunk steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
-  bool grow_locked(size_t upto);                        // grow_mu_ held
-  void grow_ahead();                                    // the grower thread
+  bool extend_locked(size_t upto);  // the file backs the window up to `upto`; grow_mu_ held
+  bool grow_locked(size_t upto);    // extended and faulted in up to `upto`; grow_mu_ held
+  void grow_ahead();                // the grower thread
   static constexpr size_t kWindow = size_t{256} << 20;  // mapped at once (address space only)
   static constexpr size_t kMapChunk = 1 << 20;          // the file grows by this much
   static constexpr size_t kPrefault = 64 * 1024;        // pages faulted in per step
