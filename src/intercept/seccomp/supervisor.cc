@@ -52,116 +52,6 @@ constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
 #error "unsupported architecture"
 #endif
 
-// --- the filter ------------------------------------------------------------------
-
-enum class Class { kNotify, kEnosys, kFd0, kFd0or1 };
-
-struct Entry {
-  long nr;
-  Class cls;
-};
-
-std::vector<Entry> filtered_syscalls() {
-  std::vector<Entry> e = {
-#ifdef __NR_open
-      {__NR_open, Class::kNotify},
-#endif
-#ifdef __NR_creat
-      {__NR_creat, Class::kNotify},
-#endif
-      {__NR_openat, Class::kNotify},
-      {__NR_openat2, Class::kNotify},
-      {__NR_close_range, Class::kNotify},
-      {__NR_nanosleep, Class::kNotify},
-      {__NR_execve, Class::kNotify},
-      {__NR_execveat, Class::kNotify},
-      {__NR_clock_nanosleep, Class::kNotify},
-      {__NR_io_uring_setup, Class::kEnosys},
-      {__NR_ioctl, Class::kFd0},
-      {__NR_read, Class::kFd0},
-      {__NR_write, Class::kFd0},
-      {__NR_readv, Class::kFd0},
-      {__NR_writev, Class::kFd0},
-      {__NR_pread64, Class::kFd0},
-      {__NR_pwrite64, Class::kFd0},
-      {__NR_preadv, Class::kFd0},
-      {__NR_pwritev, Class::kFd0},
-      {__NR_preadv2, Class::kFd0},
-      {__NR_pwritev2, Class::kFd0},
-      {__NR_close, Class::kFd0},
-      {__NR_dup, Class::kFd0},
-      {__NR_fcntl, Class::kFd0},
-#ifdef __NR_dup2
-      {__NR_dup2, Class::kFd0or1},
-#endif
-      {__NR_dup3, Class::kFd0or1},
-  };
-  return e;
-}
-
-constexpr uint32_t kArgLow(int i) {
-  return static_cast<uint32_t>(offsetof(seccomp_data, args) + 8 * i);
-}
-
-sock_filter stmt(uint16_t code, uint32_t k) { return BPF_STMT(code, k); }
-sock_filter jump(uint16_t code, uint32_t k, uint8_t jt, uint8_t jf) {
-  return BPF_JUMP(code, k, jt, jf);
-}
-
-std::vector<sock_filter> build_filter(FdRange range) {
-  const auto entries = filtered_syscalls();
-  std::vector<sock_filter> p;
-  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)));
-  p.push_back(jump(BPF_JMP | BPF_JEQ | BPF_K, kAuditArch, 1, 0));
-  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS));  // foreign ABI
-  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)));
-#if defined(__x86_64__)
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, 0x40000000u, 0, 1));  // x32 system calls
-  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS));
-#endif
-  // One comparison per syscall, jumping forward to the blocks laid out after
-  // the list (classic BPF jumps only forward):
-  //   +0 ret ALLOW | +1 ret NOTIFY | +2 ret ENOSYS
-  //   +3 FD0 block (5 insns): ld a0; in [lo, hi) ? NOTIFY : ALLOW
-  //   +8 FD0OR1 block (8 insns): a0 or a1 in [lo, hi) ? NOTIFY : ALLOW
-  const size_t list_start = p.size();
-  const size_t n = entries.size();
-  const size_t notify = list_start + n + 1, enosys = list_start + n + 2, fd0 = list_start + n + 3,
-               fd01 = fd0 + 5;
-  for (size_t i = 0; i < n; ++i) {
-    const size_t here = list_start + i;
-    size_t target = notify;
-    if (entries[i].cls == Class::kEnosys) target = enosys;
-    if (entries[i].cls == Class::kFd0) target = fd0;
-    if (entries[i].cls == Class::kFd0or1) target = fd01;
-    p.push_back(jump(BPF_JMP | BPF_JEQ | BPF_K, static_cast<uint32_t>(entries[i].nr),
-                     static_cast<uint8_t>(target - here - 1), 0));
-  }
-  const uint32_t lo = static_cast<uint32_t>(range.first);
-  const uint32_t hi = static_cast<uint32_t>(range.first + range.count);
-  const sock_filter ret_allow = stmt(BPF_RET | BPF_K, SECCOMP_RET_ALLOW);
-  const sock_filter ret_notify = stmt(BPF_RET | BPF_K, SECCOMP_RET_USER_NOTIF);
-  p.push_back(ret_allow);
-  p.push_back(ret_notify);
-  p.push_back(stmt(BPF_RET | BPF_K, SECCOMP_RET_ERRNO | (ENOSYS & 0xFFFF)));
-  // FD0: the low 32 bits of args[0] (an int fd) in [lo, hi)
-  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(0)));
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> allow
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 1));  // >= hi -> allow, else notify
-  p.push_back(ret_allow);
-  p.push_back(ret_notify);
-  // FD0OR1
-  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(0)));
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> check args[1]
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 4));  // in range -> notify
-  p.push_back(stmt(BPF_LD | BPF_W | BPF_ABS, kArgLow(1)));
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, lo, 0, 1));  // < lo -> allow
-  p.push_back(jump(BPF_JMP | BPF_JGE | BPF_K, hi, 0, 1));  // >= hi -> allow, else notify
-  p.push_back(ret_allow);
-  p.push_back(ret_notify);
-  return p;
-}
-
 // --- the program's memory --------------------------------------------------------------
 
 class RemoteMemory final : public i2c_abi::Memory {
@@ -628,21 +518,12 @@ struct ChildStatus {
 
 }  // namespace
 
-FdRange reserved_range() {
-  rlimit lim{};
-  getrlimit(RLIMIT_NOFILE, &lim);
-  rlim_t top = lim.rlim_cur;
-  if (top == RLIM_INFINITY || top > (1 << 20)) top = 1 << 20;
-  constexpr int kCount = 64;
-  const int first = static_cast<int>(top) - kCount;
-  return {first < 64 ? 64 : first, kCount};
-}
-
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (options.argv.empty()) return make_error("contego run: no program given");
   const FdRange range = reserved_range();
-  std::vector<sock_filter> filter = build_filter(range);
-  sock_fprog prog{static_cast<unsigned short>(filter.size()), filter.data()};
+  auto filter = build_filter(range);
+  if (!filter.ok()) return make_error(filter.error());
+  sock_fprog prog{static_cast<unsigned short>(filter->size()), filter->data()};
   std::vector<char*> argv;
   for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);

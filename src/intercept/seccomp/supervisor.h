@@ -1,8 +1,8 @@
 // The seccomp user-notification enclave client (`contego run`).
 //
-// The supervised program runs under a seccomp filter (architecture checked,
-// inherited by every thread and child, irremovable) that turns its bus
-// system calls into notifications for this supervisor:
+// The supervised program runs under a seccomp filter (filter.h: architecture
+// checked, inherited by every thread and child, irremovable) that turns its
+// bus system calls into notifications for this supervisor:
 //  - open/openat/openat2/creat: a /dev/i2c-N path gets a placeholder
 //    descriptor (/dev/null) installed by the supervisor at a number in a
 //    reserved range; no real bus node is ever opened by the program;
@@ -34,6 +34,7 @@
 
 #include "base/result.h"
 #include "gate/endpoint.h"
+#include "intercept/seccomp/filter.h"
 
 namespace contego::intercept::seccomp {
 
@@ -54,14 +55,6 @@ struct RunResult {
 // Runs the program to completion under supervision. Fails (without running
 // anything) if the filter cannot be installed.
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint);
-
-// The reserved descriptor range [first, first + count): the top of the
-// program's RLIMIT_NOFILE.
-struct FdRange {
-  int first;
-  int count;
-};
-FdRange reserved_range();
 
 }  // namespace contego::intercept::seccomp
 
