@@ -30,10 +30,11 @@ cmake --preset asan-ubsan >/dev/null
 cmake --build --preset asan-ubsan
 ctest --preset asan-ubsan
 
-step "tsan build + monitor and supervisor tests"
+step "tsan build + monitor, supervisor and gate tests"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test
-ctest --preset tsan -L 'monitor|supervisor'
+cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test gate_test \
+  seccomp_filter_test
+ctest --preset tsan -L 'monitor|supervisor|gate'
 
 if [[ -f fuzz/CMakeLists.txt ]]; then
   step "fuzz smoke runs (clang, libFuzzer)"
