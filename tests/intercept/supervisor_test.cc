@@ -16,17 +16,21 @@
 #include <cstring>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <linux/futex.h>
 #include <map>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <string>
+#include <sys/mman.h>
 #include <sys/socket.h>
+#include <sys/syscall.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <thread>
 
 #include "bus/virtual_bus.h"
+#include "gate/channel.h"
 #include "gate/socket.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
@@ -474,6 +478,115 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   EXPECT_FALSE((*c)->has_bus(2));
   server.stop();
   t.join();
+}
+
+// A client that takes a channel and then writes whatever it likes into the
+// shared control words and slots: every request gets an answer or an error,
+// nothing reaches the bus that the decider did not allow, another client is
+// served meanwhile, and hanging up ends the session (safe state).
+TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
+  char name[] = "/tmp/contego-hostile-XXXXXX";
+  const int afd = mkstemp(name);
+  ASSERT_GE(afd, 0);
+  close(afd);
+  monitor::AuditLog audit;
+  ASSERT_TRUE(audit.open(name).ok());
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  auto pca = std::make_shared<bus::Pca9685>();
+  vbus.attach(pca);
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-hostile-" + std::to_string(getpid()) + ".sock";
+  monitor::Server server(mon, audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {20, 5});
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+
+  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strcpy(addr.sun_path, path.c_str());
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  ASSERT_TRUE(gate::send_frame(fd, gate::wire::Type::kHello, 1, gate::wire::encode_hello("t0")));
+  gate::wire::Header h;
+  std::vector<uint8_t> payload;
+  ASSERT_EQ(gate::recv_frame(fd, &h, &payload), "");
+  ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kHelloOk));
+  ASSERT_TRUE(gate::send_frame(fd, gate::wire::Type::kChannel, 2, {}));
+  int memfd = -1;
+  ASSERT_EQ(gate::recv_frame_with_fd(fd, &h, &payload, &memfd), "");
+  ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kChannelOk));
+  ASSERT_GE(memfd, 0);
+  // The seals hold: the client cannot shrink the file under the monitor.
+  EXPECT_NE(ftruncate(memfd, 4096), 0);
+  void* m = mmap(nullptr, gate::Channel::kSize, PROT_READ | PROT_WRITE, MAP_SHARED, memfd, 0);
+  ASSERT_NE(m, MAP_FAILED);
+  auto* control = static_cast<gate::ChannelControl*>(m);
+  uint8_t* slot = static_cast<uint8_t*>(m) + gate::Channel::kControlSize;
+  uint32_t seq = 0;
+  // Posts a request by hand and waits for its answer; returns the answer's type.
+  auto request = [&](uint32_t type, uint32_t len, const std::vector<uint8_t>& bytes) {
+    std::memcpy(slot, bytes.data(), bytes.size());
+    control->request_type.store(type);
+    control->request_len.store(len);
+    control->request_seq.store(++seq);
+    syscall(SYS_futex, reinterpret_cast<uint32_t*>(&control->request_seq), FUTEX_WAKE, 1, nullptr,
+            nullptr, 0);
+    for (int i = 0; i < 2000 && control->reply_seq.load() != seq; ++i) usleep(500);
+    EXPECT_EQ(control->reply_seq.load(), seq);
+    return control->reply_type.load();
+  };
+  const auto error = static_cast<uint32_t>(gate::wire::Type::kError);
+  EXPECT_EQ(request(3, 0xFFFFFFF0u, {}), error);           // oversized claim
+  EXPECT_EQ(request(200, 0, {}), error);                   // unknown type
+  EXPECT_EQ(request(3, 7, {1, 0, 0, 0, 9, 9, 9}), error);  // malformed transfer
+  EXPECT_EQ(request(1, 4, {2, 0, 't', '1'}), error);       // a second hello
+  // A well-formed transfer of a register the decider refuses (PCA9685 PRE_SCALE).
+  const std::vector<uint8_t> prescale = {1, 0, 0, 0, 1, 0, 0x40, 0, 0, 0, 2, 0, 0xFE, 0x03};
+  EXPECT_EQ(request(3, static_cast<uint32_t>(prescale.size()), prescale),
+            static_cast<uint32_t>(gate::wire::Type::kReply));
+  gate::TransferReply r;
+  ASSERT_EQ(gate::wire::decode_reply(
+                {static_cast<uint8_t*>(m) + gate::Channel::kControlSize + gate::Channel::kSlotSize,
+                 control->reply_len.load()},
+                &r),
+            "");
+  EXPECT_EQ(r.err, EPERM);
+  // Scribbled sequence numbers and flags delay nobody else.
+  control->server_sleeping.store(0xFFFFFFFF);
+  control->reply_seq.store(12345);
+  auto other = gate::SocketClient::connect(path, "t1");
+  ASSERT_TRUE(other.ok()) << other.error();
+  EXPECT_TRUE((*other)->uses_channel());
+  gate::Transfer w;
+  w.bus = 1;
+  gate::Message msg;
+  msg.addr = 0x40;
+  msg.data = {0x1A, 0x00, 0x00, 0x41, 0x02};  // LED5 on 0, off 577
+  msg.len = static_cast<uint16_t>(msg.data.size());
+  w.messages.push_back(msg);
+  EXPECT_EQ((*other)->transfer(1, w).err, 0);
+  munmap(m, gate::Channel::kSize);
+  close(memfd);
+  close(fd);  // the hostile session ends: its task's actuators go safe
+  auto log_text = [&] {
+    std::ifstream in(name);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  for (int i = 0; i < 200 && log_text().find("safe-state") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  server.stop();
+  t.join();
+  (void)mon.has_bus(1);  // orders the reads below after the server threads' writes
+  EXPECT_NE(pca->reg(0xFE), 0x03);
+  std::stringstream log;
+  log << log_text();
+  EXPECT_NE(log.str().find("exceeds"), std::string::npos);
+  EXPECT_NE(log.str().find("\"kind\":\"safe-state\""), std::string::npos);
+  unlink(name);
 }
 
 TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
