@@ -19,6 +19,7 @@ void register_monitor(CLI::App& app) {
     std::vector<int> virtual_buses;
     std::vector<unsigned> uids;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
+    bool realtime = false;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();
@@ -30,6 +31,8 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
       ->capture_default_str();
+  cmd->add_flag("--rt", args->realtime,
+                "serve each connection under SCHED_FIFO at its task's policy priority");
   cmd->callback([args] {
     // SIGINT/SIGTERM are taken by a waiting thread, which stops the server.
     sigset_t set;
@@ -55,7 +58,8 @@ void register_monitor(CLI::App& app) {
     for (unsigned u : args->uids) uids.insert(u);
     gate::SpinPolicy spin;
     spin.spin_us = args->spin_us;
-    monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin);
+    monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
+                           args->realtime);
     if (Status s = server.listen(args->socket); !s.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);

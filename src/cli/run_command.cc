@@ -18,6 +18,7 @@ void register_run(CLI::App& app) {
     std::vector<std::string> program;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
+    bool realtime = false;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file (embedded monitor)");
@@ -31,6 +32,9 @@ void register_run(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-channel", args->no_channel,
                 "with --socket: talk over the socket only, no shared-memory channel");
+  cmd->add_flag(
+      "--rt", args->realtime,
+      "run the program and its supervisor under SCHED_FIFO at the task's policy priority");
   cmd->add_option("program", args->program, "program and its arguments (after --)")->required();
   cmd->callback([args] {
     intercept::seccomp::Options opt;
@@ -47,10 +51,18 @@ void register_run(CLI::App& app) {
         return set_exit_code(2);
       }
       opt.task = (*client)->task_id();
+      if (args->realtime) opt.realtime_priority = (*client)->task_priority();
+      if (args->realtime && opt.realtime_priority == 0) {
+        fmt::print(stderr, "contego run: --rt: task '{}' has no priority in the policy\n",
+                   args->task);
+      }
       auto r = intercept::seccomp::run(opt, **client);
       if (!r.ok()) {
         fmt::print(stderr, "contego run: {}\n", r.error());
         return set_exit_code(2);
+      }
+      if (!r->realtime_error.empty()) {
+        fmt::print(stderr, "contego run: --rt refused ({}); ran without it\n", r->realtime_error);
       }
       return set_exit_code(r->exit_code);
     }
@@ -76,11 +88,19 @@ void register_run(CLI::App& app) {
       return set_exit_code(2);
     }
     opt.task = it->second;
+    if (args->realtime) opt.realtime_priority = (*trusted)->monitor->task_priority(opt.task);
+    if (args->realtime && opt.realtime_priority == 0) {
+      fmt::print(stderr, "contego run: --rt: task '{}' has no priority in the policy\n",
+                 args->task);
+    }
     auto r = intercept::seccomp::run(opt, *(*trusted)->monitor);
     (*trusted)->monitor->stop_sampling();
     if (!r.ok()) {
       fmt::print(stderr, "contego run: {}\n", r.error());
       return set_exit_code(2);
+    }
+    if (!r->realtime_error.empty()) {
+      fmt::print(stderr, "contego run: --rt refused ({}); ran without it\n", r->realtime_error);
     }
     set_exit_code(r->exit_code);
   });

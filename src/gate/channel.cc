@@ -108,7 +108,8 @@ bool Channel::peer_connected() {
 }
 
 bool Channel::wait_change(std::atomic<uint32_t>& word, uint32_t old,
-                          std::atomic<uint32_t>& sleeping, uint32_t spin_us) {
+                          std::atomic<uint32_t>& sleeping, uint32_t spin_us, bool* slept) {
+  if (slept != nullptr) *slept = false;
   if (word.load(std::memory_order_acquire) != old) return true;
   if (spin_us > 0) {
     const uint64_t deadline = now_ns() + uint64_t{spin_us} * 1000u;
@@ -123,6 +124,7 @@ bool Channel::wait_change(std::atomic<uint32_t>& word, uint32_t old,
       sched_yield();
     }
   }
+  if (slept != nullptr) *slept = true;
   for (;;) {
     // Announce the sleep, then look again: the other side stores its word
     // before it reads our flag (both seq_cst), so one of us sees the other.
@@ -157,7 +159,17 @@ bool Channel::await_reply(uint32_t seq, uint8_t* type, std::span<const uint8_t>*
   for (;;) {
     const uint32_t now = c.reply_seq.load(std::memory_order_acquire);
     if (now == seq) break;
-    if (!wait_change(c.reply_seq, now, c.client_sleeping, policy_.spin_us)) return false;
+    // Spinning only pays while answers come within the spin time. When they
+    // keep not coming (the monitor's thread waits for a CPU on a busy
+    // machine), the spin only takes a CPU from someone: sleep straight away
+    // for the next kSpinBackoff answers, then try again.
+    const bool spin = unanswered_spins_ < 2;
+    if (!spin && ++skipped_spins_ >= kSpinBackoff) unanswered_spins_ = skipped_spins_ = 0;
+    bool slept = false;
+    if (!wait_change(c.reply_seq, now, c.client_sleeping, spin ? policy_.spin_us : 0, &slept)) {
+      return false;
+    }
+    if (spin) unanswered_spins_ = slept && policy_.spin_us > 0 ? unanswered_spins_ + 1 : 0;
   }
   if (type != nullptr) *type = static_cast<uint8_t>(c.reply_type.load(std::memory_order_relaxed));
   if (payload != nullptr) {
@@ -176,7 +188,9 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   // came within the spin time of the answer before it. A periodic task's
   // connection sleeps at once and costs no CPU between its jobs.
   const uint32_t spin = bursting_ ? policy_.spin_us : 0;
-  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin)) return Next::kClosed;
+  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin, nullptr)) {
+    return Next::kClosed;
+  }
   bursting_ = now_ns() - answered_at_ns_ <= uint64_t{policy_.spin_us} * 1000u;
   last_seq_ = c.request_seq.load(std::memory_order_acquire);
   // Read each field once; the client may be rewriting them as we go.

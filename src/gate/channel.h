@@ -43,7 +43,8 @@ namespace contego::gate {
 // monitor spins for the next request only while the client sends back to
 // back (its last request came within spin_us of the answer before it);
 // between a periodic task's jobs it sleeps. Spinners yield the CPU to any
-// other ready thread.
+// other ready thread, and a client whose spins keep ending asleep (a busy
+// machine) stops spinning for a while.
 struct SpinPolicy {
   uint32_t spin_us = 100;  // 0: never spin
   uint32_t poll_ms = 20;   // futex sleep between checks that the peer is still connected
@@ -114,17 +115,21 @@ class Channel {
   uint8_t* reply_slot() { return base_ + kControlSize + kSlotSize; }
   // Waits while `word` == `old`: spins, then sleeps on its futex announcing
   // it in `sleeping`. False if the peer went away meanwhile.
+  // *slept (if given): whether it had to sleep on the futex.
   bool wait_change(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
-                   uint32_t spin_us);
+                   uint32_t spin_us, bool* slept);
   bool peer_connected();
 
   int memfd_;
   int socket_fd_;
   uint8_t* base_;
   SpinPolicy policy_;
-  uint32_t last_seq_ = 0;        // client: last posted; server: last taken
-  bool bursting_ = false;        // server: the last request followed its predecessor closely
-  uint64_t answered_at_ns_ = 0;  // server: when the last answer was written
+  uint32_t last_seq_ = 0;  // client: last posted; server: last taken
+  static constexpr uint32_t kSpinBackoff = 32;
+  uint32_t unanswered_spins_ = 0;  // client: spins in a row that ended asleep
+  uint32_t skipped_spins_ = 0;     // client: answers awaited without spinning since then
+  bool bursting_ = false;          // server: the last request followed its predecessor closely
+  uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
 };
 
 // Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the

@@ -134,10 +134,13 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
     (void)wire::decode_error(answer, &e);
     return make_error("the monitor refused task '" + task + "': " + e.reason);
   }
+  wire::HelloOk ok;
   if (h.type != static_cast<uint8_t>(wire::Type::kHelloOk) ||
-      !wire::decode_u16(answer, &c->task_id_).empty()) {
+      !wire::decode_hello_ok(answer, &ok).empty()) {
     return make_error("unexpected answer to hello from " + path);
   }
+  c->task_id_ = ok.task;
+  c->task_priority_ = ok.priority;
   if (channel) c->open_channel(*channel);
   return c;
 }

@@ -56,6 +56,7 @@ class SocketClient final : public Endpoint {
       std::optional<SpinPolicy> channel = SpinPolicy{});
   ~SocketClient() override;
   uint16_t task_id() const { return task_id_; }
+  uint16_t task_priority() const { return task_priority_; }  // from the policy; 0 = none
   bool uses_channel() const { return channel_ != nullptr; }
 
   TransferReply transfer(uint16_t task, const Transfer& transfer) override;
@@ -79,6 +80,7 @@ class SocketClient final : public Endpoint {
   bool broken_ = false;
   uint32_t seq_ = 0;
   uint16_t task_id_ = 0;
+  uint16_t task_priority_ = 0;
   std::map<uint8_t, wire::BusInfo> buses_;
   std::unique_ptr<Channel> channel_;
 };

@@ -139,6 +139,19 @@ std::string decode_hello(std::span<const uint8_t> p, std::string* task) {
   return {};
 }
 
+std::vector<uint8_t> encode_hello_ok(const HelloOk& h) {
+  Writer w;
+  w.u16(h.task);
+  w.u16(h.priority);
+  return std::move(w.out);
+}
+
+std::string decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
+  Reader r(p);
+  if (!r.u16(&h->task) || !r.u16(&h->priority) || !r.done()) return "malformed hello answer";
+  return {};
+}
+
 std::vector<uint8_t> encode_u16(uint16_t v) {
   Writer w;
   w.u16(v);

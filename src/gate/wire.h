@@ -26,7 +26,7 @@ inline constexpr uint32_t kMaxTaskName = 64;
 
 enum class Type : uint8_t {
   kHello = 1,      // client: task name                 -> kHelloOk | kError
-  kHelloOk = 2,    // server: task id
+  kHelloOk = 2,    // server: task id and priority
   kTransfer = 3,   // client: a Transfer                -> kReply | kError
   kReply = 4,      // server: a TransferReply
   kJobEnd = 5,     // client: job boundary (no answer)
@@ -44,6 +44,11 @@ struct Header {
   uint8_t type = 0;
   uint32_t seq = 0;
   uint32_t length = 0;  // payload bytes
+};
+
+struct HelloOk {
+  uint16_t task = 0;
+  uint16_t priority = 0;  // the policy's task priority (larger = more important); 0 = none
 };
 
 struct BusInfo {
@@ -64,6 +69,8 @@ void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeader
 
 std::vector<uint8_t> encode_hello(const std::string& task);
 std::string decode_hello(std::span<const uint8_t> payload, std::string* task);
+std::vector<uint8_t> encode_hello_ok(const HelloOk& h);
+std::string decode_hello_ok(std::span<const uint8_t> payload, HelloOk* h);
 std::vector<uint8_t> encode_u16(uint16_t v);
 std::string decode_u16(std::span<const uint8_t> payload, uint16_t* v);
 std::vector<uint8_t> encode_transfer(const Transfer& t);

@@ -23,6 +23,9 @@ class CoreDecider final : public Decider {
   uint32_t task_period_us(uint16_t task) const override {
     return task < checker_.task_count() ? checker_.task(task).period_us : 0;
   }
+  uint16_t task_priority(uint16_t task) const override {
+    return task < checker_.task_count() ? checker_.task(task).priority : 0;
+  }
 
  private:
   core::Checker checker_;

@@ -27,6 +27,8 @@ class Decider {
   virtual uint32_t device_count() const = 0;
   virtual const core::DeviceRecord& device(uint16_t id) const = 0;
   virtual uint32_t task_period_us(uint16_t task) const = 0;  // 0 = unknown task
+  // The policy's priority of the task (larger = more important), 0 = none.
+  virtual uint16_t task_priority(uint16_t /*task*/) const { return 0; }
 };
 
 }  // namespace contego::monitor

@@ -179,6 +179,11 @@ void Monitor::job_boundary(uint16_t task) {
   }
 }
 
+uint16_t Monitor::task_priority(uint16_t task) const {
+  std::lock_guard lock(mu_);
+  return decider_.task_priority(task);
+}
+
 uint32_t Monitor::job(uint16_t task) const {
   std::lock_guard lock(mu_);
   auto it = jobs_.find(task);

@@ -55,6 +55,7 @@ class Monitor final : public gate::Endpoint {
   uint64_t funcs(uint8_t bus) override;
 
   uint32_t job(uint16_t task) const;
+  uint16_t task_priority(uint16_t task) const;
   uint64_t decisions() const { return decisions_.load(); }
 
  private:

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <sys/un.h>
 
+#include "base/realtime.h"
 #include "gate/channel.h"
 #include "gate/socket.h"
 #include "gate/wire.h"
@@ -18,12 +19,13 @@ namespace contego::monitor {
 namespace wire = gate::wire;
 
 Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t> tasks,
-               std::set<uid_t> allowed_uids, gate::SpinPolicy spin)
+               std::set<uid_t> allowed_uids, gate::SpinPolicy spin, bool realtime)
     : monitor_(monitor),
       audit_(audit),
       tasks_(std::move(tasks)),
       allowed_(std::move(allowed_uids)),
-      spin_(spin) {}
+      spin_(spin),
+      realtime_(realtime) {}
 
 Server::~Server() {
   stop();
@@ -110,7 +112,15 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       }
       s.bound = true;
       s.task = it->second;
-      s.out = wire::encode_u16(s.task);
+      const uint16_t priority = monitor_.task_priority(s.task);
+      if (realtime_ && priority > 0) {
+        // This thread checks the task's commands: it runs at the task's priority.
+        if (std::string e = make_thread_realtime(priority); !e.empty()) {
+          audit_.event("realtime-refused", fmt::format("task {}: SCHED_FIFO {}: {}", s.task,
+                                                       fifo_priority(priority), e));
+        }
+      }
+      s.out = wire::encode_hello_ok({s.task, priority});
       return wire::Type::kHelloOk;
     }
     case wire::Type::kTransfer: {

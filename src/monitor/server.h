@@ -6,7 +6,8 @@
 // When a connection bound to a task closes, the task's actuators are driven
 // to their safe state. A bound client may move its connection onto a
 // shared-memory channel (gate/channel.h); the messages and answers are the
-// same, only the transport changes.
+// same, only the transport changes. With `realtime`, the thread serving a
+// connection runs under SCHED_FIFO at its task's policy priority.
 //
 // Thread-safety: one thread per connection; stop() may be called from any thread.
 #ifndef CONTEGO_MONITOR_SERVER_H_
@@ -35,7 +36,7 @@ class Server {
  public:
   // `tasks`: task name -> id. `allowed_uids`: peers whose uid may connect.
   Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t> tasks,
-         std::set<uid_t> allowed_uids, gate::SpinPolicy spin = {});
+         std::set<uid_t> allowed_uids, gate::SpinPolicy spin = {}, bool realtime = false);
   ~Server();
   Status listen(const std::string& path);  // replaces a stale socket file; mode 0660
   void serve();                            // accept loop; returns after stop()
@@ -52,6 +53,7 @@ class Server {
   std::map<std::string, uint16_t> tasks_;
   std::set<uid_t> allowed_;
   gate::SpinPolicy spin_;
+  bool realtime_;  // serve each connection at its task's priority (SCHED_FIFO)
   int listen_fd_ = -1;
   std::string path_;
   std::atomic<bool> stopping_{false};

@@ -68,6 +68,8 @@ class PassDecider final : public monitor::Decider {
   uint32_t device_count() const override { return 0; }
   const core::DeviceRecord& device(uint16_t) const override { return none_; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
+  // The DoS measure's follower outranks everything else (the burst has none).
+  uint16_t task_priority(uint16_t task) const override { return task == 0 ? 20 : 0; }
 
  private:
   core::Host host_{};
@@ -157,8 +159,8 @@ struct TempDir {
 // The separate monitor process. Forked before this process starts threads.
 class MonitorProcess {
  public:
-  Status start(const std::string& dir, const std::string& name, const Workload& w,
-               uint32_t spin_us) {
+  Status start(const std::string& dir, const std::string& name, const Workload& w, uint32_t spin_us,
+               bool realtime = false) {
     socket_ = dir + "/" + name + ".sock";
     audit_ = dir + "/" + name + "-audit.jsonl";
     fflush(nullptr);
@@ -170,7 +172,8 @@ class MonitorProcess {
       (*rig)->start();
       gate::SpinPolicy spin;
       spin.spin_us = spin_us;
-      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()}, spin);
+      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()}, spin,
+                             realtime);
       if (!server.listen(socket_).ok()) _exit(1);
       server.serve();
       _exit(0);
@@ -266,13 +269,37 @@ Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
   return finish_task(r->exit_code, argv[5], row);
 }
 
+// How a supervised bench task reaches the monitor process.
+struct Transport {
+  bool channel = true;     // else the socket alone
+  uint32_t spin_us = 100;  // the channel's client spin
+  bool realtime = false;   // program and supervisor under SCHED_FIFO at the task's priority
+};
+
 Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
                                               const std::vector<std::string>& argv, Row* row,
-                                              bool channel = true) {
-  auto c = gate::SocketClient::connect(
-      socket, w.task, channel ? std::optional<gate::SpinPolicy>(gate::SpinPolicy{}) : std::nullopt);
+                                              const Transport& how) {
+  std::optional<gate::SpinPolicy> channel;
+  if (how.channel) {
+    channel = gate::SpinPolicy{};
+    channel->spin_us = how.spin_us;
+  }
+  auto c = gate::SocketClient::connect(socket, w.task, channel);
   if (!c.ok()) return make_error(c.error());
-  return run_seccomp(argv, **c, (*c)->task_id(), row);
+  if (how.channel != (*c)->uses_channel()) {
+    return make_error("the monitor process did not " +
+                      std::string(how.channel ? "open a channel" : "stay on the socket"));
+  }
+  intercept::seccomp::Options so;
+  so.task = (*c)->task_id();
+  so.argv = argv;
+  if (how.realtime) so.realtime_priority = (*c)->task_priority();
+  auto r = intercept::seccomp::run(so, **c);
+  if (!r.ok()) return make_error(r.error());
+  if (how.realtime && !r->realtime) {
+    return make_error("SCHED_FIFO refused: " + r->realtime_error);
+  }
+  return finish_task(r->exit_code, argv[5], row);
 }
 
 Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& socket,
@@ -427,9 +454,13 @@ Result<Report> run(const Options& o) {
     }
   }
   const Workload pass = example_workloads()[0];
-  MonitorProcess dos_process;
+  MonitorProcess dos_process, dos_rt_process;
   if (o.dos) {
     if (Status s = dos_process.start(dir.path, "monitor-dos", pass, o.spin_us); !s.ok()) {
+      return make_error(s.error());
+    }
+    if (Status s = dos_rt_process.start(dir.path, "monitor-dos-rt", pass, o.spin_us, true);
+        !s.ok()) {
       return make_error(s.error());
     }
   }
@@ -470,8 +501,10 @@ Result<Report> run(const Options& o) {
           break;
         case Path::kSeccompMonitor:
         case Path::kSeccompMonitorSocket: {
-          const int64_t channel_spin = p == Path::kSeccompMonitor ? int64_t{o.spin_us} : -1;
-          ns = run_over_socket(proc.socket(), w, argv, &row, channel_spin);
+          Transport how;
+          how.channel = p == Path::kSeccompMonitor;
+          how.spin_us = o.spin_us;
+          ns = run_over_socket(proc.socket(), w, argv, &row, how);
           break;
         }
         case Path::kPreload:
@@ -504,21 +537,40 @@ Result<Report> run(const Options& o) {
     const uint32_t burst_ms =
         static_cast<uint32_t>(uint64_t{o.trials} * o.dos_period_us / 1000u) + 500u;
     const std::string burst_out = dir.path + "/burst.bin";
-    for (const int64_t spin : {int64_t{o.spin_us}, int64_t{-1}}) {
+    struct Variant {
+      const char* transport;
+      const MonitorProcess* process;
+      Transport how;
+    };
+    const Variant variants[] = {
+        {"channel", &dos_process, {true, o.spin_us, false}},
+        {"socket", &dos_process, {false, o.spin_us, false}},
+        // The follower's program, supervisor and monitor thread under
+        // SCHED_FIFO at its policy priority; the burst task has none.
+        {"channel, SCHED_FIFO", &dos_rt_process, {true, o.spin_us, true}},
+    };
+    for (const Variant& v : variants) {
       DosResult dos;
-      dos.transport = spin >= 0 ? "channel" : "socket";
+      dos.transport = v.transport;
       dos.period_us = o.dos_period_us;
-      auto quiet = run_over_socket(dos_process.socket(), follower, periodic, nullptr, spin);
+      const std::string& socket = v.process->socket();
+      auto quiet = run_over_socket(socket, follower, periodic, nullptr, v.how);
+      if (!quiet.ok() && v.how.realtime) {
+        dos.skipped = quiet.error();  // no CAP_SYS_NICE here: reported, not fatal
+        report.dos.push_back(dos);
+        continue;
+      }
       if (!quiet.ok()) return make_error("DoS (quiet): " + quiet.error());
       dos.quiet = summarise(std::move(*quiet));
+      Transport burst_how = v.how;
+      burst_how.realtime = false;
       Result<std::vector<uint64_t>> burst_result = std::vector<uint64_t>{};
       std::thread burster([&] {
-        burst_result =
-            run_over_socket(dos_process.socket(), burst,
-                            task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr, spin);
+        burst_result = run_over_socket(
+            socket, burst, task_argv(o, burst, 0, burst_out, 0, burst_ms), nullptr, burst_how);
       });
       usleep(100000);  // the burst is under way
-      auto loaded = run_over_socket(dos_process.socket(), follower, periodic, nullptr, spin);
+      auto loaded = run_over_socket(socket, follower, periodic, nullptr, v.how);
       burster.join();
       if (!loaded.ok()) return make_error("DoS (under burst): " + loaded.error());
       if (!burst_result.ok()) return make_error("DoS (burst task): " + burst_result.error());
@@ -567,6 +619,10 @@ std::string table(const Report& r) {
   }
   s += "\n";
   for (const DosResult& d : r.dos) {
+    if (!d.skipped.empty()) {
+      s += fmt::format("\nDoS ({}): not measured: {}", d.transport, d.skipped);
+      continue;
+    }
     s += fmt::format(
         "\nDoS: follower every {} µs through the monitor process ({}); p99 {:.2f} µs alone, "
         "{:.2f} µs while another supervised task bursts ({} commands sent); worst {:.2f} / "
@@ -614,6 +670,10 @@ nlohmann::json to_json(const Report& r) {
     j["workloads"][row.workload][path_key(row.path)] = cell;
   }
   for (const DosResult& d : r.dos) {
+    if (!d.skipped.empty()) {
+      j["dos"][d.transport] = {{"skipped", d.skipped}};
+      continue;
+    }
     j["dos"][d.transport] = {{"period_us", d.period_us},
                              {"quiet", stats_json(d.quiet)},
                              {"under_burst", stats_json(d.under_burst)},

@@ -75,7 +75,8 @@ struct Row {
 };
 
 struct DosResult {
-  std::string transport;  // "channel" or "socket"
+  std::string transport;  // "channel", "socket", "channel, SCHED_FIFO"
+  std::string skipped;    // why it was not measured (SCHED_FIFO refused), else empty
   uint32_t period_us = 0;
   Stats quiet;        // the periodic task alone
   Stats under_burst;  // while another supervised task bursts

@@ -5,6 +5,7 @@
 #include <limits.h>
 #include <poll.h>
 #include <pthread.h>
+#include <sched.h>
 #include <signal.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -32,6 +33,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/realtime.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 
 #ifndef SECCOMP_IOCTL_NOTIF_SET_FLAGS
@@ -577,6 +579,25 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
       ioctl(listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS, SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
     result.sync_wakeup = true;
   }
+  // The program and the thread that answers its system calls run at the
+  // task's priority (set before the program starts; threads and children
+  // it creates inherit it).
+  int old_policy = SCHED_OTHER;
+  sched_param old_param{};
+  pthread_getschedparam(pthread_self(), &old_policy, &old_param);
+  bool loop_realtime = false;
+  if (options.realtime_priority > 0) {
+    sched_param p{};
+    p.sched_priority = fifo_priority(options.realtime_priority);
+    if (sched_setscheduler(child, SCHED_FIFO, &p) != 0) {
+      result.realtime_error = std::string("SCHED_FIFO for the program: ") + strerror(errno);
+    } else if (std::string e = make_thread_realtime(options.realtime_priority); !e.empty()) {
+      result.realtime_error = "SCHED_FIFO for the supervisor: " + e;
+    } else {
+      loop_realtime = true;
+      result.realtime = true;
+    }
+  }
   seccomp_notif_sizes sizes{};
   syscall(SYS_seccomp, SECCOMP_GET_NOTIF_SIZES, 0, &sizes);
   std::vector<uint8_t> buf(std::max<size_t>(sizes.seccomp_notif, sizeof(seccomp_notif)));
@@ -637,6 +658,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     result.exit_code = child_status.exit_code;
     result.signal = child_status.signal;
   }
+  if (loop_realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
   close(listener);
   close(pidfd);
   endpoint.task_exited(options.task);

@@ -42,6 +42,9 @@ struct Options {
   uint16_t task = 0;              // task id from the image
   std::vector<std::string> argv;  // program and arguments (argv[0] is a path or a PATH name)
   bool sync_wakeup = true;        // SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP when the kernel has it
+  // > 0: the program and the supervising thread run under SCHED_FIFO at this
+  // (policy) priority; a refusal is reported in RunResult, not fatal.
+  int realtime_priority = 0;
 };
 
 struct RunResult {
@@ -50,6 +53,8 @@ struct RunResult {
   uint64_t notifications = 0;
   uint64_t emulated = 0;  // bus calls emulated
   bool sync_wakeup = false;
+  bool realtime = false;       // SCHED_FIFO was applied
+  std::string realtime_error;  // why not, when it was asked for
 };
 
 // Runs the program to completion under supervision. Fails (without running
