@@ -82,5 +82,13 @@ TEST(Wire, ReplyHelloAndErrorRoundTrip) {
   EXPECT_EQ(e.reason, "no");
 }
 
+TEST(Wire, HelloAnswerCarriesTheTaskAndItsPriority) {
+  HelloOk ok;
+  ASSERT_EQ(decode_hello_ok(encode_hello_ok({3, 20}), &ok), "");
+  EXPECT_EQ(ok.task, 3);
+  EXPECT_EQ(ok.priority, 20);
+  EXPECT_NE(decode_hello_ok(encode_u16(3), &ok), "");  // the id alone is malformed
+}
+
 }  // namespace
 }  // namespace contego::gate::wire

@@ -8,6 +8,9 @@
 // ignored (IGNORE); reads are allowed.
 #include "intercept/seccomp/supervisor.h"
 
+#include <dirent.h>
+#include <pthread.h>
+#include <sched.h>
 #include <stdio.h>
 #include <unistd.h>
 
@@ -109,6 +112,7 @@ class ScriptedDecider final : public monitor::Decider {
   uint32_t device_count() const override { return 3; }
   const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
+  uint16_t task_priority(uint16_t task) const override { return task == 0 ? 9 : 0; }
 
   // The latest sample the monitor handed to the core (via Host::read_sample).
   std::vector<uint8_t> sample(uint16_t device) {
@@ -616,6 +620,102 @@ TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
   EXPECT_NE(log.str().find("uid " + std::to_string(getuid())), std::string::npos) << log.str();
   EXPECT_EQ(log.str().find("\"kind\":\"peer\""), std::string::npos) << log.str();
   unlink(name);
+}
+
+// Threads of this process under SCHED_FIFO at `priority` (from /proc).
+int fifo_threads(int priority) {
+  int n = 0;
+  DIR* d = opendir("/proc/self/task");
+  if (d == nullptr) return 0;
+  while (dirent* e = readdir(d)) {
+    if (e->d_name[0] == '.') continue;
+    std::ifstream in(std::string("/proc/self/task/") + e->d_name + "/stat");
+    std::string stat((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t close_paren = stat.rfind(')');
+    if (close_paren == std::string::npos) continue;
+    std::istringstream fields(stat.substr(close_paren + 2));
+    std::vector<std::string> f;
+    for (std::string x; fields >> x;) f.push_back(x);
+    // Fields 40 (rt_priority) and 41 (policy) of stat(5), counted from 3 here.
+    if (f.size() > 38 && f[37] == std::to_string(priority) && f[38] == "1") ++n;
+  }
+  closedir(d);
+  return n;
+}
+
+// --rt: the program runs under SCHED_FIFO at the task's priority (and so
+// does the supervising thread while it serves it).
+TEST(Realtime, ProgramRunsAtTheTaskPriority) {
+  monitor::AuditLog audit;
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  int pipefd[2];
+  ASSERT_EQ(pipe(pipefd), 0);
+  const int saved = dup(STDOUT_FILENO);
+  dup2(pipefd[1], STDOUT_FILENO);
+  close(pipefd[1]);
+  intercept::seccomp::Options opt;
+  opt.task = 0;
+  opt.realtime_priority = mon.task_priority(0);
+  opt.argv = {"/usr/bin/python3", "-c",
+              "import os; print(os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)"};
+  auto r = intercept::seccomp::run(opt, mon);
+  fflush(stdout);
+  dup2(saved, STDOUT_FILENO);
+  close(saved);
+  std::string out;
+  char buf[256];
+  ssize_t n;
+  while ((n = read(pipefd[0], buf, sizeof buf)) > 0) out.append(buf, static_cast<size_t>(n));
+  close(pipefd[0]);
+  ASSERT_TRUE(r.ok()) << r.error();
+  if (!r->realtime) GTEST_SKIP() << "SCHED_FIFO refused here: " << r->realtime_error;
+  EXPECT_EQ(out, "1 9\n");  // SCHED_FIFO, the decider's priority for task 0
+  // The supervising thread went back to its own policy afterwards.
+  int policy = -1;
+  sched_param p{};
+  pthread_getschedparam(pthread_self(), &policy, &p);
+  EXPECT_EQ(policy, SCHED_OTHER);
+}
+
+// contego monitor --rt: the thread serving a connection runs at its task's
+// priority, which the hello answer also tells the client.
+TEST(Realtime, MonitorServesTheConnectionAtTheTaskPriority) {
+  char name[] = "/tmp/contego-rt-XXXXXX";
+  const int afd = mkstemp(name);
+  ASSERT_GE(afd, 0);
+  close(afd);
+  monitor::AuditLog audit;
+  ASSERT_TRUE(audit.open(name).ok());
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-rt-" + std::to_string(getpid()) + ".sock";
+  monitor::Server server(mon, audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {}, true);
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+  EXPECT_EQ(fifo_threads(9), 0);
+  auto c = gate::SocketClient::connect(path, "t0");
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_EQ((*c)->task_priority(), 9);
+  auto other = gate::SocketClient::connect(path, "t1");  // no priority: stays as it is
+  ASSERT_TRUE(other.ok()) << other.error();
+  EXPECT_EQ((*other)->task_priority(), 0);
+  EXPECT_TRUE((*c)->has_bus(1));  // the hello has been handled
+  std::ifstream in(name);
+  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const bool refused = log.find("realtime-refused") != std::string::npos;
+  const int fifo = fifo_threads(9);
+  c->reset();
+  other->reset();
+  server.stop();
+  t.join();
+  unlink(name);
+  if (refused) GTEST_SKIP() << "SCHED_FIFO refused here";
+  EXPECT_EQ(fifo, 1);
 }
 
 TEST(Preload, UnreachableMonitorRefusesTheBusAndLeavesOtherFilesAlone) {
