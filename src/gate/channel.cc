@@ -163,7 +163,7 @@ bool Channel::await_reply(uint32_t seq, uint8_t* type, std::span<const uint8_t>*
     // keep not coming (the monitor's thread waits for a CPU on a busy
     // machine), the spin only takes a CPU from someone: sleep straight away
     // for the next kSpinBackoff answers, then try again.
-    const bool spin = unanswered_spins_ < 2;
+    const bool spin = unanswered_spins_ < kSpinMisses;
     if (!spin && ++skipped_spins_ >= kSpinBackoff) unanswered_spins_ = skipped_spins_ = 0;
     bool slept = false;
     if (!wait_change(c.reply_seq, now, c.client_sleeping, spin ? policy_.spin_us : 0, &slept)) {

@@ -124,12 +124,13 @@ class Channel {
   int socket_fd_;
   uint8_t* base_;
   SpinPolicy policy_;
-  uint32_t last_seq_ = 0;  // client: last posted; server: last taken
-  static constexpr uint32_t kSpinBackoff = 32;
-  uint32_t unanswered_spins_ = 0;  // client: spins in a row that ended asleep
-  uint32_t skipped_spins_ = 0;     // client: answers awaited without spinning since then
-  bool bursting_ = false;          // server: the last request followed its predecessor closely
-  uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
+  uint32_t last_seq_ = 0;                        // client: last posted; server: last taken
+  static constexpr uint32_t kSpinMisses = 8;     // spins in a row that end asleep...
+  static constexpr uint32_t kSpinBackoff = 256;  // ...stop spinning for this many answers
+  uint32_t unanswered_spins_ = 0;                // client: spins in a row that ended asleep
+  uint32_t skipped_spins_ = 0;   // client: answers awaited without spinning since then
+  bool bursting_ = false;        // server: the last request followed its predecessor closely
+  uint64_t answered_at_ns_ = 0;  // server: when the last answer was written
 };
 
 // Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the
