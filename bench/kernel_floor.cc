@@ -59,16 +59,26 @@ void report(const char* what, std::vector<uint64_t> ns) {
          static_cast<double>(ns.back()) / 1000.0);
 }
 
-// Passes a descriptor over a Unix socket.
-void send_fd(int sock, int fd) {
+// One byte and room for one passed descriptor.
+struct FdMessage {
   char data = 0;
   iovec io{&data, 1};
   alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
   msghdr m{};
-  m.msg_iov = &io;
-  m.msg_iovlen = 1;
-  m.msg_control = control;
-  m.msg_controllen = sizeof control;
+  FdMessage() {
+    m.msg_iov = &io;
+    m.msg_iovlen = 1;
+    m.msg_control = control;
+    m.msg_controllen = sizeof control;
+  }
+  FdMessage(const FdMessage&) = delete;
+  FdMessage& operator=(const FdMessage&) = delete;
+};
+
+// Passes a descriptor over a Unix socket.
+void send_fd(int sock, int fd) {
+  FdMessage msg;
+  msghdr& m = msg.m;
   cmsghdr* h = CMSG_FIRSTHDR(&m);
   h->cmsg_level = SOL_SOCKET;
   h->cmsg_type = SCM_RIGHTS;
@@ -78,14 +88,8 @@ void send_fd(int sock, int fd) {
 }
 
 int recv_fd(int sock) {
-  char data = 0;
-  iovec io{&data, 1};
-  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
-  msghdr m{};
-  m.msg_iov = &io;
-  m.msg_iovlen = 1;
-  m.msg_control = control;
-  m.msg_controllen = sizeof control;
+  FdMessage msg;
+  msghdr& m = msg.m;
   if (recvmsg(sock, &m, 0) != 1 || CMSG_FIRSTHDR(&m) == nullptr) return -1;
   int fd = -1;
   memcpy(&fd, CMSG_DATA(CMSG_FIRSTHDR(&m)), sizeof fd);

@@ -215,16 +215,28 @@ void Channel::answer(uint8_t type, std::span<const uint8_t> payload) {
   answered_at_ns_ = now_ns();
 }
 
+namespace {
+// Room for the ancillary data of one passed descriptor.
+struct OneFdControl {
+  alignas(cmsghdr) char bytes[CMSG_SPACE(sizeof(int))] = {};
+};
+
+msghdr one_buffer_message(iovec* iov, OneFdControl* control) {
+  msghdr msg{};
+  msg.msg_iov = iov;
+  msg.msg_iovlen = 1;
+  msg.msg_control = control->bytes;
+  msg.msg_controllen = sizeof control->bytes;
+  return msg;
+}
+}  // namespace
+
 bool send_frame_with_fd(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload,
                         int passed_fd) {
   std::vector<uint8_t> f = wire::frame(type, seq, payload);
   iovec iov{f.data(), f.size()};
-  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  msg.msg_control = control;
-  msg.msg_controllen = sizeof control;
+  OneFdControl control;
+  msghdr msg = one_buffer_message(&iov, &control);
   cmsghdr* h = CMSG_FIRSTHDR(&msg);
   h->cmsg_level = SOL_SOCKET;
   h->cmsg_type = SCM_RIGHTS;
@@ -242,12 +254,8 @@ std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t
   *passed_fd = -1;
   uint8_t raw[wire::kHeaderSize];
   iovec iov{raw, sizeof raw};
-  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  msg.msg_control = control;
-  msg.msg_controllen = sizeof control;
+  OneFdControl control;
+  msghdr msg = one_buffer_message(&iov, &control);
   ssize_t n;
   do {
     n = recvmsg(fd, &msg, MSG_WAITALL | MSG_CMSG_CLOEXEC);

@@ -439,6 +439,18 @@ TEST_P(Supervised, MonitorLostMidRunFailsTheNextActuationAndLeavesTheSafeState) 
   (void)r;
 }
 
+// A bare connection to the monitor's socket (the tests speak the protocol
+// by hand); -1 if it cannot be made.
+int connect_raw(const std::string& path) {
+  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strcpy(addr.sun_path, path.c_str());
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0) return fd;
+  close(fd);
+  return -1;
+}
+
 TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   monitor::AuditLog audit;
   ScriptedDecider decider;
@@ -451,11 +463,8 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   std::thread t([&] { server.serve(); });
   {
     // An oversized frame: answered with kError, then that connection is closed.
-    const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    std::strcpy(addr.sun_path, path.c_str());
-    ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    const int fd = connect_raw(path);
+    ASSERT_GE(fd, 0);
     std::vector<uint8_t> header = gate::wire::frame(gate::wire::Type::kTransfer, 1, {});
     header[10] = 0x10;  // 1 MiB payload announced
     ASSERT_EQ(write(fd, header.data(), header.size()), 12);
@@ -484,33 +493,44 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   t.join();
 }
 
+// A monitor with the scripted decider and a virtual bus, auditing into a
+// temporary file: the set-up of the server tests below.
+struct AuditedMonitor {
+  AuditedMonitor() {
+    char name[] = "/tmp/contego-server-test-XXXXXX";
+    const int fd = mkstemp(name);
+    if (fd >= 0) close(fd);
+    audit_path = name;
+    EXPECT_TRUE(fd >= 0 && audit.open(audit_path).ok());
+    mon.add_bus(1, &vbus);
+  }
+  ~AuditedMonitor() { unlink(audit_path.c_str()); }
+  std::string log() const {
+    std::ifstream in(audit_path);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  }
+  std::string audit_path;
+  monitor::AuditLog audit;
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+};
+
 // A client that takes a channel and then writes whatever it likes into the
 // shared control words and slots: every request gets an answer or an error,
 // nothing reaches the bus that the decider did not allow, another client is
 // served meanwhile, and hanging up ends the session (safe state).
 TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
-  char name[] = "/tmp/contego-hostile-XXXXXX";
-  const int afd = mkstemp(name);
-  ASSERT_GE(afd, 0);
-  close(afd);
-  monitor::AuditLog audit;
-  ASSERT_TRUE(audit.open(name).ok());
-  ScriptedDecider decider;
-  bus::VirtualBus vbus;
+  AuditedMonitor m;
   auto pca = std::make_shared<bus::Pca9685>();
-  vbus.attach(pca);
-  monitor::Monitor mon{decider, audit};
-  mon.add_bus(1, &vbus);
+  m.vbus.attach(pca);
   const std::string path = "/tmp/contego-hostile-" + std::to_string(getpid()) + ".sock";
-  monitor::Server server(mon, audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {20, 5});
+  monitor::Server server(m.mon, m.audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {20, 5});
   ASSERT_TRUE(server.listen(path).ok());
   std::thread t([&] { server.serve(); });
 
-  const int fd = socket(AF_UNIX, SOCK_STREAM, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strcpy(addr.sun_path, path.c_str());
-  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  const int fd = connect_raw(path);
+  ASSERT_GE(fd, 0);
   ASSERT_TRUE(gate::send_frame(fd, gate::wire::Type::kHello, 1, gate::wire::encode_hello("t0")));
   gate::wire::Header h;
   std::vector<uint8_t> payload;
@@ -523,10 +543,10 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   ASSERT_GE(memfd, 0);
   // The seals hold: the client cannot shrink the file under the monitor.
   EXPECT_NE(ftruncate(memfd, 4096), 0);
-  void* m = mmap(nullptr, gate::Channel::kSize, PROT_READ | PROT_WRITE, MAP_SHARED, memfd, 0);
-  ASSERT_NE(m, MAP_FAILED);
-  auto* control = static_cast<gate::ChannelControl*>(m);
-  uint8_t* slot = static_cast<uint8_t*>(m) + gate::Channel::kControlSize;
+  void* shared = mmap(nullptr, gate::Channel::kSize, PROT_READ | PROT_WRITE, MAP_SHARED, memfd, 0);
+  ASSERT_NE(shared, MAP_FAILED);
+  auto* control = static_cast<gate::ChannelControl*>(shared);
+  uint8_t* slot = static_cast<uint8_t*>(shared) + gate::Channel::kControlSize;
   uint32_t seq = 0;
   // Posts a request by hand and waits for its answer; returns the answer's type.
   auto request = [&](uint32_t type, uint32_t len, const std::vector<uint8_t>& bytes) {
@@ -550,10 +570,10 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   EXPECT_EQ(request(3, static_cast<uint32_t>(prescale.size()), prescale),
             static_cast<uint32_t>(gate::wire::Type::kReply));
   gate::TransferReply r;
-  ASSERT_EQ(gate::wire::decode_reply(
-                {static_cast<uint8_t*>(m) + gate::Channel::kControlSize + gate::Channel::kSlotSize,
-                 control->reply_len.load()},
-                &r),
+  ASSERT_EQ(gate::wire::decode_reply({static_cast<uint8_t*>(shared) + gate::Channel::kControlSize +
+                                          gate::Channel::kSlotSize,
+                                      control->reply_len.load()},
+                                     &r),
             "");
   EXPECT_EQ(r.err, EPERM);
   // Scribbled sequence numbers and flags delay nobody else.
@@ -570,56 +590,36 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   msg.len = static_cast<uint16_t>(msg.data.size());
   w.messages.push_back(msg);
   EXPECT_EQ((*other)->transfer(1, w).err, 0);
-  munmap(m, gate::Channel::kSize);
+  munmap(shared, gate::Channel::kSize);
   close(memfd);
   close(fd);  // the hostile session ends: its task's actuators go safe
-  auto log_text = [&] {
-    std::ifstream in(name);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  };
-  for (int i = 0; i < 200 && log_text().find("safe-state") == std::string::npos; ++i) {
+  for (int i = 0; i < 200 && m.log().find("safe-state") == std::string::npos; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   server.stop();
   t.join();
-  (void)mon.has_bus(1);  // orders the reads below after the server threads' writes
+  (void)m.mon.has_bus(1);  // orders the reads below after the server threads' writes
   EXPECT_NE(pca->reg(0xFE), 0x03);
-  std::stringstream log;
-  log << log_text();
-  EXPECT_NE(log.str().find("exceeds"), std::string::npos);
-  EXPECT_NE(log.str().find("\"kind\":\"safe-state\""), std::string::npos);
-  unlink(name);
+  const std::string log = m.log();
+  EXPECT_NE(log.find("exceeds"), std::string::npos);
+  EXPECT_NE(log.find("\"kind\":\"safe-state\""), std::string::npos);
 }
 
 TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
-  char name[] = "/tmp/contego-peercred-XXXXXX";
-  const int afd = mkstemp(name);
-  ASSERT_GE(afd, 0);
-  close(afd);
-  monitor::AuditLog audit;
-  ASSERT_TRUE(audit.open(name).ok());
-  ScriptedDecider decider;
-  bus::VirtualBus vbus;
-  monitor::Monitor mon{decider, audit};
-  mon.add_bus(1, &vbus);
+  AuditedMonitor m;
   const std::string path = "/tmp/contego-peercred-" + std::to_string(getpid()) + ".sock";
   // Only a uid this test does not run as may connect.
-  monitor::Server server(mon, audit, {{"t0", 0}}, {getuid() + 4242});
+  monitor::Server server(m.mon, m.audit, {{"t0", 0}}, {getuid() + 4242});
   ASSERT_TRUE(server.listen(path).ok());
   std::thread t([&] { server.serve(); });
   auto c = gate::SocketClient::connect(path, "t0");
   EXPECT_FALSE(c.ok());
   server.stop();
   t.join();
-  std::ifstream in(name);
-  std::stringstream log;
-  log << in.rdbuf();
-  EXPECT_NE(log.str().find("\"kind\":\"peer-refused\""), std::string::npos) << log.str();
-  EXPECT_NE(log.str().find("uid " + std::to_string(getuid())), std::string::npos) << log.str();
-  EXPECT_EQ(log.str().find("\"kind\":\"peer\""), std::string::npos) << log.str();
-  unlink(name);
+  const std::string log = m.log();
+  EXPECT_NE(log.find("\"kind\":\"peer-refused\""), std::string::npos) << log;
+  EXPECT_NE(log.find("uid " + std::to_string(getuid())), std::string::npos) << log;
+  EXPECT_EQ(log.find("\"kind\":\"peer\""), std::string::npos) << log;
 }
 
 // Threads of this process under SCHED_FIFO at `priority` (from /proc).
@@ -683,18 +683,9 @@ TEST(Realtime, ProgramRunsAtTheTaskPriority) {
 // contego monitor --rt: the thread serving a connection runs at its task's
 // priority, which the hello answer also tells the client.
 TEST(Realtime, MonitorServesTheConnectionAtTheTaskPriority) {
-  char name[] = "/tmp/contego-rt-XXXXXX";
-  const int afd = mkstemp(name);
-  ASSERT_GE(afd, 0);
-  close(afd);
-  monitor::AuditLog audit;
-  ASSERT_TRUE(audit.open(name).ok());
-  ScriptedDecider decider;
-  bus::VirtualBus vbus;
-  monitor::Monitor mon{decider, audit};
-  mon.add_bus(1, &vbus);
+  AuditedMonitor m;
   const std::string path = "/tmp/contego-rt-" + std::to_string(getpid()) + ".sock";
-  monitor::Server server(mon, audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {}, true);
+  monitor::Server server(m.mon, m.audit, {{"t0", 0}, {"t1", 1}}, {getuid()}, {}, true);
   ASSERT_TRUE(server.listen(path).ok());
   std::thread t([&] { server.serve(); });
   EXPECT_EQ(fifo_threads(9), 0);
@@ -705,15 +696,12 @@ TEST(Realtime, MonitorServesTheConnectionAtTheTaskPriority) {
   ASSERT_TRUE(other.ok()) << other.error();
   EXPECT_EQ((*other)->task_priority(), 0);
   EXPECT_TRUE((*c)->has_bus(1));  // the hello has been handled
-  std::ifstream in(name);
-  const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const bool refused = log.find("realtime-refused") != std::string::npos;
+  const bool refused = m.log().find("realtime-refused") != std::string::npos;
   const int fifo = fifo_threads(9);
   c->reset();
   other->reset();
   server.stop();
   t.join();
-  unlink(name);
   if (refused) GTEST_SKIP() << "SCHED_FIFO refused here";
   EXPECT_EQ(fifo, 1);
 }
