@@ -550,7 +550,7 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   uint32_t seq = 0;
   // Posts a request by hand and waits for its answer; returns the answer's type.
   auto request = [&](uint32_t type, uint32_t len, const std::vector<uint8_t>& bytes) {
-    std::memcpy(slot, bytes.data(), bytes.size());
+    if (!bytes.empty()) std::memcpy(slot, bytes.data(), bytes.size());
     control->request_type.store(type);
     control->request_len.store(len);
     control->request_seq.store(++seq);
