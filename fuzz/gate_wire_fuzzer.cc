@@ -36,8 +36,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   (void)wire::decode_bus_info(in, &b);
   wire::ErrorMsg e;
   (void)wire::decode_error(in, &e);
-  uint16_t v;
-  (void)wire::decode_u16(in, &v);
   wire::HelloOk ok;
   if (wire::decode_hello_ok(in, &ok).empty() && wire::encode_hello_ok(ok).size() != in.size()) {
     __builtin_trap();

@@ -152,18 +152,6 @@ std::string decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
   return {};
 }
 
-std::vector<uint8_t> encode_u16(uint16_t v) {
-  Writer w;
-  w.u16(v);
-  return std::move(w.out);
-}
-
-std::string decode_u16(std::span<const uint8_t> p, uint16_t* v) {
-  Reader r(p);
-  if (!r.u16(v) || !r.done()) return "malformed 16-bit value";
-  return {};
-}
-
 std::vector<uint8_t> encode_transfer(const Transfer& t) {
   std::vector<uint8_t> out;
   encode_transfer(t, &out);

@@ -71,8 +71,6 @@ std::vector<uint8_t> encode_hello(const std::string& task);
 std::string decode_hello(std::span<const uint8_t> payload, std::string* task);
 std::vector<uint8_t> encode_hello_ok(const HelloOk& h);
 std::string decode_hello_ok(std::span<const uint8_t> payload, HelloOk* h);
-std::vector<uint8_t> encode_u16(uint16_t v);
-std::string decode_u16(std::span<const uint8_t> payload, uint16_t* v);
 std::vector<uint8_t> encode_transfer(const Transfer& t);
 // The same into *out (cleared first): a reused buffer, no allocation once grown.
 void encode_transfer(const Transfer& t, std::vector<uint8_t>* out);

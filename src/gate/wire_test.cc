@@ -87,7 +87,8 @@ TEST(Wire, HelloAnswerCarriesTheTaskAndItsPriority) {
   ASSERT_EQ(decode_hello_ok(encode_hello_ok({3, 20}), &ok), "");
   EXPECT_EQ(ok.task, 3);
   EXPECT_EQ(ok.priority, 20);
-  EXPECT_NE(decode_hello_ok(encode_u16(3), &ok), "");  // the id alone is malformed
+  const std::vector<uint8_t> id_only = {3, 0};
+  EXPECT_NE(decode_hello_ok(id_only, &ok), "");  // the id alone is malformed
 }
 
 }  // namespace

@@ -159,6 +159,34 @@ class ScriptedDecider final : public monitor::Decider {
 //    socket, through the channel.
 enum class Client { kInProcess, kSocket, kSocketOnly, kPreload };
 
+// Redirects this process's standard output (which a supervised program
+// inherits) into a pipe until finish() hands back what was written.
+class StdoutCapture {
+ public:
+  StdoutCapture() {
+    fflush(stdout);
+    EXPECT_EQ(pipe(pipefd_), 0);
+    saved_ = dup(STDOUT_FILENO);
+    dup2(pipefd_[1], STDOUT_FILENO);
+    close(pipefd_[1]);
+  }
+  std::string finish() {
+    fflush(stdout);
+    dup2(saved_, STDOUT_FILENO);
+    close(saved_);
+    std::string out;
+    char buf[4096];
+    ssize_t n;
+    while ((n = read(pipefd_[0], buf, sizeof buf)) > 0) out.append(buf, static_cast<size_t>(n));
+    close(pipefd_[0]);
+    return out;
+  }
+
+ private:
+  int pipefd_[2] = {-1, -1};
+  int saved_ = -1;
+};
+
 class Supervised : public ::testing::TestWithParam<Client> {
  protected:
   bool uses_socket() const { return GetParam() != Client::kInProcess; }
@@ -203,12 +231,7 @@ class Supervised : public ::testing::TestWithParam<Client> {
 
   // Runs argv supervised; stdout of the program is captured.
   intercept::seccomp::RunResult run(std::vector<std::string> argv) {
-    fflush(stdout);
-    int pipefd[2];
-    EXPECT_EQ(pipe(pipefd), 0);
-    const int saved = dup(STDOUT_FILENO);
-    dup2(pipefd[1], STDOUT_FILENO);
-    close(pipefd[1]);
+    StdoutCapture capture;
     intercept::seccomp::Options opt;
     opt.task = 0;
     opt.argv = std::move(argv);
@@ -230,14 +253,7 @@ class Supervised : public ::testing::TestWithParam<Client> {
     // after every transfer and the safe state (the audit file alone is not a
     // synchronisation ThreadSanitizer can see).
     (void)mon.has_bus(1);
-    fflush(stdout);
-    dup2(saved, STDOUT_FILENO);
-    close(saved);
-    output.clear();
-    char buf[4096];
-    ssize_t n;
-    while ((n = read(pipefd[0], buf, sizeof buf)) > 0) output.append(buf, static_cast<size_t>(n));
-    close(pipefd[0]);
+    output = capture.finish();
     EXPECT_TRUE(r.ok()) << (r.ok() ? "" : r.error());
     return r.ok() ? *r : intercept::seccomp::RunResult{};
   }
@@ -646,30 +662,15 @@ int fifo_threads(int priority) {
 // --rt: the program runs under SCHED_FIFO at the task's priority (and so
 // does the supervising thread while it serves it).
 TEST(Realtime, ProgramRunsAtTheTaskPriority) {
-  monitor::AuditLog audit;
-  ScriptedDecider decider;
-  bus::VirtualBus vbus;
-  monitor::Monitor mon{decider, audit};
-  mon.add_bus(1, &vbus);
-  int pipefd[2];
-  ASSERT_EQ(pipe(pipefd), 0);
-  const int saved = dup(STDOUT_FILENO);
-  dup2(pipefd[1], STDOUT_FILENO);
-  close(pipefd[1]);
+  AuditedMonitor m;
+  StdoutCapture capture;
   intercept::seccomp::Options opt;
   opt.task = 0;
-  opt.realtime_priority = mon.task_priority(0);
+  opt.realtime_priority = m.mon.task_priority(0);
   opt.argv = {"/usr/bin/python3", "-c",
               "import os; print(os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)"};
-  auto r = intercept::seccomp::run(opt, mon);
-  fflush(stdout);
-  dup2(saved, STDOUT_FILENO);
-  close(saved);
-  std::string out;
-  char buf[256];
-  ssize_t n;
-  while ((n = read(pipefd[0], buf, sizeof buf)) > 0) out.append(buf, static_cast<size_t>(n));
-  close(pipefd[0]);
+  auto r = intercept::seccomp::run(opt, m.mon);
+  const std::string out = capture.finish();
   ASSERT_TRUE(r.ok()) << r.error();
   if (!r->realtime) GTEST_SKIP() << "SCHED_FIFO refused here: " << r->realtime_error;
   EXPECT_EQ(out, "1 9\n");  // SCHED_FIFO, the decider's priority for task 0
