@@ -17,6 +17,7 @@
 
 #include "base/json_text.h"
 #include "cli/command.h"
+#include "gate/channel.h"
 #include "perf/overhead.h"
 #ifdef CONTEGO_HAVE_POLICY
 #include "policy/compile.h"
@@ -137,6 +138,7 @@ void register_bench(CLI::App& app) {
   cmd->add_flag("--no-chart", args->no_chart, "do not run gnuplot");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait of both ends of a shared-memory channel before they sleep")
+      ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
   cmd->add_option("--task-program", args->task_exe, "the timed task program (contego-bench-task)");
   cmd->add_option("--policy-dir", args->policy_dir,

@@ -30,6 +30,7 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
+      ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
   cmd->add_flag("--rt", args->realtime,
                 "serve each connection under SCHED_FIFO at its task's policy priority");

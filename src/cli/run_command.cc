@@ -29,6 +29,7 @@ void register_run(CLI::App& app) {
   cmd->add_option("--virtual-bus", args->virtual_buses, "N: a virtual bus with device models");
   cmd->add_option("--spin-us", args->spin_us,
                   "with --socket: busy-wait this long for the monitor's answer before sleeping")
+      ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
   cmd->add_flag("--no-channel", args->no_channel,
                 "with --socket: talk over the socket only, no shared-memory channel");

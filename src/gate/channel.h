@@ -45,6 +45,8 @@ namespace contego::gate {
 // between a periodic task's jobs it sleeps. Spinners yield the CPU to any
 // other ready thread, and a client whose spins keep ending asleep (a busy
 // machine) stops spinning for a while.
+inline constexpr uint32_t kMaxSpinUs = 100000;  // longer spins are a configuration mistake
+
 struct SpinPolicy {
   uint32_t spin_us = 100;  // 0: never spin
   uint32_t poll_ms = 20;   // futex sleep between checks that the peer is still connected

@@ -145,7 +145,15 @@ gate::SocketClient* client() {
     channel.reset();
   }
   if (const char* spin = getenv("CONTEGO_SPIN_US"); spin != nullptr && channel) {
-    channel->spin_us = static_cast<uint32_t>(strtoul(spin, nullptr, 10));
+    // Out of range or not a number: the default, with a word on stderr.
+    char* end = nullptr;
+    const unsigned long us = strtoul(spin, &end, 10);
+    if (end != spin && *end == 0 && us <= gate::kMaxSpinUs) {
+      channel->spin_us = static_cast<uint32_t>(us);
+    } else {
+      fprintf(stderr, "contego preload: CONTEGO_SPIN_US='%s' is not 0..%u; using %u\n", spin,
+              gate::kMaxSpinUs, channel->spin_us);
+    }
   }
   auto c = gate::SocketClient::connect(path != nullptr ? path : "/run/contego/monitor.sock", task,
                                        channel);
