@@ -416,6 +416,33 @@ TEST_P(Supervised, GrandchildThatOutlivesTheProgramIsStillServed) {
   EXPECT_GT(r.emulated, 0u);
 }
 
+// The supervisor keeps each process's bus descriptors by process id; a new
+// process under a dead one's number must start with none of them.
+TEST_P(Supervised, NewProcessUnderADeadOnesNumberInheritsNoBusDescriptor) {
+  if (preload()) GTEST_SKIP() << "seccomp supervisor only";
+  auto r = run({CONTEGO_TESTCASES_DIR "/attack_pid_reuse"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  if (output.find("reuse-skipped") != std::string::npos) {
+    GTEST_SKIP() << "cannot choose a process id here (clone3 set_tid): " << output;
+  }
+  EXPECT_NE(output.find("reuse-same-number 0 0"), std::string::npos) << output;
+  EXPECT_NE(output.find("reuse-slave 9"), std::string::npos) << output;  // EBADF
+  EXPECT_NE(output.find("reuse-write -1 9"), std::string::npos) << output;
+  EXPECT_EQ(pca->reg(0x07), 0x00);
+}
+
+// A program that keeps creating threads: the supervisor forgets the dead
+// ones instead of remembering every thread id it has seen.
+TEST_P(Supervised, ThreadChurnKeepsTheSupervisorsMemoryBounded) {
+  if (preload()) GTEST_SKIP() << "seccomp supervisor only";
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/thread_churn.py", "1000"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  EXPECT_NE(output.find("done 1000"), std::string::npos) << output;
+  EXPECT_EQ(pca->reg(0x06), 999 & 0xFF);
+  EXPECT_GE(r.emulated, 1000u);
+  EXPECT_LE(r.peak_threads_tracked, 300u);
+}
+
 TEST_P(Supervised, MonitorSamplesSensorsItself) {
   lf->set_values({1, 2, 3, 4, 1023});
   mon.sample_all();

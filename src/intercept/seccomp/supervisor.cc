@@ -194,7 +194,23 @@ struct Handle {
 struct Process {
   std::map<int, std::shared_ptr<Handle>> fds;
   std::set<int> cloexec;  // bus descriptors that a successful exec closes
+  // Names this very process, not its number: once it is reaped the number may
+  // be handed to a new process, which must not inherit these descriptors.
+  int pidfd = -1;
+  Process() = default;
+  Process(const Process&) = delete;
+  Process& operator=(const Process&) = delete;
+  ~Process() {
+    if (pidfd >= 0) close(pidfd);
+  }
+  bool alive() const {
+    return pidfd >= 0 && syscall(SYS_pidfd_send_signal, pidfd, 0, nullptr, 0) == 0;
+  }
 };
+
+// True while `tid` is a thread of the thread group `tgid` (signal 0 delivers
+// nothing; it only looks the thread up).
+bool thread_of(pid_t tgid, pid_t tid) { return syscall(SYS_tgkill, tgid, tid, 0) == 0; }
 
 class Loop {
  public:
@@ -248,7 +264,10 @@ class Loop {
     }
     return -1;
   }
-  Process& process_of(pid_t tid);
+  // The process of a thread that is waiting in a notified call, or null when
+  // it went away meanwhile.
+  Process* process_of(pid_t tid, uint64_t id);
+  void forget_the_dead();
   void open_call(const seccomp_notif& n, Process& p);
   void bus_call(const seccomp_notif& n, Process& p, const std::shared_ptr<Handle>& h);
   void dup_call(const seccomp_notif& n, Process& p);
@@ -261,34 +280,77 @@ class Loop {
   int placeholder_;
   std::map<pid_t, Process> processes_;  // by thread-group id
   std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
+  size_t sweep_at_ = 256;               // tgid_ size that triggers forget_the_dead()
 };
 
-Process& Loop::process_of(pid_t tid) {
+Process* Loop::process_of(pid_t tid, uint64_t id) {
+  // Numbers are reused once a thread or process is gone, so a cached answer
+  // is checked before it is trusted: the thread must still belong to that
+  // thread group (skipped for a main thread, whose id is the group's), and
+  // the process must be the one recorded (its pidfd). A stale answer is
+  // dropped and the thread looked up afresh in /proc.
   auto t = tgid_.find(tid);
+  if (t != tgid_.end() && t->second != tid && !thread_of(t->second, tid)) {
+    tgid_.erase(t);
+    t = tgid_.end();
+  }
+  if (t != tgid_.end()) {
+    auto it = processes_.find(t->second);
+    if (it != processes_.end()) {
+      if (it->second.alive()) return &it->second;
+      processes_.erase(it);  // a new process under a dead one's number
+    }
+    tgid_.erase(t);
+  }
+  if (tgid_.size() >= sweep_at_) forget_the_dead();
   pid_t tgid = tid;
   pid_t ppid = 0;
-  if (t != tgid_.end()) {
-    tgid = t->second;
-  } else {
+  {
     std::ifstream status("/proc/" + std::to_string(tid) + "/status");
     std::string line;
     while (std::getline(status, line)) {
       if (line.rfind("Tgid:", 0) == 0) tgid = std::stoi(line.substr(5));
       if (line.rfind("PPid:", 0) == 0) ppid = std::stoi(line.substr(5));
     }
-    tgid_[tid] = tgid;
   }
   auto it = processes_.find(tgid);
-  if (it != processes_.end()) return it->second;
+  if (it != processes_.end() && it->second.alive()) {
+    tgid_[tid] = tgid;
+    result_.peak_threads_tracked = std::max<uint64_t>(result_.peak_threads_tracked, tgid_.size());
+    return &it->second;
+  }
+  if (it != processes_.end()) processes_.erase(it);
+  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, tgid, 0));
+  // The notification still pending means its thread is alive, so the pidfd
+  // (opened before this check) names the process that made the call.
+  if (pidfd < 0 || !valid(id)) {
+    if (pidfd >= 0) close(pidfd);
+    return nullptr;
+  }
+  tgid_[tid] = tgid;
+  result_.peak_threads_tracked = std::max<uint64_t>(result_.peak_threads_tracked, tgid_.size());
   // A new process: a forked child shares its parent's open bus descriptors
   // (same open file descriptions, so the same address and flags).
   Process& p = processes_[tgid];
+  p.pidfd = pidfd;
   auto parent = processes_.find(ppid);
-  if (parent != processes_.end() && ppid != 0) {
+  if (parent != processes_.end() && ppid != 0 && parent->second.alive()) {
     p.fds = parent->second.fds;
     p.cloexec = parent->second.cloexec;
   }
-  return p;
+  return &p;
+}
+
+// Drops the threads and processes that are gone, so a long-running program
+// that keeps creating threads does not grow these maps without bound.
+void Loop::forget_the_dead() {
+  for (auto it = processes_.begin(); it != processes_.end();) {
+    it = it->second.alive() ? std::next(it) : processes_.erase(it);
+  }
+  for (auto it = tgid_.begin(); it != tgid_.end();) {
+    it = thread_of(it->second, it->first) ? std::next(it) : tgid_.erase(it);
+  }
+  sweep_at_ = std::max<size_t>(256, 2 * tgid_.size());
 }
 
 void Loop::open_call(const seccomp_notif& n, Process& p) {
@@ -430,7 +492,9 @@ void Loop::handle(const seccomp_notif& n) {
     endpoint_.job_boundary(options_.task);
     return continue_call(n.id);  // a sleep carries no payload
   }
-  Process& p = process_of(static_cast<pid_t>(n.pid));
+  Process* found = process_of(static_cast<pid_t>(n.pid), n.id);
+  if (found == nullptr) return reply(n.id, 0, EIO);  // gone meanwhile, or no pidfd: fail closed
+  Process& p = *found;
   const auto& a = n.data.args;
   bool is_open = nr == __NR_openat || nr == __NR_openat2;
 #ifdef __NR_open

@@ -51,7 +51,8 @@ struct RunResult {
   int exit_code = 0;  // of the direct child
   int signal = 0;     // non-zero if it was killed by a signal
   uint64_t notifications = 0;
-  uint64_t emulated = 0;  // bus calls emulated
+  uint64_t emulated = 0;              // bus calls emulated
+  uint64_t peak_threads_tracked = 0;  // most threads remembered at once (bounded)
   bool sync_wakeup = false;
   bool realtime = false;       // SCHED_FIFO was applied
   std::string realtime_error;  // why not, when it was asked for
