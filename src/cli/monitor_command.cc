@@ -20,6 +20,7 @@ void register_monitor(CLI::App& app) {
     std::vector<unsigned> uids;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool realtime = false;
+    uint32_t budget_factor = monitor::SetupOptions::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();
@@ -31,6 +32,10 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
+      ->capture_default_str();
+  cmd->add_option("--budget-factor", args->budget_factor,
+                  "hold a task's transfers to the end of its period once it has sent more than "
+                  "this many times its declared actuations in one job (0 = never)")
       ->capture_default_str();
   cmd->add_flag("--rt", args->realtime,
                 "serve each connection under SCHED_FIFO at its task's policy priority");
@@ -46,6 +51,7 @@ void register_monitor(CLI::App& app) {
     so.audit = args->audit;
     so.real_buses = args->buses;
     so.virtual_buses = args->virtual_buses;
+    so.budget_factor = args->budget_factor;
     if (so.real_buses.empty() && so.virtual_buses.empty()) {
       fmt::print(stderr, "contego monitor: give at least one --bus or --virtual-bus\n");
       return set_exit_code(2);

@@ -19,6 +19,7 @@ void register_run(CLI::App& app) {
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
     bool realtime = false;
+    uint32_t budget_factor = monitor::SetupOptions::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file (embedded monitor)");
@@ -33,6 +34,10 @@ void register_run(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-channel", args->no_channel,
                 "with --socket: talk over the socket only, no shared-memory channel");
+  cmd->add_option("--budget-factor", args->budget_factor,
+                  "hold a task's transfers to the end of its period once it has sent more than "
+                  "this many times its declared actuations in one job (0 = never)")
+      ->capture_default_str();
   cmd->add_flag(
       "--rt", args->realtime,
       "run the program and its supervisor under SCHED_FIFO at the task's policy priority");
@@ -76,6 +81,7 @@ void register_run(CLI::App& app) {
     so.audit = args->audit;
     so.real_buses = args->buses;
     so.virtual_buses = args->virtual_buses;
+    so.budget_factor = args->budget_factor;
     if (so.real_buses.empty() && so.virtual_buses.empty()) so.virtual_buses = {1};
     auto trusted = monitor::setup(so);
     if (!trusted.ok()) {

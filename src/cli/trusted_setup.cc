@@ -31,6 +31,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   }
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
   t->monitor->set_task_names(names);
+  t->monitor->set_budget_factor(o.budget_factor);
   for (const auto& [n, path] : o.real_buses) {
     auto b = bus::LinuxI2cDev::open(path);
     if (!b.ok()) return make_error(b.error());

@@ -26,6 +26,9 @@ class CoreDecider final : public Decider {
   uint16_t task_priority(uint16_t task) const override {
     return task < checker_.task_count() ? checker_.task(task).priority : 0;
   }
+  uint32_t task_actuations_per_job(uint16_t task) const override {
+    return task < checker_.task_count() ? checker_.task(task).actuations_per_job : 0;
+  }
 
  private:
   core::Checker checker_;

@@ -29,6 +29,9 @@ class Decider {
   virtual uint32_t task_period_us(uint16_t task) const = 0;  // 0 = unknown task
   // The policy's priority of the task (larger = more important), 0 = none.
   virtual uint16_t task_priority(uint16_t /*task*/) const { return 0; }
+  // Checked commands the task declares per job (N_i of the schedulability
+  // test), 0 = none declared.
+  virtual uint32_t task_actuations_per_job(uint16_t /*task*/) const { return 0; }
 };
 
 }  // namespace contego::monitor

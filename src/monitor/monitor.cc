@@ -75,6 +75,55 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
   return 0;
 }
 
+void Monitor::set_budget_factor(uint32_t factor) {
+  std::lock_guard lock(mu_);
+  budget_factor_ = factor;
+}
+
+void Monitor::hold_if_over_budget(uint16_t task) {
+  uint64_t hold_until = 0;
+  {
+    std::lock_guard lock(mu_);
+    if (budget_factor_ == 0) return;
+    const uint64_t period = decider_.task_period_us(task);
+    const uint64_t budget = uint64_t{budget_factor_} * decider_.task_actuations_per_job(task);
+    if (period == 0 || budget == 0) return;
+    const uint64_t now = monotonic_us();
+    auto job_it = jobs_.find(task);
+    const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+    Budget& b = budgets_[task];
+    // A new job (the task slept) or a whole period since the window opened
+    // (a task that never sleeps) starts a fresh budget.
+    if (b.job != job || now >= b.window_start_us + period) {
+      b.job = job;
+      b.window_start_us = now;
+      b.used = 0;
+    }
+    if (++b.used <= budget) return;
+    hold_until = b.window_start_us + period;
+    ++b.holds_unreported;
+    holds_.fetch_add(1);
+    if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
+      const char* name = task < task_names_.size() ? task_names_[task].c_str() : "";
+      audit_.event("over-budget",
+                   fmt::format("task {} ({}): over its budget of {} transfers per job; {} "
+                               "transfer(s) held to the end of the period since the last report",
+                               task, name, budget, b.holds_unreported));
+      b.holds_unreported = 0;
+      b.reported_at_us = now;
+    }
+    // The held transfer opens the next window (another thread of the task
+    // arriving meanwhile spends that window's budget early, then waits for
+    // the one after: on average still `budget` per period).
+    b.window_start_us = hold_until;
+    b.used = 1;
+  }
+  const timespec until{static_cast<time_t>(hold_until / 1000000u),
+                       static_cast<long>(hold_until % 1000000u) * 1000};
+  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
+  }
+}
+
 gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   gate::TransferReply reply;
   if (std::string why = gate::validate(t); !why.empty()) {
@@ -82,6 +131,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     reply.err = EINVAL;
     return reply;
   }
+  hold_if_over_budget(task);
   std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);
   if (bus_it == buses_.end()) {

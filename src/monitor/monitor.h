@@ -39,6 +39,13 @@ class Monitor final : public gate::Endpoint {
 
   void add_bus(uint8_t number, bus::Bus* bus);
   void set_task_names(std::vector<std::string> names) { task_names_ = std::move(names); }
+  // Over-budget hold (0 = off): once a task has sent more than `factor` x
+  // its declared actuations per job in one job (or one period, for a task
+  // that never sleeps), its next transfer waits until that period is over.
+  // The schedulability test assumes N_i checked commands per job; this bounds
+  // what a runaway or hostile task can make the monitor do for it.
+  void set_budget_factor(uint32_t factor);
+  uint64_t holds() const { return holds_.load(); }
 
   // Drives every actuator to its safe state; logs `why`.
   void drive_safe_state(const std::string& why);
@@ -68,12 +75,20 @@ class Monitor final : public gate::Endpoint {
     uint32_t job = 1;
     uint64_t started_us = 0;
   };
+  struct Budget {
+    uint32_t job = 0;
+    uint64_t window_start_us = 0;
+    uint32_t used = 0;
+    uint64_t holds_unreported = 0;
+    uint64_t reported_at_us = 0;
+  };
 
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
   int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
   void sample_device_locked(uint16_t device);
+  void hold_if_over_budget(uint16_t task);
   void drive_safe_state_locked(const std::string& why);
 
   Decider& decider_;
@@ -84,6 +99,9 @@ class Monitor final : public gate::Endpoint {
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   std::map<uint16_t, Sample> samples_;
   std::map<uint16_t, JobState> jobs_;
+  uint32_t budget_factor_ = 0;
+  std::map<uint16_t, Budget> budgets_;
+  std::atomic<uint64_t> holds_{0};
   std::atomic<uint64_t> decisions_{0};
   std::thread sampler_;
   std::condition_variable sampler_cv_;

@@ -113,6 +113,8 @@ class ScriptedDecider final : public monitor::Decider {
   const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
   uint16_t task_priority(uint16_t task) const override { return task == 0 ? 9 : 0; }
+  // Task 0 declares two checked commands per job; others declare none.
+  uint32_t task_actuations_per_job(uint16_t task) const override { return task == 0 ? 2 : 0; }
 
   // The latest sample the monitor handed to the core (via Host::read_sample).
   std::vector<uint8_t> sample(uint16_t device) {
@@ -646,6 +648,43 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   const std::string log = m.log();
   EXPECT_NE(log.find("exceeds"), std::string::npos);
   EXPECT_NE(log.find("\"kind\":\"safe-state\""), std::string::npos);
+}
+
+// A task past its budget (factor x declared actuations, here 1 x 2 per
+// 20 ms period) has every further transfer held to the end of the period;
+// the transfers still happen, later. A task that declares nothing is not held.
+TEST(MonitorBudget, TaskOverItsBudgetWaitsForTheEndOfThePeriod) {
+  AuditedMonitor m;
+  auto pca = std::make_shared<bus::Pca9685>();
+  m.vbus.attach(pca);
+  gate::Transfer w;
+  w.bus = 1;
+  gate::Message msg;
+  msg.addr = 0x40;
+  msg.len = 2;
+  w.messages.push_back(msg);
+  auto send = [&](uint16_t task, uint8_t value) {
+    w.messages[0].data = {0x07, value};
+    return m.mon.transfer(task, w).err;
+  };
+  EXPECT_EQ(send(0, 1), 0);  // off by default
+  EXPECT_EQ(send(0, 2), 0);
+  EXPECT_EQ(send(0, 3), 0);
+  EXPECT_EQ(m.mon.holds(), 0u);
+
+  m.mon.set_budget_factor(1);
+  const auto start = std::chrono::steady_clock::now();
+  for (uint8_t i = 1; i <= 7; ++i) EXPECT_EQ(send(0, i), 0);
+  const auto elapsed = std::chrono::steady_clock::now() - start;
+  // Windows: {1,2} then 3 held, {3,4} then 5 held, {5,6} then 7 held.
+  EXPECT_EQ(m.mon.holds(), 3u);
+  EXPECT_GE(elapsed, std::chrono::milliseconds(60));  // three whole periods, never less
+  EXPECT_EQ(pca->reg(0x07), 7);
+  for (uint8_t i = 1; i <= 10; ++i) EXPECT_EQ(send(1, i), 0);
+  EXPECT_EQ(m.mon.holds(), 3u);
+  const std::string log = m.log();
+  EXPECT_NE(log.find("\"kind\":\"over-budget\""), std::string::npos) << log;
+  EXPECT_NE(log.find("over its budget of 2 transfers per job"), std::string::npos) << log;
 }
 
 TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
