@@ -20,7 +20,7 @@ void register_monitor(CLI::App& app) {
     std::vector<unsigned> uids;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool realtime = false;
-    uint32_t budget_factor = monitor::SetupOptions::kDefaultBudgetFactor;
+    uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();

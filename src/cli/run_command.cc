@@ -19,7 +19,7 @@ void register_run(CLI::App& app) {
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
     bool realtime = false;
-    uint32_t budget_factor = monitor::SetupOptions::kDefaultBudgetFactor;
+    uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file (embedded monitor)");

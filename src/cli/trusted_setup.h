@@ -22,8 +22,7 @@ struct SetupOptions {
   std::string audit = "-";                // audit log path ("-" = stderr)
   std::map<int, std::string> real_buses;  // bus number -> /dev/i2c-N
   std::vector<int> virtual_buses;  // buses hosting PCA9685 0x40, GoPiGo2 0x08, line follower 0x06
-  uint32_t budget_factor = kDefaultBudgetFactor;  // Monitor::set_budget_factor (0 = off)
-  static constexpr uint32_t kDefaultBudgetFactor = 4;
+  uint32_t budget_factor = Monitor::kDefaultBudgetFactor;  // set_budget_factor (0 = off)
 };
 
 struct Trusted {

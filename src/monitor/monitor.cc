@@ -75,18 +75,16 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
   return 0;
 }
 
-void Monitor::set_budget_factor(uint32_t factor) {
-  std::lock_guard lock(mu_);
-  budget_factor_ = factor;
-}
+void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
 
 void Monitor::hold_if_over_budget(uint16_t task) {
+  const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
+  if (factor == 0) return;
   uint64_t hold_until = 0;
   {
     std::lock_guard lock(mu_);
-    if (budget_factor_ == 0) return;
     const uint64_t period = decider_.task_period_us(task);
-    const uint64_t budget = uint64_t{budget_factor_} * decider_.task_actuations_per_job(task);
+    const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
     const uint64_t now = monotonic_us();
     auto job_it = jobs_.find(task);

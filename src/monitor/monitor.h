@@ -45,6 +45,7 @@ class Monitor final : public gate::Endpoint {
   // The schedulability test assumes N_i checked commands per job; this bounds
   // what a runaway or hostile task can make the monitor do for it.
   void set_budget_factor(uint32_t factor);
+  static constexpr uint32_t kDefaultBudgetFactor = 4;  // what the CLI sets
   uint64_t holds() const { return holds_.load(); }
 
   // Drives every actuator to its safe state; logs `why`.
@@ -99,7 +100,7 @@ class Monitor final : public gate::Endpoint {
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   std::map<uint16_t, Sample> samples_;
   std::map<uint16_t, JobState> jobs_;
-  uint32_t budget_factor_ = 0;
+  std::atomic<uint32_t> budget_factor_{0};  // read without mu_ when off
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
   std::atomic<uint64_t> decisions_{0};

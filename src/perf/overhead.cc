@@ -67,13 +67,22 @@ class PassDecider final : public monitor::Decider {
   bool safe_state(uint16_t, core::Verdict*) override { return false; }
   uint32_t device_count() const override { return 0; }
   const core::DeviceRecord& device(uint16_t) const override { return none_; }
-  uint32_t task_period_us(uint16_t) const override { return 20000; }
+  uint32_t task_period_us(uint16_t) const override { return period_us_; }
   // The DoS measure's follower outranks everything else (the burst has none).
   uint16_t task_priority(uint16_t task) const override { return task == 0 ? 20 : 0; }
+  uint32_t task_actuations_per_job(uint16_t) const override { return actuations_; }
+  // Every task declares this period and one actuation per job (the DoS
+  // measure with the monitor's over-budget hold).
+  void declare(uint32_t period_us) {
+    period_us_ = period_us;
+    actuations_ = 1;
+  }
 
  private:
   core::Host host_{};
   core::DeviceRecord none_{};
+  uint32_t period_us_ = 20000;
+  uint32_t actuations_ = 0;
 };
 
 const std::map<std::string, uint16_t>& task_ids() {
@@ -129,6 +138,8 @@ class Rig {
     if (mon) mon->stop_sampling();
   }
 
+  PassDecider& pass() { return pass_; }
+
   bus::VirtualBus bus;
   monitor::AuditLog audit;
   std::unique_ptr<monitor::Monitor> mon;
@@ -159,8 +170,11 @@ struct TempDir {
 // The separate monitor process. Forked before this process starts threads.
 class MonitorProcess {
  public:
+  // budget_period_us > 0: every task declares that period and one actuation
+  // per job, and the monitor holds a task past its budget (the CLI's default
+  // factor).
   Status start(const std::string& dir, const std::string& name, const Workload& w, uint32_t spin_us,
-               bool realtime = false) {
+               bool realtime = false, uint32_t budget_period_us = 0) {
     socket_ = dir + "/" + name + ".sock";
     audit_ = dir + "/" + name + "-audit.jsonl";
     fflush(nullptr);
@@ -169,6 +183,10 @@ class MonitorProcess {
     if (pid_ == 0) {
       auto rig = Rig::make(audit_, w);
       if (!rig.ok()) _exit(1);
+      if (budget_period_us > 0) {
+        (*rig)->pass().declare(budget_period_us);
+        (*rig)->mon->set_budget_factor(monitor::Monitor::kDefaultBudgetFactor);
+      }
       (*rig)->start();
       gate::SpinPolicy spin;
       spin.spin_us = spin_us;
@@ -454,8 +472,13 @@ Result<Report> run(const Options& o) {
     }
   }
   const Workload pass = example_workloads()[0];
-  MonitorProcess dos_process, dos_rt_process;
+  MonitorProcess dos_process, dos_rt_process, dos_budget_process;
   if (o.dos) {
+    if (Status s = dos_budget_process.start(dir.path, "monitor-dos-budget", pass, o.spin_us, false,
+                                            o.dos_period_us);
+        !s.ok()) {
+      return make_error(s.error());
+    }
     if (Status s = dos_process.start(dir.path, "monitor-dos", pass, o.spin_us); !s.ok()) {
       return make_error(s.error());
     }
@@ -548,6 +571,9 @@ Result<Report> run(const Options& o) {
         // The follower's program, supervisor and monitor thread under
         // SCHED_FIFO at its policy priority; the burst task has none.
         {"channel, SCHED_FIFO", &dos_rt_process, {true, o.spin_us, true}},
+        // Both tasks declare one actuation per period; the monitor holds a
+        // task past 4 per period (--budget-factor's default) to the period's end.
+        {"channel, budget hold", &dos_budget_process, {true, o.spin_us, false}},
     };
     for (const Variant& v : variants) {
       DosResult dos;
