@@ -151,6 +151,12 @@ class Rig {
   bool policy_ = false;
 };
 
+// Paths through the separate monitor process.
+bool is_remote(Path p) {
+  return p == Path::kPreload || p == Path::kSeccompMonitor || p == Path::kPreloadSocket ||
+         p == Path::kSeccompMonitorSocket;
+}
+
 std::map<std::string, uint16_t> server_tasks(const Workload& w) {
   if (w.image.empty()) return task_ids();
   return {{w.task, w.task_id}};
@@ -461,14 +467,23 @@ Result<Report> run(const Options& o) {
   TempDir dir;
   if (dir.path.empty()) return make_error(std::string("mkdtemp: ") + strerror(errno));
   const std::vector<Workload> workloads = o.workloads.empty() ? example_workloads() : o.workloads;
+  // Each row starts from a fresh monitor (a process of its own for the
+  // paths through the separate monitor), so that every row of a workload
+  // meets the same decisions: with one monitor per workload, the rows after
+  // the first found its rate window spent and the device latched.
   // Every monitor process is forked before this process starts a thread.
-  std::vector<std::unique_ptr<MonitorProcess>> processes;
+  std::map<std::pair<size_t, Path>, std::unique_ptr<MonitorProcess>> processes;
   for (size_t i = 0; i < workloads.size(); ++i) {
-    processes.push_back(std::make_unique<MonitorProcess>());
-    if (Status s = processes.back()->start(dir.path, fmt::format("monitor-{}", i), workloads[i],
-                                           o.spin_us);
-        !s.ok()) {
-      return make_error(s.error());
+    for (Path p : kAllPaths) {
+      const bool preload = p == Path::kPreload || p == Path::kPreloadSocket;
+      if (!is_remote(p) || (preload && o.preload_lib.empty())) continue;
+      auto& proc = processes[{i, p}];
+      proc = std::make_unique<MonitorProcess>();
+      if (Status s = proc->start(dir.path, fmt::format("monitor-{}-{}", i, static_cast<int>(p)),
+                                 workloads[i], o.spin_us);
+          !s.ok()) {
+        return make_error(s.error());
+      }
     }
   }
   const Workload pass = example_workloads()[0];
@@ -496,21 +511,23 @@ Result<Report> run(const Options& o) {
   const std::string out = dir.path + "/samples.bin";
   for (size_t wi = 0; wi < workloads.size(); ++wi) {
     const Workload& w = workloads[wi];
-    const MonitorProcess& proc = *processes[wi];
-    const std::string local_audit = fmt::format("{}/local-{}-audit.jsonl", dir.path, wi);
-    auto rig = Rig::make(local_audit, w);
-    if (!rig.ok()) return make_error(rig.error());
-    Rig& local = **rig;
-    local.start();
     for (Path p : kAllPaths) {
+      const bool remote = is_remote(p);
+      const std::string local_audit =
+          fmt::format("{}/local-{}-{}-audit.jsonl", dir.path, wi, static_cast<int>(p));
+      auto rig = Rig::make(local_audit, w);
+      if (!rig.ok()) return make_error(rig.error());
+      Rig& local = **rig;
+      if (!remote) local.start();
+      auto found = processes.find({wi, p});
+      if (remote && found == processes.end()) continue;  // preload paths without the library
+      const MonitorProcess* proc = remote ? found->second.get() : nullptr;
       Row row;
       row.workload = w.name;
       row.path = p;
       Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
       const auto argv = task_argv(o, w, o.trials, out, 0);
-      const bool remote = p == Path::kPreload || p == Path::kSeccompMonitor ||
-                          p == Path::kPreloadSocket || p == Path::kSeccompMonitorSocket;
-      const std::string& audit = remote ? proc.audit() : local_audit;
+      const std::string& audit = remote ? proc->audit() : local_audit;
       const auto before = decisions_in(audit);
       switch (p) {
         case Path::kUnprotected:
@@ -527,13 +544,13 @@ Result<Report> run(const Options& o) {
           Transport how;
           how.channel = p == Path::kSeccompMonitor;
           how.spin_us = o.spin_us;
-          ns = run_over_socket(proc.socket(), w, argv, &row, how);
+          ns = run_over_socket(proc->socket(), w, argv, &row, how);
           break;
         }
         case Path::kPreload:
         case Path::kPreloadSocket:
           if (o.preload_lib.empty()) continue;
-          ns = run_preload(o, proc.socket(), w, argv, &row, p == Path::kPreload);
+          ns = run_preload(o, proc->socket(), w, argv, &row, p == Path::kPreload);
           break;
       }
       if (!ns.ok())
