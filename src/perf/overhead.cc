@@ -513,15 +513,20 @@ Result<Report> run(const Options& o) {
     const Workload& w = workloads[wi];
     for (Path p : kAllPaths) {
       const bool remote = is_remote(p);
+      const MonitorProcess* proc = nullptr;
+      std::unique_ptr<Rig> local;
       const std::string local_audit =
           fmt::format("{}/local-{}-{}-audit.jsonl", dir.path, wi, static_cast<int>(p));
-      auto rig = Rig::make(local_audit, w);
-      if (!rig.ok()) return make_error(rig.error());
-      Rig& local = **rig;
-      if (!remote) local.start();
-      auto found = processes.find({wi, p});
-      if (remote && found == processes.end()) continue;  // preload paths without the library
-      const MonitorProcess* proc = remote ? found->second.get() : nullptr;
+      if (remote) {
+        auto found = processes.find({wi, p});
+        if (found == processes.end()) continue;  // preload paths without the library
+        proc = found->second.get();
+      } else {
+        auto rig = Rig::make(local_audit, w);
+        if (!rig.ok()) return make_error(rig.error());
+        local = std::move(*rig);
+        local->start();
+      }
       Row row;
       row.workload = w.name;
       row.path = p;
@@ -531,13 +536,13 @@ Result<Report> run(const Options& o) {
       const auto before = decisions_in(audit);
       switch (p) {
         case Path::kUnprotected:
-          ns = time_unprotected(local.bus, w, o.trials);
+          ns = time_unprotected(local->bus, w, o.trials);
           break;
         case Path::kCore:
-          ns = time_core(*local.mon, w, o.trials, &row.failures);
+          ns = time_core(*local->mon, w, o.trials, &row.failures);
           break;
         case Path::kSeccompInProcess:
-          ns = run_seccomp(argv, *local.mon, w.task_id, &row);
+          ns = run_seccomp(argv, *local->mon, w.task_id, &row);
           break;
         case Path::kSeccompMonitor:
         case Path::kSeccompMonitorSocket: {
@@ -549,7 +554,6 @@ Result<Report> run(const Options& o) {
         }
         case Path::kPreload:
         case Path::kPreloadSocket:
-          if (o.preload_lib.empty()) continue;
           ns = run_preload(o, proc->socket(), w, argv, &row, p == Path::kPreload);
           break;
       }
@@ -567,8 +571,8 @@ Result<Report> run(const Options& o) {
 
   if (o.dos) {
     // The follower keeps its period while the burst task sends back to back,
-    // both supervised, both through the separate monitor process: once
-    // through the shared-memory channel, once over the socket alone.
+    // both supervised, both through a separate monitor process, in the
+    // variants below.
     const Workload follower = pass;
     Workload burst = follower;
     burst.task = "burst";
