@@ -35,13 +35,7 @@
 
 #include "base/realtime.h"
 #include "intercept/i2c_abi/i2c_abi.h"
-
-#ifndef SECCOMP_IOCTL_NOTIF_SET_FLAGS
-#define SECCOMP_IOCTL_NOTIF_SET_FLAGS SECCOMP_IOW(4, __u64)
-#endif
-#ifndef SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP
-#define SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP (1UL << 0)
-#endif
+#include "intercept/seccomp/uapi_fallback.h"
 
 namespace contego::intercept::seccomp {
 namespace {
