@@ -40,6 +40,7 @@ struct Expr {
   Span name_span;
   bool negated = false;
   std::vector<ExprPtr> kids;
+  uint32_t height = 1;  // of the tree below and including this node
   std::vector<std::string> arg_names;
   std::vector<Span> arg_name_spans;
 };

@@ -1,5 +1,6 @@
 #include "policy/parse/parse.h"
 
+#include <algorithm>
 #include <string_view>
 
 namespace contego::policy {
@@ -542,10 +543,22 @@ class Parser {
     e->name = std::move(name);
     return e;
   }
+  // Every child goes in through here, so the tree's height is known at each
+  // node: operator chains (`1 + 1 + ...`) and postfix chains grow the tree
+  // without recursing in the parser, but every later pass recurses over it.
+  void adopt(Expr& parent, ExprPtr kid) {
+    parent.height = std::max(parent.height, kid->height + 1);
+    parent.kids.push_back(std::move(kid));
+    if (parent.height > kMaxExprHeight && !failed_) {
+      diags_.emit(DiagKind::kExpressionTooLong, parent.span, kMaxExprHeight);
+      failed_ = true;
+    }
+  }
+
   ExprPtr binary(std::string op, ExprPtr l, ExprPtr r) {
     auto e = make(ExprKind::kBinary, {l->span.begin, r->span.end}, std::move(op));
-    e->kids.push_back(std::move(l));
-    e->kids.push_back(std::move(r));
+    adopt(*e, std::move(l));
+    adopt(*e, std::move(r));
     return e;
   }
 
@@ -570,7 +583,7 @@ class Parser {
       const uint32_t begin = advance().span.begin;
       ExprPtr inner = not_expr();
       auto e = make(ExprKind::kUnary, {begin, inner->span.end}, "not");
-      e->kids.push_back(std::move(inner));
+      adopt(*e, std::move(inner));
       return e;
     }
     return comparison();
@@ -593,8 +606,8 @@ class Parser {
       ExprPtr r = range_expr();
       auto e = make(ExprKind::kIn, {l->span.begin, r->span.end}, "in");
       e->negated = negated;
-      e->kids.push_back(std::move(l));
-      e->kids.push_back(std::move(r));
+      adopt(*e, std::move(l));
+      adopt(*e, std::move(r));
       return e;
     }
     if (negated) fail("`in`");
@@ -610,8 +623,8 @@ class Parser {
     }
     ExprPtr hi = additive();
     auto e = make(ExprKind::kRange, {lo->span.begin, hi->span.end});
-    e->kids.push_back(std::move(lo));
-    e->kids.push_back(std::move(hi));
+    adopt(*e, std::move(lo));
+    adopt(*e, std::move(hi));
     return e;
   }
   ExprPtr additive() {
@@ -649,7 +662,7 @@ class Parser {
       const uint32_t begin = advance().span.begin;
       ExprPtr inner = unary();
       auto e = make(ExprKind::kUnary, {begin, inner->span.end}, "-");
-      e->kids.push_back(std::move(inner));
+      adopt(*e, std::move(inner));
       return e;
     }
     return postfix();
@@ -662,15 +675,15 @@ class Parser {
         if (!ident(member, "a name after `.`")) return e;
         auto m = make(ExprKind::kMember, {e->span.begin, member.span.end}, member.name);
         m->name_span = member.span;
-        m->kids.push_back(std::move(e));
+        adopt(*m, std::move(e));
         e = std::move(m);
       } else if (at(Tok::kLBracket) && e->kind != ExprKind::kInt) {
         advance();
         ExprPtr idx = expr();
         if (failed_ || !expect(Tok::kRBracket)) return e;
         auto m = make(ExprKind::kIndex, {e->span.begin, prev_end_});
-        m->kids.push_back(std::move(e));
-        m->kids.push_back(std::move(idx));
+        adopt(*m, std::move(e));
+        adopt(*m, std::move(idx));
         e = std::move(m);
       } else if (at(Tok::kLParen) && e->kind == ExprKind::kName) {
         advance();
@@ -691,11 +704,11 @@ class Parser {
             if (!failed_ && accept(Tok::kDotDot)) {  // a range argument: `speed=80..90`
               ExprPtr hi = additive();
               auto r = make(ExprKind::kRange, {arg->span.begin, hi->span.end});
-              r->kids.push_back(std::move(arg));
-              r->kids.push_back(std::move(hi));
+              adopt(*r, std::move(arg));
+              adopt(*r, std::move(hi));
               arg = std::move(r);
             }
-            e->kids.push_back(std::move(arg));
+            adopt(*e, std::move(arg));
             if (failed_) return e;
           } while (accept(Tok::kComma));
         }
@@ -748,7 +761,13 @@ class Parser {
         const Tok close = list ? Tok::kRBracket : Tok::kRBrace;
         if (!at(close)) {
           do {
-            e->kids.push_back(expr());
+            if (e->kids.size() == kMaxElements) {
+              diags_.emit(DiagKind::kTooManyElements, peek().span, list ? "a list" : "a set",
+                          kMaxElements);
+              failed_ = true;
+            }
+            if (failed_) return e;
+            adopt(*e, expr());
             if (failed_) return e;
           } while (accept(Tok::kComma));
         }

@@ -6,6 +6,8 @@
 #ifndef CONTEGO_POLICY_PARSE_PARSE_H_
 #define CONTEGO_POLICY_PARSE_PARSE_H_
 
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "policy/diag/diag.h"
@@ -15,6 +17,11 @@
 namespace contego::policy {
 
 inline constexpr int kMaxNesting = 32;
+// An expression tree at most this tall (a chain of 256 operators), and sets
+// and lists of at most this many elements: the passes after the parser
+// recurse over the tree, and no program holds more than 512 instructions.
+inline constexpr uint32_t kMaxExprHeight = 256;
+inline constexpr size_t kMaxElements = 256;
 
 ast::File parse(const std::vector<Token>& tokens, DiagnosticEmitter& diags);
 

@@ -84,6 +84,36 @@ TEST(Parse, NestingLimitStopsDeepExpressions) {
   EXPECT_EQ(p.diags[0].id, "E0203");
 }
 
+// Operator and postfix chains build a tall tree without recursing in the
+// parser; every later pass recurses over it, so the parser bounds its height.
+std::string chain(const std::string& term, const std::string& op, int n) {
+  std::string s = term;
+  for (int i = 1; i < n; ++i) s += op + term;
+  return s;
+}
+
+TEST(Parse, LongOperatorChainsAreRefusedNotRecursedInto) {
+  const Parsed p = run("const A = " + chain("1", " + ", 30000) + "\n");
+  ASSERT_EQ(p.diags.size(), 1u);
+  EXPECT_EQ(p.diags[0].id, "E0207");
+  const Parsed postfix = run("const A = x" + chain("", "[0]", 30000) + "\n");
+  ASSERT_EQ(postfix.diags.size(), 1u);
+  EXPECT_EQ(postfix.diags[0].id, "E0207");
+  // The limit is the height: 256 operators are the most a chain may have.
+  EXPECT_TRUE(run("const A = " + chain("1", " + ", 256) + "\n").diags.empty());
+  EXPECT_EQ(run("const A = " + chain("1", " + ", 258) + "\n").diags.size(), 1u);
+}
+
+TEST(Parse, HugeSetsAndListsAreRefused) {
+  const Parsed p = run("const A = 1 in {" + chain("1", ", ", 100000) + "}\n");
+  ASSERT_EQ(p.diags.size(), 1u);
+  EXPECT_EQ(p.diags[0].id, "E0208");
+  EXPECT_NE(p.diags[0].message.find("a set of more than 256"), std::string::npos)
+      << p.diags[0].message;
+  EXPECT_EQ(run("const A = [" + chain("1", ", ", 257) + "]\n").diags.size(), 1u);
+  EXPECT_TRUE(run("const A = 1 in {" + chain("1", ", ", 256) + "}\n").diags.empty());
+}
+
 TEST(Parse, GarbageDoesNotLoopForever) {
   const Parsed p = run("} } ) ( { device { { ]");
   EXPECT_FALSE(p.diags.empty());
