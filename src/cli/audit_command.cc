@@ -5,6 +5,7 @@
 #include <fmt/core.h>
 #include <fstream>
 
+#include "base/read_file.h"
 #include "cli/command.h"
 #include "monitor/audit_log.h"
 
@@ -15,6 +16,10 @@ void register_audit(CLI::App& app) {
   auto* cmd = app.add_subcommand("audit", "Verify an audit log's hash chain and summarise it");
   cmd->add_option("LOG", *path, "the monitor's audit log (JSON lines)")->required();
   cmd->callback([path] {
+    if (Status s = require_regular_file(*path); !s.ok()) {
+      fmt::print(stderr, "contego audit: {}\n", s.error());
+      return set_exit_code(1);
+    }
     std::ifstream in(*path);
     if (!in) {
       fmt::print(stderr, "contego audit: cannot read {}\n", *path);

@@ -9,6 +9,7 @@
 
 #include "contego/core/checker.h"
 
+#include "base/read_file.h"
 #include "cli/command.h"
 #include "image/image_model.h"
 
@@ -21,14 +22,13 @@ void register_image(CLI::App& app) {
   static std::string path;
   dump->add_option("IMAGE", path, "policy image file (from `contego check --emit`)")->required();
   dump->callback([] {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-      fmt::print(stderr, "contego image dump: cannot read `{}`\n", path);
+    Result<std::string> text = read_input_file(path);
+    if (!text) {
+      fmt::print(stderr, "contego image dump: {}\n", text.error());
       set_exit_code(2);
       return;
     }
-    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
-                                     std::istreambuf_iterator<char>());
+    const std::vector<uint8_t> bytes(text->begin(), text->end());
     auto checker = std::make_unique<core::Checker>();
     const core::LoadResult r = checker->load(bytes.data(), static_cast<uint32_t>(bytes.size()));
     if (r.status != core::LoadStatus::kOk) {

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/read_file.h"
 #include "cli/command.h"
 #include "policy/compile.h"
 #include "policytest/runner.h"
@@ -22,14 +23,12 @@ int run_policy_tests(const std::string& policy_path, const std::string& test_pat
     fmt::print(stderr, "{}: does not compile; no test run\n", policy_path);
     return 2;
   }
-  std::ifstream in(test_path, std::ios::binary);
-  if (!in) {
-    fmt::print(stderr, "{}: cannot read the test file\n", test_path);
+  Result<std::string> text = read_input_file(test_path);
+  if (!text) {
+    fmt::print(stderr, "cannot read the test file {}\n", text.error());
     return 2;
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  policytest::ParseResult parsed = policytest::parse_test_file(test_path, text.str());
+  policytest::ParseResult parsed = policytest::parse_test_file(test_path, *text);
   if (!parsed.ok()) {
     for (const policytest::ParseError& e : parsed.errors) fmt::print(stderr, "{}\n", e.rendered);
     return 2;

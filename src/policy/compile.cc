@@ -7,6 +7,7 @@
 
 #include "contego/core/checker.h"
 
+#include "base/read_file.h"
 #include "policy/check/check.h"
 #include "policy/diag/diag.h"
 #include "policy/lex/lex.h"
@@ -165,18 +166,19 @@ CompileOutput compile_source(const std::string& file_name, const std::string& te
 }
 
 CompileOutput compile_file(const std::string& path, const CompileOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  Result<std::string> text = read_input_file(path);
+  if (!text) {
     CompileOutput out;
     SourceBuffer source(path, "");
     DiagnosticEmitter diags(source);
-    diags.emit(DiagKind::kCannotRead, Span{}, path, "no such file or no permission to read it");
+    // The message names the path already; the diagnostic names it once.
+    std::string why = text.error();
+    if (why.starts_with(path + ": ")) why.erase(0, path.size() + 2);
+    diags.emit(DiagKind::kCannotRead, Span{}, path, why);
     out.diagnostics = diags.take();
     return out;
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return compile_source(path, text.str(), options);
+  return compile_source(path, *text, options);
 }
 
 }  // namespace contego::policy

@@ -9,6 +9,8 @@
 #include <sstream>
 #include <vector>
 
+#include "base/read_file.h"
+
 namespace contego::sched {
 namespace {
 
@@ -245,14 +247,7 @@ Result<TaskSet> parse_json(const std::string& text, const std::string& source) {
   return finish(std::move(set), source);
 }
 
-Result<std::string> read_text_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return make_error(path + ": cannot open");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) return make_error(path + ": read error");
-  return ss.str();
-}
+Result<std::string> read_text_file(const std::string& path) { return read_input_file(path); }
 
 Result<TaskSet> read_task_set_file(const std::string& path) {
   Result<std::string> text = read_text_file(path);

@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include "base/read_file.h"
 #include "sim/arm.h"
 #include "sim/camera.h"
 #include "sim/pump.h"
@@ -141,12 +142,10 @@ Result<Scenario> parse_scenario(std::string_view text, const std::string& file_n
 }
 
 Result<Scenario> load_scenario(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) return make_error(path + ": cannot open scenario file");
-  std::stringstream ss;
-  ss << f.rdbuf();
+  Result<std::string> text = read_input_file(path);
+  if (!text) return make_error("cannot read the scenario file " + text.error());
   auto dir = std::filesystem::path(path).parent_path().string();
-  return parse_scenario(ss.str(), path, dir.empty() ? "." : dir);
+  return parse_scenario(*text, path, dir.empty() ? "." : dir);
 }
 
 Result<std::unique_ptr<World>> make_world(const Scenario& scenario, uint64_t seed) {
