@@ -457,6 +457,25 @@ uint64_t AuditLog::lines() const {
   return lines_;
 }
 
+namespace {
+
+// A record cut off by a kill is the start of a record: it opens an object,
+// and if it got as far as its "prev", that names the hash of the line before
+// (`prev_hash`; empty: any, for the first line of a file).
+bool is_torn_record(std::string_view tail, std::string_view prev_hash) {
+  if (tail != "{" && !tail.starts_with("{\"")) return false;
+  static constexpr std::string_view kPrev = "\"prev\":\"";
+  const size_t at = tail.find(kPrev);
+  if (at == std::string_view::npos) return true;
+  const std::string_view hash = tail.substr(at + kPrev.size(), 64);
+  if (prev_hash.empty()) {
+    return hash.find_first_not_of("0123456789abcdef") == std::string_view::npos;
+  }
+  return prev_hash.starts_with(hash);
+}
+
+}  // namespace
+
 AuditCheck verify_audit(std::istream& in) {
   AuditCheck c;
   AuditSummary& s = c.summary;
@@ -468,7 +487,9 @@ AuditCheck verify_audit(std::istream& in) {
     return c;
   };
   while (std::getline(in, line)) {
-    if (line.empty()) continue;
+    // The writer never writes an empty line: one here was inserted.
+    if (line.empty() && !in.eof()) return fail("blank line (inserted: the monitor writes none)");
+    if (line.empty()) break;
     // getline stopped at the end of the file, not at a newline: the tail of
     // a mapped log whose monitor was killed. Zero padding is skipped; a
     // record cut off by the kill (its decision never acted: a record is
@@ -482,6 +503,9 @@ AuditCheck verify_audit(std::istream& in) {
     if (line.find('\0') != std::string::npos) return fail("zero bytes inside the log");
     if (unterminated &&
         (line.back() != '}' || nlohmann::json::parse(line, nullptr, false).is_discarded())) {
+      if (!is_torn_record(line, s.lines == 0 ? std::string_view{} : prev_hash)) {
+        return fail("text after the last record that is no record cut off by a kill");
+      }
       s.torn_tail = true;
       break;
     }
