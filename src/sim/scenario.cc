@@ -124,6 +124,15 @@ Result<Scenario> parse_scenario(std::string_view text, const std::string& file_n
   if (sc.trace_us % sc.step_us != 0) {
     return make_error(file_name + ": 'trace' must be a multiple of 'step'");
   }
+  // Bounds, so a typo cannot make a run that allocates its trace until it
+  // dies: an hour of plant time, a million trace rows.
+  if (sc.duration_us > kMaxScenarioDurationUs) {
+    return make_error(file_name + ": 'duration' is longer than an hour; expected at most 60min");
+  }
+  if (sc.duration_us / sc.trace_us > kMaxTraceRows) {
+    return make_error(file_name + ": 'duration' / 'trace' is more than " +
+                      std::to_string(kMaxTraceRows) + " trace rows; expected a longer 'trace'");
+  }
   if (sc.attacks.empty()) return make_error(file_name + ": no 'attack' line");
   for (const auto& a : sc.attacks) {
     if (a.end_us > sc.duration_us) {

@@ -15,6 +15,9 @@
 
 namespace contego::sim {
 
+inline constexpr uint64_t kMaxScenarioDurationUs = 3'600'000'000;  // an hour of plant time
+inline constexpr uint64_t kMaxTraceRows = 1'000'000;
+
 struct Scenario {
   std::string name;         // file name without directory and extension
   std::string title;        // `title` line, for plots and the summary

@@ -59,5 +59,18 @@ TEST(ScenarioTest, RefusesRepeatedKeywordsAndMissingLines) {
             std::string::npos);
 }
 
+TEST(ScenarioTest, RefusesRunsTooLongToTrace) {
+  // 10^14 s ran for half a minute and died allocating its trace.
+  auto huge =
+      parse("platform rover\npolicy p\nduration 100000000000000s\nattack spoof from 1s to 2s\n");
+  ASSERT_FALSE(huge.ok());
+  EXPECT_NE(huge.error().find("longer than an hour"), std::string::npos) << huge.error();
+  auto rows = parse(
+      "platform rover\npolicy p\nduration 60min\nstep 1ms\ntrace 1ms\n"
+      "attack spoof from 1s to 2s\n");
+  ASSERT_FALSE(rows.ok());
+  EXPECT_NE(rows.error().find("trace rows"), std::string::npos) << rows.error();
+}
+
 }  // namespace
 }  // namespace contego::sim
