@@ -624,8 +624,14 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     sigprocmask(SIG_SETMASK, &child_mask, nullptr);
     int fd = -1;
     if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
-      fd = static_cast<int>(
-          syscall(SYS_seccomp, SECCOMP_SET_MODE_FILTER, SECCOMP_FILTER_FLAG_NEW_LISTENER, &prog));
+      // WAIT_KILLABLE_RECV: once the supervisor has taken a call, only a
+      // fatal signal interrupts the program's wait for the answer. Without
+      // it a signal cancels a call the supervisor may already have
+      // performed: the program sees EINTR for a transfer that acted, or
+      // (SA_RESTART) issues it again and it acts twice.
+      fd = static_cast<int>(syscall(
+          SYS_seccomp, SECCOMP_SET_MODE_FILTER,
+          SECCOMP_FILTER_FLAG_NEW_LISTENER | SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV, &prog));
     }
     int msg = fd >= 0 ? fd : -errno;
     if (write(to_parent[1], &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
@@ -648,6 +654,12 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     waitpid(child, nullptr, 0);
     return make_error(why);
   };
+  if (got == sizeof msg && msg == -EINVAL) {
+    return abandon(
+        "cannot install the seccomp filter: the kernel has no "
+        "SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV (Linux 5.19 or later is needed, so that a "
+        "signal cannot make a checked transfer act twice or act while reporting failure)");
+  }
   if (got != sizeof msg || msg < 0) {
     return abandon(std::string("cannot install the seccomp filter: ") +
                    (got == sizeof msg ? strerror(-msg) : "child failed"));

@@ -1,5 +1,5 @@
 // Seccomp user-notification constants newer than some distributions'
-// kernel headers (Linux 6.6); header-only, so that tools which link nothing
+// kernel headers (Linux 5.19, 6.6); header-only, so that tools which link nothing
 // of contego (bench/kernel_floor.cc) can share it.
 #ifndef CONTEGO_INTERCEPT_SECCOMP_UAPI_FALLBACK_H_
 #define CONTEGO_INTERCEPT_SECCOMP_UAPI_FALLBACK_H_
@@ -11,6 +11,10 @@
 #endif
 #ifndef SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP
 #define SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP (1UL << 0)
+#endif
+
+#ifndef SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV
+#define SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV (1UL << 5)
 #endif
 
 #endif  // CONTEGO_INTERCEPT_SECCOMP_UAPI_FALLBACK_H_
