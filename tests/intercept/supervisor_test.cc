@@ -410,7 +410,6 @@ TEST_P(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
 // killable wait, SA_RESTART re-issued calls that had acted (3,006 frames for
 // 3,000 writes) and without it some writes acted although they failed.
 TEST_P(Supervised, SignalsDuringCheckedWritesNeitherRepeatNorHideAnAction) {
-  if (preload()) GTEST_SKIP() << "the preload client is not an enforcement boundary";
   for (const char* mode : {"restart", "eintr"}) {
     const size_t before = allowed_writes_of_0x06();
     auto r = run({CONTEGO_TESTCASES_DIR "/attack_signal_storm", mode});
