@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <gtest/gtest.h>
+#include <linux/i2c.h>
 #include <memory>
 #include <optional>
 #include <string>
@@ -70,6 +71,33 @@ std::vector<uint8_t> seq(size_t n, uint8_t first = 0x10) {
   for (size_t i = 0; i < n; ++i) v[i] = static_cast<uint8_t>(first + i);
   return v;
 }
+
+// The constants are the kernel's.
+static_assert(kFuncI2c == I2C_FUNC_I2C && kFunc10BitAddr == I2C_FUNC_10BIT_ADDR);
+static_assert(kFuncSmbusQuick == I2C_FUNC_SMBUS_QUICK &&
+              kFuncSmbusReadByte == I2C_FUNC_SMBUS_READ_BYTE &&
+              kFuncSmbusWriteByte == I2C_FUNC_SMBUS_WRITE_BYTE &&
+              kFuncSmbusReadByteData == I2C_FUNC_SMBUS_READ_BYTE_DATA &&
+              kFuncSmbusWriteByteData == I2C_FUNC_SMBUS_WRITE_BYTE_DATA &&
+              kFuncSmbusReadWordData == I2C_FUNC_SMBUS_READ_WORD_DATA &&
+              kFuncSmbusWriteWordData == I2C_FUNC_SMBUS_WRITE_WORD_DATA &&
+              kFuncSmbusProcCall == I2C_FUNC_SMBUS_PROC_CALL &&
+              kFuncSmbusBlockProcCall == I2C_FUNC_SMBUS_BLOCK_PROC_CALL &&
+              kFuncSmbusReadBlock == I2C_FUNC_SMBUS_READ_BLOCK_DATA &&
+              kFuncSmbusWriteBlock == I2C_FUNC_SMBUS_WRITE_BLOCK_DATA &&
+              kFuncSmbusReadI2cBlock == I2C_FUNC_SMBUS_READ_I2C_BLOCK &&
+              kFuncSmbusWriteI2cBlock == I2C_FUNC_SMBUS_WRITE_I2C_BLOCK);
+static_assert(kI2cStubFuncs ==
+              (I2C_FUNC_SMBUS_QUICK | I2C_FUNC_SMBUS_BYTE | I2C_FUNC_SMBUS_BYTE_DATA |
+               I2C_FUNC_SMBUS_WORD_DATA | I2C_FUNC_SMBUS_I2C_BLOCK));
+static_assert(static_cast<uint32_t>(SmbusSize::kQuick) == I2C_SMBUS_QUICK &&
+              static_cast<uint32_t>(SmbusSize::kByte) == I2C_SMBUS_BYTE &&
+              static_cast<uint32_t>(SmbusSize::kByteData) == I2C_SMBUS_BYTE_DATA &&
+              static_cast<uint32_t>(SmbusSize::kWordData) == I2C_SMBUS_WORD_DATA &&
+              static_cast<uint32_t>(SmbusSize::kProcCall) == I2C_SMBUS_PROC_CALL &&
+              static_cast<uint32_t>(SmbusSize::kBlockData) == I2C_SMBUS_BLOCK_DATA &&
+              static_cast<uint32_t>(SmbusSize::kBlockProcCall) == I2C_SMBUS_BLOCK_PROC_CALL &&
+              static_cast<uint32_t>(SmbusSize::kI2cBlockData) == I2C_SMBUS_I2C_BLOCK_DATA);
 
 // --- an independent wire model ----------------------------------------------
 
