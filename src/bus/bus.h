@@ -66,8 +66,9 @@ class Bus {
   // and transfer() would answer EOPNOTSUPP before anything reaches the wire.
   // Callers ask first when other parts of an operation (the checker's
   // decision, earlier messages) must not act either. A quick command is a
-  // zero-length message (read flag for a quick read). Default:
-  // plan_transfer() over funcs().
+  // zero-length message (read flag for a quick read). Only the bytes of
+  // write messages are looked at; a read message's buf may be null.
+  // Default: plan_transfer() over funcs().
   virtual Status expressible(std::span<const Msg> msgs) const;
 };
 

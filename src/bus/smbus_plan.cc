@@ -260,7 +260,9 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     if ((m.flags & kRecvLen) && (!(m.flags & kRead) || m.len < 1 + kBlockMax)) {
       return refuse(describe(msgs) + ": RECV_LEN only on a read of a 33-byte buffer");
     }
-    if (m.len != 0 && m.buf == nullptr) return refuse(describe(msgs) + ": message without buffer");
+    if (!(m.flags & kRead) && m.len != 0 && m.buf == nullptr) {
+      return refuse(describe(msgs) + ": a write without its bytes");
+    }
   }
   if (msgs.size() == 1) {
     return (msgs[0].flags & kRead) ? plan_read(msgs, funcs) : plan_write(msgs, funcs);
