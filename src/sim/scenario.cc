@@ -125,13 +125,14 @@ Result<Scenario> parse_scenario(std::string_view text, const std::string& file_n
     return make_error(file_name + ": 'trace' must be a multiple of 'step'");
   }
   // Bounds, so a typo cannot make a run that allocates its trace until it
-  // dies: an hour of plant time, a million trace rows.
-  if (sc.duration_us > kMaxScenarioDurationUs) {
-    return make_error(file_name + ": 'duration' is longer than an hour; expected at most 60min");
-  }
+  // dies or steps for days: a million trace rows, a billion steps.
   if (sc.duration_us / sc.trace_us > kMaxTraceRows) {
     return make_error(file_name + ": 'duration' / 'trace' is more than " +
                       std::to_string(kMaxTraceRows) + " trace rows; expected a longer 'trace'");
+  }
+  if (sc.duration_us / sc.step_us > kMaxSteps) {
+    return make_error(file_name + ": 'duration' / 'step' is more than " +
+                      std::to_string(kMaxSteps) + " steps; expected a shorter 'duration'");
   }
   if (sc.attacks.empty()) return make_error(file_name + ": no 'attack' line");
   for (const auto& a : sc.attacks) {

@@ -15,7 +15,7 @@
 
 namespace contego::sim {
 
-inline constexpr uint64_t kMaxScenarioDurationUs = 3'600'000'000;  // an hour of plant time
+inline constexpr uint64_t kMaxSteps = 1'000'000'000;
 inline constexpr uint64_t kMaxTraceRows = 1'000'000;
 
 struct Scenario {
