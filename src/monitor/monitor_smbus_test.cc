@@ -241,8 +241,8 @@ TEST_F(MonitorSmbus, SafeStateThatCannotBeExpressedIsAFaultWithTheReason) {
   decider.safe = std::vector<uint8_t>(40, 0x00);
   mon.drive_safe_state("again");
   const std::string text = audit_text();
-  EXPECT_NE(text.find("safe state of device 0 failed: errno " + std::to_string(EOPNOTSUPP) +
-                      ": write 40 at 0x40"),
+  EXPECT_NE(text.find("safe state of device 0 (i2c-1 0x40) failed: errno " +
+                      std::to_string(EOPNOTSUPP) + ": write 40 at 0x40"),
             std::string::npos)
       << text;
 }
