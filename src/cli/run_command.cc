@@ -147,6 +147,7 @@ void register_run(CLI::App& app) {
     monitor::SetupOptions so;
     so.policy = args->policy;
     so.audit = args->audit;
+    so.task = args->task;  // an unknown task is refused before the safe state is driven
     auto buses = parse_bus_specs(args->buses, args->virtual_buses);
     if (!buses.ok()) {
       fmt::print(stderr, "contego run: {}\n", buses.error());

@@ -63,6 +63,9 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     t->tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
     names.push_back(out.model.tasks[i].name);
   }
+  if (!o.task.empty() && !t->tasks.contains(o.task)) {
+    return make_error(fmt::format("policy {} declares no task '{}'", o.policy, o.task));
+  }
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
   t->monitor->set_task_names(names);
   t->monitor->set_budget_factor(o.budget_factor);

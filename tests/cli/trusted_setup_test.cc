@@ -82,6 +82,21 @@ TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
   (*t)->monitor->stop_sampling();
 }
 
+// contego run --task NAME: a name the policy does not declare is refused
+// before anything reaches a bus (it used to drive the safe state first).
+TEST_F(SetupTest, UnknownTaskIsRefusedBeforeAnyBusOperation) {
+  bus::VirtualBus vb;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  options_.buses = {{1, &vb}};
+  options_.task = "nosuch";
+  auto t = setup(options_);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("declares no task 'nosuch'"), std::string::npos) << t.error();
+  EXPECT_EQ(vb.operations(), 0u);
+  EXPECT_EQ(gopigo_->frames(), 0u);
+}
+
 TEST_F(SetupTest, MissingDeviceRefusesAfterTheProbesOnly) {
   bus::VirtualBus vb;
   vb.attach(line_);  // no GoPiGo2 at 0x08
