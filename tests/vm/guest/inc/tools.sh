@@ -1,0 +1,72 @@
+# The real i2c-tools under contego (mode $MODE), as policies/arm.policy's
+# arm_init task (it may write and read the PCA9685 at 0x40). Each result is
+# compared with what the kernel shows outside contego.
+A=0x40
+[ "$MODE" = monitor ] && { start_monitor arm.policy || finish; }
+
+run_logged funcs under $MODE arm.policy arm_init i2cdetect -F 1
+[ $RC = 0 ] && grep -q "I2C  *yes\|SMBus" "$OUT" && ok "i2cdetect -F 1: the emulated adapter answers I2C_FUNCS" ||
+  bad "i2cdetect -F 1 under contego (exit $RC)"
+
+run_logged detect under $MODE arm.policy arm_init i2cdetect -y 1
+[ $RC = 0 ] && ok "i2cdetect -y 1 runs to its end under contego" || bad "i2cdetect -y 1 exit $RC"
+grep -q "^40: *40\|^40:.*40" "$OUT" && ok "i2cdetect -y 1 sees the PCA9685 at 0x40" ||
+  bad "i2cdetect -y 1 does not show 0x40"
+# Probing must not write anything: i2cdetect's quick writes to chips the task
+# may not command are refused by contego, and the ones it may are no-ops.
+stub_set $A 0x06 0x11
+run_logged set under $MODE arm.policy arm_init i2cset -y 1 $A 0x06 0x00
+[ $RC = 0 ] && ok "i2cset -y 1 0x40 0x06 0x00 exits 0" || bad "i2cset exit $RC"
+expect_reg $A 0x06 0x00 "i2cset lands on the stub"
+
+stub_set $A 0xfe 0x79
+run_logged get under $MODE arm.policy arm_init i2cget -y 1 $A 0xfe
+[ "$(cat "$OUT")" = 0x79 ] && ok "i2cget -y 1 0x40 0xfe reads the stub's 0x79 through contego" ||
+  bad "i2cget under contego read '$(cat "$OUT")', the stub has 0x79"
+
+run_logged dump under $MODE arm.policy arm_init i2cdump -y 1 $A b
+snapshot $A >"$LOGDIR/dump-outside"
+# i2cdump's header names the bus and chip; compare the 16 data rows only
+grep '^[0-9a-f]0:' "$OUT" >"$LOGDIR/dump-in"
+grep '^[0-9a-f]0:' "$LOGDIR/dump-outside" >"$LOGDIR/dump-out"
+[ $RC = 0 ] && [ -s "$LOGDIR/dump-in" ] && cmp -s "$LOGDIR/dump-in" "$LOGDIR/dump-out" &&
+  ok "i2cdump -y 1 0x40 under contego equals i2cdump -y 0 0x40 outside" ||
+  { bad "i2cdump under contego differs from outside"; diff "$LOGDIR/dump-in" "$LOGDIR/dump-out"; }
+
+# i2ctransfer: I2C_RDWR, a plain write and a combined write-then-read.
+run_logged xfer_w under $MODE arm.policy arm_init i2ctransfer -y 1 w2@$A 0xfe 101
+[ $RC = 0 ] && ok "i2ctransfer w2@0x40 0xfe 101 exits 0" || bad "i2ctransfer write exit $RC"
+expect_reg $A 0xfe 101 "i2ctransfer's PRE_SCALE=101 lands"
+run_logged xfer_r under $MODE arm.policy arm_init i2ctransfer -y 1 w1@$A 0xfe r1
+[ "$(cat "$OUT")" = 0x65 ] && ok "i2ctransfer w1@0x40 0xfe r1 reads 0x65" ||
+  bad "i2ctransfer combined read gave '$(cat "$OUT")'"
+run_logged xfer_bad under $MODE arm.policy arm_init i2ctransfer -y 1 w2@$A 0xfe 3
+expect_reg $A 0xfe 101 "i2ctransfer's PRE_SCALE=3 does not land (PRESCALE invariant)"
+
+# The same as the gripper task: python3-smbus2 (the end-to-end tests' script)
+run_logged grip under $MODE arm.policy gripper python3 $CLIENTS/gripper_smbus2.py
+grep -q "pulse sent" "$OUT" && grep -q "prescale refused" "$OUT" &&
+  ok "gripper_smbus2.py: pulse sent, PRE_SCALE refused (EPERM)" || bad "gripper_smbus2.py output"
+expect_reg $A 0xfe 101 "the gripper's PRE_SCALE=3 does not land"
+expect_word $A 0x1c 420 "gripper LED5 off = 420 on the stub"
+
+# An address the policy does not name: refused, nothing reaches chip 0x48.
+stub_set 0x48 0x01 0x22
+run_logged other under $MODE arm.policy arm_init i2cset -y 1 0x48 0x01 0x55
+[ $RC != 0 ] && ok "i2cset to 0x48 (not in the policy) fails (exit $RC)" || bad "i2cset to 0x48 reported success"
+expect_reg 0x48 0x01 0x22 "nothing reaches chip 0x48"
+
+# python3-smbus reading and writing the PCA9685 as arm_init
+cat >/tmp/smbus_rw.py <<'PY'
+import smbus
+bus = smbus.SMBus(1)
+bus.write_byte_data(0x40, 0x01, 0x04)  # MODE2: totem pole, as Adafruit's init
+print("mode2", hex(bus.read_byte_data(0x40, 0x01)))
+PY
+run_logged smbus under $MODE arm.policy arm_init python3 /tmp/smbus_rw.py
+grep -q "mode2 0x4" "$OUT" && ok "python3-smbus writes and reads MODE2 through contego" || bad "python3-smbus MODE2"
+expect_reg $A 0x01 0x04 "python3-smbus's MODE2=0x04 lands"
+
+stop_monitor
+show_audit_summary
+finish
