@@ -68,7 +68,7 @@ set +e
 # stdin from /dev/null: QEMU's -nographic would otherwise take the CI's
 # terminal; the console goes to the log and, live, to our stdout.
 timeout -k 10 "$limit" "$qemu" "${qemu_args[@]}" -append "$append" </dev/null 2>&1 |
-  tr -d '\r' | tee "$log"
+  tr -d '\r' | sed -u 's/\x1b\[[0-9;?]*[a-zA-Z]//g' | tee "$log"
 qemu_rc=${PIPESTATUS[0]}
 set -e
 t_end=$(date +%s.%N)

@@ -40,6 +40,7 @@ if ! stub_load; then
   echo "VM-DONE passed=0 failed=1 seconds=0"
   poweroff -f
 fi
+echo  # the firmware's last line has no newline
 echo "VM-BOOTED kernel=$(uname -r) uptime=$(cut -d' ' -f1 /proc/uptime)s cpus=$(nproc)"
 
 if [ "$shell" = 1 ]; then

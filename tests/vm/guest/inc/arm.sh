@@ -3,6 +3,7 @@
 # `contego run --socket` as uid 1000). What reaches the chip is read back
 # outside contego. Registers: PRE_SCALE 0xFE, LED5 = 0x1A..0x1D (ON_L, ON_H,
 # OFF_L, OFF_H); the safe state is LED5 off=420.
+. /vm/lib.sh
 A=0x40 PRESCALE=0xfe LED5_OFF=0x1c
 
 # The chip as it comes out of reset (PRE_SCALE 30 = 200 Hz), gripper at 0.

@@ -7,6 +7,7 @@
 # follower's request/reply exchange (write 01 03 00 00 00, then 10 bytes by
 # receive-byte) would read back its own request bytes. The model reads the
 # middle of the line, so INV3 applies: speeds 80 and forward.
+. /vm/lib.sh
 sed 's/line_follower at i2c-1/line_follower at i2c-2/' $POLICIES/rover.policy >$POLICIES/rover-vm.policy
 BUS_ARGS="$BUS_ARGS --virtual-bus 2"
 

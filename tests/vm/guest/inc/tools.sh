@@ -1,6 +1,7 @@
 # The real i2c-tools under contego (mode $MODE), as policies/arm.policy's
 # arm_init task (it may write and read the PCA9685 at 0x40). Each result is
 # compared with what the kernel shows outside contego.
+. /vm/lib.sh
 A=0x40
 [ "$MODE" = monitor ] && { start_monitor arm.policy || finish; }
 

@@ -43,11 +43,12 @@ refused notadapter "/dev/null" "run: /dev/null is not an i2c adapter: refused, n
 run_logged badtask sh -c "contego run --policy $POLICIES/arm.policy $BUS_ARGS --task nosuch -- $prog"
 refused badtask "nosuch" "run: unknown task: refused, naming it"
 
+# `timeout`: a monitor that wrongly starts would serve for ever.
 mkdir -p /run/contego && chown $MONITOR_UID /run/contego
-run_logged mon_missing su contego -s /bin/sh -c "contego monitor --policy $POLICIES/arm-missing.policy $BUS_ARGS --socket $SOCK"
+run_logged mon_missing timeout 30 su contego -s /bin/sh -c "contego monitor --policy $POLICIES/arm-missing.policy $BUS_ARGS --socket $SOCK"
 refused mon_missing "0x41" "monitor: device arm2 missing at 0x41: refused"
 [ ! -e $SOCK ] && ok "monitor: no socket after a refused start" || bad "monitor left a socket"
-run_logged mon_bus su contego -s /bin/sh -c "contego monitor --policy $POLICIES/arm.policy --bus 2=$ADAPTER --socket $SOCK"
+run_logged mon_bus timeout 30 su contego -s /bin/sh -c "contego monitor --policy $POLICIES/arm.policy --bus 2=$ADAPTER --socket $SOCK"
 refused mon_bus "i2c-1\|bus 1" "monitor: policy bus i2c-1 not given: refused"
 
 run_logged nosock as_task contego run --socket /run/contego/none.sock --task arm_init -- sh -c "touch $marker"
