@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <span>
 
+#include "base/result.h"
+
 namespace contego::bus {
 
 // I2C_FUNCS bits (<linux/i2c.h>).
@@ -18,10 +20,26 @@ inline constexpr uint64_t kFunc10BitAddr = 0x00000002;
 inline constexpr uint64_t kFuncSmbusPec = 0x00000008;
 inline constexpr uint64_t kFuncSmbusBlockProcCall = 0x00008000;
 inline constexpr uint64_t kFuncSmbusQuick = 0x00010000;
+inline constexpr uint64_t kFuncSmbusReadByte = 0x00020000;
+inline constexpr uint64_t kFuncSmbusWriteByte = 0x00040000;
+inline constexpr uint64_t kFuncSmbusReadByteData = 0x00080000;
+inline constexpr uint64_t kFuncSmbusWriteByteData = 0x00100000;
+inline constexpr uint64_t kFuncSmbusReadWordData = 0x00200000;
+inline constexpr uint64_t kFuncSmbusWriteWordData = 0x00400000;
+inline constexpr uint64_t kFuncSmbusProcCall = 0x00800000;
 inline constexpr uint64_t kFuncSmbusAllByteWord = 0x00FE0000;  // byte .. proc call
 inline constexpr uint64_t kFuncSmbusReadBlock = 0x01000000;
 inline constexpr uint64_t kFuncSmbusWriteBlock = 0x02000000;
+inline constexpr uint64_t kFuncSmbusReadI2cBlock = 0x04000000;
+inline constexpr uint64_t kFuncSmbusWriteI2cBlock = 0x08000000;
 inline constexpr uint64_t kFuncSmbusI2cBlock = 0x0C000000;
+
+// What Linux's i2c-stub reports by default: an SMBus-only adapter with
+// quick, byte, byte data, word data and I2C block (no plain I2C, no SMBus
+// block, no process calls).
+inline constexpr uint64_t kI2cStubFuncs =
+    kFuncSmbusQuick | kFuncSmbusReadByte | kFuncSmbusWriteByte | kFuncSmbusReadByteData |
+    kFuncSmbusWriteByteData | kFuncSmbusReadWordData | kFuncSmbusWriteWordData | kFuncSmbusI2cBlock;
 
 // One message of a combined transfer. For a read, `buf` receives up to `len`
 // bytes and `len` is updated to the number received (RECV_LEN: 1 + count).
@@ -42,6 +60,15 @@ class Bus {
   virtual int transfer(std::span<Msg> msgs) = 0;
   // SMBus quick command: the address and the R/W bit only.
   virtual int quick(uint16_t addr, bool read) = 0;
+  // Whether the adapter can put this combined transfer on the wire as it
+  // stands: as plain I2C, or as one SMBus transaction with exactly the same
+  // bytes (bus/smbus_plan.h). If not, the error says why (for the audit log)
+  // and transfer() would answer EOPNOTSUPP before anything reaches the wire.
+  // Callers ask first when other parts of an operation (the checker's
+  // decision, earlier messages) must not act either. A quick command is a
+  // zero-length message (read flag for a quick read). Default:
+  // plan_transfer() over funcs().
+  virtual Status expressible(std::span<const Msg> msgs) const;
 };
 
 }  // namespace contego::bus

@@ -1,7 +1,10 @@
 // The Linux i2c-dev backend: a real /dev/i2c-N adapter, opened once by the
 // trusted side (which should be the only process allowed to open it; see the
-// README on device node ownership). Transfers go out as I2C_RDWR, quick
-// commands as I2C_SMBUS quick.
+// README on device node ownership). Transfers go out as I2C_RDWR when the
+// adapter has plain I2C, otherwise as the one I2C_SMBUS transaction that puts
+// the same bytes on the wire (bus/smbus_plan.h); a transfer with no such form
+// is refused with EOPNOTSUPP before anything reaches the wire. Quick
+// commands go out as I2C_SMBUS quick.
 #ifndef CONTEGO_BUS_LINUX_I2CDEV_H_
 #define CONTEGO_BUS_LINUX_I2CDEV_H_
 
@@ -11,6 +14,7 @@
 
 #include "base/result.h"
 #include "bus/bus.h"
+#include "bus/smbus_plan.h"
 
 namespace contego::bus {
 
@@ -27,6 +31,7 @@ class LinuxI2cDev final : public Bus {
 
  private:
   LinuxI2cDev(int fd, uint64_t funcs) : fd_(fd), funcs_(funcs) {}
+  int smbus(const SmbusOp& op, std::span<Msg> msgs);
   std::mutex mu_;
   int fd_;
   uint64_t funcs_;

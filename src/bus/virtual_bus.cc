@@ -19,6 +19,9 @@ DeviceModel* VirtualBus::find(uint16_t addr) const {
 }
 
 int VirtualBus::transfer(std::span<Msg> msgs) {
+  // An adapter without plain I2C performs the SMBus form of the transfer:
+  // the same bytes on the wire, so the models below see the same messages.
+  if (!expressible(msgs).ok()) return EOPNOTSUPP;
   std::lock_guard lock(mu_);
   ++operations_;
   for (Msg& m : msgs) {
@@ -48,6 +51,7 @@ int VirtualBus::transfer(std::span<Msg> msgs) {
 }
 
 int VirtualBus::quick(uint16_t addr, bool /*read*/) {
+  if (!(funcs() & kFuncSmbusQuick)) return EOPNOTSUPP;
   std::lock_guard lock(mu_);
   ++operations_;
   return find(addr) != nullptr ? 0 : ENXIO;

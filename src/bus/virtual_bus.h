@@ -2,11 +2,15 @@
 // process, for tests and demos on machines without I2C. It answers like a
 // Linux adapter: I2C_FUNCS of an I2C + full SMBus controller, and ENXIO for
 // an address nobody acknowledges (what i2c-dev reports for a NACK on most
-// adapters; i2cdetect treats any error as "no device").
+// adapters; i2cdetect treats any error as "no device"). set_funcs() makes it
+// an adapter with other abilities (kI2cStubFuncs: SMBus-only, like Linux's
+// i2c-stub): a transfer that adapter could not express is then refused with
+// EOPNOTSUPP before it reaches any device, exactly as the real backend does.
 #ifndef CONTEGO_BUS_VIRTUAL_BUS_H_
 #define CONTEGO_BUS_VIRTUAL_BUS_H_
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -38,7 +42,8 @@ class VirtualBus final : public Bus {
                                      kFuncSmbusI2cBlock | kFuncSmbusBlockProcCall;
 
   void attach(std::shared_ptr<DeviceModel> device);
-  uint64_t funcs() const override { return kFuncs; }
+  void set_funcs(uint64_t funcs) { funcs_.store(funcs); }
+  uint64_t funcs() const override { return funcs_.load(); }
   int transfer(std::span<Msg> msgs) override;
   int quick(uint16_t addr, bool read) override;
   // Every bus operation seen (for tests: "nothing reached the bus").
@@ -52,6 +57,7 @@ class VirtualBus final : public Bus {
   mutable std::mutex mu_;
   std::vector<std::shared_ptr<DeviceModel>> devices_;
   uint64_t operations_ = 0;
+  std::atomic<uint64_t> funcs_{kFuncs};
 };
 
 // NXP PCA9685 16-channel PWM controller (register file per the datasheet).

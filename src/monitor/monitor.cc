@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <fmt/core.h>
 
+#include "monitor/expressible.h"
+
 namespace contego::monitor {
 
 uint64_t monotonic_us() {
@@ -138,6 +140,13 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   }
   bus::Bus& bus = *bus_it->second;
   const std::vector<gate::PlannedTx> planned = gate::to_transactions(t);
+  // What this adapter cannot put on the wire (an SMBus-only one) is refused
+  // before the core decides: no rate window spent, no decision logged.
+  if (std::string why = inexpressible(bus, t, planned); !why.empty()) {
+    audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
+    reply.err = EOPNOTSUPP;
+    return reply;
+  }
 
   // Decide every transaction first: one refusal fails the whole call and
   // nothing of it reaches the bus (a write cannot slip through inside a
@@ -172,6 +181,17 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     if (v.decision != core::Decision::kAllow && v.decision != core::Decision::kIgnore &&
         v.decision != core::Decision::kFailsafe) {
       reply.err = EPERM;
+      return reply;
+    }
+  }
+
+  // A substitute is checked the same way before any part of the call acts.
+  for (size_t i = 0; i < planned.size(); ++i) {
+    if (planned[i].kind != core::TxKind::kWrite || verdicts[i].decision == core::Decision::kIgnore)
+      continue;
+    if (std::string why = emits_inexpressible(bus, verdicts[i], planned[i].ten_bit); !why.empty()) {
+      audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
+      reply.err = EOPNOTSUPP;
       return reply;
     }
   }
@@ -256,7 +276,11 @@ void Monitor::drive_safe_state_locked(const std::string& why) {
     core::Verdict v{};
     if (!decider_.safe_state(d, &v)) continue;
     if (int err = perform_emits(v, decider_.device(d).ten_bit != 0); err != 0) {
-      audit_.event("fault", fmt::format("safe state of device {} failed: errno {}", d, err));
+      auto it = buses_.find(v.bus);
+      const std::string cause =
+          it == buses_.end() ? "" : emits_inexpressible(*it->second, v, decider_.device(d).ten_bit);
+      audit_.event("fault", fmt::format("safe state of device {} failed: errno {}{}{}", d, err,
+                                        cause.empty() ? "" : ": ", cause));
     }
   }
 }
@@ -270,19 +294,24 @@ void Monitor::sample_device_locked(uint16_t d) {
   const uint8_t req_len = std::min<uint8_t>(rec.sample_request_len, 8);
   std::copy_n(rec.sample_request, req_len, request.begin());
   const uint16_t ten = rec.ten_bit ? gate::kMsgTen : 0;
-  if (req_len > 0) {
-    bus::Msg w{rec.addr, ten, req_len, request.data()};
+  // An adapter without plain I2C reads a register only in one transaction
+  // (register byte, repeated start, read), so the two messages go together.
+  const bool combined = req_len == 1 && !(it->second->funcs() & bus::kFuncI2c);
+  bus::Msg w{rec.addr, ten, req_len, request.data()};
+  if (req_len > 0 && !combined) {
     if (it->second->transfer({&w, 1}) != 0) {
       samples_.erase(d);  // a failed sample makes the signal unavailable (fail closed)
       return;
     }
   }
-  bus::Msg r{rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()};
-  if (it->second->transfer({&r, 1}) != 0) {
+  bus::Msg rw[2] = {
+      w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()}};
+  if (it->second->transfer(combined ? std::span<bus::Msg>(rw) : std::span<bus::Msg>(rw + 1, 1)) !=
+      0) {
     samples_.erase(d);
     return;
   }
-  s.len = r.len;
+  s.len = rw[1].len;
   s.taken_at_us = monotonic_us();
   samples_[d] = s;
 }

@@ -345,6 +345,79 @@ TEST_P(Supervised, I2cdetectSeesTheVirtualDevices) {
   EXPECT_EQ(output.find("41 "), std::string::npos) << output;
 }
 
+// The value i2cdetect -F prints for one functionality ("yes"/"no").
+std::string functionality(const std::string& output, const std::string& name) {
+  const size_t at = output.find("\n" + name + " ");
+  if (at == std::string::npos) return "?";
+  const size_t end = output.find('\n', at + 1);
+  const std::string line = output.substr(at + 1, end - at - 1);
+  return line.substr(line.find_last_of(' ') + 1);
+}
+
+// An SMBus-only adapter (i2c-stub's I2C_FUNCS): programs see its real
+// functionality, pick their SMBus forms by it and reach the devices through
+// the monitor's SMBus translation; what the adapter cannot express is refused
+// with EOPNOTSUPP and never decided.
+TEST_P(Supervised, SmbusOnlyAdapterFuncsAreWhatI2cdetectReports) {
+  bus.set_funcs(bus::kI2cStubFuncs);
+  auto r = run({"/usr/sbin/i2cdetect", "-F", "1"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  EXPECT_EQ(functionality(output, "I2C"), "no") << output;
+  EXPECT_EQ(functionality(output, "SMBus Quick Command"), "yes") << output;
+  EXPECT_EQ(functionality(output, "SMBus Read Byte"), "yes") << output;
+  EXPECT_EQ(functionality(output, "SMBus Write Word"), "yes") << output;
+  EXPECT_EQ(functionality(output, "SMBus Process Call"), "no") << output;
+  EXPECT_EQ(functionality(output, "SMBus Block Read"), "no") << output;
+  EXPECT_EQ(functionality(output, "I2C Block Write"), "yes") << output;
+}
+
+TEST_P(Supervised, SmbusOnlyAdapterScanAndRegisterAccessWork) {
+  bus.set_funcs(bus::kI2cStubFuncs);
+  auto r = run({"/usr/sbin/i2cdetect", "-y", "1"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(output.find("40 "), std::string::npos) << output;
+  EXPECT_NE(output.find("08 "), std::string::npos) << output;
+  EXPECT_EQ(output.find("41 "), std::string::npos) << output;
+  r = run({"/usr/sbin/i2cset", "-y", "1", "0x40", "0x06", "0x55"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(pca->reg(0x06), 0x55);
+  // Read word data; the PCA9685 without auto-increment answers LED0_ON_L twice.
+  r = run({"/usr/sbin/i2cget", "-y", "1", "0x40", "0x06", "w"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(output, "0x5555\n");
+}
+
+TEST_P(Supervised, SmbusOnlyAdapterCarriesTheGoPiGoFramesAndTheirSubstitutes) {
+  bus.set_funcs(bus::kI2cStubFuncs);
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/gopigo_smbus.py"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  EXPECT_EQ(gpg->left_speed(), 80);  // 150 requested, 80 substituted (an I2C block write)
+  EXPECT_EQ(gpg->right_speed(), 80);
+}
+
+TEST_P(Supervised, SmbusOnlyAdapterRefusesAnInexpressibleWriteWithoutADecision) {
+  bus.set_funcs(bus::kI2cStubFuncs);
+  // 40 bytes with write(): no SMBus transaction carries them. The GoPiGo
+  // takes the last four bytes of any write as a frame (speed 99 if it acted).
+  const std::string script =
+      "import fcntl, os, sys\n"
+      "fd = os.open('/dev/i2c-1', os.O_RDWR)\n"
+      "fcntl.ioctl(fd, 0x0703, 0x08)\n"
+      "try:\n"
+      "    os.write(fd, bytes([0] * 36 + [70, 99, 0, 0]))\n"
+      "except OSError as e:\n"
+      "    print(e.errno)\n"
+      "    sys.exit(3)\n";
+  auto r = run({"/usr/bin/python3", "-c", script});
+  EXPECT_EQ(r.exit_code, 3) << output;
+  EXPECT_EQ(output, std::to_string(EOPNOTSUPP) + "\n");
+  EXPECT_EQ(gpg->left_speed(), 200);  // unchanged (the safe state at exit sends only a stop)
+  const std::string text = audit_text();
+  EXPECT_NE(text.find("inexpressible"), std::string::npos) << text;
+  EXPECT_NE(text.find("write 40 at 0x08"), std::string::npos) << text;
+  EXPECT_EQ(text.find("\"decision\""), std::string::npos) << text;
+}
+
 TEST_P(Supervised, PythonSmbusReplaysTheGoPiGoSequence) {
   auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/gopigo_smbus.py"});
   EXPECT_EQ(r.exit_code, 0) << output;

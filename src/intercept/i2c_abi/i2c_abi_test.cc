@@ -66,6 +66,22 @@ TEST_F(I2cAbi, FuncsWritesAnUnsignedLong) {
   EXPECT_EQ(decode_ioctl(state, I2C_FUNCS, 0, mem, 1).err, EFAULT);
 }
 
+// The answer is the adapter's own mask as the trusted side reports it, never
+// a fixed one: on an SMBus-only adapter (i2c-stub: quick, byte, byte data,
+// word data, I2C block) a program must see no I2C_FUNC_I2C, as on the node.
+TEST_F(I2cAbi, FuncsIsTheAdaptersMaskUnchanged) {
+  constexpr unsigned long kStub = I2C_FUNC_SMBUS_QUICK | I2C_FUNC_SMBUS_BYTE |
+                                  I2C_FUNC_SMBUS_BYTE_DATA | I2C_FUNC_SMBUS_WORD_DATA |
+                                  I2C_FUNC_SMBUS_I2C_BLOCK;
+  static_assert(kStub == 0x0C7F0000ul);
+  for (unsigned long mask : {kStub, 0x0ul, static_cast<unsigned long>(I2C_FUNC_I2C),
+                             static_cast<unsigned long>(I2C_FUNC_I2C | I2C_FUNC_SMBUS_EMUL)}) {
+    unsigned long funcs = ~0ul;
+    EXPECT_EQ(decode_ioctl(state, I2C_FUNCS, addr_of(&funcs), mem, mask).err, 0);
+    EXPECT_EQ(funcs, mask);
+  }
+}
+
 TEST_F(I2cAbi, RetriesAndTimeoutAboveIntMaxAreEinval) {
   EXPECT_EQ(decode_ioctl(state, I2C_RETRIES, 0x80000000ul, mem, 0).err, EINVAL);
   EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 0x80000000ul, mem, 0).err, EINVAL);

@@ -1,0 +1,263 @@
+// The monitor on an SMBus-only adapter (the virtual bus with i2c-stub's
+// I2C_FUNCS): what the adapter can express goes out, what it cannot is
+// refused whole before the core decides (no decision, no rate window, no
+// byte on the bus), substitutes and safe states that cannot be expressed act
+// nothing and say why, and the sampler reads registers in one transaction.
+#include <errno.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+
+#include "bus/virtual_bus.h"
+#include "gate/transfer.h"
+#include "monitor/monitor.h"
+
+namespace contego::monitor {
+namespace {
+
+// A register file: a write [reg, data...] stores at reg, reg+1, ...; a
+// read returns registers from the pointer on.
+class Registers final : public bus::DeviceModel {
+ public:
+  explicit Registers(uint16_t addr) : addr_(addr) {
+    for (int i = 0; i < 256; ++i) regs[i] = static_cast<uint8_t>(i ^ 0xA5);
+  }
+  bool answers(uint16_t addr) const override { return addr == addr_; }
+  void write(uint16_t, std::span<const uint8_t> bytes) override {
+    ++writes;
+    if (bytes.empty()) return;
+    pointer_ = bytes[0];
+    for (size_t i = 1; i < bytes.size(); ++i) regs[pointer_++] = bytes[i];
+  }
+  void read(uint16_t, std::span<uint8_t> out) override {
+    for (auto& b : out) b = regs[pointer_++];
+  }
+  uint8_t regs[256];
+  int writes = 0;
+
+ private:
+  uint16_t addr_;
+  uint8_t pointer_ = 0;
+};
+
+// Allows everything, emitting the bytes as sent; writes to 0x41 are replaced
+// by a 40-byte frame (a substitute no SMBus transaction carries).
+class CountingDecider final : public Decider {
+ public:
+  CountingDecider() {
+    devices_[0] = {};
+    devices_[0].role = core::kRoleActuator;
+    devices_[0].bus = 1;
+    devices_[0].addr = 0x40;
+    devices_[1] = {};
+    devices_[1].role = core::kRoleSensor;
+    devices_[1].bus = 1;
+    devices_[1].addr = 0x48;
+    devices_[1].sample_request_len = 1;
+    devices_[1].sample_request[0] = 0x10;
+    devices_[1].sample_len = 4;
+  }
+  void set_host(const core::Host& host) override { host_ = host; }
+  void check(const core::Transaction& tx, core::Verdict* v) override {
+    ++checks;
+    *v = core::Verdict{};
+    v->bus = tx.bus;
+    v->addr = tx.addr;
+    v->decision = core::Decision::kAllow;
+    if (tx.kind == core::TxKind::kWrite) {
+      if (tx.addr == 0x41) {
+        v->decision = core::Decision::kFailsafe;
+        std::vector<uint8_t> frame(40, 0x11);
+        emit(v, frame);
+      } else {
+        emit(v, std::vector<uint8_t>(tx.bytes, tx.bytes + tx.len));
+      }
+    }
+  }
+  bool safe_state(uint16_t device, core::Verdict* v) override {
+    if (device != 0) return false;
+    *v = core::Verdict{};
+    v->decision = core::Decision::kFailsafe;
+    v->bus = 1;
+    v->addr = 0x40;
+    emit(v, safe);
+    return true;
+  }
+  uint32_t device_count() const override { return 2; }
+  const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
+  uint32_t task_period_us(uint16_t) const override { return 20000; }
+
+  std::vector<uint8_t> sample(uint16_t device) {
+    std::vector<uint8_t> buf(64);
+    uint64_t at = 0;
+    buf.resize(host_.read_sample(host_.context, device, buf.data(), 64, &at));
+    return buf;
+  }
+
+  int checks = 0;
+  std::vector<uint8_t> safe{0x06, 0x00};
+
+ private:
+  static void emit(core::Verdict* v, const std::vector<uint8_t>& bytes) {
+    v->emit_len[v->emit_count++] = static_cast<uint16_t>(bytes.size());
+    std::memcpy(v->emit_bytes + v->emit_bytes_used, bytes.data(), bytes.size());
+    v->emit_bytes_used = static_cast<uint16_t>(v->emit_bytes_used + bytes.size());
+  }
+  core::Host host_{};
+  core::DeviceRecord devices_[2];
+};
+
+gate::Message wmsg(uint16_t addr, std::vector<uint8_t> bytes) {
+  gate::Message m;
+  m.addr = addr;
+  m.len = static_cast<uint16_t>(bytes.size());
+  m.data = std::move(bytes);
+  return m;
+}
+
+gate::Message rmsg(uint16_t addr, uint16_t len, uint16_t flags = 0) {
+  gate::Message m;
+  m.addr = addr;
+  m.flags = static_cast<uint16_t>(gate::kMsgRead | flags);
+  m.len = len;
+  return m;
+}
+
+class MonitorSmbus : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char name[] = "/tmp/contego-audit-smbus-XXXXXX";
+    const int fd = mkstemp(name);
+    ASSERT_GE(fd, 0);
+    close(fd);
+    path = name;
+    ASSERT_TRUE(audit.open(path).ok());
+    bus.set_funcs(bus::kI2cStubFuncs);
+    bus.attach(dev);
+    bus.attach(other);
+    bus.attach(sensor);
+    mon.add_bus(1, &bus);
+  }
+  void TearDown() override { unlink(path.c_str()); }
+
+  gate::TransferReply send(std::vector<gate::Message> msgs) {
+    gate::Transfer t;
+    t.bus = 1;
+    t.messages = std::move(msgs);
+    return mon.transfer(0, t);
+  }
+  std::string audit_text() {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+
+  std::string path;
+  AuditLog audit;
+  CountingDecider decider;
+  bus::VirtualBus bus;
+  std::shared_ptr<Registers> dev = std::make_shared<Registers>(0x40);
+  std::shared_ptr<Registers> other = std::make_shared<Registers>(0x41);
+  std::shared_ptr<Registers> sensor = std::make_shared<Registers>(0x48);
+  Monitor mon{decider, audit};
+};
+
+TEST_F(MonitorSmbus, TheEmulationSeesTheAdaptersFuncs) {
+  EXPECT_EQ(mon.funcs(1), bus::kI2cStubFuncs);
+  EXPECT_EQ(mon.funcs(2), 0u);
+}
+
+TEST_F(MonitorSmbus, ExpressibleTransfersGoOut) {
+  EXPECT_EQ(send({wmsg(0x40, {0x06, 0x21})}).err, 0);  // write byte data
+  EXPECT_EQ(dev->regs[0x06], 0x21);
+  EXPECT_EQ(send({wmsg(0x40, {0x01, 40, 0, 0, 0})}).err, 0);  // I2C block write
+  EXPECT_EQ(dev->regs[0x01], 40);
+  auto r = send({wmsg(0x40, {0x01}), rmsg(0x40, 4)});  // I2C block read
+  ASSERT_EQ(r.err, 0);
+  ASSERT_EQ(r.reads.size(), 1u);
+  EXPECT_EQ(r.reads[0], (std::vector<uint8_t>{40, 0, 0, 0}));
+  EXPECT_EQ(decider.checks, 3);
+}
+
+TEST_F(MonitorSmbus, InexpressibleTransferIsRefusedBeforeTheCoreDecides) {
+  const uint64_t ops = bus.operations();
+  // 40 bytes: more than any SMBus write carries.
+  auto r = send({wmsg(0x40, std::vector<uint8_t>(40, 0x33))});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  // A register read, then a write no SMBus transaction carries: the read is
+  // expressible, but nothing of the call acts.
+  r = send({wmsg(0x40, {0x00}), rmsg(0x40, 1), wmsg(0x40, std::vector<uint8_t>(36, 0x44))});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  EXPECT_TRUE(r.reads.empty());
+  // A count-prefixed block read: i2c-stub has no SMBus block read.
+  r = send({wmsg(0x40, {0x00}), rmsg(0x40, 33, gate::kMsgRecvLen)});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  // A read of 4 bytes without a register byte.
+  r = send({rmsg(0x40, 4)});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  EXPECT_EQ(decider.checks, 0);  // the core never saw them
+  EXPECT_EQ(mon.decisions(), 0u);
+  EXPECT_EQ(bus.operations(), ops);
+  EXPECT_EQ(dev->writes, 0);
+  const std::string text = audit_text();
+  EXPECT_NE(text.find("inexpressible"), std::string::npos) << text;
+  EXPECT_NE(text.find("write 40 at 0x40"), std::string::npos) << text;
+  EXPECT_NE(text.find("SMBus block read"), std::string::npos) << text;
+}
+
+TEST_F(MonitorSmbus, QuickWithoutTheQuickBitIsRefusedBeforeTheCoreDecides) {
+  gate::Transfer t;
+  t.bus = 1;
+  t.quick = true;
+  t.quick_addr = 0x40;
+  EXPECT_EQ(mon.transfer(0, t).err, 0);
+  EXPECT_EQ(decider.checks, 1);
+  bus.set_funcs(bus::kI2cStubFuncs & ~bus::kFuncSmbusQuick);
+  EXPECT_EQ(mon.transfer(0, t).err, EOPNOTSUPP);
+  EXPECT_EQ(decider.checks, 1);
+}
+
+TEST_F(MonitorSmbus, SubstituteThatCannotBeExpressedActsNothing) {
+  const uint64_t ops = bus.operations();
+  // The first write is fine and allowed; the second is replaced by a
+  // 40-byte frame: neither reaches the bus.
+  auto r = send({wmsg(0x40, {0x06, 0x21}), wmsg(0x41, {0x06, 0x22})});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  EXPECT_EQ(decider.checks, 2);
+  EXPECT_EQ(bus.operations(), ops);
+  EXPECT_NE(dev->regs[0x06], 0x21);
+  EXPECT_EQ(other->writes, 0);
+  EXPECT_NE(audit_text().find("write 40 at 0x41"), std::string::npos) << audit_text();
+}
+
+TEST_F(MonitorSmbus, SafeStateThatCannotBeExpressedIsAFaultWithTheReason) {
+  mon.drive_safe_state("start");
+  EXPECT_EQ(dev->regs[0x06], 0x00);  // [06 00]: write byte data
+  decider.safe = std::vector<uint8_t>(40, 0x00);
+  mon.drive_safe_state("again");
+  const std::string text = audit_text();
+  EXPECT_NE(text.find("safe state of device 0 failed: errno " + std::to_string(EOPNOTSUPP) +
+                      ": write 40 at 0x40"),
+            std::string::npos)
+      << text;
+}
+
+TEST_F(MonitorSmbus, SamplerReadsARegisterInOneTransaction) {
+  mon.sample_all();
+  EXPECT_EQ(decider.sample(1), (std::vector<uint8_t>{sensor->regs[0x10], sensor->regs[0x11],
+                                                     sensor->regs[0x12], sensor->regs[0x13]}));
+  // On a plain I2C adapter the request and the read stay two transfers.
+  bus.set_funcs(bus::VirtualBus::kFuncs);
+  const uint64_t ops = bus.operations();
+  mon.sample_all();
+  EXPECT_EQ(bus.operations(), ops + 2);
+  EXPECT_EQ(decider.sample(1).size(), 4u);
+}
+
+}  // namespace
+}  // namespace contego::monitor
