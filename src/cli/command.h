@@ -3,6 +3,8 @@
 #ifndef CONTEGO_CLI_COMMAND_H_
 #define CONTEGO_CLI_COMMAND_H_
 
+#include <string>
+
 namespace CLI {
 class App;
 }
@@ -28,6 +30,9 @@ void register_image(CLI::App& app);
 
 void set_exit_code(int code);
 int exit_code();
+
+// "SIGTERM", "SIGINT", ... ("signal N" for one without a name).
+std::string signal_name(int sig);
 
 }  // namespace contego::cli
 

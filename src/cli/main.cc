@@ -1,5 +1,12 @@
 // contego: actuator command firewall for real-time control systems.
+#include <string.h>
+
 #include <CLI/CLI.hpp>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fmt/core.h>
+#include <string>
 
 #include "cli/command.h"
 
@@ -9,6 +16,30 @@ int g_exit_code = 0;
 }
 void set_exit_code(int code) { g_exit_code = code; }
 int exit_code() { return g_exit_code; }
+std::string signal_name(int sig) {
+  const char* abbrev = sigabbrev_np(sig);
+  return abbrev != nullptr ? std::string("SIG") + abbrev : "signal " + std::to_string(sig);
+}
+
+namespace {
+// `contego --parse-only CMD ...`: every subcommand parses and checks its
+// arguments as usual (conversions, validators, required options), then
+// prints what it would run instead of running it. tests/docs uses it to
+// keep the command lines of the documentation in step with the CLI.
+// The subcommands' own callbacks stay in place (they own the variables their
+// options write into); this one runs first, after every check, and exits.
+void make_parse_only(CLI::App& app, const std::string& path) {
+  for (CLI::App* sub : app.get_subcommands({})) {
+    const std::string name = path + " " + sub->get_name();
+    sub->parse_complete_callback([name] {
+      fmt::print("parse-only: contego{}: ok\n", name);
+      std::fflush(stdout);
+      std::_Exit(0);
+    });
+    make_parse_only(*sub, name);
+  }
+}
+}  // namespace
 }  // namespace contego::cli
 
 int main(int argc, char** argv) {
@@ -27,6 +58,12 @@ int main(int argc, char** argv) {
   contego::cli::register_check(app);
   contego::cli::register_image(app);
 #endif
+  if (argc > 1 && std::strcmp(argv[1], "--parse-only") == 0) {
+    contego::cli::make_parse_only(app, "");
+    argv[1] = argv[0];
+    --argc;
+    ++argv;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -2,9 +2,12 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <fmt/core.h>
+#include <fstream>
 #include <thread>
 
+#include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/trusted_setup.h"
 #include "monitor/server.h"
@@ -15,19 +18,27 @@ void register_monitor(CLI::App& app) {
   auto* cmd = app.add_subcommand("monitor", "The trusted-side daemon: sole owner of the buses");
   struct Args {
     std::string policy, socket = "/run/contego/monitor.sock", audit = "-";
-    std::map<int, std::string> buses;
+    std::vector<std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<unsigned> uids;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool realtime = false;
+    bool allow_degraded = false;
+    std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();
   cmd->add_option("--socket", args->socket, "Unix socket to serve");
   cmd->add_option("--audit", args->audit, "audit log (JSON lines; - = stderr)");
-  cmd->add_option("--bus", args->buses, "N=/dev/i2c-N: a real adapter");
-  cmd->add_option("--virtual-bus", args->virtual_buses, "N: a virtual bus with device models");
+  configure_bus_option(cmd->add_option(
+      "--bus", args->buses,
+      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
+      "means N=/dev/i2c-N); once per bus"));
+  cmd->add_option("--virtual-bus", args->virtual_buses,
+                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
+                  "GoPiGo2 0x08, line follower 0x06); once per bus")
+      ->allow_extra_args(false);
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
@@ -37,21 +48,36 @@ void register_monitor(CLI::App& app) {
                   "hold a task's transfers to the end of its period once it has sent more than "
                   "this many times its declared actuations in one job (0 = never)")
       ->capture_default_str();
+  cmd->add_option("--virtual-state", args->virtual_state,
+                  "tests: write the virtual buses' device state to this file at exit")
+      ->group("");
+  cmd->add_flag("--allow-degraded", args->allow_degraded,
+                "start even if a device does not answer, a sensor cannot be read, a safe state "
+                "cannot be applied or a device's bus has no adapter (audited: degraded-start)");
   cmd->add_flag("--rt", args->realtime,
                 "serve each connection under SCHED_FIFO at its task's policy priority");
   cmd->callback([args] {
-    // SIGINT/SIGTERM are taken by a waiting thread, which stops the server.
+    // SIGINT/SIGTERM/SIGHUP are taken by a waiting thread: the first two
+    // stop the server (then the safe state is driven and the exit code is
+    // 0); SIGHUP is audited and the monitor keeps serving.
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     monitor::SetupOptions so;
     so.policy = args->policy;
     so.audit = args->audit;
-    so.real_buses = args->buses;
+    auto buses = parse_bus_specs(args->buses, args->virtual_buses);
+    if (!buses.ok()) {
+      fmt::print(stderr, "contego monitor: {}\n", buses.error());
+      return set_exit_code(2);
+    }
+    so.real_buses = *buses;
     so.virtual_buses = args->virtual_buses;
     so.budget_factor = args->budget_factor;
+    so.allow_degraded = args->allow_degraded;
     if (so.real_buses.empty() && so.virtual_buses.empty()) {
       fmt::print(stderr, "contego monitor: give at least one --bus or --virtual-bus\n");
       return set_exit_code(2);
@@ -60,6 +86,11 @@ void register_monitor(CLI::App& app) {
     if (!trusted.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", trusted.error());
       return set_exit_code(2);
+    }
+    for (const auto& w : (*trusted)->warnings)
+      fmt::print(stderr, "contego monitor: warning: {}\n", w);
+    for (const auto& d : (*trusted)->degraded) {
+      fmt::print(stderr, "contego monitor: --allow-degraded: starting although {}\n", d);
     }
     std::set<uid_t> uids{getuid(), 0};
     for (unsigned u : args->uids) uids.insert(u);
@@ -72,16 +103,34 @@ void register_monitor(CLI::App& app) {
       return set_exit_code(2);
     }
     fmt::print(stderr, "contego monitor: serving {} on {}\n", args->policy, args->socket);
+    std::atomic<bool> served{false};
+    std::string why = "monitor stopping";
     std::thread waiter([&] {
-      int sig = 0;
-      sigwait(&set, &sig);
-      server.stop();
+      for (;;) {
+        int sig = 0;
+        if (sigwait(&set, &sig) != 0 || served.load()) return;
+        if (sig == SIGHUP) {
+          (*trusted)->audit.event("signal",
+                                  "SIGHUP: still serving (the audit log is not reopened)");
+          fmt::print(stderr, "contego monitor: SIGHUP: still serving\n");
+          continue;
+        }
+        why = fmt::format("monitor stopping ({})", signal_name(sig));
+        (*trusted)->audit.event("signal", fmt::format("{}: stopping", signal_name(sig)));
+        server.stop();
+        return;
+      }
     });
     server.serve();
-    (*trusted)->monitor->drive_safe_state("monitor stopping");
-    (*trusted)->monitor->stop_sampling();
-    pthread_kill(waiter.native_handle(), SIGTERM);
+    served.store(true);
+    pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
     waiter.join();
+    (*trusted)->monitor->drive_safe_state(why);
+    (*trusted)->monitor->stop_sampling();
+    if (!args->virtual_state.empty()) {
+      std::ofstream(args->virtual_state) << monitor::virtual_state(**trusted);
+    }
+    fmt::print(stderr, "contego monitor: {}; safe state applied\n", why);
   });
 }
 

@@ -1,24 +1,64 @@
+#include <signal.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <fstream>
+#include <sys/signalfd.h>
 
+#include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/trusted_setup.h"
 #include "gate/socket.h"
 #include "intercept/seccomp/supervisor.h"
 
 namespace contego::cli {
+namespace {
+
+// SIGINT, SIGTERM and SIGHUP, blocked for the whole process and readable from
+// `fd` (-1 if signalfd failed: then they are only blocked, and still end the
+// program through the supervisor's death (PR_SET_PDEATHSIG) once unblocked).
+struct StopSignals {
+  sigset_t set{}, original{};
+  int fd = -1;
+  StopSignals() {
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &set, &original);
+    fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
+  }
+  ~StopSignals() {
+    if (fd >= 0) close(fd);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  // The signal that stopped the program (SIGTERM if it cannot be read).
+  int which() const {
+    signalfd_siginfo info{};
+    if (fd >= 0 && read(fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
+      return static_cast<int>(info.ssi_signo);
+    }
+    return SIGTERM;
+  }
+};
+
+}  // namespace
 
 void register_run(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "run", "Run an unmodified program with every bus command checked (seccomp supervisor)");
   struct Args {
     std::string policy, task, socket, audit = "-";
-    std::map<int, std::string> buses;
+    std::vector<std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<std::string> program;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
     bool realtime = false;
+    bool allow_degraded = false;
+    std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
@@ -26,8 +66,15 @@ void register_run(CLI::App& app) {
   cmd->add_option("--task", args->task, "the program's task name in the policy")->required();
   cmd->add_option("--socket", args->socket, "use the monitor daemon at this socket instead");
   cmd->add_option("--audit", args->audit, "audit log of the embedded monitor (- = stderr)");
-  cmd->add_option("--bus", args->buses, "N=/dev/i2c-N: a real adapter (embedded monitor)");
-  cmd->add_option("--virtual-bus", args->virtual_buses, "N: a virtual bus with device models");
+  configure_bus_option(cmd->add_option(
+      "--bus", args->buses,
+      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
+      "means N=/dev/i2c-N); once per bus"
+      " (embedded monitor)"));
+  cmd->add_option("--virtual-bus", args->virtual_buses,
+                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
+                  "GoPiGo2 0x08, line follower 0x06); once per bus")
+      ->allow_extra_args(false);
   cmd->add_option("--spin-us", args->spin_us,
                   "with --socket: busy-wait this long for the monitor's answer before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
@@ -38,13 +85,26 @@ void register_run(CLI::App& app) {
                   "hold a task's transfers to the end of its period once it has sent more than "
                   "this many times its declared actuations in one job (0 = never)")
       ->capture_default_str();
+  cmd->add_option("--virtual-state", args->virtual_state,
+                  "tests: write the virtual buses' device state to this file at exit")
+      ->group("");
+  cmd->add_flag("--allow-degraded", args->allow_degraded,
+                "embedded monitor: start even if a device does not answer, a sensor cannot be "
+                "read, a safe state cannot be applied or a device's bus has no adapter "
+                "(audited: degraded-start)");
   cmd->add_flag(
       "--rt", args->realtime,
       "run the program and its supervisor under SCHED_FIFO at the task's policy priority");
   cmd->add_option("program", args->program, "program and its arguments (after --)")->required();
   cmd->callback([args] {
+    // SIGINT, SIGTERM and SIGHUP end the program, not the supervisor: they are
+    // blocked here (every thread inherits that) and read from a signalfd that
+    // the supervisor watches; the program starts with the original mask.
+    StopSignals stop;
     intercept::seccomp::Options opt;
     opt.argv = args->program;
+    opt.stop_fd = stop.fd;
+    opt.child_sigmask = &stop.original;
     if (!args->socket.empty()) {
       std::optional<gate::SpinPolicy> channel;
       if (!args->no_channel) {
@@ -70,6 +130,14 @@ void register_run(CLI::App& app) {
       if (!r->realtime_error.empty()) {
         fmt::print(stderr, "contego run: --rt refused ({}); ran without it\n", r->realtime_error);
       }
+      if (r->stopped) {
+        const int sig = stop.which();
+        fmt::print(stderr,
+                   "contego run: {}: ended the program; the monitor drives task '{}''s devices "
+                   "to their safe state as the connection closes\n",
+                   signal_name(sig), args->task);
+        return set_exit_code(128 + sig);
+      }
       return set_exit_code(r->exit_code);
     }
     if (args->policy.empty()) {
@@ -79,14 +147,24 @@ void register_run(CLI::App& app) {
     monitor::SetupOptions so;
     so.policy = args->policy;
     so.audit = args->audit;
-    so.real_buses = args->buses;
+    auto buses = parse_bus_specs(args->buses, args->virtual_buses);
+    if (!buses.ok()) {
+      fmt::print(stderr, "contego run: {}\n", buses.error());
+      return set_exit_code(2);
+    }
+    so.real_buses = *buses;
     so.virtual_buses = args->virtual_buses;
     so.budget_factor = args->budget_factor;
+    so.allow_degraded = args->allow_degraded;
     if (so.real_buses.empty() && so.virtual_buses.empty()) so.virtual_buses = {1};
     auto trusted = monitor::setup(so);
     if (!trusted.ok()) {
       fmt::print(stderr, "contego run: {}\n", trusted.error());
       return set_exit_code(2);
+    }
+    for (const auto& w : (*trusted)->warnings) fmt::print(stderr, "contego run: warning: {}\n", w);
+    for (const auto& d : (*trusted)->degraded) {
+      fmt::print(stderr, "contego run: --allow-degraded: starting although {}\n", d);
     }
     auto it = (*trusted)->tasks.find(args->task);
     if (it == (*trusted)->tasks.end()) {
@@ -101,7 +179,19 @@ void register_run(CLI::App& app) {
                  args->task);
     }
     auto r = intercept::seccomp::run(opt, *(*trusted)->monitor);
+    if (r.ok() && r->stopped) {
+      const int sig = stop.which();
+      (*trusted)->audit.event(
+          "signal", fmt::format("contego run: {}: ended the supervised program", signal_name(sig)));
+      (*trusted)->monitor->drive_safe_state(fmt::format("contego run: {}", signal_name(sig)));
+      fmt::print(stderr, "contego run: {}: ended the program; safe state applied\n",
+                 signal_name(sig));
+      r->exit_code = 128 + sig;
+    }
     (*trusted)->monitor->stop_sampling();
+    if (!args->virtual_state.empty()) {
+      std::ofstream(args->virtual_state) << monitor::virtual_state(**trusted);
+    }
     if (!r.ok()) {
       fmt::print(stderr, "contego run: {}\n", r.error());
       return set_exit_code(2);

@@ -1,11 +1,45 @@
 #include "cli/trusted_setup.h"
 
+#include <string.h>
+
 #include <fmt/core.h>
+#include <set>
 
 #include "bus/linux_i2cdev.h"
+#include "gate/transfer.h"
 #include "policy/compile.h"
 
 namespace contego::monitor {
+namespace {
+
+std::string errno_text(int err) {
+  const char* name = strerrorname_np(err);
+  return fmt::format("{} ({})", name != nullptr ? name : std::to_string(err), strerror(err));
+}
+
+std::string where(const std::string& name, const core::DeviceRecord& r,
+                  const char* noun = "device") {
+  return fmt::format("{} {} at i2c-{} 0x{:02x}", noun, name, r.bus, r.addr);
+}
+
+// i2cdetect's probe: a quick write, except where that can corrupt an
+// EEPROM's write pointer or lock some chips (0x30-0x37, 0x50-0x5f), for a
+// ten-bit address and on an adapter without quick: a one-byte read. Neither
+// carries data a device could take as a command.
+int probe(bus::Bus& b, const core::DeviceRecord& r, std::string* how) {
+  const bool read_range = (r.addr >= 0x30 && r.addr <= 0x37) || (r.addr >= 0x50 && r.addr <= 0x5f);
+  if (r.ten_bit == 0 && !read_range && (b.funcs() & bus::kFuncSmbusQuick) != 0) {
+    *how = "an SMBus quick write";
+    return b.quick(r.addr, false);
+  }
+  *how = "a one-byte read";
+  uint8_t byte = 0;
+  bus::Msg m{r.addr, static_cast<uint16_t>(gate::kMsgRead | (r.ten_bit ? gate::kMsgTen : 0)), 1,
+             &byte};
+  return b.transfer({&m, 1});
+}
+
+}  // namespace
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   auto t = std::make_unique<Trusted>();
@@ -32,26 +66,120 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
   t->monitor->set_task_names(names);
   t->monitor->set_budget_factor(o.budget_factor);
+  std::map<int, bus::Bus*> adapters;  // bus number -> adapter
+  std::map<int, std::string> adapter_name;
   for (const auto& [n, path] : o.real_buses) {
     auto b = bus::LinuxI2cDev::open(path);
-    if (!b.ok()) return make_error(b.error());
-    t->monitor->add_bus(static_cast<uint8_t>(n), b->get());
+    if (!b.ok()) return make_error(fmt::format("bus {}: {}", n, b.error()));
+    adapters[n] = b->get();
+    adapter_name[n] = path;
     t->buses.push_back(std::move(*b));
   }
   for (int n : o.virtual_buses) {
     auto vb = std::make_unique<bus::VirtualBus>();
-    vb->attach(std::make_shared<bus::Pca9685>(0x40));
-    vb->attach(std::make_shared<bus::GoPiGo2>(0x08));
+    Trusted::VirtualDevices models{n, vb.get(), std::make_shared<bus::Pca9685>(0x40),
+                                   std::make_shared<bus::GoPiGo2>(0x08)};
+    vb->attach(models.pca9685);
+    vb->attach(models.gopigo);
     vb->attach(std::make_shared<bus::LineFollower>(0x06));
-    t->monitor->add_bus(static_cast<uint8_t>(n), vb.get());
+    t->virtual_devices.push_back(models);
+    adapters[n] = vb.get();
+    adapter_name[n] = "a virtual bus";
     t->buses.push_back(std::move(vb));
   }
+  for (const auto& [n, b] : o.buses) {
+    adapters[n] = b;
+    adapter_name[n] = "a test bus";
+  }
+  for (const auto& [n, b] : adapters) t->monitor->add_bus(static_cast<uint8_t>(n), b);
   t->audit.event("start", fmt::format("policy {}, {} tasks, worst-case cost {} instructions",
                                       o.policy, names.size(), out.worst_case_cost));
-  t->monitor->sample_all();
-  t->monitor->drive_safe_state("start");
+
+  const auto& devices = out.model.devices;
+  auto device_name = [&](uint16_t d) {
+    return d < devices.size() ? devices[d].name : std::to_string(d);
+  };
+  auto device_record = [&](uint16_t d) -> const core::DeviceRecord& {
+    return t->decider->device(d);
+  };
+  // Phase 1: the policy's buses against the adapters (no bus traffic).
+  std::vector<std::string> problems;
+  std::set<int> used;
+  for (uint16_t d = 0; d < t->decider->device_count(); ++d) {
+    const core::DeviceRecord& r = device_record(d);
+    used.insert(r.bus);
+    if (adapters.count(r.bus) == 0) {
+      problems.push_back(
+          fmt::format("{}: no adapter for bus {} (give --bus {}=/dev/i2c-{} or "
+                      "--virtual-bus {})",
+                      where(device_name(d), r), r.bus, r.bus, r.bus, r.bus));
+    }
+  }
+  for (const auto& [n, name] : adapter_name) {
+    if (used.count(n) != 0) continue;
+    t->warnings.push_back(fmt::format(
+        "bus {} ({}): no device of the policy is on it; nothing will be sent to it", n, name));
+    t->audit.event("unused-bus", t->warnings.back());
+  }
+  // Phase 2: every device answers its probe; nothing else is sent before.
+  for (uint16_t d = 0; d < t->decider->device_count(); ++d) {
+    const core::DeviceRecord& r = device_record(d);
+    auto it = adapters.find(r.bus);
+    if (it == adapters.end()) continue;
+    std::string how;
+    if (int err = probe(*it->second, r, &how); err != 0) {
+      problems.push_back(fmt::format("{} does not answer: {} on {} failed with {}",
+                                     where(device_name(d), r), how, adapter_name[r.bus],
+                                     errno_text(err)));
+    }
+  }
+  auto refuse = [&](const std::string& stage) -> Result<std::unique_ptr<Trusted>> {
+    std::string msg = fmt::format("refusing to start ({}):", stage);
+    for (const auto& p : problems) msg += "\n  " + p;
+    msg += "\n  (--allow-degraded starts anyway)";
+    t->audit.event("start-refused", msg);
+    return make_error(msg);
+  };
+  if (!problems.empty() && !o.allow_degraded) return refuse("devices missing");
+  // Phase 3: the first sample of every sensor.
+  for (const DeviceFailure& f : t->monitor->sample_all()) {
+    problems.push_back(fmt::format("{} cannot be read: {}",
+                                   where(device_name(f.device), device_record(f.device), "sensor"),
+                                   errno_text(f.err)));
+  }
+  if (!problems.empty() && !o.allow_degraded) return refuse("sensors unreadable");
+  // Phase 4: the safe state of every actuator.
+  for (const DeviceFailure& f : t->monitor->drive_safe_state("start")) {
+    problems.push_back(fmt::format("safe state of {} cannot be applied: {}",
+                                   where(device_name(f.device), device_record(f.device)),
+                                   errno_text(f.err)));
+  }
+  if (!problems.empty() && !o.allow_degraded) return refuse("safe state not applied");
+  if (!problems.empty()) {
+    std::string msg = "--allow-degraded: starting although";
+    for (const auto& p : problems) msg += "\n  " + p;
+    t->audit.event("degraded-start", msg);
+    t->degraded = problems;
+  }
   t->monitor->start_sampling();
   return t;
+}
+
+std::string virtual_state(const Trusted& trusted) {
+  std::string out;
+  for (const auto& v : trusted.virtual_devices) {
+    v.adapter->with_lock([&] {
+      out += fmt::format("bus {} gopigo2 0x08 motion=0x{:02x} left={} right={} frames={}\n", v.bus,
+                         v.gopigo->motion(), v.gopigo->left_speed(), v.gopigo->right_speed(),
+                         v.gopigo->frames());
+      out += fmt::format("bus {} pca9685 0x40", v.bus);
+      for (int c = 0; c < 16; ++c) {
+        out += fmt::format(" led{}={}/{}", c, v.pca9685->led_on(c), v.pca9685->led_off(c));
+      }
+      out += "\n";
+    });
+  }
+  return out;
 }
 
 }  // namespace contego::monitor

@@ -1,6 +1,19 @@
 // What `contego run` and `contego monitor` share: compile the policy, load it
 // into the core, open the buses (real /dev/i2c-N or a virtual bus with the
 // built-in device models) and build the monitor.
+//
+// Start fails closed: setup() refuses, with one line per problem naming the
+// device, its bus and address, when
+//  - a device of the policy is on a bus that no adapter serves;
+//  - a device does not answer its probe (an SMBus quick write, or a one-byte
+//    read at 0x30-0x37, 0x50-0x5f, for ten-bit addresses and on adapters
+//    without quick: i2cdetect's choice); then nothing but the probes reached
+//    any adapter;
+//  - a sensor's first sample cannot be read (then no safe state was sent);
+//  - an actuator's safe state cannot be written.
+// A refusal is audited (`start-refused`). `allow_degraded` starts anyway:
+// the problems are audited (`degraded-start`) and returned in `degraded`.
+// An adapter that no device of the policy uses is only a warning.
 #ifndef CONTEGO_CLI_TRUSTED_SETUP_H_
 #define CONTEGO_CLI_TRUSTED_SETUP_H_
 
@@ -23,6 +36,9 @@ struct SetupOptions {
   std::map<int, std::string> real_buses;  // bus number -> /dev/i2c-N
   std::vector<int> virtual_buses;  // buses hosting PCA9685 0x40, GoPiGo2 0x08, line follower 0x06
   uint32_t budget_factor = Monitor::kDefaultBudgetFactor;  // set_budget_factor (0 = off)
+  bool allow_degraded = false;
+  // Tests: adapters supplied by the caller (not owned; must outlive the result).
+  std::map<int, bus::Bus*> buses;
 };
 
 struct Trusted {
@@ -31,7 +47,22 @@ struct Trusted {
   std::vector<std::unique_ptr<bus::Bus>> buses;
   std::unique_ptr<Monitor> monitor;
   std::map<std::string, uint16_t> tasks;  // name -> id
+  std::vector<std::string> warnings;      // e.g. an adapter no device uses
+  std::vector<std::string> degraded;      // with allow_degraded: what was wrong at start
+  // The models on the virtual buses, for virtual_state().
+  struct VirtualDevices {
+    int bus = 0;
+    bus::VirtualBus* adapter = nullptr;
+    std::shared_ptr<bus::Pca9685> pca9685;
+    std::shared_ptr<bus::GoPiGo2> gopigo;
+  };
+  std::vector<VirtualDevices> virtual_devices;
 };
+
+// The actuator state of the virtual buses' models, one line per device
+// (`bus 1 gopigo2 0x08 motion=0x78 left=.. right=.. frames=N`, `bus 1
+// pca9685 0x40 led0=ON/OFF ...`): what the tests read back after a run.
+std::string virtual_state(const Trusted& trusted);
 
 // Fails with a message naming the file and the reason (diagnostics, verifier status).
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options);

@@ -264,31 +264,37 @@ void Monitor::task_exited(uint16_t task) {
   jobs_.erase(task);
 }
 
-void Monitor::drive_safe_state(const std::string& why) {
+std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
   std::lock_guard lock(mu_);
-  drive_safe_state_locked(why);
+  return drive_safe_state_locked(why);
 }
 
-void Monitor::drive_safe_state_locked(const std::string& why) {
+std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& why) {
   audit_.event("safe-state", why);
+  std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    if ((decider_.device(d).role & core::kRoleActuator) == 0) continue;
+    const core::DeviceRecord& rec = decider_.device(d);
+    if ((rec.role & core::kRoleActuator) == 0) continue;
     core::Verdict v{};
     if (!decider_.safe_state(d, &v)) continue;
-    if (int err = perform_emits(v, decider_.device(d).ten_bit != 0); err != 0) {
+    if (int err = perform_emits(v, rec.ten_bit != 0); err != 0) {
       auto it = buses_.find(v.bus);
       const std::string cause =
-          it == buses_.end() ? "" : emits_inexpressible(*it->second, v, decider_.device(d).ten_bit);
-      audit_.event("fault", fmt::format("safe state of device {} failed: errno {}{}{}", d, err,
-                                        cause.empty() ? "" : ": ", cause));
+          it == buses_.end() ? "" : emits_inexpressible(*it->second, v, rec.ten_bit);
+      audit_.event("fault",
+                   fmt::format("safe state of device {} (i2c-{} 0x{:02x}) failed: errno {}{}{}", d,
+                               rec.bus, rec.addr, err, cause.empty() ? "" : ": ", cause));
+      failed.push_back({d, err});
     }
   }
+  return failed;
 }
 
-void Monitor::sample_device_locked(uint16_t d) {
+int Monitor::sample_device_locked(uint16_t d) {
   const core::DeviceRecord& rec = decider_.device(d);
+  if (rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return 0;
   auto it = buses_.find(rec.bus);
-  if (it == buses_.end() || rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return;
+  if (it == buses_.end()) return ENODEV;
   Sample s;
   std::array<uint8_t, 8> request{};
   const uint8_t req_len = std::min<uint8_t>(rec.sample_request_len, 8);
@@ -299,28 +305,33 @@ void Monitor::sample_device_locked(uint16_t d) {
   const bool combined = req_len == 1 && !(it->second->funcs() & bus::kFuncI2c);
   bus::Msg w{rec.addr, ten, req_len, request.data()};
   if (req_len > 0 && !combined) {
-    if (it->second->transfer({&w, 1}) != 0) {
+    if (int err = it->second->transfer({&w, 1}); err != 0) {
       samples_.erase(d);  // a failed sample makes the signal unavailable (fail closed)
-      return;
+      return err;
     }
   }
   bus::Msg rw[2] = {
       w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()}};
-  if (it->second->transfer(combined ? std::span<bus::Msg>(rw) : std::span<bus::Msg>(rw + 1, 1)) !=
-      0) {
+  if (int err =
+          it->second->transfer(combined ? std::span<bus::Msg>(rw) : std::span<bus::Msg>(rw + 1, 1));
+      err != 0) {
     samples_.erase(d);
-    return;
+    return err;
   }
   s.len = rw[1].len;
   s.taken_at_us = monotonic_us();
   samples_[d] = s;
+  return 0;
 }
 
-void Monitor::sample_all() {
+std::vector<DeviceFailure> Monitor::sample_all() {
   std::lock_guard lock(mu_);
+  std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    if (decider_.device(d).role & core::kRoleSensor) sample_device_locked(d);
+    if ((decider_.device(d).role & core::kRoleSensor) == 0) continue;
+    if (int err = sample_device_locked(d); err != 0) failed.push_back({d, err});
   }
+  return failed;
 }
 
 void Monitor::start_sampling() {

@@ -31,6 +31,13 @@ namespace contego::monitor {
 
 uint64_t monotonic_us();
 
+// A device the monitor could not read or drive: its id in the image and the
+// bus's errno (ENODEV: no adapter for its bus).
+struct DeviceFailure {
+  uint16_t device = 0;
+  int err = 0;
+};
+
 class Monitor final : public gate::Endpoint {
  public:
   // `decider` and the buses must outlive the monitor.
@@ -48,13 +55,17 @@ class Monitor final : public gate::Endpoint {
   static constexpr uint32_t kDefaultBudgetFactor = 4;  // what the CLI sets
   uint64_t holds() const { return holds_.load(); }
 
-  // Drives every actuator to its safe state; logs `why`.
-  void drive_safe_state(const std::string& why);
+  // Drives every actuator to its safe state; logs `why`. Returns the
+  // actuators whose safe state did not reach the bus (each also audited as a
+  // `fault`); the others were driven.
+  std::vector<DeviceFailure> drive_safe_state(const std::string& why);
   // Starts / stops the sensor sampling thread (devices with a sample period).
   void start_sampling();
   void stop_sampling();
-  // Takes one sample of every sensor now (tests, and the first sample at start).
-  void sample_all();
+  // Takes one sample of every sensor now (tests, and the first sample at
+  // start). Returns the sensors that could not be read (their signals are
+  // unavailable until a later sample succeeds).
+  std::vector<DeviceFailure> sample_all();
 
   gate::TransferReply transfer(uint16_t task, const gate::Transfer& transfer) override;
   void job_boundary(uint16_t task) override;
@@ -88,9 +99,9 @@ class Monitor final : public gate::Endpoint {
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
   int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
-  void sample_device_locked(uint16_t device);
+  int sample_device_locked(uint16_t device);                // 0 or the bus's errno
   void hold_if_over_budget(uint16_t task);
-  void drive_safe_state_locked(const std::string& why);
+  std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why);
 
   Decider& decider_;
   AuditLog& audit_;

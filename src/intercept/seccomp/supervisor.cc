@@ -222,6 +222,9 @@ class Loop {
   }
 
   void handle(const seccomp_notif& n);
+  // Fail-close: SIGKILLs every supervised process known; every later call
+  // is answered with EIO and its caller killed.
+  void close_down();
 
  private:
   bool in_range(uint64_t fd) const {
@@ -275,7 +278,15 @@ class Loop {
   std::map<pid_t, Process> processes_;  // by thread-group id
   std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
   size_t sweep_at_ = 256;               // tgid_ size that triggers forget_the_dead()
+  bool closing_ = false;
 };
+
+void Loop::close_down() {
+  closing_ = true;
+  for (auto& [tgid, p] : processes_) {
+    if (p.pidfd >= 0) syscall(SYS_pidfd_send_signal, p.pidfd, SIGKILL, nullptr, 0);
+  }
+}
 
 Process* Loop::process_of(pid_t tid, uint64_t id) {
   // Numbers are reused once a thread or process is gone, so a cached answer
@@ -482,12 +493,16 @@ void Loop::handle(const seccomp_notif& n) {
   ++result_.notifications;
   if (n.data.arch != kAuditArch) return reply(n.id, 0, ENOSYS);  // the filter kills first
   const long nr = n.data.nr;
-  if (nr == __NR_nanosleep || nr == __NR_clock_nanosleep) {
+  if ((nr == __NR_nanosleep || nr == __NR_clock_nanosleep) && !closing_) {
     endpoint_.job_boundary(options_.task);
     return continue_call(n.id);  // a sleep carries no payload
   }
   Process* found = process_of(static_cast<pid_t>(n.pid), n.id);
   if (found == nullptr) return reply(n.id, 0, EIO);  // gone meanwhile, or no pidfd: fail closed
+  if (closing_) {
+    syscall(SYS_pidfd_send_signal, found->pidfd, SIGKILL, nullptr, 0);
+    return reply(n.id, 0, EIO);
+  }
   Process& p = *found;
   const auto& a = n.data.args;
   bool is_open = nr == __NR_openat || nr == __NR_openat2;
@@ -592,10 +607,21 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
     return make_error(std::string("pipe: ") + strerror(errno));
   }
+  sigset_t child_mask;
+  if (options.child_sigmask != nullptr) {
+    child_mask = *options.child_sigmask;
+  } else {
+    pthread_sigmask(SIG_SETMASK, nullptr, &child_mask);
+  }
+  const pid_t supervisor = getpid();
   const pid_t child = fork();
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
     // Only async-signal-safe calls from here to execvp.
+    // Dies with the thread that forked it; if that happened already (the
+    // parent is no longer the supervisor), give up before running anything.
+    if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != supervisor) _exit(126);
+    sigprocmask(SIG_SETMASK, &child_mask, nullptr);
     int fd = -1;
     if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
       fd = static_cast<int>(
@@ -674,20 +700,32 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     // kWakeSignal, repeating until the loop has seen it (a signal that lands
     // just before the loop enters RECV would otherwise be lost).
     install_wake_handler();
-    std::atomic<bool> done{false}, loop_left{false};
+    std::atomic<bool> done{false}, loop_left{false}, stop{false};
     ChildStatus child_status;
     const pthread_t loop_thread = pthread_self();
     std::thread watcher([&] {
       bool child_done = false;
+      bool stopping = options.stop_fd < 0;
       for (;;) {
-        pollfd fds[2] = {{listener, 0, 0}, {pidfd, POLLIN, 0}};
-        if (poll(fds, child_done ? 1 : 2, -1) < 0) {
+        // The listener first; the child and the stop descriptor while they matter.
+        pollfd fds[3] = {{listener, 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
+        fds[1].fd = child_done ? -1 : pidfd;
+        fds[2].fd = stopping ? -1 : options.stop_fd;
+        if (poll(fds, 3, -1) < 0) {
           if (errno == EINTR) continue;
           break;
         }
         if (!child_done && (fds[1].revents & POLLIN)) {
           child_done = true;
           child_status.reap(child);
+        }
+        if (!stopping && (fds[2].revents & (POLLIN | POLLHUP | POLLERR))) {
+          // End the program: the direct child now, the others the loop knows
+          // as soon as it sees `stop` (woken below).
+          stopping = true;
+          stop.store(true, std::memory_order_release);
+          if (!child_done) syscall(SYS_pidfd_send_signal, pidfd, SIGKILL, nullptr, 0);
+          pthread_kill(loop_thread, kWakeSignal);
         }
         if (fds[0].revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
       }
@@ -699,8 +737,17 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     });
     std::memset(buf.data(), 0, buf.size());
     auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
+    bool closed_down = false;
+    auto close_down_if_stopped = [&] {
+      if (closed_down || !stop.load(std::memory_order_acquire)) return;
+      closed_down = true;
+      result.stopped = true;
+      loop.close_down();
+    };
     while (!done.load(std::memory_order_acquire)) {
+      close_down_if_stopped();
       if (ioctl(listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
+        close_down_if_stopped();  // a call received after the stop is answered EIO
         loop.handle(*n);
         std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
         continue;
@@ -712,6 +759,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     }
     loop_left.store(true, std::memory_order_release);
     watcher.join();
+    result.stopped = stop.load(std::memory_order_acquire);  // the loop may have missed it
     if (!child_status.reaped) child_status.reap(child);
     result.exit_code = child_status.exit_code;
     result.signal = child_status.signal;

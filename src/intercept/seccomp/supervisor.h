@@ -23,10 +23,20 @@
 // (SIGRTMIN + 3, handled process-wide by a no-op handler without
 // SA_RESTART, installed on first use and kept).
 //
+// The program never outlives its supervisor: the direct child asks for
+// SIGKILL when the thread that forked it dies (PR_SET_PDEATHSIG, set before
+// exec, after checking that this process is still its parent), so a killed
+// `contego run` takes it along instead of leaving it to meet ENOSYS on a
+// listener nobody holds. (Grandchildren do not inherit that: a supervisor
+// killed with SIGKILL leaves them running, and their bus calls then fail
+// with ENOSYS; stop_fd ends them too.)
+//
 // Thread-safety: run() calls the endpoint from the calling thread only;
 // concurrent run()s are fine; the endpoint may be shared.
 #ifndef CONTEGO_INTERCEPT_SECCOMP_SUPERVISOR_H_
 #define CONTEGO_INTERCEPT_SECCOMP_SUPERVISOR_H_
+
+#include <signal.h>
 
 #include <cstdint>
 #include <string>
@@ -45,6 +55,15 @@ struct Options {
   // > 0: the program and the supervising thread run under SCHED_FIFO at this
   // (policy) priority; a refusal is reported in RunResult, not fatal.
   int realtime_priority = 0;
+  // >= 0: when this descriptor becomes readable (e.g. a signalfd of SIGINT,
+  // SIGTERM, SIGHUP; never read here), the supervisor ends the program: it
+  // SIGKILLs the direct child and every supervised process it knows, and from
+  // then on answers every intercepted call with EIO and SIGKILLs its caller.
+  // run() still returns only once no supervised process is left.
+  int stop_fd = -1;
+  // The signal mask the program starts with (the caller's own mask when null:
+  // a caller that blocks signals to wait for them passes its original mask).
+  const sigset_t* child_sigmask = nullptr;
 };
 
 struct RunResult {
@@ -56,6 +75,7 @@ struct RunResult {
   bool sync_wakeup = false;
   bool realtime = false;       // SCHED_FIFO was applied
   std::string realtime_error;  // why not, when it was asked for
+  bool stopped = false;        // ended through stop_fd
 };
 
 // Runs the program to completion under supervision. Fails (without running

@@ -1,0 +1,78 @@
+#include "cli/bus_args.h"
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+#include <set>
+
+namespace contego::cli {
+namespace {
+
+// A bus number: 1 to 3 decimal digits, 0..255.
+int bus_number(const std::string& digits) {
+  if (digits.empty() || digits.size() > 3) return -1;
+  int n = 0;
+  for (char c : digits) {
+    if (c < '0' || c > '9') return -1;
+    n = n * 10 + (c - '0');
+  }
+  return n <= 255 ? n : -1;
+}
+
+}  // namespace
+
+Result<std::pair<int, std::string>> parse_bus_spec(const std::string& value) {
+  const std::string expected = "expected N=PATH (e.g. 1=/dev/i2c-1) or /dev/i2c-N";
+  const size_t eq = value.find('=');
+  if (eq == std::string::npos) {
+    const std::string prefix = "/dev/i2c-";
+    if (value.rfind(prefix, 0) == 0) {
+      const int n = bus_number(value.substr(prefix.size()));
+      if (n >= 0) return std::make_pair(n, value);
+    }
+    return make_error(fmt::format("--bus '{}': {}", value, expected));
+  }
+  const int n = bus_number(value.substr(0, eq));
+  if (n < 0) {
+    return make_error(fmt::format("--bus '{}': the bus number '{}' is not 0..255; {}", value,
+                                  value.substr(0, eq), expected));
+  }
+  const std::string path = value.substr(eq + 1);
+  if (path.empty())
+    return make_error(fmt::format("--bus '{}': no device path; {}", value, expected));
+  return std::make_pair(n, path);
+}
+
+Result<std::map<int, std::string>> parse_bus_specs(const std::vector<std::string>& values,
+                                                   const std::vector<int>& virtual_buses) {
+  std::map<int, std::string> out;
+  for (const auto& v : values) {
+    auto spec = parse_bus_spec(v);
+    if (!spec.ok()) return make_error(spec.error());
+    const auto [n, path] = *spec;
+    if (auto it = out.find(n); it != out.end()) {
+      return make_error(fmt::format("--bus '{}': bus {} is already {}", v, n, it->second));
+    }
+    out[n] = path;
+  }
+  std::set<int> seen;
+  for (int n : virtual_buses) {
+    if (n < 0 || n > 255) return make_error(fmt::format("--virtual-bus {}: not 0..255", n));
+    if (out.count(n) != 0) {
+      return make_error(
+          fmt::format("--virtual-bus {}: bus {} is already the adapter {}", n, n, out[n]));
+    }
+    if (!seen.insert(n).second) return make_error(fmt::format("--virtual-bus {}: given twice", n));
+  }
+  return out;
+}
+
+void configure_bus_option(CLI::Option* option) {
+  option->allow_extra_args(false)->type_name("N=PATH")->check(CLI::Validator(
+      [](std::string& value) {
+        auto spec = parse_bus_spec(value);
+        return spec.ok() ? std::string() : spec.error();
+      },
+      "N=PATH"));
+}
+
+}  // namespace contego::cli

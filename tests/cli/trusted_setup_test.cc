@@ -1,0 +1,179 @@
+// `contego monitor` / `contego run` start fails closed: setup() against
+// virtual buses that miss a device, NAK a sensor's sample, refuse a safe
+// state, or serve the wrong bus numbers.
+#include "cli/trusted_setup.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+#include <string>
+
+#include "gate/transfer.h"
+
+namespace contego::monitor {
+namespace {
+
+const std::string kRover = std::string(CONTEGO_POLICIES_DIR) + "/rover.policy";
+
+// Forwards to a virtual bus, but fails reads or writes at one address.
+class FaultyBus final : public bus::Bus {
+ public:
+  FaultyBus(bus::Bus& inner, uint16_t addr, bool fail_reads, bool fail_writes, int err)
+      : inner_(inner), addr_(addr), fail_reads_(fail_reads), fail_writes_(fail_writes), err_(err) {}
+  uint64_t funcs() const override { return inner_.funcs(); }
+  int transfer(std::span<bus::Msg> msgs) override {
+    for (const bus::Msg& m : msgs) {
+      const bool read = (m.flags & gate::kMsgRead) != 0;
+      if (m.addr == addr_ && ((read && fail_reads_) || (!read && fail_writes_))) return err_;
+    }
+    return inner_.transfer(msgs);
+  }
+  int quick(uint16_t addr, bool read) override { return inner_.quick(addr, read); }
+
+ private:
+  bus::Bus& inner_;
+  uint16_t addr_;
+  bool fail_reads_, fail_writes_;
+  int err_;
+};
+
+class SetupTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/contego-setup-XXXXXX";
+    ASSERT_NE(mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+    options_.policy = kRover;
+    options_.audit = dir_ + "/audit.jsonl";
+    gopigo_ = std::make_shared<bus::GoPiGo2>(0x08);
+    line_ = std::make_shared<bus::LineFollower>(0x06);
+  }
+  void TearDown() override {
+    unlink(options_.audit.c_str());
+    rmdir(dir_.c_str());
+  }
+  std::string audit() const {
+    std::ifstream in(options_.audit);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  std::string dir_;
+  SetupOptions options_;
+  std::shared_ptr<bus::GoPiGo2> gopigo_;
+  std::shared_ptr<bus::LineFollower> line_;
+};
+
+TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
+  bus::VirtualBus vb;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  options_.buses = {{1, &vb}};
+  auto t = setup(options_);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_TRUE((*t)->warnings.empty());
+  EXPECT_TRUE((*t)->degraded.empty());
+  EXPECT_EQ(gopigo_->motion(), 0x78);  // stop()
+  EXPECT_GE(gopigo_->frames(), 1u);
+  (*t)->monitor->stop_sampling();
+}
+
+TEST_F(SetupTest, MissingDeviceRefusesAfterTheProbesOnly) {
+  bus::VirtualBus vb;
+  vb.attach(line_);  // no GoPiGo2 at 0x08
+  options_.buses = {{1, &vb}};
+  auto t = setup(options_);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("refusing to start (devices missing):"), std::string::npos) << t.error();
+  EXPECT_NE(t.error().find("device gopigo at i2c-1 0x08 does not answer: an SMBus quick write on "
+                           "a test bus failed with ENXIO (No such device or address)"),
+            std::string::npos)
+      << t.error();
+  EXPECT_NE(t.error().find("--allow-degraded"), std::string::npos);
+  EXPECT_EQ(vb.operations(), 2u);  // one probe per device, nothing else
+  EXPECT_EQ(line_->requests(), 0u);
+  EXPECT_NE(audit().find("\"kind\":\"start-refused\""), std::string::npos);
+}
+
+TEST_F(SetupTest, AllowDegradedStartsAndAuditsIt) {
+  bus::VirtualBus vb;
+  vb.attach(line_);
+  options_.buses = {{1, &vb}};
+  options_.allow_degraded = true;
+  auto t = setup(options_);
+  ASSERT_TRUE(t.ok()) << t.error();
+  ASSERT_FALSE((*t)->degraded.empty());
+  EXPECT_NE((*t)->degraded[0].find("device gopigo at i2c-1 0x08 does not answer"),
+            std::string::npos);
+  EXPECT_NE(audit().find("\"kind\":\"degraded-start\""), std::string::npos);
+  (*t)->monitor->stop_sampling();
+}
+
+TEST_F(SetupTest, UnreadableSensorRefusesBeforeAnySafeState) {
+  bus::VirtualBus vb;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  FaultyBus faulty(vb, 0x06, /*fail_reads=*/true, /*fail_writes=*/false, EIO);
+  options_.buses = {{1, &faulty}};
+  auto t = setup(options_);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("refusing to start (sensors unreadable):"), std::string::npos);
+  EXPECT_NE(t.error().find("sensor line at i2c-1 0x06 cannot be read: EIO (Input/output error)"),
+            std::string::npos)
+      << t.error();
+  EXPECT_EQ(gopigo_->frames(), 0u);  // no safe state was sent
+}
+
+TEST_F(SetupTest, SafeStateTheBusRefusesRefusesToStart) {
+  bus::VirtualBus vb;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  FaultyBus faulty(vb, 0x08, /*fail_reads=*/false, /*fail_writes=*/true, EREMOTEIO);
+  options_.buses = {{1, &faulty}};
+  auto t = setup(options_);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("refusing to start (safe state not applied):"), std::string::npos);
+  EXPECT_NE(t.error().find("safe state of device gopigo at i2c-1 0x08 cannot be applied: "
+                           "EREMOTEIO (Remote I/O error)"),
+            std::string::npos)
+      << t.error();
+  EXPECT_NE(audit().find("\"kind\":\"fault\""), std::string::npos);
+}
+
+TEST_F(SetupTest, PolicyBusWithoutAdapterRefusesAndAnUnusedBusWarns) {
+  bus::VirtualBus vb;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  options_.buses = {{2, &vb}};
+  auto t = setup(options_);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("device gopigo at i2c-1 0x08: no adapter for bus 1 (give --bus "
+                           "1=/dev/i2c-1 or --virtual-bus 1)"),
+            std::string::npos)
+      << t.error();
+  EXPECT_NE(t.error().find("device line at i2c-1 0x06: no adapter for bus 1"), std::string::npos);
+  EXPECT_EQ(vb.operations(), 0u);
+  EXPECT_NE(audit().find("bus 2 (a test bus): no device of the policy is on it"),
+            std::string::npos);
+}
+
+TEST_F(SetupTest, AnUnusedBusBesideTheRightOneOnlyWarns) {
+  bus::VirtualBus vb, spare;
+  vb.attach(gopigo_);
+  vb.attach(line_);
+  options_.buses = {{1, &vb}, {3, &spare}};
+  auto t = setup(options_);
+  ASSERT_TRUE(t.ok()) << t.error();
+  ASSERT_EQ((*t)->warnings.size(), 1u);
+  EXPECT_EQ((*t)->warnings[0],
+            "bus 3 (a test bus): no device of the policy is on it; nothing will be sent to it");
+  EXPECT_EQ(spare.operations(), 0u);
+  (*t)->monitor->stop_sampling();
+}
+
+}  // namespace
+}  // namespace contego::monitor

@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# Signals to `contego run` (embedded monitor and --socket) and `contego
+# monitor`, with real processes: a rover loop on a virtual bus.
+#  - SIGINT, SIGTERM, SIGHUP to `contego run --policy`: exit 128+N, the audit
+#    log records the signal and a safe state, the virtual GoPiGo2 reads back
+#    stopped (motion 0x78), and the program is gone.
+#  - SIGKILL to `contego run`: the program dies with it (PR_SET_PDEATHSIG).
+#  - The same three signals to `contego run --socket`: exit 128+N, the
+#    program is gone and the monitor logs a safe state for the closed
+#    connection; SIGHUP to the monitor is logged and it keeps serving;
+#    SIGTERM to it drives the safe state and exits 0.
+# Usage: cli_signals.sh CONTEGO POLICIES_DIR SCRIPTS_DIR
+set -uo pipefail
+contego="$1" policies="$2" scripts="$3"
+dir="$(mktemp -d)"
+monitor_pid=""
+cleanup() {
+  [[ -n "$monitor_pid" ]] && kill -KILL "$monitor_pid" 2>/dev/null
+  rm -rf "$dir"
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; for f in "$dir"/*.{err,jsonl,state}; do [[ -f "$f" ]] && { echo "--- $f"; tail -n 20 "$f"; }; done; exit 1; }
+declare -A number=([INT]=2 [TERM]=15 [HUP]=1 [KILL]=9)
+
+# event KIND TEXT FILE: an audit event of that kind whose detail contains TEXT.
+event() { grep -aqF -- "$2" <(grep -aF "\"kind\":\"$1\"" "$3"); }
+count() { grep -acF "\"kind\":\"$1\"" "$2"; }
+
+wait_for() {  # FILE: until it exists (10 s)
+  for _ in $(seq 100); do [[ -s "$1" ]] && return 0; sleep 0.1; done
+  return 1
+}
+gone() {  # PID: not running (a zombie counts as gone only once reaped by its parent)
+  for _ in $(seq 50); do kill -0 "$1" 2>/dev/null || return 0; sleep 0.1; done
+  return 1
+}
+
+# --- embedded monitor -------------------------------------------------------
+for sig in INT TERM HUP; do
+  "$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+    --audit "$dir/$sig.jsonl" --virtual-state "$dir/$sig.state" \
+    -- /usr/bin/python3 "$scripts/rover_loop.py" "$dir/$sig.pid" >"$dir/$sig.out" 2>"$dir/$sig.err" &
+  run_pid=$!
+  wait_for "$dir/$sig.pid" || fail "$sig: the program did not start"
+  child=$(cat "$dir/$sig.pid")
+  kill -"$sig" "$run_pid"
+  wait "$run_pid"
+  code=$?
+  [[ $code -eq $((128 + ${number[$sig]})) ]] || fail "$sig: contego run exited $code"
+  gone "$child" || fail "$sig: the program (pid $child) outlived contego run"
+  event signal "SIG$sig: ended the supervised program" "$dir/$sig.jsonl" ||
+    fail "$sig: no signal event in the audit log"
+  event safe-state "contego run: SIG$sig" "$dir/$sig.jsonl" ||
+    fail "$sig: no safe-state event for the signal"
+  grep -q "gopigo2 0x08 motion=0x78" "$dir/$sig.state" ||
+    fail "$sig: the GoPiGo2 is not stopped: $(cat "$dir/$sig.state")"
+  grep -q "SIG$sig: ended the program; safe state applied" "$dir/$sig.err" ||
+    fail "$sig: no message"
+  echo "embedded $sig: ok"
+done
+
+# SIGKILL: nothing can be driven, but the program must not run on.
+"$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/KILL.jsonl" -- /usr/bin/python3 "$scripts/rover_loop.py" "$dir/KILL.pid" \
+  >/dev/null 2>&1 &
+run_pid=$!
+wait_for "$dir/KILL.pid" || fail "KILL: the program did not start"
+child=$(cat "$dir/KILL.pid")
+kill -KILL "$run_pid"
+wait "$run_pid" 2>/dev/null
+gone "$child" || fail "KILL: the program (pid $child) outlived its supervisor"
+echo "embedded KILL: ok"
+
+# --- socket mode ------------------------------------------------------------
+sock="$dir/monitor.sock"
+"$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$sock" \
+  --audit "$dir/monitor.jsonl" --virtual-state "$dir/monitor.state" 2>"$dir/monitor.err" &
+monitor_pid=$!
+for _ in $(seq 100); do [[ -S "$sock" ]] && break; sleep 0.1; done
+[[ -S "$sock" ]] || fail "the monitor did not start"
+for sig in INT TERM HUP; do
+  kill -HUP "$monitor_pid"  # logged; the monitor keeps serving (the next run connects)
+  "$contego" run --socket "$sock" --task follower \
+    -- /usr/bin/python3 "$scripts/rover_loop.py" "$dir/s$sig.pid" >"$dir/s$sig.out" 2>"$dir/s$sig.err" &
+  run_pid=$!
+  wait_for "$dir/s$sig.pid" || fail "socket $sig: the program did not start"
+  child=$(cat "$dir/s$sig.pid")
+  before=$(count safe-state "$dir/monitor.jsonl")
+  kill -"$sig" "$run_pid"
+  wait "$run_pid"
+  code=$?
+  [[ $code -eq $((128 + ${number[$sig]})) ]] || fail "socket $sig: contego run exited $code"
+  gone "$child" || fail "socket $sig: the program (pid $child) outlived contego run"
+  for _ in $(seq 50); do
+    [[ $(count safe-state "$dir/monitor.jsonl") -gt $before ]] && break
+    sleep 0.1
+  done
+  [[ $(count safe-state "$dir/monitor.jsonl") -gt $before ]] && event safe-state "exited" "$dir/monitor.jsonl" ||
+    fail "socket $sig: the monitor logged no safe state for the closed connection"
+  kill -0 "$monitor_pid" || fail "socket $sig: the monitor died"
+  echo "socket $sig: ok"
+done
+event signal "SIGHUP: still serving" "$dir/monitor.jsonl" || fail "no SIGHUP event"
+kill -TERM "$monitor_pid"
+wait "$monitor_pid"
+code=$?
+monitor_pid=""
+[[ $code -eq 0 ]] || fail "the monitor exited $code on SIGTERM"
+event safe-state "monitor stopping (SIGTERM)" "$dir/monitor.jsonl" ||
+  fail "monitor: no safe state for SIGTERM"
+grep -q "gopigo2 0x08 motion=0x78" "$dir/monitor.state" || fail "monitor: the GoPiGo2 is not stopped"
+echo "ok"
