@@ -77,7 +77,8 @@ check() {  # check DESCRIPTION COMMAND...: passes when the command succeeds
 stub_get() { i2cget -y 0 "$1" "$2" b; }
 stub_set() { i2cset -y 0 "$1" "$2" "$3" b; }
 stub_word() {  # stub_word ADDR LOW_REG: the little-endian 16-bit value at LOW_REG, LOW_REG+1 (decimal)
-  lo=$(stub_get "$1" "$2") && hi=$(stub_get "$1" $(($2 + 1))) && echo $(( (hi << 8) | lo ))
+  lo=$(stub_get "$1" "$2") && hi=$(stub_get "$1" "$(printf '0x%02x' $(($2 + 1)))") &&
+    echo $(( (hi << 8) | lo ))
 }
 expect_reg() {  # expect_reg ADDR REG VALUE DESCRIPTION
   got=$(stub_get "$1" "$2")
@@ -155,10 +156,17 @@ start_monitor() {
   # the socket is 0660 contego's? let the task group reach it whatever the umask
   return 0
 }
-stop_monitor() {
+stop_monitor() {  # SIGTERM, as systemd stops the unit; it must be gone within 15 s
   [ -n "$MONITOR_PID" ] || return 0
   kill -TERM $MONITOR_PID 2>/dev/null
+  i=0
+  while kill -0 $MONITOR_PID 2>/dev/null && [ $i -lt 150 ]; do usleep 100000; i=$((i + 1)); done
+  if kill -0 $MONITOR_PID 2>/dev/null; then
+    bad "contego monitor still running 15 s after SIGTERM (killed)"
+    kill -KILL $MONITOR_PID
+  fi
   wait $MONITOR_PID
+  echo "  monitor stopped (exit $?)"
   MONITOR_PID=
 }
 

@@ -34,6 +34,7 @@ d=$(sync_dir)
 echo "  \$ gripper_seq.py --sync $d --hold 420 577 420 900 (under contego, background)"
 under $MODE arm.policy gripper python3 $CLIENTS/gripper_seq.py --sync "$d" --hold \
   420 577 420 900 >"$LOGDIR/grip.out" 2>&1 &
+grip_pid=$!
 await "$d" start || { show "$LOGDIR/grip.out"; finish; }
 expect_word $A $LED5_OFF 420 "safe state on the adapter while the supervised task starts"
 stub_set $A $LED5_OFF 0  # so that the first pulse is seen to land
@@ -49,7 +50,7 @@ await "$d" 3 && expect_word $A $LED5_OFF 577 "high pulse 900 on channel 5 is rep
 stub_set $A $LED5_OFF 0x41  # anything but the safe state
 kill -KILL "$(cat "$d/pid")"
 ack "$d" 3
-wait
+wait $grip_pid
 show "$LOGDIR/grip.out"
 expect_word $A $LED5_OFF 420 "safe state on the adapter after the task is killed"
 
