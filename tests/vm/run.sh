@@ -77,11 +77,11 @@ echo
 echo "==== test bed summary (console: $log) ===="
 awk -v a="$t_start" -v b="$t_kernel" -v c="$t_initrd" -v d="$t_end" -v size="$(du -h "$workdir/initrd.cpio" | cut -f1)" \
   -v accel="$accel_name" 'BEGIN { printf "kernel fetch %.1fs, initramfs %.1fs (%s), boot+scenarios %.1fs (%s)\n", b - a, c - b, size, d - c, accel }'
-grep -E '^VM-(BOOTED|RESULT|DONE)' "$log" || true
-grep -E '^VM-CHECK FAIL' "$log" || true
+grep -aE '^VM-(BOOTED|RESULT|DONE)' "$log" || true
+grep -aE '^VM-CHECK FAIL' "$log" || true
 ((qemu_rc != 124 && qemu_rc != 137)) || fail "QEMU killed after ${limit}s: the guest hung (see $log)"
-grep -q '^VM-BOOTED' "$log" || fail "the guest never came up (QEMU exit $qemu_rc; see $log)"
-grep -q '^VM-DONE' "$log" || fail "the guest did not finish its scenarios (QEMU exit $qemu_rc; see $log)"
-! grep -q '^VM-RESULT FAIL' "$log" || fail "$(grep -c '^VM-RESULT FAIL' "$log") scenario(s) failed: $(grep '^VM-RESULT FAIL' "$log" | awk '{print $3}' | tr '\n' ' ')"
-grep -q '^VM-RESULT PASS' "$log" || fail "no scenario ran"
+grep -aq '^VM-BOOTED' "$log" || fail "the guest never came up (QEMU exit $qemu_rc; see $log)"
+grep -aq '^VM-DONE' "$log" || fail "the guest did not finish its scenarios (QEMU exit $qemu_rc; see $log)"
+! grep -aq '^VM-RESULT FAIL' "$log" || fail "$(grep -ac '^VM-RESULT FAIL' "$log") scenario(s) failed: $(grep -a '^VM-RESULT FAIL' "$log" | awk '{print $3}' | tr '\n' ' ')"
+grep -aq '^VM-RESULT PASS' "$log" || fail "no scenario ran"
 echo "VM TEST BED PASSED"

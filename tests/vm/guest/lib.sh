@@ -20,6 +20,11 @@ SOCK=/run/contego/monitor.sock
 TASK_UID=1000
 MONITOR_UID=990
 
+# busybox sh runs its own applets before searching PATH, and busybox has
+# i2c applets: these functions make the scripts' i2c commands the real
+# i2c-tools. (Programs started by contego are exec'd from PATH: real too.)
+for t in i2cdetect i2cget i2cset i2cdump i2ctransfer; do eval "$t() { /usr/sbin/$t \"\$@\"; }"; done
+
 now_ms() { awk '{ printf "%d", $1 * 1000 }' /proc/uptime; }
 
 wait_for() {  # wait_for PATH SECONDS: until PATH exists
@@ -114,6 +119,8 @@ run_logged() {
 # in group contego, so it may reach the monitor's socket but not the bus).
 as_task() {
   cmd=""
+  # an absolute program path: busybox's `exec` would prefer its own applet
+  [ -x "/usr/sbin/$1" ] && { first=/usr/sbin/$1; shift; set -- "$first" "$@"; }
   for a in "$@"; do cmd="$cmd '$(echo "$a" | sed "s/'/'\\\\''/g")'"; done
   su task -s /bin/sh -c "cd /tmp && exec $cmd"
 }
@@ -173,8 +180,16 @@ stop_monitor() {  # SIGTERM, as systemd stops the unit; it must be gone within 1
 # A directory both root and the task user can write (handshakes with clients).
 sync_dir() { d=$(mktemp -d /tmp/sync.XXXXXX) && chmod 777 "$d" && echo "$d"; }
 # await DIR NAME: until the client has created DIR/sent-NAME (60 s at most).
-await() {
-  wait_for "$1/sent-$2" 60 || { bad "client never reached step $2"; return 1; }
+await() {  # await DIR NAME [PID]: also gives up at once when PID has exited
+  i=0
+  while [ ! -e "$1/sent-$2" ]; do
+    i=$((i + 1))
+    if [ $i -gt 600 ] || { [ -n "$3" ] && ! kill -0 "$3" 2>/dev/null; }; then
+      bad "client never reached step $2"
+      return 1
+    fi
+    usleep 100000
+  done
 }
 ack() { touch "$1/ack-$2"; }
 # the supervised program's (or monitor's) log so far, on failure

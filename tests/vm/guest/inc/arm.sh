@@ -35,18 +35,18 @@ echo "  \$ gripper_seq.py --sync $d --hold 420 577 420 900 (under contego, backg
 under $MODE arm.policy gripper python3 $CLIENTS/gripper_seq.py --sync "$d" --hold \
   420 577 420 900 >"$LOGDIR/grip.out" 2>&1 &
 grip_pid=$!
-await "$d" start || { show "$LOGDIR/grip.out"; finish; }
+await "$d" start $grip_pid || { show "$LOGDIR/grip.out"; finish; }
 expect_word $A $LED5_OFF 420 "safe state on the adapter while the supervised task starts"
 stub_set $A $LED5_OFF 0  # so that the first pulse is seen to land
 ack "$d" start
 k=0
 for want in 420 577 420; do
-  await "$d" $k || break
+  await "$d" $k $grip_pid || break
   expect_word $A $LED5_OFF $want "gripper sequence step $k: pulse $want lands"
   ack "$d" $k
   k=$((k + 1))
 done
-await "$d" 3 && expect_word $A $LED5_OFF 577 "high pulse 900 on channel 5 is replaced by the expected 577 (GRIP failsafe)"
+await "$d" 3 $grip_pid && expect_word $A $LED5_OFF 577 "high pulse 900 on channel 5 is replaced by the expected 577 (GRIP failsafe)"
 stub_set $A $LED5_OFF 0x41  # anything but the safe state
 kill -KILL "$(cat "$d/pid")"
 ack "$d" 3

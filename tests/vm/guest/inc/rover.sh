@@ -23,7 +23,7 @@ under $MODE rover-vm.policy follower python3 $CLIENTS/frames.py $LIB --sync "$d"
   >"$LOGDIR/frames.out" 2>&1 &
 pid=$!
 step() {  # step K EXPECTED DESCRIPTION
-  await "$d" $1 || return 1
+  await "$d" $1 $pid || return 1
   expect_frame "$2" "$3"
   gopigo_clear
   ack "$d" $1

@@ -18,10 +18,12 @@ grep -q "^40: *40\|^40:.*40" "$OUT" && ok "i2cdetect -y 1 sees the PCA9685 at 0x
   bad "i2cdetect -y 1 does not show 0x40"
 # Probing must not write anything: i2cdetect's quick writes to chips the task
 # may not command are refused by contego, and the ones it may are no-ops.
-stub_set $A 0x06 0x11
-run_logged set under $MODE arm.policy arm_init i2cset -y 1 $A 0x06 0x00
-[ $RC = 0 ] && ok "i2cset -y 1 0x40 0x06 0x00 exits 0" || bad "i2cset exit $RC"
-expect_reg $A 0x06 0x00 "i2cset lands on the stub"
+# ALL_LED_OFF_H = 0 (Adafruit's init writes it; LEDn writes are checked
+# against the power-on full-off bit, so a lone LED0_ON_L write is ignored).
+stub_set $A 0xfd 0x11
+run_logged set under $MODE arm.policy arm_init i2cset -y 1 $A 0xfd 0x00
+[ $RC = 0 ] && ok "i2cset -y 1 0x40 0xfd 0x00 exits 0" || bad "i2cset exit $RC"
+expect_reg $A 0xfd 0x00 "i2cset lands on the stub"
 
 stub_set $A 0xfe 0x79
 run_logged get under $MODE arm.policy arm_init i2cget -y 1 $A 0xfe
@@ -74,6 +76,23 @@ PY
 run_logged smbus under $MODE arm.policy arm_init python3 /tmp/smbus_rw.py
 grep -q "mode2 0x4" "$OUT" && ok "python3-smbus writes and reads MODE2 through contego" || bad "python3-smbus MODE2"
 expect_reg $A 0x01 0x04 "python3-smbus's MODE2=0x04 lands"
+
+# python3-periphery insists on plain I2C (it checks I2C_FUNCS): it must
+# refuse the SMBus-only stub under contego exactly as on the bare node.
+cat >/tmp/periphery_open.py <<'PY'
+import sys
+from periphery import I2C
+try:
+    I2C(sys.argv[1]).close()
+    print("opened")
+except Exception as e:
+    print("refused:", str(e).replace(sys.argv[1], "NODE"))
+PY
+python3 /tmp/periphery_open.py $ADAPTER >"$LOGDIR/periphery-outside" 2>&1
+run_logged periphery under $MODE arm.policy arm_init python3 /tmp/periphery_open.py /dev/i2c-1
+grep -q "refused: I2C not supported" "$OUT" && cmp -s "$OUT" "$LOGDIR/periphery-outside" &&
+  ok "python3-periphery refuses the SMBus-only adapter under contego as on the bare node" ||
+  { bad "python3-periphery under contego differs from the bare node"; show "$LOGDIR/periphery-outside"; }
 
 stop_monitor
 show_audit_summary
