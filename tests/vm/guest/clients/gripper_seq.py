@@ -1,6 +1,7 @@
 # The arm's gripper task with python3-smbus2: one set_pwm(5, 0, PULSE) per job
-# (an auto-increment block write of LED5_ON_L..LED5_OFF_H, as Adafruit's
-# library can send it), for each PULSE on the command line. With --sync DIR
+# as Adafruit_PCA9685 sends it (four byte-data writes, LED5_ON_L..LED5_OFF_H:
+# the chip's MODE1 auto-increment bit is off after reset, so a block write
+# would only reach LED5_ON_L), for each PULSE on the command line. With --sync DIR
 # it hands over to the test after each pulse: it creates DIR/sent-K and waits
 # for DIR/ack-K, so the test can read the stub outside contego in between.
 # --hold keeps the task alive at the end (to be killed); its pid is DIR/pid.
@@ -32,7 +33,8 @@ if sync:
 handshake("start")
 with SMBus(1) as bus:
     for k, pulse in enumerate(int(a) for a in args):
-        bus.write_i2c_block_data(0x40, 0x1A, [0, 0, pulse & 0xFF, pulse >> 8])
+        for reg, value in ((0x1A, 0), (0x1B, 0), (0x1C, pulse & 0xFF), (0x1D, pulse >> 8)):
+            bus.write_byte_data(0x40, reg, value)
         print("pulse", pulse, "sent", flush=True)
         handshake(str(k))
     if hold:

@@ -8,7 +8,7 @@ grep -q user_notif /proc/sys/kernel/seccomp/actions_avail &&
   ok "seccomp user notification available" || bad "no seccomp user_notif in this kernel"
 
 run_logged funcs i2cdetect -F 0
-grep -q "I2C  *no" "$OUT" && grep -q "SMBus write byte  *yes" "$OUT" &&
+grep -q "I2C  *no" "$OUT" && grep -q "SMBus Write Byte  *yes" "$OUT" &&
   ok "i2cdetect -F: i2c-stub is SMBus-only (no plain I2C)" || bad "i2cdetect -F 0 unexpected"
 
 run_logged detect i2cdetect -y -a 0
