@@ -31,8 +31,15 @@ if sync:
     with open(os.path.join(sync, "pid"), "w") as f:
         f.write(str(os.getpid()))
 handshake("start")
+PERIOD = 1.05  # arm.policy: the gripper's period is 1 s, one pulse per job
+last = None
 with SMBus(1) as bus:
     for k, pulse in enumerate(int(a) for a in args):
+        # Each pulse in its own job: the monitor's job window is the task's
+        # period, so a pulse sooner than a period after the last is a burst.
+        if last is not None:
+            time.sleep(max(0.0, PERIOD - (time.monotonic() - last)))
+        last = time.monotonic()
         for reg, value in ((0x1A, 0), (0x1B, 0), (0x1C, pulse & 0xFF), (0x1D, pulse >> 8)):
             bus.write_byte_data(0x40, reg, value)
         print("pulse", pulse, "sent", flush=True)
