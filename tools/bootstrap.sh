@@ -17,6 +17,9 @@ packages=(
   gnuplot-nox valgrind
   # real, unmodified I2C clients for end-to-end tests
   i2c-tools python3 python3-smbus python3-smbus2 python3-periphery
+  # the real-kernel test bed (tests/vm): Debian's kernel booted in QEMU with a
+  # busybox initramfs; seabios boots it without KVM, cpio packs the initramfs
+  qemu-system-x86 seabios busybox-static cpio xz-utils
 )
 
 missing=()

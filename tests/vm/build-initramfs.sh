@@ -1,0 +1,143 @@
+#!/usr/bin/env bash
+# Packs the guest of the real-kernel test bed: a busybox-static initramfs
+# (uncompressed newc cpio: the kernel unpacks it fastest, and building it
+# costs no compression time) holding
+#   /init                     tests/vm/guest/init.sh
+#   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test
+#   /usr/bin/contego          a stripped copy of the freshly built binary
+#   /usr/sbin/i2c*            the host's i2c-tools (the real clients)
+#   /usr/bin/python3          Debian's python3 (never a pyenv shim), a pruned
+#                             stdlib, python3-smbus, -smbus2 and -periphery
+#   /vm/...                   scenarios, clients, policies, the bench client
+# and every shared library those programs load, with the dynamic loader.
+#
+# Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT
+#   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
+set -euo pipefail
+
+die() { echo "build-initramfs: $*" >&2; exit 1; }
+(($# == 4)) || die "usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT"
+out=$1 contego=$2 kdir=$3 bench_client=$4
+here=$(cd "$(dirname "$0")" && pwd)
+src=$(cd "$here/../.." && pwd)
+
+[[ -x "$contego" ]] || die "no contego binary at $contego (build it first)"
+[[ -x "$bench_client" ]] || die "no bench client at $bench_client (build it first)"
+[[ -f "$kdir/modules/i2c-stub.ko" ]] || die "no modules in $kdir (run fetch-kernel.sh)"
+busybox=/bin/busybox
+[[ -x "$busybox" ]] && file -L "$busybox" 2>/dev/null | grep -q 'statically linked' ||
+  busybox=$(command -v busybox) || true
+# Debian's busybox-static installs /bin/busybox; the dynamic busybox package
+# would need its libraries in the guest too, so insist on the static one.
+file -L "$busybox" | grep -q 'statically linked' || die "no static busybox (apt-get install busybox-static)"
+# The interpreter must be Debian's: the python3-smbus* packages live in its
+# dist-packages, and a pyenv or venv python would not find them.
+python=/usr/bin/python3
+pyver=$("$python" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")') ||
+  die "Debian's $python does not run (apt-get install python3)"
+
+root=$(mktemp -d)
+trap 'rm -rf "$root"' EXIT
+chmod 755 "$root"  # it becomes the guest's /: mktemp's 0700 would lock out every other uid
+mkdir -p "$root"/{bin,sbin,usr/bin,usr/sbin,lib/modules,etc,proc,sys,dev,tmp,run,root,vm}
+chmod 1777 "$root/tmp"
+
+# Copies a file to the same path under the root, once.
+put() {
+  local f=$1 dst=${2:-$1}
+  [[ -e "$root$dst" ]] && return 0
+  mkdir -p "$root$(dirname "$dst")"
+  cp -L "$f" "$root$dst"
+}
+# Copies the shared libraries a program or library needs (and the loader),
+# as ldd resolves them on the host, to the same paths in the guest.
+put_libs() {
+  local lib
+  for lib in $(ldd "$1" 2>/dev/null | awk '/=> \// { print $3 } /^\t\/lib/ { print $1 }'); do
+    put "$lib"
+  done
+}
+
+# busybox: one link per applet, except its i2c applets: the tests must run
+# the real i2c-tools, so the names may not resolve to busybox's versions.
+cp "$busybox" "$root/bin/busybox"
+for applet in $("$busybox" --list); do
+  case "$applet" in i2c*|busybox) continue ;; esac
+  ln -sf busybox "$root/bin/$applet"
+done
+
+cp "$kdir/modules/i2c-stub.ko" "$kdir/modules/i2c-dev.ko" "$root/lib/modules/"
+cp "$kdir/version" "$root/etc/kernel-version"
+
+# contego, stripped (the debug build is tens of MB with its symbols).
+strip -o "$root/usr/bin/contego" "$contego"
+put_libs "$contego"
+cp "$bench_client" "$root/usr/bin/i2c-write-loop"
+put_libs "$bench_client"
+
+for t in i2cdetect i2cget i2cset i2cdump i2ctransfer; do
+  p=$(command -v "$t" || true)
+  [[ -n "$p" && "$p" != *busybox* ]] || die "$t not found (apt-get install i2c-tools)"
+  put "$p" "/usr/sbin/$t"
+  put_libs "$p"
+done
+
+# python3: the interpreter, its stdlib without what no client uses (tests,
+# GUI, packaging, the static library under config-*), lib-dynload with the
+# libraries its extension modules link, and the three I2C packages.
+pybin=$(readlink -f "$python")
+put "$pybin"
+ln -sf "$(basename "$pybin")" "$root/usr/bin/python3"
+put_libs "$pybin"
+stdlib=/usr/lib/python$pyver
+mkdir -p "$root$stdlib"
+tar -C "$stdlib" -cf - \
+  --exclude="./test" --exclude="./idlelib" --exclude="./tkinter" --exclude="./turtledemo" \
+  --exclude="./lib2to3" --exclude="./ensurepip" --exclude="./distutils" --exclude="./pydoc_data" \
+  --exclude="./config-*" --exclude="./venv" --exclude="./sqlite3" --exclude="./dbm" \
+  --exclude="./curses" --exclude="./site-packages" --exclude="./dist-packages" \
+  --exclude="./lib-dynload/_tkinter*" --exclude="./lib-dynload/_sqlite3*" \
+  --exclude="./lib-dynload/_ssl*" --exclude="./lib-dynload/_hashlib*" \
+  --exclude="./lib-dynload/_curses*" --exclude="./lib-dynload/_dbm*" --exclude="./lib-dynload/_gdbm*" \
+  . | tar -C "$root$stdlib" -xf -
+for so in "$root$stdlib"/lib-dynload/*.so; do put_libs "$so"; done
+dist=/usr/lib/python3/dist-packages
+python_pkgs=(python3-smbus python3-smbus2 python3-periphery)
+for pkg in "${python_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed' ||
+    die "$pkg is not installed (bash tools/bootstrap.sh)"
+  while read -r f; do
+    [[ "$f" == "$dist"/* && -f "$f" ]] || continue
+    put "$f"
+    [[ "$f" == *.so ]] && put_libs "$f"
+  done < <(dpkg -L "$pkg")
+done
+
+# Users: root, the monitor's own user (sole owner of the bus node) and an
+# unprivileged control-task user.
+cat >"$root/etc/passwd" <<'PASSWD'
+root:x:0:0:root:/root:/bin/sh
+contego:x:990:990:contego monitor:/run/contego:/bin/false
+task:x:1000:1000:control task:/tmp:/bin/sh
+PASSWD
+cat >"$root/etc/group" <<'GROUP'
+root:x:0:
+contego:x:990:task
+task:x:1000:
+GROUP
+
+# The test material.
+cp "$here/guest/init.sh" "$root/init"
+chmod 755 "$root/init"
+mkdir -p "$root/vm/scenarios" "$root/vm/clients" "$root/vm/policies"
+cp "$here"/guest/lib.sh "$root/vm/"
+cp -r "$here"/guest/inc "$root/vm/inc"
+cp "$here"/guest/scenarios/*.sh "$root/vm/scenarios/"
+cp "$here"/guest/clients/* "$root/vm/clients/"
+# Reuse the end-to-end tests' client scripts where they fit.
+cp "$src"/tests/intercept/scripts/*.py "$root/vm/clients/"
+cp "$src"/policies/*.policy "$root/vm/policies/"
+
+(cd "$root" && find . -print0 | LC_ALL=C sort -z | cpio --null -o -H newc --quiet -R 0:0) >"$out.tmp"
+mv "$out.tmp" "$out"
+echo "build-initramfs: $out ($(du -h "$out" | cut -f1))" >&2

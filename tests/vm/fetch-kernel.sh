@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Fetches Debian 12's own amd64 kernel (the package linux-image-amd64 points
+# at today) and unpacks it, without installing anything on the host, into a
+# cache outside the clone, keyed by the kernel version. A second run finds
+# the unpacked tree and does no network I/O.
+#
+# Prints the cache directory of that kernel on stdout; it holds
+#   vmlinuz            the kernel image
+#   modules/           i2c-stub.ko and i2c-dev.ko, decompressed if shipped compressed
+#   version            the kernel release (e.g. 6.1.0-NN-amd64)
+#
+# Usage: tests/vm/fetch-kernel.sh
+# Env:   CONTEGO_VM_CACHE   cache root (default ${XDG_CACHE_HOME:-$HOME/.cache}/contego-vm)
+set -euo pipefail
+
+die() { echo "fetch-kernel: $*" >&2; exit 1; }
+
+cache_root=${CONTEGO_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/contego-vm}
+
+command -v apt-cache >/dev/null || die "apt-cache not found: this needs a Debian (12) host"
+# The ABI package moves with security updates (linux-image-6.1.0-NN-amd64):
+# ask the metapackage which one it is today instead of naming it.
+pkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
+  awk '/Depends: linux-image-[0-9]/ { print $2; exit }')
+[[ -n "$pkg" ]] || die "cannot resolve the kernel package behind linux-image-amd64 (apt-cache depends linux-image-amd64 names none; run apt-get update?)"
+release=${pkg#linux-image-}
+# The package version (e.g. 6.1.123-1) changes on a rebuild of the same ABI;
+# key the cache by both so a rebuilt kernel is fetched again.
+version=$(apt-cache policy "$pkg" | awk '/Candidate:/ { print $2 }')
+[[ -n "$version" && "$version" != "(none)" ]] || die "no installable candidate for $pkg"
+dir="$cache_root/$release/$version"
+
+if [[ -f "$dir/.complete" ]]; then
+  echo "$dir"
+  exit 0
+fi
+
+echo "fetch-kernel: downloading $pkg $version into $dir" >&2
+mkdir -p "$dir"
+tmp=$(mktemp -d "$dir/.tmp.XXXXXX")
+chmod 755 "$tmp" # apt-get download drops to the _apt user, which must reach it
+trap 'rm -rf "$tmp"' EXIT
+# apt-get download writes to the current directory and needs no root.
+(cd "$tmp" && apt-get download -q "$pkg=$version" >&2) ||
+  die "apt-get download $pkg=$version failed (network to the Debian archive?)"
+deb=$(ls "$tmp"/*.deb)
+dpkg -x "$deb" "$tmp/root"
+
+vmlinuz=$(ls "$tmp"/root/boot/vmlinuz-* 2>/dev/null | head -n1)
+[[ -n "$vmlinuz" ]] || die "$deb holds no boot/vmlinuz-*"
+moddir="$tmp/root/lib/modules/$release"
+[[ -d "$moddir" ]] || die "$deb holds no lib/modules/$release"
+
+mkdir -p "$tmp/modules"
+# Debian 12 ships plain .ko files; later kernels may compress them (.ko.xz,
+# .ko.zst). busybox insmod wants plain ones, so decompress on the host.
+for m in i2c-stub i2c-dev; do
+  f=$(find "$moddir" -name "$m.ko" -o -name "$m.ko.xz" -o -name "$m.ko.zst" -o -name "$m.ko.gz" | head -n1)
+  [[ -n "$f" ]] || die "$m.ko not in $deb (kernel built without it?)"
+  case "$f" in
+    *.ko) cp "$f" "$tmp/modules/$m.ko" ;;
+    *.xz) xz -dc "$f" >"$tmp/modules/$m.ko" ;;
+    *.zst) zstd -qdc "$f" >"$tmp/modules/$m.ko" ;;
+    *.gz) gzip -dc "$f" >"$tmp/modules/$m.ko" ;;
+  esac
+done
+
+cp "$vmlinuz" "$dir/vmlinuz"
+rm -rf "$dir/modules"
+mv "$tmp/modules" "$dir/modules"
+echo "$release" >"$dir/version"
+# Only the kernel and two modules are kept (about 8 MB); the .deb and the
+# unpacked tree (about 400 MB) are dropped.
+touch "$dir/.complete"
+echo "$dir"

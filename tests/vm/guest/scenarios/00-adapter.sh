@@ -1,0 +1,26 @@
+# The guest itself, before contego is involved: Debian's kernel has seccomp
+# user notification, i2c-stub is an SMBus-only adapter at /dev/i2c-0 with one
+# chip per policy address, and the host's i2c-tools reach it.
+. /vm/lib.sh
+echo "  kernel $(uname -r), $(nproc) cpus"
+
+grep -q user_notif /proc/sys/kernel/seccomp/actions_avail &&
+  ok "seccomp user notification available" || bad "no seccomp user_notif in this kernel"
+
+run_logged funcs i2cdetect -F 0
+grep -q "I2C  *no" "$OUT" && grep -q "SMBus Write Byte  *yes" "$OUT" &&
+  ok "i2cdetect -F: i2c-stub is SMBus-only (no plain I2C)" || bad "i2cdetect -F 0 unexpected"
+
+run_logged detect i2cdetect -y -a 0
+for a in 40 08 06 48 20 3c; do
+  grep -q "[ :]$a\( \|$\)" "$OUT" && ok "i2cdetect sees chip 0x$a" || bad "i2cdetect misses chip 0x$a"
+done
+
+stub_set 0x40 0xfe 0x1e
+expect_reg 0x40 0xfe 0x1e "i2cset/i2cget round trip on the plain adapter"
+
+# The bus node is the monitor user's alone: the task user cannot open it.
+run_logged direct as_task i2cget -y 0 0x40 0xfe
+[ $RC != 0 ] && grep -q "/dev/i2c-0.*Permission denied" "$OUT" &&
+  ok "uid $TASK_UID cannot open $ADAPTER itself" || bad "uid $TASK_UID opened $ADAPTER"
+finish

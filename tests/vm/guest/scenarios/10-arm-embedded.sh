@@ -1,0 +1,3 @@
+# policies/arm.policy, monitor embedded in `contego run --policy` (as root).
+MODE=embedded
+. /vm/inc/arm.sh

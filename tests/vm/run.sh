@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# The real-kernel test bed, host side: fetches Debian's kernel (cached),
+# packs the guest initramfs around the freshly built contego, boots it once in
+# QEMU (KVM when /dev/kvm is writable, TCG otherwise) under a hard time limit,
+# and judges the serial console: every scenario must report PASS and the
+# guest must say it finished. Missing QEMU or kernel is a failure, never a
+# skip: CI must not go green without having run anything.
+#
+# Usage: tests/vm/run.sh [--contego PATH] [--bench-client PATH] [--workdir DIR]
+#                        [--scenarios a,b,...] [--shell] [--timeout SECONDS]
+#   --shell      boot to an interactive shell on this terminal instead (run
+#                one scenario by hand: sh /vm/scenarios/NAME.sh; leave: poweroff -f)
+# Defaults: the dev build's binaries (build/dev), workdir build/dev/tests/vm.
+# Env: CONTEGO_VM_CACHE (kernel cache, see fetch-kernel.sh),
+#      CONTEGO_VM_TIMEOUT (default 900 s for the whole boot).
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")" && pwd)
+src=$(cd "$here/../.." && pwd)
+contego=$src/build/dev/src/cli/contego
+bench_client=$src/build/dev/tests/vm/i2c-write-loop
+workdir=$src/build/dev/tests/vm
+scenarios=all shell=0
+limit=${CONTEGO_VM_TIMEOUT:-900}
+while (($#)); do
+  case "$1" in
+    --contego) contego=$2; shift 2 ;;
+    --bench-client) bench_client=$2; shift 2 ;;
+    --workdir) workdir=$2; shift 2 ;;
+    --scenarios) scenarios=$2; shift 2 ;;
+    --shell) shell=1; shift ;;
+    --timeout) limit=$2; shift 2 ;;
+    *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+
+fail() { echo "VM TEST BED FAILED: $*" >&2; exit 1; }
+
+qemu=$(command -v qemu-system-x86_64) ||
+  fail "qemu-system-x86_64 not found: run bash tools/bootstrap.sh (package qemu-system-x86)"
+mkdir -p "$workdir"
+
+t_start=$(date +%s.%N)
+kdir=$(bash "$here/fetch-kernel.sh") || fail "cannot get Debian's kernel (see fetch-kernel's message above)"
+t_kernel=$(date +%s.%N)
+bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" ||
+  fail "cannot build the guest initramfs"
+t_initrd=$(date +%s.%N)
+
+accel=(-accel tcg)
+accel_name=TCG
+if [[ -w /dev/kvm ]]; then
+  accel=(-enable-kvm -cpu host)
+  accel_name=KVM
+fi
+append="console=ttyS0 quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
+qemu_args=("${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
+  -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio")
+
+if ((shell)); then
+  echo "run.sh: booting $(cat "$kdir/version") ($accel_name) to a shell; Ctrl-A X quits QEMU" >&2
+  exec "$qemu" "${qemu_args[@]}" -append "$append contego.shell=1"
+fi
+
+echo "run.sh: booting $(cat "$kdir/version") under $accel_name, scenarios: $scenarios, limit ${limit}s" >&2
+log=$workdir/console.log
+set +e
+# stdin from /dev/null: QEMU's -nographic would otherwise take the CI's
+# terminal; the console goes to the log and, live, to our stdout.
+timeout -k 10 "$limit" "$qemu" "${qemu_args[@]}" -append "$append" </dev/null 2>&1 |
+  tr -d '\r' | sed -u 's/\x1b\[[0-9;?]*[a-zA-Z]//g' | tee "$log"
+qemu_rc=${PIPESTATUS[0]}
+set -e
+t_end=$(date +%s.%N)
+
+echo
+echo "==== test bed summary (console: $log) ===="
+awk -v a="$t_start" -v b="$t_kernel" -v c="$t_initrd" -v d="$t_end" -v size="$(du -h "$workdir/initrd.cpio" | cut -f1)" \
+  -v accel="$accel_name" 'BEGIN { printf "kernel fetch %.1fs, initramfs %.1fs (%s), boot+scenarios %.1fs (%s)\n", b - a, c - b, size, d - c, accel }'
+grep -aE '^VM-(BOOTED|RESULT|DONE)' "$log" || true
+grep -aE '^VM-CHECK FAIL' "$log" || true
+((qemu_rc != 124 && qemu_rc != 137)) || fail "QEMU killed after ${limit}s: the guest hung (see $log)"
+grep -aq '^VM-BOOTED' "$log" || fail "the guest never came up (QEMU exit $qemu_rc; see $log)"
+grep -aq '^VM-DONE' "$log" || fail "the guest did not finish its scenarios (QEMU exit $qemu_rc; see $log)"
+! grep -aq '^VM-RESULT FAIL' "$log" || fail "$(grep -ac '^VM-RESULT FAIL' "$log") scenario(s) failed: $(grep -a '^VM-RESULT FAIL' "$log" | awk '{print $3}' | tr '\n' ' ')"
+grep -aq '^VM-RESULT PASS' "$log" || fail "no scenario ran"
+echo "VM TEST BED PASSED"
