@@ -573,6 +573,9 @@ void AuditLog::close_file_locked() {
       struct stat st {};
       if (fstat(fd_, &st) == 0 && st.st_size > pos_) (void)!ftruncate(fd_, pos_);
     }
+    // The lock goes with the file description, which a retired window
+    // still references until the grower unmaps it: release it now.
+    if (mode_ == Mode::kFile) (void)flock(fd_, LOCK_UN);
     if (owned_) close(fd_);
     fd_ = -1;
     owned_ = false;
