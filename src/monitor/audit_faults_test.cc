@@ -236,7 +236,9 @@ TEST_F(AuditFaults, AFullFileSystemFailsRecordsWithoutSigbus) {
   EXPECT_EQ(c.summary.lines, written);  // what was reported written, and only that
   ASSERT_EQ(unlink((dir + "/filler").c_str()), 0);
   EXPECT_TRUE(log.decision(record(i), "t"));
-  EXPECT_EQ(verify_file(path).summary.lines, written + 1);
+  const AuditCheck after = verify_file(path);
+  EXPECT_EQ(after.summary.lines, written + 2);  // the audit-gap record, then the decision
+  EXPECT_EQ(after.summary.events.at("audit-gap"), 1u);
 }
 
 TEST_F(AuditFaults, AFullFileSystemIsRefusedAtOpen) {

@@ -759,6 +759,17 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
   }
   if (!continuation) {
     check_file_locked(false);
+    if (gap_ > 0) {
+      // The first line after records were lost says so: the log shows the
+      // gap (none of the lost records' actions happened).
+      cont_.clear();
+      cont_ += "{\"detail\":";
+      put_string(cont_, fmt::format("{} record(s) could not be written since t_us {} ({}); "
+                                    "the actions they would have recorded did not happen",
+                                    gap_, gap_since_us_, gap_why_));
+      fmt::format_to(Out(cont_), ",\"kind\":\"audit-gap\",\"t_us\":{}", wall_us());
+      if (commit_locked(cont_, true)) gap_ = 0;
+    }
     if (mode_ == Mode::kFile && options_.max_bytes > 0 && fd_ >= 0 && pos_ > 0 &&
         static_cast<uint64_t>(pos_) + body.size() + 80 > options_.max_bytes) {
       (void)rotate_locked(fmt::format("size limit of {} bytes", options_.max_bytes));
@@ -784,7 +795,11 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
     check_file_locked(true);
     if (fd_ < 0) break;
   }
-  ++failures_;
+  if (!continuation) {
+    ++failures_;  // a record its caller is told was not written
+    if (gap_++ == 0) gap_since_us_ = wall_us();
+    gap_why_ = last_error_;
+  }
   report_failure_locked(last_error_);
   return false;
 }

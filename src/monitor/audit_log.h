@@ -128,7 +128,10 @@ class AuditLog {
   uint64_t next_check_us_ = 0;   // monotonic: when the file is next checked
   uint64_t next_report_us_ = 0;  // monotonic: stderr rate limit
   uint64_t unreported_ = 0;      // failures not yet on stderr
-  std::string cont_;             // a continues record being formatted
+  std::string cont_;             // a continues or audit-gap record being formatted
+  uint64_t gap_ = 0;             // records lost since the last one written
+  uint64_t gap_since_us_ = 0;    // wall clock of the first of them
+  std::string gap_why_;          // the last reason
   // The grower: extends the file and faults its pages in ahead of the
   // writer. Lock order: mu_, then grow_mu_. The writer's fast path takes
   // no lock but mu_: it writes below ready_ only.
