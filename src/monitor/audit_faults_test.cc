@@ -255,3 +255,29 @@ TEST_F(AuditFaults, AFullFileSystemIsRefusedAtOpen) {
 
 }  // namespace
 }  // namespace contego::monitor
+
+namespace contego::monitor {
+namespace {
+
+// With a size limit, SIGHUP rotates now; after logrotate moved the file
+// away it reopens the path instead (nothing left to rename).
+TEST_F(AuditFaults, ReopenWithASizeLimitRotatesOrFollowsAMove) {
+  AuditLog log;
+  AuditOptions o;
+  o.max_bytes = 1 << 20;
+  ASSERT_TRUE(log.open(path, o).ok());
+  ASSERT_TRUE(log.decision(record(0), "t"));
+  auto r = log.reopen();
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->find("rotated"), std::string::npos) << *r;
+  ASSERT_TRUE(log.decision(record(1), "t"));
+  ASSERT_EQ(rename(path.c_str(), (path + ".moved").c_str()), 0);
+  r = log.reopen();
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->find("reopened"), std::string::npos) << *r;
+  ASSERT_TRUE(log.decision(record(2), "t"));
+  EXPECT_EQ(verify_chain({path + ".1", path + ".moved", path}), 1u + 2 + 2);
+}
+
+}  // namespace
+}  // namespace contego::monitor

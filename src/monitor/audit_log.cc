@@ -671,7 +671,10 @@ bool AuditLog::rotate_locked(const std::string& why) {
 Result<std::string> AuditLog::reopen() {
   std::lock_guard lock(mu_);
   if (mode_ != Mode::kFile) return std::string("the audit log is not a file: nothing to reopen");
-  if (options_.max_bytes > 0 && fd_ >= 0 && pos_ > 0) {
+  struct stat named {};
+  const bool still_named =
+      fd_ >= 0 && stat(path_.c_str(), &named) == 0 && named.st_dev == dev_ && named.st_ino == ino_;
+  if (options_.max_bytes > 0 && still_named && pos_ > 0) {
     if (!rotate_locked("SIGHUP")) return make_error(last_error_);
     return fmt::format("rotated: {} -> {}.1; a new {} continues the chain", path_, path_, path_);
   }
