@@ -230,6 +230,7 @@ void Server::serve() {
     lock.unlock();
     client_event(cred.uid, "peer", fmt::format("pid {} uid {}", cred.pid, cred.uid));
   }
+  flush_suppressed(true);  // the counts of the last windows
 }
 
 void Server::stop() {
