@@ -1,6 +1,8 @@
-// `contego audit LOG`: verifies the audit log's hash chain and summarises it.
+// `contego audit LOG...`: verifies the audit log's hash chain and summarises
+// it. Several files are one chain, oldest first (rotated files: LOG.3 LOG.2
+// LOG.1 LOG): each must continue from the last line of the one before.
 // Exit status 0 when the chain holds, 1 when a line breaks it (named with
-// its line number) or the file cannot be read.
+// its file and line number) or a file cannot be read.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <fstream>
@@ -12,42 +14,74 @@
 namespace contego::cli {
 
 void register_audit(CLI::App& app) {
-  auto path = std::make_shared<std::string>();
+  auto paths = std::make_shared<std::vector<std::string>>();
   auto* cmd = app.add_subcommand("audit", "Verify an audit log's hash chain and summarise it");
-  cmd->add_option("LOG", *path, "the monitor's audit log (JSON lines)")->required();
-  cmd->callback([path] {
-    if (Status s = require_regular_file(*path); !s.ok()) {
-      fmt::print(stderr, "contego audit: {}\n", s.error());
-      return set_exit_code(1);
+  cmd->add_option("LOG", *paths,
+                  "the monitor's audit log (JSON lines); several: one chain across rotated "
+                  "files, oldest first")
+      ->required();
+  cmd->callback([paths] {
+    std::string last_hash;
+    uint64_t total_lines = 0, total_decisions = 0;
+    bool from_genesis = false;
+    std::string first_prev, first_follows;
+    for (size_t k = 0; k < paths->size(); ++k) {
+      const std::string& path = (*paths)[k];
+      if (Status s = require_regular_file(path); !s.ok()) {
+        fmt::print(stderr, "contego audit: {}\n", s.error());
+        return set_exit_code(1);
+      }
+      std::ifstream in(path);
+      if (!in) {
+        fmt::print(stderr, "contego audit: cannot read {}\n", path);
+        return set_exit_code(1);
+      }
+      const monitor::AuditCheck c = monitor::verify_audit(in, k == 0 ? std::string() : last_hash);
+      const monitor::AuditSummary& s = c.summary;
+      fmt::print("{}: {} lines, {} decisions", path, s.lines, s.decisions);
+      if (s.last_us > s.first_us) {
+        fmt::print(" over {:.3f} s", static_cast<double>(s.last_us - s.first_us) / 1e6);
+      }
+      fmt::print("\n");
+      for (const auto& [d, n] : s.by_decision) fmt::print("  {:<10} {}\n", d, n);
+      for (const auto& [t, n] : s.by_task) fmt::print("  task {:<16} {} decisions\n", t, n);
+      for (const auto& [e, n] : s.events) fmt::print("  event {:<15} {}\n", e, n);
+      if (!c.ok) {
+        fmt::print(stderr, "contego audit: {}: {}\n", path, c.error);
+        fmt::print("chain BROKEN at line {}{}\n", c.bad_line,
+                   paths->size() > 1 ? " of " + path : std::string());
+        return set_exit_code(1);
+      }
+      if (s.torn_tail) {
+        fmt::print(
+            "note: the last record was cut off (the monitor was killed while writing it; its "
+            "decision never acted)\n");
+        if (k + 1 < paths->size()) {
+          fmt::print(stderr, "contego audit: {}: a file cut off by a kill is the newest one\n",
+                     path);
+        }
+      }
+      if (k == 0) {
+        from_genesis = s.starts_at_genesis;
+        first_prev = s.first_prev;
+        first_follows = s.follows;
+      }
+      if (s.lines > 0) last_hash = s.last_hash;
+      total_lines += s.lines;
+      total_decisions += s.decisions;
     }
-    std::ifstream in(*path);
-    if (!in) {
-      fmt::print(stderr, "contego audit: cannot read {}\n", *path);
-      return set_exit_code(1);
+    std::string origin = " from the start of the log";
+    if (!from_genesis) {
+      origin = fmt::format(" (continues a chain that ended with {}{})",
+                           first_prev.empty() ? "-" : first_prev,
+                           first_follows.empty() ? "" : ", in " + first_follows);
     }
-    const monitor::AuditCheck c = monitor::verify_audit(in);
-    const monitor::AuditSummary& s = c.summary;
-    fmt::print("{}: {} lines, {} decisions", *path, s.lines, s.decisions);
-    if (s.last_us > s.first_us) {
-      fmt::print(" over {:.3f} s", static_cast<double>(s.last_us - s.first_us) / 1e6);
+    if (paths->size() > 1) {
+      fmt::print("{} files, {} lines, {} decisions: one chain\n", paths->size(), total_lines,
+                 total_decisions);
     }
-    fmt::print("\n");
-    for (const auto& [d, n] : s.by_decision) fmt::print("  {:<10} {}\n", d, n);
-    for (const auto& [t, n] : s.by_task) fmt::print("  task {:<16} {} decisions\n", t, n);
-    for (const auto& [e, n] : s.events) fmt::print("  event {:<15} {}\n", e, n);
-    if (!c.ok) {
-      fmt::print(stderr, "contego audit: {}: {}\n", *path, c.error);
-      fmt::print("chain BROKEN at line {}\n", c.bad_line);
-      return set_exit_code(1);
-    }
-    if (s.torn_tail) {
-      fmt::print(
-          "note: the last record was cut off (the monitor was killed while writing it; its "
-          "decision never acted)\n");
-    }
-    fmt::print("chain intact{}; last line SHA-256 {}\n",
-               s.starts_at_genesis ? " from the start of the log" : " (continues an older log)",
-               s.last_hash.empty() ? "-" : s.last_hash);
+    fmt::print("chain intact{}; last line SHA-256 {}\n", origin,
+               last_hash.empty() ? "-" : last_hash);
   });
 }
 

@@ -26,11 +26,34 @@ void register_monitor(CLI::App& app) {
     bool allow_degraded = false;
     std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+    monitor::AuditOptions audit_options;
+    monitor::ServerLimits limits;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file")->required();
   cmd->add_option("--socket", args->socket, "Unix socket to serve");
   cmd->add_option("--audit", args->audit, "audit log (JSON lines; - = stderr)");
+  cmd->add_flag("--audit-unsafe", args->audit_options.allow_unsafe,
+                "allow an audit target that is not a regular file (a FIFO, a device): written "
+                "line by line, not locked, checked or rotated");
+  cmd->add_option("--audit-max-bytes", args->audit_options.max_bytes,
+                  "rotate the audit log before it exceeds this many bytes (LOG -> LOG.1 ...; the "
+                  "hash chain continues in the new file; 0 = never)")
+      ->capture_default_str();
+  cmd->add_option("--audit-keep", args->audit_options.keep,
+                  "rotated audit files kept (LOG.1 newest .. LOG.N)")
+      ->check(CLI::Range(1u, 1000u))
+      ->capture_default_str();
+  cmd->add_option("--max-connections-per-uid", args->limits.max_per_uid,
+                  "live connections one peer uid may hold; more are refused (0 = no cap)")
+      ->capture_default_str();
+  cmd->add_option("--hello-timeout-ms", args->limits.hello_timeout_ms,
+                  "close a connection that has not said hello within this many ms (0 = never)")
+      ->capture_default_str();
+  cmd->add_option("--client-events-per-second", args->limits.events_per_second,
+                  "client-error events (malformed requests, refused peers...) written per peer uid "
+                  "and second; the rest are counted in a `suppressed` summary (0 = no limit)")
+      ->capture_default_str();
   configure_bus_option(cmd->add_option(
       "--bus", args->buses,
       "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
@@ -59,7 +82,8 @@ void register_monitor(CLI::App& app) {
   cmd->callback([args] {
     // SIGINT/SIGTERM/SIGHUP are taken by a waiting thread: the first two
     // stop the server (then the safe state is driven and the exit code is
-    // 0); SIGHUP is audited and the monitor keeps serving.
+    // 0); SIGHUP reopens (or rotates) the audit log, is audited, and the
+    // monitor keeps serving.
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
@@ -69,6 +93,7 @@ void register_monitor(CLI::App& app) {
     monitor::SetupOptions so;
     so.policy = args->policy;
     so.audit = args->audit;
+    so.audit_options = args->audit_options;
     auto buses = parse_bus_specs(args->buses, args->virtual_buses);
     if (!buses.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", buses.error());
@@ -97,7 +122,7 @@ void register_monitor(CLI::App& app) {
     gate::SpinPolicy spin;
     spin.spin_us = args->spin_us;
     monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
-                           args->realtime);
+                           args->realtime, args->limits);
     if (Status s = server.listen(args->socket); !s.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);
@@ -110,9 +135,13 @@ void register_monitor(CLI::App& app) {
         int sig = 0;
         if (sigwait(&set, &sig) != 0 || served.load()) return;
         if (sig == SIGHUP) {
-          (*trusted)->audit.event("signal",
-                                  "SIGHUP: still serving (the audit log is not reopened)");
-          fmt::print(stderr, "contego monitor: SIGHUP: still serving\n");
+          // logrotate's postrotate: the log is reopened (a file moved away
+          // is replaced by a new one that continues the chain; with
+          // --audit-max-bytes the log is rotated now).
+          auto r = (*trusted)->audit.reopen();
+          const std::string what = r.ok() ? *r : "cannot reopen the audit log: " + r.error();
+          (*trusted)->audit.event("signal", "SIGHUP: still serving; " + what);
+          fmt::print(stderr, "contego monitor: SIGHUP: still serving; {}\n", what);
           continue;
         }
         why = fmt::format("monitor stopping ({})", signal_name(sig));

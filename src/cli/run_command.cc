@@ -60,12 +60,24 @@ void register_run(CLI::App& app) {
     bool allow_degraded = false;
     std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+    monitor::AuditOptions audit_options;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file (embedded monitor)");
   cmd->add_option("--task", args->task, "the program's task name in the policy")->required();
   cmd->add_option("--socket", args->socket, "use the monitor daemon at this socket instead");
   cmd->add_option("--audit", args->audit, "audit log of the embedded monitor (- = stderr)");
+  cmd->add_flag("--audit-unsafe", args->audit_options.allow_unsafe,
+                "allow an audit target that is not a regular file (a FIFO, a device): written "
+                "line by line, not locked, checked or rotated");
+  cmd->add_option("--audit-max-bytes", args->audit_options.max_bytes,
+                  "rotate the audit log before it exceeds this many bytes (LOG -> LOG.1 ...; the "
+                  "hash chain continues in the new file; 0 = never)")
+      ->capture_default_str();
+  cmd->add_option("--audit-keep", args->audit_options.keep,
+                  "rotated audit files kept (LOG.1 newest .. LOG.N)")
+      ->check(CLI::Range(1u, 1000u))
+      ->capture_default_str();
   configure_bus_option(cmd->add_option(
       "--bus", args->buses,
       "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
@@ -148,6 +160,7 @@ void register_run(CLI::App& app) {
     so.policy = args->policy;
     so.audit = args->audit;
     so.task = args->task;  // an unknown task is refused before the safe state is driven
+    so.audit_options = args->audit_options;
     auto buses = parse_bus_specs(args->buses, args->virtual_buses);
     if (!buses.ok()) {
       fmt::print(stderr, "contego run: {}\n", buses.error());

@@ -43,7 +43,7 @@ int probe(bus::Bus& b, const core::DeviceRecord& r, std::string* how) {
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   auto t = std::make_unique<Trusted>();
-  if (Status s = t->audit.open(o.audit); !s.ok()) return make_error(s.error());
+  if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
   const policy::CompileOutput out = policy::compile_file(o.policy);
   if (!out.ok) {
     std::string msg = "policy " + o.policy + " does not compile:";

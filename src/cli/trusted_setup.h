@@ -31,9 +31,10 @@
 namespace contego::monitor {
 
 struct SetupOptions {
-  std::string policy;       // policy source file
-  std::string audit = "-";  // audit log path ("-" = stderr)
-  std::string task;         // contego run: the program's task, checked before any bus is touched
+  std::string policy;          // policy source file
+  std::string audit = "-";     // audit log path ("-" = stderr)
+  AuditOptions audit_options;  // --audit-unsafe, --audit-max-bytes, --audit-keep
+  std::string task;            // contego run: the program's task, checked before any bus is touched
   std::map<int, std::string> real_buses;  // bus number -> /dev/i2c-N
   std::vector<int> virtual_buses;  // buses hosting PCA9685 0x40, GoPiGo2 0x08, line follower 0x06
   uint32_t budget_factor = Monitor::kDefaultBudgetFactor;  // set_budget_factor (0 = off)

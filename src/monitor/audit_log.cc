@@ -1,6 +1,8 @@
 #include "monitor/audit_log.h"
 
 #include <fcntl.h>
+#include <setjmp.h>
+#include <signal.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -9,11 +11,17 @@
 #include <chrono>
 #include <cstring>
 #include <fmt/format.h>
+#include <fstream>
 #include <iterator>
+#include <mutex>
 #include <nlohmann/json.hpp>  // the verifier only
+#include <sstream>
+#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <sys/sysmacros.h>
 
 #include "base/json_text.h"
 #include "monitor/sha256.h"
@@ -180,6 +188,106 @@ std::string last_line(int fd, off_t size) {
   return nl == std::string::npos ? tail : tail.substr(nl + 1);
 }
 
+// The path the kernel has for an open file ("... (deleted)" once unlinked).
+std::string fd_path(int fd) {
+  char buf[4096];
+  const std::string link = "/proc/self/fd/" + std::to_string(fd);
+  const ssize_t n = readlink(link.c_str(), buf, sizeof buf - 1);
+  return n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string("?");
+}
+
+// Who holds the flock of the file `st` describes, from /proc/locks: "pid N
+// (comm)", or "" if it cannot be told.
+std::string lock_holder(const struct stat& st) {
+  const std::string want = fmt::format("{:02x}:{:02x}:{}", major(st.st_dev), minor(st.st_dev),
+                                       static_cast<unsigned long>(st.st_ino));
+  std::ifstream in("/proc/locks");
+  for (std::string line; std::getline(in, line);) {
+    if (line.find("->") != std::string::npos || line.find("FLOCK") == std::string::npos) continue;
+    std::istringstream words(line);
+    std::string id, type, advisory, mode, pid, dev;
+    if (!(words >> id >> type >> advisory >> mode >> pid >> dev) || dev != want) continue;
+    std::ifstream comm("/proc/" + pid + "/comm");
+    std::string name;
+    std::getline(comm, name);
+    return name.empty() ? "pid " + pid : "pid " + pid + " (" + name + ")";
+  }
+  return {};
+}
+
+const char* file_type(mode_t mode) {
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISDIR(mode)) return "a directory";
+  return "not a regular file";
+}
+
+// The SIGBUS guard of the copy into the mapped log. Space is allocated
+// ahead of the writer, so a page of the window faults only if another
+// process cut the file under the mapping (logrotate's copytruncate, a
+// truncate(1)) between the writer's checks and its copy: the copy is then
+// abandoned, the record counts as not written, and the writer resyncs with
+// the file and retries. A SIGBUS anywhere else goes to the previous handler
+// (the default: the process dies, as it would have).
+thread_local sigjmp_buf* t_jump = nullptr;
+thread_local const char* t_lo = nullptr;
+thread_local const char* t_hi = nullptr;
+struct sigaction g_previous_bus {};
+
+void on_sigbus(int sig, siginfo_t* info, void* context) {
+  const auto* at = static_cast<const char*>(info->si_addr);
+  if (t_jump != nullptr && at >= t_lo && at < t_hi) siglongjmp(*t_jump, 1);
+  if ((g_previous_bus.sa_flags & SA_SIGINFO) != 0 && g_previous_bus.sa_sigaction != nullptr) {
+    g_previous_bus.sa_sigaction(sig, info, context);
+    return;
+  }
+  if (g_previous_bus.sa_handler == SIG_DFL || g_previous_bus.sa_handler == SIG_IGN) {
+    signal(SIGBUS, SIG_DFL);  // the faulting access repeats and ends the process
+    return;
+  }
+  g_previous_bus.sa_handler(sig);
+}
+
+void install_sigbus_guard() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    struct sigaction sa {};
+    sa.sa_sigaction = &on_sigbus;
+    sa.sa_flags = SA_SIGINFO | SA_NODEFER;  // no mask to restore: no system call per copy
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGBUS, &sa, &g_previous_bus);
+  });
+}
+
+// memcpy into the mapped window; false if its pages went away under it.
+bool guarded_copy(char* dst, const char* src, size_t n) {
+  sigjmp_buf jump;
+  if (sigsetjmp(jump, 0) != 0) {
+    t_jump = nullptr;
+    return false;
+  }
+  t_lo = dst;
+  t_hi = dst + n;
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  t_jump = &jump;
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  std::memcpy(dst, src, n);
+  std::atomic_signal_fence(std::memory_order_seq_cst);
+  t_jump = nullptr;
+  return true;
+}
+
+uint64_t mono_us() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
+}
+
+constexpr uint64_t kCheckEveryUs = 100000;  // the file is checked this often (on the writer)
+constexpr off_t kStartRoom = 64 * 1024;     // the space open() insists on
+
 }  // namespace
 
 AuditLog::~AuditLog() {
@@ -191,26 +299,39 @@ AuditLog::~AuditLog() {
     grow_cv_.notify_one();
     grower_.join();
   }
+  std::lock_guard lock(mu_);
+  close_file_locked();
   for (const auto& [addr, len] : retired_) munmap(addr, len);
-  if (map_ != nullptr) {
-    munmap(map_, map_len_);
-    // A clean close removes the padding; a killed monitor leaves it, and
-    // the next open() and the verifier skip it.
-    (void)!ftruncate(fd_, pos_);
-  }
-  if (owned_ && fd_ >= 0) close(fd_);
+  retired_.clear();
 }
 
-// The file behind the window reaches at least `upto` bytes into it (in
-// kMapChunk steps, zero-filled) and, while prefaulting works, the window's
-// pages up to `upto` are faulted in writable. Publishes the result in
-// ready_. grow_mu_ held.
+// The file behind the window reaches at least `upto` bytes into it, its
+// blocks allocated (posix_fallocate: a full file system fails here, not as
+// a SIGBUS on a page of the window), in kMapChunk steps or, when a whole
+// chunk is no longer free, to the page. grow_mu_ held.
 bool AuditLog::extend_locked(size_t upto) {
   if (upto <= file_room_) return true;
-  const size_t room = std::min(map_len_, (upto + kMapChunk - 1) / kMapChunk * kMapChunk);
-  if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
-  file_room_ = room;
-  return true;
+  if (fd_ < 0) return false;
+  const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
+  for (const size_t step : {kMapChunk, page}) {
+    const size_t room = std::min(map_len_, (upto + step - 1) / step * step);
+    if (room <= file_room_) return false;
+    const int err = posix_fallocate(fd_, map_base_ + static_cast<off_t>(file_room_),
+                                    static_cast<off_t>(room - file_room_));
+    if (err == 0) {
+      file_room_ = room;
+      return true;
+    }
+    if (err != ENOSPC && err != EDQUOT && err != EFBIG) {
+      // No fallocate here (and glibc's emulation refuses O_APPEND): extend
+      // sparsely; a page that cannot be allocated is then caught by the
+      // copy's SIGBUS guard.
+      if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
+      file_room_ = room;
+      return true;
+    }
+  }
+  return false;
 }
 
 bool AuditLog::grow_locked(size_t upto) {
@@ -227,6 +348,7 @@ bool AuditLog::grow_locked(size_t upto) {
   while (populated < upto) {
     const size_t len = std::min(kPrefault, file_room_ - populated);
     if (madvise(map_ + populated, len, MADV_POPULATE_WRITE) != 0) {
+      if (errno == EFAULT) return false;  // the file was cut under the window
       prefault_ = false;  // an older kernel: records fault their pages in themselves
       ready_.store(file_room_, std::memory_order_release);
       return true;
@@ -256,21 +378,21 @@ bool AuditLog::map_from_locked(off_t pos, size_t need) {
   map_len_ = len;
   pos_ = pos;
   file_room_ = at;
+  prefault_ = true;
   ready_.store(at / static_cast<size_t>(page) * static_cast<size_t>(page),
                std::memory_order_release);
   written_.store(at, std::memory_order_release);
-  if (!grow_locked(at + need + kPrefault)) {
-    munmap(map_, map_len_);
+  if (!grow_locked(at + need + kPrefault) && !grow_locked(at + need)) {
+    retired_.emplace_back(map_, map_len_);
     map_ = nullptr;
     ready_.store(0, std::memory_order_release);
-    (void)!ftruncate(fd_, pos);
     return false;
   }
   return true;
 }
 
-// The grower thread: keeps the file extended and its pages faulted in
-// kAhead bytes ahead of the writer, off the path of the commands being
+// The grower thread: keeps the file's blocks allocated and its pages faulted
+// in kAhead bytes ahead of the writer, off the path of the commands being
 // recorded, and unmaps retired windows.
 void AuditLog::grow_ahead() {
 #ifndef MADV_POPULATE_WRITE
@@ -298,7 +420,9 @@ void AuditLog::grow_ahead() {
       grow_cv_.wait_for(g, std::chrono::milliseconds(20));
       continue;
     }
-    if (!extend_locked(want)) {
+    if (!extend_locked(want) && file_room_ <= from) {
+      // No space: the writer sees it when it reaches the end of what is
+      // allocated (its record fails, the action is refused).
       grow_cv_.wait_for(g, std::chrono::milliseconds(20));
       continue;
     }
@@ -314,9 +438,15 @@ void AuditLog::grow_ahead() {
     if (len == 0) continue;
     g.unlock();
     const bool ok = madvise(window + from, len, MADV_POPULATE_WRITE) == 0;
+    const int err = errno;
     g.lock();
     if (window != map_) continue;
     if (!ok) {
+      if (err == EFAULT) {
+        // The file was cut under the window: the writer's check resyncs.
+        grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+        continue;
+      }
       prefault_ = false;  // an older kernel: records fault their pages in themselves
       ready_.store(file_room_, std::memory_order_release);
       continue;
@@ -328,17 +458,70 @@ void AuditLog::grow_ahead() {
   }
 }
 
-Status AuditLog::open(const std::string& path) {
+Status AuditLog::open(const std::string& path, const AuditOptions& options) {
   std::lock_guard lock(mu_);
+  close_file_locked();
   std::memcpy(prev_, kAuditGenesis, sizeof prev_);
   line_.reserve(1024);
+  options_ = options;
+  if (options_.keep == 0) options_.keep = 1;
+  path_ = path;
   if (path == "-") {
+    mode_ = Mode::kStream;
     fd_ = STDERR_FILENO;
     owned_ = false;
     return {};
   }
-  const int fd = ::open(path.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC, 0666);
-  if (fd < 0) return make_error("cannot open audit log " + path + ": " + strerror(errno));
+  mode_ = Mode::kFile;
+  Status s = open_file_locked();
+  if (!s.ok()) mode_ = Mode::kNone;
+  return s;
+}
+
+Status AuditLog::open_file_locked() {
+  const int fd =
+      ::open(path_.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC | O_NOCTTY | O_NONBLOCK, 0666);
+  if (fd < 0) return make_error("cannot open audit log " + path_ + ": " + strerror(errno));
+  struct stat st {};
+  if (fstat(fd, &st) != 0) {
+    const int err = errno;
+    close(fd);
+    return make_error("cannot stat audit log " + path_ + ": " + strerror(err));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    if (!options_.allow_unsafe) {
+      close(fd);
+      return make_error(fmt::format(
+          "audit log {} is {}, not a regular file: what is written there cannot be checked, "
+          "locked or rotated (give --audit-unsafe to log there anyway, or - for standard error)",
+          path_, file_type(st.st_mode)));
+    }
+    // --audit-unsafe: write(2) per line, blocking (a FIFO reader paces us).
+    (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    mode_ = Mode::kStream;
+    fd_ = fd;
+    owned_ = true;
+    return {};
+  }
+  (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  struct statvfs vfs {};
+  if (fstatvfs(fd, &vfs) == 0 && (vfs.f_flag & ST_RDONLY) != 0) {
+    close(fd);
+    return make_error("audit log " + path_ + " is on a read-only file system");
+  }
+  // One writer per log: two would interleave and break the chain.
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    close(fd);
+    if (err != EWOULDBLOCK) {
+      return make_error("cannot lock audit log " + path_ + ": " + strerror(err));
+    }
+    const std::string holder = lock_holder(st);
+    return make_error(fmt::format(
+        "audit log {} is in use by another writer{}: two monitors on one log would break its "
+        "chain (give each monitor its own --audit file)",
+        path_, holder.empty() ? "" : " (" + holder + ")"));
+  }
   off_t end = data_end(fd);
   end = complete_end(fd, end);
   // Zero padding and a record torn by a kill are cut off before continuing.
@@ -347,71 +530,292 @@ Status AuditLog::open(const std::string& path) {
   }
   const std::string last = last_line(fd, end);
   if (!last.empty()) sha256_hex(last, prev_);
+  // Room for the first records, or a refusal now rather than at the first
+  // command: the space is allocated, not just the size set.
+  if (const int err = posix_fallocate(fd, end, kStartRoom);
+      err == ENOSPC || err == EDQUOT || err == EFBIG) {
+    (void)!ftruncate(fd, end);
+    close(fd);
+    return make_error(
+        fmt::format("no room for the audit log {} on its file system: {}", path_, strerror(err)));
+  }
+  std::lock_guard g(grow_mu_);
   fd_ = fd;
   owned_ = true;
-  struct stat st {};
-  // A regular file is extended ahead of the writer and mapped: a record is
-  // a memcpy into the page cache (no system call), as durable against a
-  // killed monitor as write(2) is. Anything else, or a failed mapping: write(2).
-  if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
-    std::lock_guard g(grow_mu_);
-    if (map_from_locked(end, 0) && !grower_.joinable()) {
-      grower_ = std::thread([this] { grow_ahead(); });
-    }
+  dev_ = st.st_dev;
+  ino_ = st.st_ino;
+  pos_ = end;
+  next_check_us_ = mono_us() + kCheckEveryUs;
+  install_sigbus_guard();
+  // A regular file is mapped with its space allocated ahead of the writer:
+  // a record is a memcpy into the page cache (no system call), as durable
+  // against a killed monitor as write(2) is. A failed mapping: write(2).
+  if (map_from_locked(end, 0) && !grower_.joinable()) {
+    grower_ = std::thread([this] { grow_ahead(); });
   }
+  if (map_ == nullptr) (void)!ftruncate(fd, end);
   return {};
 }
 
-void AuditLog::finish_line_locked() {
-  line_ += ",\"prev\":\"";
-  line_.append(prev_, 64);
-  line_ += "\"}";
-  sha256_hex(line_, prev_);
-  line_ += '\n';
-  if (map_ != nullptr) {
-    size_t at = static_cast<size_t>(pos_ - map_base_);
-    bool room = at + line_.size() <= ready_.load(std::memory_order_acquire);
-    if (!room) {
-      // The grower fell behind, or the window is full: make room here.
-      std::lock_guard g(grow_mu_);
-      room = at + line_.size() <= map_len_ ? grow_locked(at + line_.size() + kPrefault)
-                                           : map_from_locked(pos_, line_.size());
-      at = static_cast<size_t>(pos_ - map_base_);
-    }
-    if (room && map_ != nullptr) {
-      std::memcpy(map_ + at, line_.data(), line_.size());
-      pos_ += static_cast<off_t>(line_.size());
-      const size_t written = at + line_.size();
-      written_.store(written, std::memory_order_release);
-      if (ready_.load(std::memory_order_relaxed) < written + kAhead / 2) {
-        grow_cv_.notify_one();  // no system call unless the grower is waiting
-      }
-      return;
-    }
+void AuditLog::close_file_locked() {
+  if (fd_ < 0) return;
+  {
     std::lock_guard g(grow_mu_);
     if (map_ != nullptr) retired_.emplace_back(map_, map_len_);
     map_ = nullptr;
-    (void)!ftruncate(fd_, pos_);  // no mapping any more: continue with write(2)
+    ready_.store(0, std::memory_order_release);
+    written_.store(0, std::memory_order_release);
+    file_room_ = 0;
+    if (mode_ == Mode::kFile) {
+      // A clean close removes the padding; a killed monitor leaves it, and
+      // the next open() and the verifier skip it. Never grow the file here
+      // (it may have been cut under us).
+      struct stat st {};
+      if (fstat(fd_, &st) == 0 && st.st_size > pos_) (void)!ftruncate(fd_, pos_);
+    }
+    // The lock goes with the file description, which a retired window
+    // still references until the grower unmaps it: release it now.
+    if (mode_ == Mode::kFile) (void)flock(fd_, LOCK_UN);
+    if (owned_) close(fd_);
+    fd_ = -1;
+    owned_ = false;
   }
-  // One write(2): in the page cache before the decision acts, so it
-  // survives a killed monitor. O_APPEND keeps concurrent writers (another
-  // monitor on the same file) from interleaving inside a line.
+  grow_cv_.notify_one();  // retired windows
+}
+
+// Every kCheckEveryUs (or when forced after a failed copy): is the open file
+// still the log's path, still linked, not cut? If not, continue the chain
+// in the right place: a deleted or moved-away file is replaced by a new
+// one at the path; a cut file continues at its new end. Either way the next
+// line is a `continues` record. A log that could not be reopened is retried.
+void AuditLog::check_file_locked(bool force) {
+  if (mode_ != Mode::kFile) return;
+  const uint64_t now = mono_us();
+  if (!force && now < next_check_us_) return;
+  next_check_us_ = now + kCheckEveryUs;
+  if (fd_ < 0) {  // lost earlier: try again
+    char old[65];
+    std::memcpy(old, prev_, sizeof old);
+    if (open_file_locked().ok()) start_continuation_locked(path_, old, "reopened after a failure");
+    return;
+  }
+  struct stat st {
+  }, named{};
+  off_t backed = 0;
+  {
+    std::lock_guard g(grow_mu_);
+    if (fstat(fd_, &st) != 0) return;
+    backed = map_ != nullptr ? map_base_ + static_cast<off_t>(file_room_) : pos_;
+  }
+  const bool same =
+      stat(path_.c_str(), &named) == 0 && named.st_dev == st.st_dev && named.st_ino == st.st_ino;
+  std::string why;
+  if (st.st_nlink == 0 || !same) {
+    why = st.st_nlink == 0 ? "the log file was deleted" : "the log file was moved away or replaced";
+  } else if (st.st_size < backed) {
+    why = fmt::format(
+        "the log file was cut from {} to {} bytes by another process "
+        "(copytruncate?); lines written meanwhile are only in the copy",
+        pos_, st.st_size);
+  } else {
+    return;
+  }
+  const std::string follows = fd_path(fd_);
+  char old[65];
+  std::memcpy(old, prev_, sizeof old);
+  close_file_locked();
+  if (Status s = open_file_locked(); !s.ok()) {
+    last_error_ = s.error();
+    report_failure_locked(why + "; " + s.error());
+    return;
+  }
+  start_continuation_locked(follows, old, why);
+}
+
+bool AuditLog::start_continuation_locked(const std::string& follows, const char* old_hash,
+                                         const std::string& why) {
+  cont_.clear();
+  cont_ += "{\"continues\":\"";
+  cont_.append(old_hash, 64);
+  cont_ += "\",\"detail\":";
+  put_string(cont_, why);
+  cont_ += ",\"follows\":";
+  put_string(cont_, follows);
+  fmt::format_to(Out(cont_), ",\"kind\":\"continues\",\"t_us\":{}", wall_us());
+  return commit_locked(cont_, true);
+}
+
+bool AuditLog::rotate_locked(const std::string& why) {
+  if (mode_ != Mode::kFile || fd_ < 0) return false;
+  // Renamed while still locked and open: no other writer can slip in.
+  for (unsigned k = options_.keep; k > 1; --k) {
+    const std::string from = fmt::format("{}.{}", path_, k - 1);
+    (void)std::rename(from.c_str(), fmt::format("{}.{}", path_, k).c_str());
+  }
+  const std::string rotated = path_ + ".1";
+  if (std::rename(path_.c_str(), rotated.c_str()) != 0) {
+    last_error_ = "cannot rotate " + path_ + ": " + strerror(errno);
+    return false;
+  }
+  char old[65];
+  std::memcpy(old, prev_, sizeof old);
+  close_file_locked();
+  if (Status s = open_file_locked(); !s.ok()) {
+    last_error_ = s.error();
+    return false;
+  }
+  ++rotations_;
+  return start_continuation_locked(rotated, old, why);
+}
+
+Result<std::string> AuditLog::reopen() {
+  std::lock_guard lock(mu_);
+  if (mode_ != Mode::kFile) return std::string("the audit log is not a file: nothing to reopen");
+  struct stat named {};
+  const bool still_named =
+      fd_ >= 0 && stat(path_.c_str(), &named) == 0 && named.st_dev == dev_ && named.st_ino == ino_;
+  if (options_.max_bytes > 0 && still_named && pos_ > 0) {
+    if (!rotate_locked("SIGHUP")) return make_error(last_error_);
+    return fmt::format("rotated: {} -> {}.1; a new {} continues the chain", path_, path_, path_);
+  }
+  const uint64_t before = rotations_ + failures_;
+  const int fd_before = fd_;
+  const ino_t ino_before = ino_;
+  check_file_locked(true);
+  if (fd_ < 0) return make_error("cannot reopen " + path_ + ": " + last_error_);
+  if (fd_ != fd_before || ino_ != ino_before || before != rotations_ + failures_) {
+    ++rotations_;
+    return fmt::format("reopened {}: a new file continues the chain", path_);
+  }
+  return fmt::format("{} is still the open file: kept", path_);
+}
+
+void AuditLog::report_failure_locked(const std::string& why) {
+  ++unreported_;
+  const uint64_t now = mono_us();
+  if (now < next_report_us_) return;
+  next_report_us_ = now + 1000000;
+  fmt::print(stderr,
+             "contego: AUDIT LOG FAILURE: {}: {}; what it records does not act ({} record(s) "
+             "not written since the last message)\n",
+             path_, why, unreported_);
+  unreported_ = 0;
+}
+
+bool AuditLog::write_fd_locked(const std::string& line) {
   size_t off = 0;
-  while (off < line_.size()) {
-    const ssize_t n = ::write(fd_, line_.data() + off, line_.size() - off);
+  while (off < line.size()) {
+    const ssize_t n = ::write(fd_, line.data() + off, line.size() - off);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
+    if (n <= 0) {
+      last_error_ = n < 0 ? strerror(errno) : "short write";
+      // Half a line in a regular file would break the chain: take it back.
+      if (mode_ == Mode::kFile && off > 0) (void)!ftruncate(fd_, pos_);
+      return false;
+    }
     off += static_cast<size_t>(n);
   }
+  pos_ += static_cast<off_t>(line.size());
+  return true;
+}
+
+bool AuditLog::put_locked(const std::string& line) {
+  if (fd_ < 0) {
+    if (last_error_.empty()) last_error_ = "no log file open";
+    return false;
+  }
+  if (map_ == nullptr) return write_fd_locked(line);
+  size_t at = static_cast<size_t>(pos_ - map_base_);
+  bool room = at + line.size() <= ready_.load(std::memory_order_acquire);
+  if (!room) {
+    // The grower fell behind, the window is full, or the file system is:
+    // make room here.
+    std::lock_guard g(grow_mu_);
+    if (at + line.size() <= map_len_) {
+      room = grow_locked(at + line.size() + kPrefault) || grow_locked(at + line.size());
+    } else {
+      room = map_from_locked(pos_, line.size());
+    }
+    at = static_cast<size_t>(pos_ - map_base_);
+  }
+  if (!room || map_ == nullptr) {
+    last_error_ = "no space left to allocate for the record";
+    return false;
+  }
+  if (!guarded_copy(map_ + at, line.data(), line.size())) {
+    last_error_ = "the log file was cut under the record (SIGBUS caught)";
+    return false;
+  }
+  pos_ += static_cast<off_t>(line.size());
+  const size_t written = at + line.size();
+  written_.store(written, std::memory_order_release);
+  if (ready_.load(std::memory_order_relaxed) < written + kAhead / 2) {
+    grow_cv_.notify_one();  // no system call unless the grower is waiting
+  }
+  return true;
+}
+
+bool AuditLog::commit_locked(std::string& body, bool continuation) {
+  if (mode_ == Mode::kNone) {
+    ++lines_;
+    return true;
+  }
+  if (!continuation) {
+    check_file_locked(false);
+    if (gap_ > 0) {
+      // The first line after records were lost says so: the log shows the
+      // gap (none of the lost records' actions happened).
+      cont_.clear();
+      cont_ += "{\"detail\":";
+      put_string(cont_, fmt::format("{} record(s) could not be written since t_us {} ({}); "
+                                    "the actions they would have recorded did not happen",
+                                    gap_, gap_since_us_, gap_why_));
+      fmt::format_to(Out(cont_), ",\"kind\":\"audit-gap\",\"t_us\":{}", wall_us());
+      if (commit_locked(cont_, true)) gap_ = 0;
+    }
+    if (mode_ == Mode::kFile && options_.max_bytes > 0 && fd_ >= 0 && pos_ > 0 &&
+        static_cast<uint64_t>(pos_) + body.size() + 80 > options_.max_bytes) {
+      (void)rotate_locked(fmt::format("size limit of {} bytes", options_.max_bytes));
+    }
+  }
+  const size_t body_len = body.size();
+  for (int attempt = 0;; ++attempt) {
+    body.resize(body_len);
+    body += ",\"prev\":\"";
+    body.append(prev_, 64);
+    body += "\"}";
+    char next[65];
+    sha256_hex(body, next);
+    body += '\n';
+    if (put_locked(body)) {
+      std::memcpy(prev_, next, sizeof prev_);
+      ++lines_;
+      return true;
+    }
+    if (attempt > 0 || continuation || mode_ != Mode::kFile) break;
+    // A truncation or deletion under the record: continue in the right
+    // place (after a `continues` record) and try once more.
+    check_file_locked(true);
+    if (fd_ < 0) break;
+  }
+  if (!continuation) {
+    ++failures_;  // a record its caller is told was not written
+    if (gap_++ == 0) gap_since_us_ = wall_us();
+    gap_why_ = last_error_;
+  }
+  report_failure_locked(last_error_);
+  return false;
 }
 
 // Keys sorted as the earlier JSON writer had them, except "prev", which
 // comes last (it is appended when the rest of the line is known).
-void AuditLog::decision(const core::AuditRecord& r, const char* task_name) {
+bool AuditLog::decision(const core::AuditRecord& r, const char* task_name) {
   const uint64_t t = wall_us();
   std::lock_guard lock(mu_);
-  ++lines_;
-  if (fd_ < 0) return;
+  if (mode_ == Mode::kNone) {
+    ++lines_;
+    return true;
+  }
   line_.clear();
   fmt::format_to(Out(line_), "{{\"addr\":{},\"bus\":{},\"bytes\":\"", r.addr, r.bus);
   put_hex(line_, r.original, r.original_len);
@@ -435,21 +839,38 @@ void AuditLog::decision(const core::AuditRecord& r, const char* task_name) {
     line_ += ",\"task_name\":";
     put_string(line_, task_name);
   }
-  finish_line_locked();
+  return commit_locked(line_);
 }
 
-void AuditLog::event(const std::string& kind, const std::string& detail) {
+bool AuditLog::event(const std::string& kind, const std::string& detail) {
   const uint64_t t = wall_us();
   std::lock_guard lock(mu_);
-  ++lines_;
-  if (fd_ < 0) return;
+  if (mode_ == Mode::kNone) {
+    ++lines_;
+    return true;
+  }
   line_.clear();
   line_ += "{\"detail\":";
   put_string(line_, detail);
   line_ += ",\"kind\":";
   put_string(line_, kind);
   fmt::format_to(Out(line_), ",\"t_us\":{}", t);
-  finish_line_locked();
+  return commit_locked(line_);
+}
+
+uint64_t AuditLog::failures() const {
+  std::lock_guard lock(mu_);
+  return failures_;
+}
+
+uint64_t AuditLog::rotations() const {
+  std::lock_guard lock(mu_);
+  return rotations_;
+}
+
+std::string AuditLog::path() const {
+  std::lock_guard lock(mu_);
+  return path_;
 }
 
 uint64_t AuditLog::lines() const {
@@ -476,7 +897,7 @@ bool is_torn_record(std::string_view tail, std::string_view prev_hash) {
 
 }  // namespace
 
-AuditCheck verify_audit(std::istream& in) {
+AuditCheck verify_audit(std::istream& in, const std::string& continues_from) {
   AuditCheck c;
   AuditSummary& s = c.summary;
   std::string line, prev_hash;
@@ -515,6 +936,16 @@ AuditCheck verify_audit(std::istream& in) {
     const std::string prev = j["prev"].get<std::string>();
     if (s.lines == 0) {
       s.starts_at_genesis = prev == kAuditGenesis;
+      s.first_prev = prev;
+      if (j.value("kind", std::string()) == "continues" && j.contains("follows") &&
+          j["follows"].is_string()) {
+        s.follows = j["follows"].get<std::string>();
+      }
+      if (!continues_from.empty() && prev != continues_from) {
+        return fail("the first line does not continue the file before: its \"prev\" is " + prev +
+                    ", that file ends with " + continues_from +
+                    " (files missing or out of order? give them oldest first)");
+      }
     } else if (prev != prev_hash) {
       return fail(
           "\"prev\" is not the SHA-256 of the line before: that line was changed, or "

@@ -1,11 +1,25 @@
 // The monitor's audit log: one JSON object per line, in the page cache
 // before the decision it records takes effect on the bus, so a monitor that
 // is killed loses nothing it already decided. A regular file is mapped and
-// extended with zeros ahead of the writer (a record costs a memcpy, no
-// system call and no page fault: a helper thread grows the file and faults
-// its pages in ahead of the writer; a clean close cuts the padding off, a
-// killed monitor leaves it and open() and verify_audit skip it); other files get one write(2) per
-// line. The line is formatted with fmt into a buffer the log keeps (no JSON
+// space is allocated (posix_fallocate) ahead of the writer (a record costs a
+// memcpy, no system call and no page fault: a helper thread allocates and
+// faults pages in ahead of the writer; a full file system is an error of the
+// allocation, seen before a record needs the space, never a SIGBUS; a clean
+// close cuts the padding off, a killed monitor leaves it and open() and
+// verify_audit skip it); other files (only with `allow_unsafe`) and standard
+// error get one write(2) per line.
+//
+// No action without a record: decision() and event() return false when the
+// line is not in the log (no space, an I/O error...); the monitor then
+// refuses the action. The file is locked (flock) so that a second writer is
+// refused at open, checked every 100 ms for truncation, deletion and
+// replacement (and a truncation racing a record is caught: the copy is
+// guarded against SIGBUS and retried), rotated by size (`max_bytes`) or on
+// reopen() (SIGHUP). Every file after the first starts with a `continues`
+// record naming the file it follows; its "prev" is the last hash of that
+// file, so the chain runs across files (verify_audit with `continues_from`).
+//
+// The line is formatted with fmt into a buffer the log keeps (no JSON
 // library, no stdio, no allocation per decision once the buffer has grown). Every line carries
 // "prev", the SHA-256 of the previous line's bytes, so an edited, removed or inserted line breaks
 // the chain (verify_audit, `contego audit`). docs/audit-format.md describes the fields.
@@ -30,6 +44,15 @@
 
 namespace contego::monitor {
 
+struct AuditOptions {
+  // Accept a target that is not a regular file (a FIFO, a character device
+  // such as /dev/null): one write(2) per line, no lock, no rotation, no
+  // space check. /dev/full then fails every record (and every action).
+  bool allow_unsafe = false;
+  uint64_t max_bytes = 0;  // rotate before a record would take the file past this (0 = never)
+  unsigned keep = 5;       // rotated files kept: PATH.1 (newest) .. PATH.keep
+};
+
 class AuditLog {
  public:
   AuditLog() = default;  // discards everything
@@ -38,16 +61,41 @@ class AuditLog {
   AuditLog& operator=(const AuditLog&) = delete;
 
   // Appends to `path` ("-" = standard error), continuing the hash chain from
-  // the file's last line.
-  Status open(const std::string& path);
-  void decision(const core::AuditRecord& record, const char* task_name);
+  // the file's last line. Refuses a target that is not a regular file
+  // (unless options.allow_unsafe), a file another writer holds (naming it),
+  // and a file system without room for the first records.
+  Status open(const std::string& path, const AuditOptions& options = {});
+  // False: the line is NOT in the log (the caller must not act on it). A
+  // loud, rate-limited message goes to standard error.
+  bool decision(const core::AuditRecord& record, const char* task_name);
   // Monitor events: start, safe-state, fault, task-exit, peer ...
-  void event(const std::string& kind, const std::string& detail);
-  uint64_t lines() const;
+  bool event(const std::string& kind, const std::string& detail);
+  // SIGHUP: if the path no longer names the open file (moved away by
+  // logrotate, deleted), opens the path anew and continues the chain there.
+  // With max_bytes set, rotates now. Returns what it did.
+  Result<std::string> reopen();
+  uint64_t lines() const;      // lines written (or discarded: no log)
+  uint64_t failures() const;   // records that could not be written
+  uint64_t rotations() const;  // files started after the first
+  std::string path() const;
 
  private:
-  // Appends ,"prev":"..."} and the newline to line_, hashes, writes. mu_ held.
-  void finish_line_locked();
+  // Appends ,"prev":"..."} and the newline to body, hashes, writes; on
+  // success the chain advances. Handles rotation, truncation, deletion and
+  // a lost write (a retry after resync). mu_ held.
+  bool commit_locked(std::string& body, bool continuation = false);
+  bool put_locked(const std::string& line);  // the bytes reach the file (or not at all)
+  bool write_fd_locked(const std::string& line);
+  // Opens path_ (the checks of open()) and continues at its end. mu_ held.
+  Status open_file_locked();
+  void close_file_locked();  // unmap, cut the padding, unlock, close
+  // The file behind fd_ changed (truncated, deleted, replaced)? Then
+  // continue accordingly. True if a line was lost or needs a retry.
+  void check_file_locked(bool force);
+  bool rotate_locked(const std::string& why);  // PATH -> PATH.1 ..., new PATH
+  bool start_continuation_locked(const std::string& follows, const char* old_hash,
+                                 const std::string& why);
+  void report_failure_locked(const std::string& why);
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kMapChunk steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
@@ -61,13 +109,29 @@ class AuditLog {
   mutable std::mutex mu_;
   char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
   std::string line_;    // reused: the line being formatted
-  int fd_ = -1;
+  enum class Mode { kNone, kStream, kFile };  // discard; write(2) only; a checked regular file
+  Mode mode_ = Mode::kNone;
+  int fd_ = -1;  // kFile: -1 after the file was lost and could not be reopened
   bool owned_ = false;
+  std::string last_error_;
   char* map_ = nullptr;  // the mapped window of a regular file, or null (write(2))
   off_t map_base_ = 0;   // file offset of map_[0]
   size_t map_len_ = 0;
-  off_t pos_ = 0;  // file offset of the next record when mapped
+  off_t pos_ = 0;  // file offset of the next record (the end of the records)
   uint64_t lines_ = 0;
+  uint64_t failures_ = 0;
+  uint64_t rotations_ = 0;
+  std::string path_;
+  AuditOptions options_;
+  dev_t dev_ = 0;
+  ino_t ino_ = 0;
+  uint64_t next_check_us_ = 0;   // monotonic: when the file is next checked
+  uint64_t next_report_us_ = 0;  // monotonic: stderr rate limit
+  uint64_t unreported_ = 0;      // failures not yet on stderr
+  std::string cont_;             // a continues or audit-gap record being formatted
+  uint64_t gap_ = 0;             // records lost since the last one written
+  uint64_t gap_since_us_ = 0;    // wall clock of the first of them
+  std::string gap_why_;          // the last reason
   // The grower: extends the file and faults its pages in ahead of the
   // writer. Lock order: mu_, then grow_mu_. The writer's fast path takes
   // no lock but mu_: it writes below ready_ only.
@@ -96,6 +160,8 @@ struct AuditSummary {
   bool starts_at_genesis = false;  // else it continues a rotated-away log
   bool torn_tail = false;          // the last record was cut off by a killed monitor
   std::string last_hash;           // anchor: SHA-256 of the last line
+  std::string first_prev;          // the first line's "prev": where this file continues from
+  std::string follows;             // a first `continues` record: the file it follows
 };
 
 struct AuditCheck {
@@ -105,8 +171,10 @@ struct AuditCheck {
   AuditSummary summary;  // of the lines up to the first bad one
 };
 
-// Verifies the chain line by line and summarises the log.
-AuditCheck verify_audit(std::istream& in);
+// Verifies the chain line by line and summarises the log. With
+// `continues_from` (the last hash of the file before, for rotated files),
+// the first line must continue from it.
+AuditCheck verify_audit(std::istream& in, const std::string& continues_from = {});
 
 }  // namespace contego::monitor
 

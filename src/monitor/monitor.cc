@@ -58,7 +58,9 @@ void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
   const char* name =
       record->task < self->task_names_.size() ? self->task_names_[record->task].c_str() : nullptr;
-  self->audit_.decision(*record, name);
+  // No action without a record: a decision whose line is not in the log
+  // is refused by transfer() (checked after each check()).
+  if (!self->audit_.decision(*record, name)) self->audit_lost_ = true;
 }
 
 int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
@@ -172,8 +174,18 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     v = core::Verdict{};
     v.decision = core::Decision::kReject;  // fail closed if the decider leaves it untouched
     v.reply_errno = EPERM;
+    audit_lost_ = false;
     decider_.check(tx, &v);
     decisions_.fetch_add(1);
+    if (audit_lost_) {
+      // The record of this decision could not be written: it does not act,
+      // nothing of the call does, and the actuators go to their safe state
+      // (best effort: the records of that may fail too).
+      audit_refusals_.fetch_add(1);
+      drive_safe_state_locked("an audit record could not be written: failing closed");
+      reply.err = EIO;
+      return reply;
+    }
     if (v.decision == core::Decision::kReject) {
       reply.err = v.reply_errno != 0 ? v.reply_errno : EPERM;
       return reply;

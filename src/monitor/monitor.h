@@ -76,6 +76,9 @@ class Monitor final : public gate::Endpoint {
   uint32_t job(uint16_t task) const;
   uint16_t task_priority(uint16_t task) const;
   uint64_t decisions() const { return decisions_.load(); }
+  // Transfers refused because their decision's audit record could not be
+  // written (each also drove the safe state).
+  uint64_t audit_refusals() const { return audit_refusals_.load(); }
 
  private:
   struct Sample {
@@ -115,6 +118,8 @@ class Monitor final : public gate::Endpoint {
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
   std::atomic<uint64_t> decisions_{0};
+  std::atomic<uint64_t> audit_refusals_{0};
+  bool audit_lost_ = false;  // under mu_: the last check()'s record was not written
   std::thread sampler_;
   std::condition_variable sampler_cv_;
   bool sampler_stop_ = false;

@@ -1,6 +1,7 @@
 #include "monitor/server.h"
 
 #include <errno.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -8,6 +9,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <system_error>
 
 #include "base/realtime.h"
 #include "gate/channel.h"
@@ -18,20 +20,34 @@ namespace contego::monitor {
 
 namespace wire = gate::wire;
 
+namespace {
+
+uint64_t now_us() { return monotonic_us(); }
+
+}  // namespace
+
 Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t> tasks,
-               std::set<uid_t> allowed_uids, gate::SpinPolicy spin, bool realtime)
+               std::set<uid_t> allowed_uids, gate::SpinPolicy spin, bool realtime,
+               ServerLimits limits)
     : monitor_(monitor),
       audit_(audit),
       tasks_(std::move(tasks)),
       allowed_(std::move(allowed_uids)),
       spin_(spin),
-      realtime_(realtime) {}
+      realtime_(realtime),
+      limits_(limits) {}
 
 Server::~Server() {
   stop();
-  for (auto& t : threads_) {
-    if (t.joinable()) t.join();
+  std::vector<std::unique_ptr<Conn>> conns;
+  {
+    std::lock_guard lock(mu_);
+    conns.swap(conns_);
   }
+  for (auto& c : conns) {
+    if (c->thread.joinable()) c->thread.join();
+  }
+  flush_suppressed(true);
   if (listen_fd_ >= 0) close(listen_fd_);
   if (!path_.empty()) unlink(path_.c_str());
 }
@@ -41,52 +57,195 @@ Status Server::listen(const std::string& path) {
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  listen_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  listen_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (listen_fd_ < 0) return make_error(std::string("socket: ") + strerror(errno));
   unlink(path.c_str());
   if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     return make_error("cannot bind " + path + ": " + strerror(errno));
   }
   chmod(path.c_str(), 0660);
-  if (::listen(listen_fd_, 16) != 0) return make_error(std::string("listen: ") + strerror(errno));
+  if (::listen(listen_fd_, 64) != 0) return make_error(std::string("listen: ") + strerror(errno));
   path_ = path;
   return {};
 }
 
+size_t Server::live_connections() {
+  std::lock_guard lock(mu_);
+  size_t n = 0;
+  for (const auto& c : conns_) n += c->done.load() ? 0 : 1;
+  return n;
+}
+
+void Server::client_event(uid_t uid, const std::string& kind, const std::string& detail) {
+  {
+    std::lock_guard lock(events_mu_);
+    const uint64_t now = now_us();
+    EventBudget& b = budgets_[uid];
+    if (now >= b.window_us + 1000000) {
+      if (b.suppressed > 0) {
+        audit_.event("suppressed",
+                     fmt::format("uid {}: {} client-error event(s) not written (over {} per "
+                                 "second)",
+                                 uid, b.suppressed, limits_.events_per_second));
+      }
+      b.window_us = now;
+      b.written = 0;
+      b.suppressed = 0;
+    }
+    if (limits_.events_per_second > 0 && b.written >= limits_.events_per_second) {
+      ++b.suppressed;
+      suppressed_total_.fetch_add(1);
+      return;
+    }
+    ++b.written;
+  }
+  audit_.event(kind, detail);
+}
+
+void Server::flush_suppressed(bool all) {
+  std::lock_guard lock(events_mu_);
+  const uint64_t now = now_us();
+  for (auto it = budgets_.begin(); it != budgets_.end();) {
+    EventBudget& b = it->second;
+    if (!all && now < b.window_us + 1000000) {
+      ++it;
+      continue;
+    }
+    if (b.suppressed > 0) {
+      audit_.event("suppressed", fmt::format("uid {}: {} client-error event(s) not written (over "
+                                             "{} per second)",
+                                             it->first, b.suppressed, limits_.events_per_second));
+    }
+    it = budgets_.erase(it);
+  }
+}
+
+void Server::housekeeping() {
+  std::vector<std::unique_ptr<Conn>> finished;
+  std::vector<std::pair<uid_t, int>> timed_out;
+  {
+    std::lock_guard lock(mu_);
+    const uint64_t now = now_us();
+    for (auto it = conns_.begin(); it != conns_.end();) {
+      Conn& c = **it;
+      if (c.done.load()) {
+        finished.push_back(std::move(*it));
+        it = conns_.erase(it);
+        continue;
+      }
+      if (!c.hello.load() && c.hello_deadline_us != 0 && now >= c.hello_deadline_us &&
+          !c.timed_out) {
+        c.timed_out = true;
+        shutdown(c.fd, SHUT_RDWR);  // its thread sees the end and closes it
+        timed_out.emplace_back(c.uid, c.fd);
+      }
+      ++it;
+    }
+  }
+  for (auto& c : finished) c->thread.join();
+  for (const auto& [uid, fd] : timed_out) {
+    hello_timeouts_.fetch_add(1);
+    client_event(uid, "hello-timeout",
+                 fmt::format("uid {}: no hello within {} ms: connection closed", uid,
+                             limits_.hello_timeout_ms));
+  }
+  flush_suppressed(false);
+}
+
 void Server::serve() {
+  uint64_t accept_reported_us = 0, accept_unreported = 0;
   while (!stopping_) {
+    housekeeping();
+    pollfd p{listen_fd_, POLLIN, 0};
+    const int ready = poll(&p, 1, 100);
+    if (stopping_) break;
+    if (ready <= 0) continue;
     const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
     if (fd < 0) {
-      if (errno == EINTR) continue;
-      break;  // stop() shut the listening socket down
+      const int err = errno;
+      if (stopping_) break;
+      if (err == EINTR || err == EAGAIN || err == ECONNABORTED) continue;
+      // Out of descriptors or memory (EMFILE, ENFILE, ENOBUFS, ENOMEM) or
+      // anything else: never the end of the monitor. The connections already
+      // open are served on their own threads; the hello timeout and the
+      // per-uid cap free descriptors; this loop retries after a pause.
+      accept_failures_.fetch_add(1);
+      ++accept_unreported;
+      const uint64_t now = now_us();
+      if (now >= accept_reported_us + 1000000) {
+        const std::string what = fmt::format(
+            "accept failed: {} ({} time(s) since the last report); still serving the "
+            "open connections, retrying",
+            strerror(err), accept_unreported);
+        audit_.event("accept-failed", what);
+        fmt::print(stderr, "contego monitor: {}\n", what);
+        accept_reported_us = now;
+        accept_unreported = 0;
+      }
+      usleep(50000);
+      continue;
     }
     ucred cred{};
     socklen_t len = sizeof cred;
     if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 ||
         allowed_.count(cred.uid) == 0) {
-      audit_.event("peer-refused", fmt::format("pid {} uid {}", cred.pid, cred.uid));
+      client_event(cred.uid, "peer-refused", fmt::format("pid {} uid {}", cred.pid, cred.uid));
       const auto e = wire::encode_error({EACCES, "peer uid not allowed"});
       gate::send_frame(fd, wire::Type::kError, 0, e);
       close(fd);
       continue;
     }
-    audit_.event("peer", fmt::format("pid {} uid {}", cred.pid, cred.uid));
-    std::lock_guard lock(mu_);
-    open_fds_.insert(fd);
-    threads_.emplace_back([this, fd] { connection(fd); });
+    std::unique_lock lock(mu_);
+    uint32_t& live = per_uid_[cred.uid];
+    if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
+      lock.unlock();
+      over_cap_.fetch_add(1);
+      client_event(cred.uid, "peer-refused",
+                   fmt::format("pid {} uid {}: over the cap of {} connections per uid", cred.pid,
+                               cred.uid, limits_.max_per_uid));
+      const auto e = wire::encode_error({EAGAIN, "too many connections for this uid"});
+      gate::send_frame(fd, wire::Type::kError, 0, e);
+      close(fd);
+      continue;
+    }
+    ++live;
+    auto c = std::make_unique<Conn>();
+    c->fd = fd;
+    c->uid = cred.uid;
+    c->hello_deadline_us =
+        limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
+    Conn* raw = c.get();
+    try {
+      c->thread = std::thread([this, raw] { connection(raw); });
+    } catch (const std::system_error&) {
+      --live;
+      lock.unlock();
+      client_event(cred.uid, "peer-refused",
+                   fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
+      close(fd);
+      usleep(50000);
+      continue;
+    }
+    conns_.push_back(std::move(c));
+    lock.unlock();
+    client_event(cred.uid, "peer", fmt::format("pid {} uid {}", cred.pid, cred.uid));
   }
+  flush_suppressed(true);  // the counts of the last windows
 }
 
 void Server::stop() {
   stopping_ = true;
   if (listen_fd_ >= 0) shutdown(listen_fd_, SHUT_RDWR);
   std::lock_guard lock(mu_);
-  for (int fd : open_fds_) shutdown(fd, SHUT_RDWR);
+  for (const auto& c : conns_) {
+    if (!c->done.load()) shutdown(c->fd, SHUT_RDWR);
+  }
 }
 
 // One connection's state and its answers, the same whether a message came
 // over the socket or through the shared-memory channel.
 struct Server::Session {
+  Conn* conn = nullptr;
   bool bound = false;
   uint16_t task = 0;
   gate::Transfer transfer;  // reused: no allocation per exchange once grown
@@ -98,7 +257,7 @@ struct Server::Session {
 std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
                                            std::span<const uint8_t> payload, bool channel) {
   auto refuse = [&](int err, const std::string& reason) {
-    audit_.event("malformed", reason);
+    client_event(s.conn->uid, "malformed", fmt::format("uid {}: {}", s.conn->uid, reason));
     s.out = wire::encode_error({err, reason});
     return wire::Type::kError;
   };
@@ -111,6 +270,7 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
       s.bound = true;
+      s.conn->hello.store(true);
       s.task = it->second;
       const uint16_t priority = monitor_.task_priority(s.task);
       if (realtime_ && priority > 0) {
@@ -128,6 +288,9 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       if (std::string e = wire::decode_transfer(payload, &s.transfer); !e.empty()) {
         return refuse(EINVAL, e);
       }
+      // Refused here, where the event is rate-limited per peer (the monitor
+      // would log each one).
+      if (std::string e = gate::validate(s.transfer); !e.empty()) return refuse(EINVAL, e);
       const gate::TransferReply r = monitor_.transfer(s.task, s.transfer);
       wire::encode_reply(r, &s.out);
       return wire::Type::kReply;
@@ -148,8 +311,11 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
   }
 }
 
-void Server::connection(int fd) {
+void Server::connection(Conn* conn) {
+  Conn* const c = conn;
+  const int fd = c->fd;
   Session s;
+  s.conn = c;
   gate::FrameReader reader(fd);
   std::unique_ptr<gate::Channel> channel;
   for (;;) {
@@ -159,7 +325,7 @@ void Server::connection(int fd) {
     if (why == "closed") break;
     if (!why.empty()) {
       // The framing is lost: answer once, then drop this connection only.
-      audit_.event("malformed", why);
+      client_event(c->uid, "malformed", fmt::format("uid {}: {}", c->uid, why));
       gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({EPROTO, why}));
       break;
     }
@@ -168,21 +334,22 @@ void Server::connection(int fd) {
       if (!s.bound) refusal = "channel before hello";
       if (!payload.empty()) refusal = "malformed channel request";
       if (refusal.empty()) {
-        auto c = gate::Channel::create(fd, spin_);
-        if (c) {
+        auto made = gate::Channel::create(fd, spin_);
+        if (made) {
           const uint8_t size[4] = {static_cast<uint8_t>(gate::Channel::kSize),
                                    static_cast<uint8_t>(gate::Channel::kSize >> 8),
                                    static_cast<uint8_t>(gate::Channel::kSize >> 16),
                                    static_cast<uint8_t>(gate::Channel::kSize >> 24)};
-          if (!gate::send_frame_with_fd(fd, wire::Type::kChannelOk, h.seq, size, (*c)->memfd())) {
+          if (!gate::send_frame_with_fd(fd, wire::Type::kChannelOk, h.seq, size,
+                                        (*made)->memfd())) {
             break;
           }
-          channel = std::move(*c);
+          channel = std::move(*made);
           break;  // from here on, messages come through the channel
         }
-        refusal = c.error();
+        refusal = made.error();
       }
-      audit_.event("malformed", refusal);
+      client_event(c->uid, "malformed", fmt::format("uid {}: {}", c->uid, refusal));
       gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({EPROTO, refusal}));
       continue;
     }
@@ -191,12 +358,13 @@ void Server::connection(int fd) {
     }
   }
   if (channel) serve_channel(s, *channel);
-  {
-    std::lock_guard lock(mu_);
-    open_fds_.erase(fd);
-  }
-  close(fd);
   if (s.bound) monitor_.task_exited(s.task);
+  std::lock_guard lock(mu_);
+  close(fd);
+  if (auto it = per_uid_.find(c->uid); it != per_uid_.end() && --it->second == 0) {
+    per_uid_.erase(it);
+  }
+  c->done.store(true);  // joined by the accept loop
 }
 
 void Server::serve_channel(Session& s, gate::Channel& channel) {
@@ -208,7 +376,7 @@ void Server::serve_channel(Session& s, gate::Channel& channel) {
     if (next == gate::Channel::Next::kClosed || stopping_) return;
     if (next == gate::Channel::Next::kOversized) {
       const std::string why = fmt::format("request of {} bytes exceeds {}", len, wire::kMaxPayload);
-      audit_.event("malformed", why);
+      client_event(s.conn->uid, "malformed", fmt::format("uid {}: {}", s.conn->uid, why));
       channel.answer(static_cast<uint8_t>(wire::Type::kError), wire::encode_error({EPROTO, why}));
       continue;
     }

@@ -9,12 +9,23 @@
 // same, only the transport changes. With `realtime`, the thread serving a
 // connection runs under SCHED_FIFO at its task's policy priority.
 //
+// The server keeps serving whatever clients do: at most
+// `max_per_uid` live connections per peer uid (more are refused), a
+// connection that has not said hello within `hello_timeout_ms` is closed, a
+// failed accept() (EMFILE, ENFILE, ENOMEM...) backs off and retries (the
+// connections already open go on), finished connection threads are joined.
+// Client-error events (peer, peer-refused, malformed, hello-timeout,
+// accept-failed) are rate-limited per peer uid: at most `events_per_second`
+// are written each second, the rest counted into one `suppressed` summary
+// per uid and second. Decisions are never suppressed.
+//
 // Thread-safety: one thread per connection; stop() may be called from any thread.
 #ifndef CONTEGO_MONITOR_SERVER_H_
 #define CONTEGO_MONITOR_SERVER_H_
 
 #include <atomic>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -32,19 +43,51 @@
 
 namespace contego::monitor {
 
+struct ServerLimits {
+  uint32_t max_per_uid = 32;         // live connections per peer uid (0 = no cap)
+  uint32_t hello_timeout_ms = 2000;  // a connection must say hello within this (0 = never)
+  uint32_t events_per_second = 20;   // client-error events written per uid and second
+};
+
 class Server {
  public:
   // `tasks`: task name -> id. `allowed_uids`: peers whose uid may connect.
   Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t> tasks,
-         std::set<uid_t> allowed_uids, gate::SpinPolicy spin = {}, bool realtime = false);
+         std::set<uid_t> allowed_uids, gate::SpinPolicy spin = {}, bool realtime = false,
+         ServerLimits limits = {});
   ~Server();
   Status listen(const std::string& path);  // replaces a stale socket file; mode 0660
   void serve();                            // accept loop; returns after stop()
   void stop();
+  // Counters (tests): connections refused over the cap, closed for no
+  // hello, failed accepts, events suppressed by the rate limit.
+  uint64_t refused_over_cap() const { return over_cap_.load(); }
+  uint64_t hello_timeouts() const { return hello_timeouts_.load(); }
+  uint64_t accept_failures() const { return accept_failures_.load(); }
+  uint64_t events_suppressed() const { return suppressed_total_.load(); }
+  size_t live_connections();
 
  private:
   struct Session;
-  void connection(int fd);
+  struct Conn {
+    int fd = -1;
+    uid_t uid = 0;
+    uint64_t hello_deadline_us = 0;  // 0: said hello (or no timeout)
+    std::atomic<bool> hello{false};
+    std::atomic<bool> done{false};
+    bool timed_out = false;  // mu_
+    std::thread thread;
+  };
+  struct EventBudget {
+    uint64_t window_us = 0;
+    uint32_t written = 0;
+    uint64_t suppressed = 0;
+  };
+  void connection(Conn* c);
+  // A client-error event, rate-limited per uid.
+  void client_event(uid_t uid, const std::string& kind, const std::string& detail);
+  void flush_suppressed(bool all);  // summaries of windows that are over
+  void housekeeping();              // joins finished threads, enforces hello deadlines
   std::optional<gate::wire::Type> dispatch(Session& s, uint8_t type,
                                            std::span<const uint8_t> payload, bool channel);
   void serve_channel(Session& s, gate::Channel& channel);
@@ -57,9 +100,13 @@ class Server {
   int listen_fd_ = -1;
   std::string path_;
   std::atomic<bool> stopping_{false};
+  ServerLimits limits_;
   std::mutex mu_;
-  std::set<int> open_fds_;
-  std::vector<std::thread> threads_;
+  std::vector<std::unique_ptr<Conn>> conns_;  // mu_
+  std::map<uid_t, uint32_t> per_uid_;         // live connections; mu_
+  std::mutex events_mu_;
+  std::map<uid_t, EventBudget> budgets_;  // events_mu_
+  std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0};
 };
 
 }  // namespace contego::monitor

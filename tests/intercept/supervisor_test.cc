@@ -646,6 +646,82 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   t.join();
 }
 
+// No action without a record: an audit log that fails every record
+// (/dev/full, allowed with allow_unsafe) refuses every transfer with EIO and
+// nothing reaches the bus but the safe state.
+TEST(MonitorAudit, ARecordThatCannotBeWrittenRefusesTheTransfer) {
+  monitor::AuditLog audit;
+  monitor::AuditOptions o;
+  o.allow_unsafe = true;
+  ASSERT_TRUE(audit.open("/dev/full", o).ok());
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  auto gopigo = std::make_shared<bus::GoPiGo2>(0x08);
+  vbus.attach(gopigo);
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  gate::Transfer t;
+  t.bus = 1;
+  t.messages.push_back({0x08, 0, 5, {0x01, 70, 90, 0, 0}});
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(mon.transfer(0, t).err, EIO);
+  EXPECT_EQ(mon.audit_refusals(), 5u);
+  EXPECT_EQ(gopigo->left_speed(), 200) << "a transfer acted without its record (200: power-on)";
+  EXPECT_EQ(gopigo->motion(), 0x78) << "the safe state was not driven";
+}
+
+// Idle connections are capped per uid and closed after the hello timeout;
+// a flood of malformed requests writes a bounded number of event lines and
+// a summary; the server serves a real client throughout.
+TEST(MonitorServer, IdleAndFloodingClientsAreBoundedAndTheServerKeepsServing) {
+  char name[] = "/tmp/contego-bounded-XXXXXX";
+  const int tmp = mkstemp(name);
+  ASSERT_GE(tmp, 0);
+  close(tmp);
+  const std::string audit_path = name;
+  monitor::AuditLog audit;
+  ASSERT_TRUE(audit.open(audit_path).ok());
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-bounded-" + std::to_string(getpid()) + ".sock";
+  monitor::ServerLimits limits;
+  limits.max_per_uid = 4;
+  limits.hello_timeout_ms = 300;
+  limits.events_per_second = 5;
+  monitor::Server server(mon, audit, {{"t0", 0}}, {getuid()}, {}, false, limits);
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+  std::vector<int> idle;
+  for (int i = 0; i < 10; ++i) idle.push_back(connect_raw(path));
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  EXPECT_LE(server.live_connections(), 4u);
+  EXPECT_GE(server.refused_over_cap(), 6u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_GE(server.hello_timeouts(), 4u);
+  EXPECT_EQ(server.live_connections(), 0u);
+  for (int fd : idle) close(fd);
+  auto c = gate::SocketClient::connect(path, "t0", std::nullopt);
+  ASSERT_TRUE(c.ok()) << c.error();
+  gate::Transfer empty;  // no messages: EINVAL, a malformed-request event
+  empty.bus = 1;
+  for (int i = 0; i < 500; ++i) ASSERT_EQ((*c)->transfer(0, empty).err, EINVAL);
+  EXPECT_GE(server.events_suppressed(), 480u);
+  EXPECT_TRUE((*c)->has_bus(1));
+  c->reset();
+  server.stop();
+  t.join();
+  std::ifstream in(audit_path);
+  std::string log{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  size_t malformed = 0;
+  for (size_t at = 0; (at = log.find("\"kind\":\"malformed\"", at)) != std::string::npos; ++at) {
+    ++malformed;
+  }
+  EXPECT_LE(malformed, 10u);  // five a second, over at most two windows
+  EXPECT_NE(log.find("client-error event(s) not written"), std::string::npos);
+  unlink(audit_path.c_str());
+}
+
 // A monitor with the scripted decider and a virtual bus, auditing into a
 // temporary file: the set-up of the server tests below.
 struct AuditedMonitor {
