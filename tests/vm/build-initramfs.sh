@@ -8,16 +8,19 @@
 #   /usr/sbin/i2c*            the host's i2c-tools (the real clients)
 #   /usr/bin/python3          Debian's python3 (never a pyenv shim), a pruned
 #                             stdlib, python3-smbus, -smbus2 and -periphery
-#   /vm/...                   scenarios, clients, policies, the bench client
+#   /vm/...                   scenarios, clients, policies, the bench client,
+#                             test binaries run on the guest kernel (/vm/bin)
 # and every shared library those programs load, with the dynamic loader.
 #
-# Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT
+# Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
-(($# == 4)) || die "usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT"
+(($# >= 4)) || die "usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]"
 out=$1 contego=$2 kdir=$3 bench_client=$4
+shift 4
+test_binaries=("$@")
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(cd "$here/../.." && pwd)
 
@@ -74,6 +77,14 @@ strip -o "$root/usr/bin/contego" "$contego"
 put_libs "$contego"
 cp "$bench_client" "$root/usr/bin/i2c-write-loop"
 put_libs "$bench_client"
+# Tests whose subject is the kernel (seccomp filter, IA-32 entry): run again
+# on Debian's kernel, which may offer what the host's kernel lacks.
+mkdir -p "$root/vm/bin"
+for t in "${test_binaries[@]}"; do
+  [[ -x "$t" ]] || die "no test binary at $t (build it first)"
+  strip -o "$root/vm/bin/$(basename "$t")" "$t"
+  put_libs "$t"
+done
 
 for t in i2cdetect i2cget i2cset i2cdump i2ctransfer; do
   p=$(command -v "$t" || true)

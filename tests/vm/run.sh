@@ -19,6 +19,7 @@ here=$(cd "$(dirname "$0")" && pwd)
 src=$(cd "$here/../.." && pwd)
 contego=$src/build/dev/src/cli/contego
 bench_client=$src/build/dev/tests/vm/i2c-write-loop
+test_binaries=()  # GoogleTest binaries run in the guest (scenario 01)
 workdir=$src/build/dev/tests/vm
 scenarios=all shell=0
 limit=${CONTEGO_VM_TIMEOUT:-900}
@@ -26,6 +27,7 @@ while (($#)); do
   case "$1" in
     --contego) contego=$2; shift 2 ;;
     --bench-client) bench_client=$2; shift 2 ;;
+    --test-binary) test_binaries+=("$2"); shift 2 ;;
     --workdir) workdir=$2; shift 2 ;;
     --scenarios) scenarios=$2; shift 2 ;;
     --shell) shell=1; shift ;;
@@ -43,7 +45,8 @@ mkdir -p "$workdir"
 t_start=$(date +%s.%N)
 kdir=$(bash "$here/fetch-kernel.sh") || fail "cannot get Debian's kernel (see fetch-kernel's message above)"
 t_kernel=$(date +%s.%N)
-bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" ||
+bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" \
+  "${test_binaries[@]}" ||
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)
 
