@@ -40,6 +40,6 @@ for row in plain embedded monitor; do
 done
 # Every bench write went to the stub: LED0_ON_L is still 0 and nothing else moved.
 stub_set $A $REG 0x11
-run_logged last contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init --audit /dev/null -- $loop 1 $A $REG 0 1
+run_logged last contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init --audit $LOGDIR/last-audit.jsonl -- $loop 1 $A $REG 0 1
 expect_reg $A $REG 0 "a bench write lands (ALL_LED_OFF_H = 0)"
 finish
