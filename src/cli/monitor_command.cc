@@ -7,6 +7,7 @@
 #include <fstream>
 #include <thread>
 
+#include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/trusted_setup.h"
@@ -33,17 +34,7 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--policy", args->policy, "policy file")->required();
   cmd->add_option("--socket", args->socket, "Unix socket to serve");
   cmd->add_option("--audit", args->audit, "audit log (JSON lines; - = stderr)");
-  cmd->add_flag("--audit-unsafe", args->audit_options.allow_unsafe,
-                "allow an audit target that is not a regular file (a FIFO, a device): written "
-                "line by line, not locked, checked or rotated");
-  cmd->add_option("--audit-max-bytes", args->audit_options.max_bytes,
-                  "rotate the audit log before it exceeds this many bytes (LOG -> LOG.1 ...; the "
-                  "hash chain continues in the new file; 0 = never)")
-      ->capture_default_str();
-  cmd->add_option("--audit-keep", args->audit_options.keep,
-                  "rotated audit files kept (LOG.1 newest .. LOG.N)")
-      ->check(CLI::Range(1u, 1000u))
-      ->capture_default_str();
+  add_audit_options(cmd, &args->audit_options);
   cmd->add_option("--max-connections-per-uid", args->limits.max_per_uid,
                   "live connections one peer uid may hold; more are refused (0 = no cap)")
       ->capture_default_str();

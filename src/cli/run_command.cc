@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sys/signalfd.h>
 
+#include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/trusted_setup.h"
@@ -67,17 +68,7 @@ void register_run(CLI::App& app) {
   cmd->add_option("--task", args->task, "the program's task name in the policy")->required();
   cmd->add_option("--socket", args->socket, "use the monitor daemon at this socket instead");
   cmd->add_option("--audit", args->audit, "audit log of the embedded monitor (- = stderr)");
-  cmd->add_flag("--audit-unsafe", args->audit_options.allow_unsafe,
-                "allow an audit target that is not a regular file (a FIFO, a device): written "
-                "line by line, not locked, checked or rotated");
-  cmd->add_option("--audit-max-bytes", args->audit_options.max_bytes,
-                  "rotate the audit log before it exceeds this many bytes (LOG -> LOG.1 ...; the "
-                  "hash chain continues in the new file; 0 = never)")
-      ->capture_default_str();
-  cmd->add_option("--audit-keep", args->audit_options.keep,
-                  "rotated audit files kept (LOG.1 newest .. LOG.N)")
-      ->check(CLI::Range(1u, 1000u))
-      ->capture_default_str();
+  add_audit_options(cmd, &args->audit_options);
   configure_bus_option(cmd->add_option(
       "--bus", args->buses,
       "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
