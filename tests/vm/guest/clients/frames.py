@@ -45,6 +45,12 @@ def handshake(name):
     open(os.path.join(sync, "sent-" + name), "w").close()
     while not os.path.exists(os.path.join(sync, "ack-" + name)):
         time.sleep(0.02)
+    # The monitor starts a new job when the task goes to sleep at least half
+    # a period (the rover's: 100 ms) after its job began: two sleeps longer
+    # than that make sure the next frame is in a job of its own, however
+    # quickly the test answered.
+    time.sleep(0.11)
+    time.sleep(0.11)
 
 
 for k, (reg, data) in enumerate(frames):
