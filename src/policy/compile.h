@@ -10,22 +10,9 @@
 
 #include "devices/profile.h"
 #include "image/image_model.h"
+#include "policy/diag/diagnostic.h"
 
 namespace contego::policy {
-
-struct Diagnostic {
-  std::string id;        // stable id, e.g. "E0103"
-  std::string name;      // registry name, e.g. "UnknownName"
-  std::string severity;  // "error" | "warning" | "note"
-  std::string file;
-  uint32_t line = 0;        // 1-based
-  uint32_t column = 0;      // 1-based
-  uint32_t end_column = 0;  // last column the caret covers on `line` (>= column)
-  std::string message;
-  std::string source_line;  // the text of `line`
-  std::string rendered;     // file:line:col: severity[ID]: message + source line + caret (+ notes)
-  std::vector<Diagnostic> notes;  // secondary locations ("declared here")
-};
 
 // A finding of an analysis of the task model that the compiler reports as a
 // warning (W0708) at the task's declaration (or the first task if `task` is empty).

@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "policy/compile.h"
+#include "policy/diag/diagnostic.h"
 #include "policy/source/source.h"
 
 namespace contego::policy {
