@@ -102,6 +102,14 @@ contego_load_result contego_load(contego_checker* c, const uint8_t* image, uint3
 void contego_set_host(contego_checker* c, const contego_host* host);
 void contego_check(contego_checker* c, const contego_transaction* tx, contego_verdict* out);
 int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out);
+/* Transfers: the checks between begin and commit/abort are one unit (docs/core.md,
+ * "Transfers"). contego_combine_transfer returns the action (0 perform, 1 refuse,
+ * 2 ignore, 3 substitute, 4 safe state) and stores the deciding verdict's index. */
+void contego_begin_transfer(contego_checker* c);
+void contego_commit_transfer(contego_checker* c);
+void contego_abort_transfer(contego_checker* c, uint8_t decision);
+uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count,
+                                 uint32_t* decider);
 void contego_reset_latch(contego_checker* c, uint16_t device);
 int contego_latched(const contego_checker* c, uint16_t device);
 uint32_t contego_worst_case_cost(const contego_checker* c);

@@ -231,6 +231,11 @@ void Checker::check(const Transaction& tx, Verdict* out) {
   latch_event_ = false;
   latch_device_ = kNone;
   now_us_ = tx.now_us;
+  if (journal_.active && journal_.first.task == kNoTask) {
+    journal_.first = tx;
+    journal_.first.bytes = nullptr;
+    journal_.first.len = 0;
+  }
   if (++epoch_ == 0) {  // wrapped: forget every memo so none looks current
     __builtin_memset(signal_memo_, 0, sizeof(signal_memo_));
     __builtin_memset(sample_memo_, 0, sizeof(sample_memo_));
@@ -247,43 +252,27 @@ void Checker::check(const Transaction& tx, Verdict* out) {
     return refuse(kNone, Reason::kUnknownTask, kEperm);
   }
 
-  // Devices addressed: the device at (bus, addr), an address alias, or every
-  // listener of a general call.
   uint16_t targets[kMaxDevices];
-  uint32_t target_count = 0;
+  const uint32_t target_count = find_targets(tx, targets);
+  if (reserved_address(tx, target_count)) return refuse(kNone, Reason::kReservedAddress, kEnxio);
   const bool general_call = tx.addr == 0 && tx.ten_bit == 0;
   general_call_ = general_call;
-  if (general_call) {
-    for (uint32_t i = 0; i < alias_count_; ++i) {
-      const AliasRecord& a = aliases_[i];
-      if (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.bus == tx.bus &&
-          target_count < kMaxDevices) {
-        targets[target_count++] = a.device;
-      }
-    }
-  } else {
-    for (uint32_t i = 0; i < device_count_; ++i) {
-      const DeviceRecord& d = devices_[i];
-      if (d.bus == tx.bus && d.addr == tx.addr && d.ten_bit == (tx.ten_bit ? 1 : 0)) {
-        targets[target_count++] = static_cast<uint16_t>(i);
-        break;
-      }
-    }
-    if (target_count == 0 && tx.ten_bit == 0) {
-      for (uint32_t i = 0; i < alias_count_; ++i) {
-        const AliasRecord& a = aliases_[i];
-        if (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.bus == tx.bus &&
-            a.addr == tx.addr) {
-          targets[target_count++] = a.device;
-          break;
-        }
-      }
-    }
+  if (general_call && (tx.kind != TxKind::kWrite || tx.len != 1 || target_count == 0)) {
+    // Every device on the bus takes a general call, each in its own way: only
+    // a declared one-byte general-call command (PCA9685 SWRST) is modelled.
+    Outcome* o = new_outcome(kNone);
+    if (o != nullptr)
+      decide(*o, Decision::kIgnore, Reason::kGeneralCall, RuleKind::kNoRule, kNone, 0);
+    finish(tx, out);
+    return;
   }
   if (target_count == 0) return refuse(kNone, Reason::kUnknownDevice, kEnxio);
   out->device = targets[0];
   if (tx.len > kMaxWriteBytes) return refuse(targets[0], Reason::kTooLong, kEinval);
   if (tx.len != 0 && tx.bytes == nullptr) return refuse(targets[0], Reason::kMalformed, kEinval);
+  for (uint32_t i = 0; i < target_count; ++i) {
+    if (!journal_device(targets[i])) return refuse(targets[0], Reason::kTooLong, kEinval);
+  }
 
   update_window(tx);
   for (uint32_t i = 0; i < target_count; ++i) check_device(tx, targets[i]);
@@ -291,6 +280,53 @@ void Checker::check(const Transaction& tx, Verdict* out) {
   if (general_call) broadcast = resolve_general_call(tx, out);
   finish(tx, out);
   if (broadcast && out->decision == Decision::kAllow) out->addr = 0;
+}
+
+// 0x01-0x07 and 0x78-0x7F are reserved (CBUS, Hs-mode master codes, the
+// first byte of a 10-bit address, device ID): refused unless the policy
+// declares a device there (some do: a line follower at 0x06), and 0x78-0x7B
+// always on a bus with a 10-bit device, whose address they would begin.
+bool Checker::reserved_address(const Transaction& tx, uint32_t target_count) const {
+  if (tx.ten_bit != 0 || tx.addr == 0 || (tx.addr > 0x07 && tx.addr < 0x78)) return false;
+  if (target_count == 0) return true;
+  if (tx.addr > 0x7B) return false;
+  for (uint32_t i = 0; i < device_count_; ++i) {
+    if (devices_[i].bus == tx.bus && devices_[i].ten_bit != 0) return true;
+  }
+  return false;
+}
+
+// The devices a transaction addresses: the device at (bus, addr), an address
+// alias, or every listener of a general call.
+uint32_t Checker::find_targets(const Transaction& tx, uint16_t* targets) const {
+  uint32_t count = 0;
+  if (tx.addr == 0 && tx.ten_bit == 0) {
+    for (uint32_t i = 0; i < alias_count_; ++i) {
+      const AliasRecord& a = aliases_[i];
+      if (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.bus == tx.bus &&
+          count < kMaxDevices) {
+        targets[count++] = a.device;
+      }
+    }
+    return count;
+  }
+  for (uint32_t i = 0; i < device_count_; ++i) {
+    const DeviceRecord& d = devices_[i];
+    if (d.bus == tx.bus && d.addr == tx.addr && d.ten_bit == (tx.ten_bit ? 1 : 0)) {
+      targets[0] = static_cast<uint16_t>(i);
+      return 1;
+    }
+  }
+  if (tx.ten_bit != 0) return 0;
+  for (uint32_t i = 0; i < alias_count_; ++i) {
+    const AliasRecord& a = aliases_[i];
+    if (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.bus == tx.bus &&
+        a.addr == tx.addr) {
+      targets[0] = a.device;
+      return 1;
+    }
+  }
+  return 0;
 }
 
 // A general call reaches every device on the bus, so (docs/core.md):
@@ -561,6 +597,9 @@ bool Checker::safe_state(uint16_t device, Verdict* out) {
 void Checker::finish(const Transaction& tx, Verdict* out) {
   Decision decision = Decision::kAllow;
   const Outcome* decider = nullptr;
+  if (journal_.active && journal_.history_count + tx_.outcome_count > kMaxTransferHistory) {
+    tx_.overflow = true;  // its history could not be undone with the transfer
+  }
   if (tx_.overflow || tx_.emit_failed) {
     // Too many commands, undo entries or emitted bytes: refuse it all.
     Outcome* o = tx_.outcome_count < kMaxCommandsPerTransaction
@@ -650,12 +689,15 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     }
   } else {
     for (uint32_t i = 0; i < invariant_count_; ++i) {
-      if (internal::bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
+      if (!internal::bit_test(tx_.pending_state, i)) continue;
+      journal_state(i);
+      state_words_[i] = pending_state_[i];
     }
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       const Outcome& o = tx_.outcomes[i];
       if (o.bus_command == kNone || !writes(o.decision)) continue;
       LastCommand& l = last(o.bus_command, o.bus_index);
+      journal_history(l);
       l.valid = true;
       l.time_us = tx.now_us;
       for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
@@ -671,6 +713,7 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     }
   }
 
+  if (journal_.active && writes(decision)) ++journal_.acted;
   // Audit: one record per decoded command (commands allowed on their own but
   // dropped with their transaction carry the transaction's decision).
   if (host_.audit == nullptr) return;

@@ -93,6 +93,20 @@ int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out
   return checker(c)->safe_state(device, reinterpret_cast<Verdict*>(out)) ? 1 : 0;
 }
 
+void contego_begin_transfer(contego_checker* c) { checker(c)->begin_transfer(); }
+void contego_commit_transfer(contego_checker* c) { checker(c)->commit_transfer(); }
+void contego_abort_transfer(contego_checker* c, uint8_t decision) {
+  checker(c)->abort_transfer(static_cast<contego::core::Decision>(decision));
+}
+
+uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count,
+                                 uint32_t* decider) {
+  const contego::core::TransferVerdict t =
+      contego::core::combine_transfer(reinterpret_cast<const Verdict*>(verdicts), count);
+  if (decider != nullptr) *decider = t.decider;
+  return static_cast<uint8_t>(t.action);
+}
+
 void contego_reset_latch(contego_checker* c, uint16_t device) { checker(c)->reset_latch(device); }
 
 int contego_latched(const contego_checker* c, uint16_t device) {

@@ -100,6 +100,12 @@ const char* reason_name(Reason reason) {
       return "staging-conflict";
     case Reason::kEncodeFailed:
       return "encode-failed";
+    case Reason::kGeneralCall:
+      return "general-call";
+    case Reason::kReservedAddress:
+      return "reserved-address";
+    case Reason::kTransferDropped:
+      return "transfer-dropped";
   }
   return "unknown";
 }

@@ -17,6 +17,7 @@
 #include "contego/core/image.h"
 #include "contego/core/limits.h"
 #include "contego/core/transaction.h"
+#include "contego/core/transfer.h"
 #include "contego/core/verdict.h"
 
 namespace contego::core {
@@ -90,6 +91,27 @@ class Checker {
   // Seeds the shadow copy of a register-map device (e.g. read back from the
   // hardware at start). Returns false for a bad device or a non-register-map profile.
   bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+
+  // Transfers (contego/core/transfer.h): the check() calls between
+  // begin_transfer() and commit_transfer() / abort_transfer() form one unit.
+  // Each check() sees the model its predecessors left; abort_transfer()
+  // restores the device model (register shadows and staging, state words,
+  // "last command" history) to what it was at begin_transfer(). Rate counters,
+  // job counts and latch violations count attempts and are kept. A transfer
+  // changing more than kMaxTransferDevices devices or kMaxTransferHistory
+  // history slots is refused (reject `too-long`) at the check that would.
+  void begin_transfer();
+  void commit_transfer();
+  // Audits one `transfer-dropped` record with `decision` when a check of the
+  // transfer had been audited as acting (allow / fail-safe).
+  void abort_transfer(Decision decision);
+  bool in_transfer() const { return journal_.active; }
+
+  // The device model, for hosts comparing it with a read-back and for tests:
+  // a register's shadow (false for a bad device or a non-register-map one),
+  // and a CRC-32 over every shadow, staging, state word and history slot.
+  bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
+  uint32_t model_crc() const;
 
   // Upper bound of bytecode instructions executed by one check() of a
   // single command, over all commands of the image (computed at load).
@@ -213,6 +235,30 @@ class Checker {
     Outcome outcomes[kMaxCommandsPerTransaction];
     Undo undo[kMaxRegisters];
   };
+  // What a transfer changed in the device model, to undo it on abort.
+  struct ModelCopy {
+    uint16_t device;
+    uint8_t shadow[kMaxRegisters];
+    uint8_t staged[kMaxRegisters];
+    uint8_t staged_task[kMaxRegisters];
+    uint32_t staged_bits[kMaxRegisters / 32];
+  };
+  struct HistoryCopy {
+    uint16_t slot;
+    LastCommand last;
+  };
+  struct Journal {
+    bool active;
+    uint32_t acted;          // checks audited as acting (allow / fail-safe)
+    uint32_t saved_devices;  // bit d: devices[] holds device d's model
+    uint32_t device_count;
+    uint32_t history_count;
+    uint32_t saved_state[kMaxInvariants / 32];
+    ModelCopy devices[kMaxTransferDevices];
+    HistoryCopy history[kMaxTransferHistory];
+    int64_t state_words[kMaxInvariants];
+    Transaction first;  // the first check's (bytes not kept): for the abort's audit record
+  };
   struct Env {
     const Transaction* tx;
     const Decoded* d;
@@ -250,6 +296,11 @@ class Checker {
   // with the device's broadcast into other channels.
   void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
   void rollback();
+  uint32_t find_targets(const Transaction& tx, uint16_t* targets) const;
+  bool reserved_address(const Transaction& tx, uint32_t target_count) const;
+  bool journal_device(uint16_t dev);  // false: no room (the check is refused)
+  void journal_history(LastCommand& slot);
+  void journal_state(uint32_t invariant);
   void audit(const Transaction& tx, const Outcome& o);
   // Interpreter: returns the terminator op (kPass/kFail/kFailSubst/kReturn) or
   // 0 on a fault; *status tells a missing signal (1) from another fault (2).
@@ -309,6 +360,7 @@ class Checker {
   int64_t pending_state_[kMaxInvariants]{};
   Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
   TxContext tx_{};
+  Journal journal_{};
 };
 
 }  // namespace contego::core

@@ -35,6 +35,10 @@ inline constexpr uint32_t kMaxCommandsPerTransaction = 32;
 inline constexpr uint32_t kMaxHistorySlots = 1024;  // "last command" memories: one per frame
                                                     // command, one per channel of a register group
 inline constexpr uint32_t kMaxLatchCount = 16;      // K of "latch after K violations"
+// A transfer (several transactions checked as one unit): the devices whose
+// model it may change, and the "last command" memories it may overwrite.
+inline constexpr uint32_t kMaxTransferDevices = 4;
+inline constexpr uint32_t kMaxTransferHistory = 64;
 inline constexpr uint32_t kMaxImageBytes = 256 * 1024;
 
 }  // namespace contego::core

@@ -43,6 +43,9 @@ enum class Reason : uint8_t {
   kLatched = 23,            // device held in its safe state until an operator reset
   kStagingConflict = 24,    // another task had staged registers of this group; theirs dropped
   kEncodeFailed = 25,       // a substitute could not be encoded (value out of field range)
+  kGeneralCall = 26,        // a general call (address 0) that is no declared general-call command
+  kReservedAddress = 27,    // a 7-bit address the I2C specification reserves (0x01-0x07, 0x78-0x7F)
+  kTransferDropped = 28,    // checks of a transfer that did not act: another message refused it
 };
 
 enum class RuleKind : uint8_t { kNoRule = 0, kAccess = 1, kRate = 2, kInvariant = 3, kLatch = 4 };

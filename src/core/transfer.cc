@@ -1,0 +1,126 @@
+// Transfers: several check() calls as one unit. A journal keeps, from the
+// first change of each, the device models, state words and history slots the
+// transfer's checks change, so abort_transfer() puts them back exactly.
+#include "contego/core/checker.h"
+
+#include "core/internal.h"
+
+namespace contego::core {
+
+static_assert(kMaxDevices <= 32, "Journal::saved_devices is one 32-bit word");
+
+void Checker::begin_transfer() {
+  journal_.active = true;
+  journal_.acted = 0;
+  journal_.saved_devices = 0;
+  journal_.device_count = 0;
+  journal_.history_count = 0;
+  __builtin_memset(journal_.saved_state, 0, sizeof(journal_.saved_state));
+  journal_.first = Transaction{};
+  journal_.first.task = kNoTask;
+}
+
+void Checker::commit_transfer() { journal_.active = false; }
+
+bool Checker::journal_device(uint16_t dev) {
+  if (!journal_.active || ((journal_.saved_devices >> dev) & 1u) != 0) return true;
+  if (journal_.device_count >= kMaxTransferDevices) return false;
+  ModelCopy& c = journal_.devices[journal_.device_count++];
+  const DeviceState& s = state_[dev];
+  c.device = dev;
+  __builtin_memcpy(c.shadow, s.shadow, sizeof(c.shadow));
+  __builtin_memcpy(c.staged, s.staged, sizeof(c.staged));
+  __builtin_memcpy(c.staged_task, s.staged_task, sizeof(c.staged_task));
+  __builtin_memcpy(c.staged_bits, s.staged_bits, sizeof(c.staged_bits));
+  journal_.saved_devices |= 1u << dev;
+  return true;
+}
+
+// The caller made sure there is room (finish() refuses a check that could overflow).
+void Checker::journal_history(LastCommand& slot) {
+  if (!journal_.active || journal_.history_count >= kMaxTransferHistory) return;
+  HistoryCopy& h = journal_.history[journal_.history_count++];
+  h.slot = static_cast<uint16_t>(&slot - last_);
+  h.last = slot;
+}
+
+void Checker::journal_state(uint32_t invariant) {
+  if (!journal_.active || internal::bit_test(journal_.saved_state, invariant)) return;
+  internal::bit_set(journal_.saved_state, invariant);
+  journal_.state_words[invariant] = state_words_[invariant];
+}
+
+void Checker::abort_transfer(Decision decision) {
+  if (!journal_.active) return;
+  journal_.active = false;
+  for (uint32_t i = journal_.history_count; i-- > 0;) {
+    last_[journal_.history[i].slot] = journal_.history[i].last;
+  }
+  for (uint32_t i = 0; i < invariant_count_; ++i) {
+    if (internal::bit_test(journal_.saved_state, i)) state_words_[i] = journal_.state_words[i];
+  }
+  for (uint32_t i = 0; i < journal_.device_count; ++i) {
+    const ModelCopy& c = journal_.devices[i];
+    DeviceState& s = state_[c.device];
+    __builtin_memcpy(s.shadow, c.shadow, sizeof(c.shadow));
+    __builtin_memcpy(s.staged, c.staged, sizeof(c.staged));
+    __builtin_memcpy(s.staged_task, c.staged_task, sizeof(c.staged_task));
+    __builtin_memcpy(s.staged_bits, c.staged_bits, sizeof(c.staged_bits));
+  }
+  if (journal_.acted == 0 || host_.audit == nullptr) return;
+  // Checks already audited as acting did not: say so in the same log.
+  AuditRecord r{};
+  r.time_us = journal_.first.now_us;
+  r.job = journal_.first.job;
+  r.task = journal_.first.task;
+  r.device = kNone;
+  r.command = kNone;
+  r.rule = kNone;
+  r.rule_kind = RuleKind::kNoRule;
+  r.decision = decision;
+  r.reason = Reason::kTransferDropped;
+  r.bus = journal_.first.bus;
+  r.addr = journal_.first.addr;
+  host_.audit(host_.context, &r);
+}
+
+bool Checker::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
+  if (!loaded_ || device >= device_count_ ||
+      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    return false;
+  }
+  *value = state_[device].shadow[reg];
+  return true;
+}
+
+uint32_t Checker::model_crc() const {
+  // CRC-32 chained over the pieces (crc32 of a piece seeded by the previous).
+  uint8_t buf[4 + kMaxRegisters];
+  uint32_t crc = 0;
+  auto mix = [&](const void* p, uint32_t len) {
+    buf[0] = static_cast<uint8_t>(crc);
+    buf[1] = static_cast<uint8_t>(crc >> 8);
+    buf[2] = static_cast<uint8_t>(crc >> 16);
+    buf[3] = static_cast<uint8_t>(crc >> 24);
+    __builtin_memcpy(buf + 4, p, len);
+    crc = internal::crc32(buf, 4 + len);
+  };
+  for (uint32_t d = 0; d < device_count_; ++d) {
+    const DeviceState& s = state_[d];
+    mix(s.shadow, kMaxRegisters);
+    mix(s.staged, kMaxRegisters);
+    mix(s.staged_task, kMaxRegisters);
+    mix(s.staged_bits, sizeof(s.staged_bits));
+  }
+  for (uint32_t i = 0; i < kMaxHistorySlots; ++i) {
+    const LastCommand& l = last_[i];
+    const uint8_t valid = l.valid ? 1 : 0;
+    mix(&l.time_us, sizeof(l.time_us));
+    mix(l.fields, sizeof(l.fields));
+    mix(&valid, 1);
+  }
+  for (uint32_t i = 0; i < invariant_count_; ++i) mix(&state_words_[i], sizeof(state_words_[i]));
+  return crc;
+}
+
+}  // namespace contego::core
