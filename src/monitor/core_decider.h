@@ -18,6 +18,9 @@ class CoreDecider final : public Decider {
   bool safe_state(uint16_t device, core::Verdict* out) override {
     return checker_.safe_state(device, out);
   }
+  void begin_transfer() override { checker_.begin_transfer(); }
+  void commit_transfer() override { checker_.commit_transfer(); }
+  void abort_transfer(core::Decision decision) override { checker_.abort_transfer(decision); }
   uint32_t device_count() const override { return checker_.device_count(); }
   const core::DeviceRecord& device(uint16_t id) const override { return checker_.device(id); }
   uint32_t task_period_us(uint16_t task) const override {

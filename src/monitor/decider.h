@@ -24,6 +24,11 @@ class Decider {
   virtual void set_host(const core::Host& host) = 0;
   virtual void check(const core::Transaction& tx, core::Verdict* out) = 0;
   virtual bool safe_state(uint16_t device, core::Verdict* out) = 0;
+  // The checks of one transfer as one unit (core::Checker's); scripted
+  // deciders keep no model, so the defaults do nothing.
+  virtual void begin_transfer() {}
+  virtual void commit_transfer() {}
+  virtual void abort_transfer(core::Decision /*decision*/) {}
   virtual uint32_t device_count() const = 0;
   virtual const core::DeviceRecord& device(uint16_t id) const = 0;
   virtual uint32_t task_period_us(uint16_t task) const = 0;  // 0 = unknown task

@@ -150,14 +150,66 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     return reply;
   }
 
-  // Decide every transaction first: one refusal fails the whole call and
-  // nothing of it reaches the bus (a write cannot slip through inside a
-  // combined transfer that is partly refused).
+  // Decide every transaction first, as one transfer in the core: nothing of
+  // the call acts unless the core's combination of the verdicts says so, and
+  // then the core's model holds exactly what acts (docs/core.md, "Transfers").
+  size_t checked = 0;
+  if (int err = check_transfer(task, t, planned, &checked); err != 0) {
+    reply.err = err;
+    return reply;
+  }
+  const core::TransferVerdict tv =
+      core::combine_transfer(verdicts_.data(), static_cast<uint32_t>(checked));
+  if (tv.action == core::TransferAction::kPerform ||
+      tv.action == core::TransferAction::kSubstitute) {
+    // A substitute is checked the same way before any part of the call acts.
+    for (size_t i = 0; i < planned.size(); ++i) {
+      if (planned[i].kind != core::TxKind::kWrite) continue;
+      if (std::string why = emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit);
+          !why.empty()) {
+        decider_.abort_transfer(core::Decision::kReject);
+        audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
+        reply.err = EOPNOTSUPP;
+        return reply;
+      }
+    }
+    decider_.commit_transfer();
+    return perform_transfer(t, planned);
+  }
+  audit_lost_ = false;
+  decider_.abort_transfer(core::transfer_decision(tv.action));
+  if (audit_lost_) {
+    audit_refusals_.fetch_add(1);
+    drive_safe_state_locked("an audit record could not be written: failing closed");
+    reply.err = EIO;
+    return reply;
+  }
+  if (tv.action == core::TransferAction::kRefuse) {
+    const uint8_t err = verdicts_[tv.decider].reply_errno;
+    reply.err = err != 0 ? err : EPERM;
+    return reply;
+  }
+  if (tv.action == core::TransferAction::kSafeState) drive_transfer_safe_states(task, checked);
+  // Ignored (or replaced by safe states): the call succeeds and nothing of it
+  // acted; its reads read nothing.
+  for (const gate::PlannedTx& p : planned) {
+    if (p.kind != core::TxKind::kRead) continue;
+    reply.reads.emplace_back(t.messages[p.first_message + p.message_count - 1].len, 0);
+  }
+  return reply;
+}
+
+// Checks each transaction of `planned` inside one core transfer, stopping at
+// the first reject (what follows cannot change the outcome). Returns 0, or
+// EIO when a decision's audit record could not be written (the transfer is
+// aborted and the safe state driven).
+int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
+                            const std::vector<gate::PlannedTx>& planned, size_t* checked) {
   const uint64_t now = monotonic_us();
   auto job_it = jobs_.find(task);
   const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
-  std::vector<core::Verdict>& verdicts = verdicts_;
-  verdicts.resize(planned.size());
+  verdicts_.resize(planned.size());
+  decider_.begin_transfer();
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
     core::Transaction tx{};
@@ -170,66 +222,76 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     tx.len = static_cast<uint32_t>(p.bytes.size());
     tx.bytes = p.bytes.data();
     tx.now_us = now;
-    core::Verdict& v = verdicts[i];
+    core::Verdict& v = verdicts_[i];
     v = core::Verdict{};
     v.decision = core::Decision::kReject;  // fail closed if the decider leaves it untouched
     v.reply_errno = EPERM;
     audit_lost_ = false;
     decider_.check(tx, &v);
     decisions_.fetch_add(1);
+    *checked = i + 1;
     if (audit_lost_) {
       // The record of this decision could not be written: it does not act,
       // nothing of the call does, and the actuators go to their safe state
       // (best effort: the records of that may fail too).
+      decider_.abort_transfer(core::Decision::kReject);
       audit_refusals_.fetch_add(1);
       drive_safe_state_locked("an audit record could not be written: failing closed");
-      reply.err = EIO;
-      return reply;
+      return EIO;
     }
-    if (v.decision == core::Decision::kReject) {
-      reply.err = v.reply_errno != 0 ? v.reply_errno : EPERM;
-      return reply;
-    }
-    if (v.decision != core::Decision::kAllow && v.decision != core::Decision::kIgnore &&
-        v.decision != core::Decision::kFailsafe) {
-      reply.err = EPERM;
-      return reply;
-    }
+    if (v.decision == core::Decision::kReject) break;
   }
+  return 0;
+}
 
-  // A substitute is checked the same way before any part of the call acts.
-  for (size_t i = 0; i < planned.size(); ++i) {
-    if (planned[i].kind != core::TxKind::kWrite || verdicts[i].decision == core::Decision::kIgnore)
+// A fail-safe verdict inside a transfer of several messages: the substitute
+// was computed on a model that included the other messages, which do not
+// act, so the device's declared safe state is written instead.
+void Monitor::drive_transfer_safe_states(uint16_t task, size_t checked) {
+  uint32_t driven = 0;  // device bits (kMaxDevices <= 32)
+  for (size_t i = 0; i < checked; ++i) {
+    const core::Verdict& v = verdicts_[i];
+    if (v.decision != core::Decision::kFailsafe || v.device >= decider_.device_count() ||
+        ((driven >> v.device) & 1u) != 0) {
       continue;
-    if (std::string why = emits_inexpressible(bus, verdicts[i], planned[i].ten_bit); !why.empty()) {
-      audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
-      reply.err = EOPNOTSUPP;
-      return reply;
+    }
+    driven |= 1u << v.device;
+    const core::DeviceRecord& rec = decider_.device(v.device);
+    audit_.event("safe-state", fmt::format("task {}: a message of a combined transfer failed "
+                                           "safe; device {} driven to its safe state instead",
+                                           task, v.device));
+    core::Verdict safe{};
+    if (!decider_.safe_state(v.device, &safe)) continue;
+    if (int err = perform_emits(safe, rec.ten_bit != 0); err != 0) {
+      audit_.event("fault", fmt::format("safe state of device {} failed: errno {}", v.device, err));
     }
   }
+}
 
-  // Perform, in message order, only what the core allowed or substituted.
+// Performs, in message order, only what the core allowed or substituted.
+gate::TransferReply Monitor::perform_transfer(const gate::Transfer& t,
+                                              const std::vector<gate::PlannedTx>& planned) {
+  gate::TransferReply reply;
+  bus::Bus& bus = *buses_.at(t.bus);
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
-    const core::Verdict& v = verdicts[i];
+    const core::Verdict& v = verdicts_[i];
     if (p.kind == core::TxKind::kQuick) {
-      if (v.decision == core::Decision::kAllow) reply.err = bus.quick(p.addr, t.quick_read);
+      reply.err = bus.quick(p.addr, t.quick_read);
     } else if (p.kind == core::TxKind::kWrite) {
-      if (v.decision != core::Decision::kIgnore) reply.err = perform_emits(v, p.ten_bit);
+      reply.err = perform_emits(v, p.ten_bit);
     } else {  // a read, with its pointer bytes (our copy) when it has them
       const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
       std::vector<uint8_t> out(rm.len, 0);
-      if (v.decision == core::Decision::kAllow) {
-        std::vector<uint8_t> pointer = p.bytes;
-        std::vector<bus::Msg> msgs;
-        if (!pointer.empty()) {
-          msgs.push_back({p.addr, static_cast<uint16_t>(p.ten_bit ? gate::kMsgTen : 0),
-                          static_cast<uint16_t>(pointer.size()), pointer.data()});
-        }
-        msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
-        reply.err = bus.transfer(msgs);
-        out.resize(msgs.back().len);
+      std::vector<uint8_t> pointer = p.bytes;
+      std::vector<bus::Msg> msgs;
+      if (!pointer.empty()) {
+        msgs.push_back({p.addr, static_cast<uint16_t>(p.ten_bit ? gate::kMsgTen : 0),
+                        static_cast<uint16_t>(pointer.size()), pointer.data()});
       }
+      msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
+      reply.err = bus.transfer(msgs);
+      out.resize(msgs.back().len);
       reply.reads.push_back(std::move(out));
     }
     if (reply.err != 0) {

@@ -102,7 +102,13 @@ class Monitor final : public gate::Endpoint {
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
   int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
-  int sample_device_locked(uint16_t device);                // 0 or the bus's errno
+  // transfer()'s steps, under mu_ (verdicts_ holds the verdicts).
+  int check_transfer(uint16_t task, const gate::Transfer& t,
+                     const std::vector<gate::PlannedTx>& planned, size_t* checked);
+  gate::TransferReply perform_transfer(const gate::Transfer& t,
+                                       const std::vector<gate::PlannedTx>& planned);
+  void drive_transfer_safe_states(uint16_t task, size_t checked);
+  int sample_device_locked(uint16_t device);  // 0 or the bus's errno
   void hold_if_over_budget(uint16_t task);
   std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why);
 

@@ -224,15 +224,25 @@ TEST_F(MonitorSmbus, QuickWithoutTheQuickBitIsRefusedBeforeTheCoreDecides) {
 
 TEST_F(MonitorSmbus, SubstituteThatCannotBeExpressedActsNothing) {
   const uint64_t ops = bus.operations();
-  // The first write is fine and allowed; the second is replaced by a
-  // 40-byte frame: neither reaches the bus.
-  auto r = send({wmsg(0x40, {0x06, 0x21}), wmsg(0x41, {0x06, 0x22})});
+  // The write is replaced by a 40-byte frame: it does not reach the bus.
+  auto r = send({wmsg(0x41, {0x06, 0x22})});
   EXPECT_EQ(r.err, EOPNOTSUPP);
-  EXPECT_EQ(decider.checks, 2);
+  EXPECT_EQ(decider.checks, 1);
   EXPECT_EQ(bus.operations(), ops);
-  EXPECT_NE(dev->regs[0x06], 0x21);
   EXPECT_EQ(other->writes, 0);
   EXPECT_NE(audit_text().find("write 40 at 0x41"), std::string::npos) << audit_text();
+}
+
+TEST_F(MonitorSmbus, AFailsafeMessageInACombinedTransferDrivesOnlyTheSafeState) {
+  // The first write is fine and allowed, the second fails safe: the
+  // transfer is replaced by the device's safe state ([06 00]), nothing else.
+  auto r = send({wmsg(0x40, {0x06, 0x21}), wmsg(0x41, {0x06, 0x22})});
+  EXPECT_EQ(r.err, 0);
+  EXPECT_EQ(decider.checks, 2);
+  EXPECT_EQ(dev->regs[0x06], 0x00);
+  EXPECT_EQ(other->writes, 0);
+  EXPECT_NE(audit_text().find("a message of a combined transfer failed safe"), std::string::npos)
+      << audit_text();
 }
 
 TEST_F(MonitorSmbus, SafeStateThatCannotBeExpressedIsAFaultWithTheReason) {

@@ -234,6 +234,55 @@ TEST_P(PolicyE2e, ArmGripperPythonSmbus2PulseAllowedPrescaleRefused) {
   EXPECT_EQ(pca->reg(0xFE), 0x1E);  // PRE_SCALE untouched
 }
 
+// issue 11: a combined transfer whose second message is refused acts
+// nothing and leaves the core's model of the chip as it was; a general call
+// (every PCA9685 takes `06 ...` as a software reset), a reserved address and
+// an undeclared 10-bit address act nothing. The device read back and the
+// core's register shadow agree afterwards.
+TEST_P(PolicyE2e, ArmAttackCombinedTransferGeneralCallAndReservedAddressesActNothing) {
+  load("arm.policy");
+  // What arm_init leaves behind: awake, register auto-increment on (the
+  // device and the core's shadow, as `contego` seeds it at start).
+  uint8_t mode1[2] = {0x00, 0x21};
+  bus::Msg m{0x40, 0, 2, mode1};
+  ASSERT_EQ(bus.transfer({&m, 1}), 0);
+  ASSERT_TRUE(decider.checker().seed_register(0, 0x00, 0x21));
+  const uint8_t led3_off_l = pca->reg(0x06 + 4 * 3 + 2);
+  ASSERT_NE(led3_off_l, 0x2C);
+  EXPECT_EQ(run("gripper", {CONTEGO_TESTCASES_DIR "/attack_rdwr_atomic"}), 0) << output;
+  EXPECT_NE(output.find("rdwr-led3-prescale -1 1\n"), std::string::npos) << output;  // EPERM
+  EXPECT_NE(output.find("rdwr-grip-prescale -1 1\n"), std::string::npos) << output;
+  EXPECT_NE(output.find("general-call 1 0\n"), std::string::npos) << output;  // ignored
+  EXPECT_NE(output.find("reserved -1 6\n"), std::string::npos) << output;     // ENXIO
+  EXPECT_NE(output.find("ten-bit -1 "), std::string::npos) << output;
+  EXPECT_NE(output.find("pulse 5 0\n"), std::string::npos) << output;
+  // Nothing of the refused transfers acted: channel 3 and PRE_SCALE as they
+  // were, no software reset (MODE1 still awake with auto-increment).
+  EXPECT_EQ(pca->reg(0x06 + 4 * 3 + 2), led3_off_l);
+  EXPECT_EQ(pca->reg(0xFE), 0x1E);
+  EXPECT_EQ(pca->reg(0x00), 0x21);
+  const std::string log = audit_text();
+  // Reasons by number: 28 transfer-dropped, 26 general-call, 27 reserved-address.
+  EXPECT_NE(log.find("\"kind\":\"decision\",\"reason\":28"), std::string::npos);
+  EXPECT_NE(log.find("\"bytes\":\"06 00 00 77 01\",\"command\":65535,\"decision\":\"ignore\""),
+            std::string::npos);
+  EXPECT_NE(log.find("\"reason\":26"), std::string::npos);
+  EXPECT_NE(log.find("\"reason\":27"), std::string::npos);
+  // The pulse after the refused transfer was the sequence's first step,
+  // allowed as sent: the refused 420 did not move the sequence on (it would
+  // have been replaced by the expected 577).
+  EXPECT_NE(log.find("\"bytes\":\"1a 00 00 a4 01\",\"command\":6,\"decision\":\"allow\""),
+            std::string::npos);
+  EXPECT_EQ(log.find("\"decision\":\"failsafe\""), std::string::npos);
+  // The core's model agrees with the device, register by register.
+  for (int r = 0; r < 256; ++r) {
+    if (r >= 0x46 && r < 0xFA) continue;  // reserved registers: no command, never written
+    uint8_t shadow = 0;
+    ASSERT_TRUE(decider.checker().shadow(0, static_cast<uint8_t>(r), &shadow));
+    EXPECT_EQ(shadow, pca->reg(static_cast<uint8_t>(r))) << "register 0x" << std::hex << r;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Clients, PolicyE2e,
                          ::testing::Values(Client::kInProcess, Client::kSocket, Client::kPreload),
                          [](const auto& p) {
