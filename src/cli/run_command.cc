@@ -9,6 +9,7 @@
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
+#include "cli/guardian.h"
 #include "cli/trusted_setup.h"
 #include "gate/socket.h"
 #include "intercept/seccomp/supervisor.h"
@@ -162,6 +163,35 @@ void register_run(CLI::App& app) {
     so.budget_factor = args->budget_factor;
     so.allow_degraded = args->allow_degraded;
     if (so.real_buses.empty() && so.virtual_buses.empty()) so.virtual_buses = {1};
+    // If this process dies without a clean end (SIGKILL, a crash), the
+    // guardian drives the safe state with a monitor of its own.
+    std::string guardian_error;
+    const pid_t supervisor = getpid();
+    Guardian guardian(
+        [&] {
+          monitor::SetupOptions lost = so;
+          lost.allow_degraded = true;  // drive what can be driven
+          lost.safe_state_reason = fmt::format(
+              "contego run: the supervisor (pid {}) ended without a clean exit; its guardian "
+              "drives the safe state",
+              supervisor);
+          fmt::print(stderr, "{}\n", lost.safe_state_reason);
+          auto t = monitor::setup(lost);
+          if (!t.ok()) {
+            fmt::print(stderr, "contego run: guardian: {}\n", t.error());
+            return 1;
+          }
+          (*t)->monitor->stop_sampling();
+          if (!args->virtual_state.empty()) {
+            std::ofstream(args->virtual_state) << monitor::virtual_state(**t);
+          }
+          return 0;
+        },
+        &guardian_error);
+    if (!guardian_error.empty()) {
+      fmt::print(stderr, "contego run: cannot start the guardian: {}\n", guardian_error);
+      return set_exit_code(2);
+    }
     auto trusted = monitor::setup(so);
     if (!trusted.ok()) {
       fmt::print(stderr, "contego run: {}\n", trusted.error());

@@ -152,7 +152,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   }
   if (!problems.empty() && !o.allow_degraded) return refuse("sensors unreadable");
   // Phase 4: the safe state of every actuator.
-  for (const DeviceFailure& f : t->monitor->drive_safe_state("start")) {
+  for (const DeviceFailure& f : t->monitor->drive_safe_state(o.safe_state_reason)) {
     problems.push_back(fmt::format("safe state of {} cannot be applied: {}",
                                    where(device_name(f.device), device_record(f.device)),
                                    errno_text(f.err)));

@@ -282,25 +282,29 @@ limit gripper -> arm.swrst 0 per job else reject EPERM
   EXPECT_EQ(write({0x04}, 3, 0x00).reason, Reason::kUnknownCommand);
 }
 
-TEST_F(Pca9685Policy, AGeneralCallFailsafeIsWrittenToTheListenersOwnAddress) {
+TEST_F(Pca9685Policy, ARegisterWriteThroughTheGeneralCallIsIgnored) {
   load(R"(
 device arm : pca9685 at i2c-1 0x40
 task t { period 1s; wcet 1ms }
 allow t -> arm
 invariant CAP on arm.led: require off <= 600 else failsafe off = 600
 )");
-  // Auto-increment on, then a whole-channel write through the general call.
+  // A PCA9685 takes a general call's first byte as a command (0x06: software
+  // reset), never as a register: a channel write sent there is no write the
+  // policy can check, whatever its values. Nothing is written, nothing of
+  // the model changes.
   ASSERT_EQ(write({0x00, 0x21}, 1).decision, Decision::kAllow);
-  const core::Verdict v = write({led_reg(2), 0x00, 0x00, 0x84, 0x03}, 2, 0x00);  // off = 900
-  EXPECT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(v.addr, 0x40);  // the substitute goes to the arm itself, not to everyone
-  // `failsafe off = 600` names one field; the others come from the shadow
-  // (power-on: LED2_OFF_H full-off bit set), as for every substitute.
-  EXPECT_EQ(pairs(v), (Pairs{{0x0E, 0x00}, {0x0F, 0x00}, {0x10, 0x58}, {0x11, 0x12}}));
-  // Allowed as it is: the broadcast itself.
-  const core::Verdict ok = write({led_reg(2), 0x00, 0x00, 0x2C, 0x01}, 3, 0x00);
-  EXPECT_EQ(ok.decision, Decision::kAllow);
-  EXPECT_EQ(ok.addr, 0x00);
+  for (const std::vector<uint8_t>& bytes :
+       {std::vector<uint8_t>{led_reg(2), 0x00, 0x00, 0x84, 0x03},    // off = 900
+        std::vector<uint8_t>{led_reg(0), 0x00, 0x00, 0x2C, 0x01}}) {  // `06 ...` = SWRST
+    const core::Verdict v = write(bytes, 2, 0x00);
+    EXPECT_EQ(v.decision, Decision::kIgnore);
+    EXPECT_EQ(v.reason, Reason::kGeneralCall);
+    EXPECT_EQ(v.emit_count, 0);
+  }
+  uint8_t mode1 = 0;
+  ASSERT_TRUE(checker_->shadow(0, 0x00, &mode1));
+  EXPECT_EQ(mode1, 0x21);
 }
 
 }  // namespace
