@@ -2,10 +2,13 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <string.h>
-#include <sys/prctl.h>
-#include <sys/wait.h>
 #include <unistd.h>
+
+#include <sys/prctl.h>
+#include <sys/syscall.h>
+#include <sys/wait.h>
 
 namespace contego::cli {
 
@@ -28,12 +31,20 @@ Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
     // told otherwise); SIGINT/SIGTERM/SIGHUP stay blocked as in the parent.
     (void)prctl(PR_SET_DUMPABLE, 0, 0, 0, 0);
     (void)prctl(PR_SET_NAME, "contego-guard", 0, 0, 0);
+    const int parent = static_cast<int>(syscall(SYS_pidfd_open, getppid(), 0));
     char word = 0;
     ssize_t n;
     do {
       n = read(fds[0], &word, 1);
     } while (n < 0 && errno == EINTR);
     if (n == 1) _exit(0);  // released: the supervisor ended cleanly
+    // Its descriptors close before its exit is complete: wait for that, so
+    // that its lock on the audit log is gone when ours is taken.
+    if (parent >= 0) {
+      pollfd p{parent, POLLIN, 0};
+      while (poll(&p, 1, 10000) < 0 && errno == EINTR) {
+      }
+    }
     _exit(on_loss());
   }
   close(fds[0]);

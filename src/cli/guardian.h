@@ -8,10 +8,9 @@
 #ifndef CONTEGO_CLI_GUARDIAN_H_
 #define CONTEGO_CLI_GUARDIAN_H_
 
-#include <sys/types.h>
-
 #include <functional>
 #include <string>
+#include <sys/types.h>
 
 namespace contego::cli {
 

@@ -594,6 +594,45 @@ bool Checker::safe_state(uint16_t device, Verdict* out) {
   return true;
 }
 
+// After the decision: a verdict that writes commits the transaction's state
+// words and history; one that does not undoes its register changes.
+void Checker::settle_model(const Transaction& tx, Decision decision) {
+  if (!writes(decision)) {
+    rollback();
+    // A group whose commit was checked and refused loses its staged bytes.
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
+      DeviceState& s = state_[o.device];
+      for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
+    }
+  } else {
+    for (uint32_t i = 0; i < invariant_count_; ++i) {
+      if (!internal::bit_test(tx_.pending_state, i)) continue;
+      journal_state(i);
+      state_words_[i] = pending_state_[i];
+    }
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.bus_command == kNone || !writes(o.decision)) continue;
+      LastCommand& l = last(o.bus_command, o.bus_index);
+      journal_history(l);
+      l.valid = true;
+      l.time_us = tx.now_us;
+      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
+      const CommandRecord& c = commands_[o.bus_command];
+      if (c.group_len == 0 &&
+          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
+        // A general-call command (software reset) reached the device: its
+        // registers are back at their power-on values, nothing is staged.
+        DeviceState& s = state_[o.device];
+        __builtin_memcpy(s.shadow, s.power_on, kMaxRegisters);
+        __builtin_memset(s.staged_bits, 0, sizeof(s.staged_bits));
+      }
+    }
+  }
+}
+
 void Checker::finish(const Transaction& tx, Verdict* out) {
   Decision decision = Decision::kAllow;
   const Outcome* decider = nullptr;
@@ -679,39 +718,8 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
   if (!writes(decision)) {
     out->emit_count = 0;
     out->emit_bytes_used = 0;
-    rollback();
-    // A group whose commit was checked and refused loses its staged bytes.
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
-      DeviceState& s = state_[o.device];
-      for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
-    }
-  } else {
-    for (uint32_t i = 0; i < invariant_count_; ++i) {
-      if (!internal::bit_test(tx_.pending_state, i)) continue;
-      journal_state(i);
-      state_words_[i] = pending_state_[i];
-    }
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.bus_command == kNone || !writes(o.decision)) continue;
-      LastCommand& l = last(o.bus_command, o.bus_index);
-      journal_history(l);
-      l.valid = true;
-      l.time_us = tx.now_us;
-      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
-      const CommandRecord& c = commands_[o.bus_command];
-      if (c.group_len == 0 &&
-          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
-        // A general-call command (software reset) reached the device: its
-        // registers are back at their power-on values, nothing is staged.
-        DeviceState& s = state_[o.device];
-        __builtin_memcpy(s.shadow, s.power_on, kMaxRegisters);
-        __builtin_memset(s.staged_bits, 0, sizeof(s.staged_bits));
-      }
-    }
   }
+  settle_model(tx, decision);
 
   if (journal_.active && writes(decision)) ++journal_.acted;
   // Audit: one record per decoded command (commands allowed on their own but

@@ -295,7 +295,7 @@ invariant CAP on arm.led: require off <= 600 else failsafe off = 600
   // the model changes.
   ASSERT_EQ(write({0x00, 0x21}, 1).decision, Decision::kAllow);
   for (const std::vector<uint8_t>& bytes :
-       {std::vector<uint8_t>{led_reg(2), 0x00, 0x00, 0x84, 0x03},    // off = 900
+       {std::vector<uint8_t>{led_reg(2), 0x00, 0x00, 0x84, 0x03},     // off = 900
         std::vector<uint8_t>{led_reg(0), 0x00, 0x00, 0x2C, 0x01}}) {  // `06 ...` = SWRST
     const core::Verdict v = write(bytes, 2, 0x00);
     EXPECT_EQ(v.decision, Decision::kIgnore);

@@ -279,6 +279,7 @@ class Checker {
   void check_register_map(const Transaction& tx, uint16_t dev);
   void evaluate(const Transaction& tx, Outcome& o);
   void finish(const Transaction& tx, Verdict* out);
+  void settle_model(const Transaction& tx, Decision decision);
   Outcome* new_outcome(uint16_t dev);
   bool emit(const uint8_t* bytes, uint32_t len);
   bool emit_substitute(const Subst& subst, Outcome& o);
