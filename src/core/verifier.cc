@@ -93,6 +93,7 @@ bool response_ok(uint8_t r) {
 
 void Checker::clear_tables() {
   loaded_ = false;
+  journal_.active = false;  // a transfer open across a load is forgotten, not undone
   worst_case_cost_ = 0;
   task_count_ = device_count_ = alias_count_ = command_count_ = field_count_ = 0;
   signal_count_ = rate_count_ = invariant_count_ = template_count_ = code_count_ = 0;
