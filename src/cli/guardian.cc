@@ -7,15 +7,18 @@
 #include <unistd.h>
 
 #include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
 
 namespace contego::cli {
 
 Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
+  // A socket pair, not a pipe: the release is sent with MSG_NOSIGNAL, so a
+  // guardian killed meanwhile (by a program under the same uid) costs no SIGPIPE.
   int fds[2];
-  if (pipe2(fds, O_CLOEXEC) != 0) {
-    *error = std::string("pipe: ") + strerror(errno);
+  if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0) {
+    *error = std::string("socketpair: ") + strerror(errno);
     return;
   }
   const pid_t pid = fork();
@@ -55,7 +58,7 @@ Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
 Guardian::~Guardian() {
   if (fd_ < 0) return;
   const char word = 1;
-  (void)!write(fd_, &word, 1);
+  (void)!send(fd_, &word, 1, MSG_NOSIGNAL);
   close(fd_);
   while (waitpid(pid_, nullptr, 0) < 0 && errno == EINTR) {
   }

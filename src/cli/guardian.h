@@ -2,8 +2,8 @@
 // supervisor's process, so if that process is killed (SIGKILL, a crash) no
 // one would drive the safe state. The guardian is a process forked before the
 // monitor starts (so it shares no thread, lock or descriptor with it but a
-// pipe) that waits for the supervisor's end: a clean end releases it; any
-// other end (the pipe closes without a word) runs `on_loss` in the guardian,
+// socket) that waits for the supervisor's end: a clean end releases it; any
+// other end (the socket closes without a word) runs `on_loss` in the guardian,
 // which starts a monitor of its own and drives every actuator safe.
 #ifndef CONTEGO_CLI_GUARDIAN_H_
 #define CONTEGO_CLI_GUARDIAN_H_
