@@ -76,6 +76,19 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   EXPECT_EQ(host.audits, 1);
   EXPECT_EQ(host.last_reason, static_cast<uint8_t>(Reason::kInvariantViolated));
 
+  // A transfer through the C API: the check acted (fail-safe), the abort
+  // audits that it did not.
+  contego_begin_transfer(c);
+  contego_check(c, &tx, &v);
+  EXPECT_EQ(host.audits, 2);
+  contego_abort_transfer(c, CONTEGO_REJECT);
+  EXPECT_EQ(host.audits, 3);
+  EXPECT_STREQ(contego_reason_name(host.last_reason), "transfer-dropped");
+  contego_begin_transfer(c);
+  contego_check(c, &tx, &v);
+  contego_commit_transfer(c);
+  EXPECT_EQ(host.audits, 4);
+
   EXPECT_EQ(contego_safe_state(c, rover::kGopigo, &v), 1);
   EXPECT_EQ(v.emit_bytes[0], 120);
   EXPECT_EQ(contego_latched(c, rover::kGopigo), 0);
