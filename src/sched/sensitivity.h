@@ -1,9 +1,16 @@
 // Sensitivity analysis: how far the checking cost, a period or a task's
 // number of checked commands can move before the exact test of
-// sched/analysis.h fails. Every figure comes from a binary search on that
-// test, which is monotone in each parameter searched (a larger C^o, N_i or
-// a shorter T_i never shortens a response time), so the search is exact to
-// the nanosecond / command.
+// sched/analysis.h fails. The test is monotone in each parameter (a larger
+// C^o, N_i or a shorter T_i never shortens a response time), so each figure
+// is a boundary, exact to the nanosecond / command.
+//
+// sensitivity() finds it by "witness jumps": a response time R of the
+// current value holds its verdict up to the next scheduling point, over
+// which the demand is linear in C^o and N_i and a step function of T_i, so
+// the boundary of that witness is one division; only the tasks whose witness
+// binds are re-analysed (warm-started from R) at the value one step beyond.
+// sensitivity_by_search() is the plain binary search on whole-set analyses
+// (the reference the tests compare against, hundreds of analyses per set).
 //
 // Host code.
 #ifndef CONTEGO_SCHED_SENSITIVITY_H_
@@ -44,6 +51,7 @@ struct Sensitivity {
 
 // REQUIRES: validate(set) succeeded, overheads resolved, priorities final.
 Sensitivity sensitivity(const TaskSet& set);
+Sensitivity sensitivity_by_search(const TaskSet& set);
 
 }  // namespace contego::sched
 
