@@ -1,16 +1,23 @@
-// Sensitivity by witness jumps (see sensitivity.h). Every figure equals the
-// binary search of sensitivity_search.cc; sensitivity_test.cc checks it on
-// thousands of random sets.
+// Sensitivity by scheduling points (see sensitivity.h). Every figure equals
+// the binary search of sensitivity_search.cc; sensitivity_test.cc checks it
+// on thousands of random sets.
 //
-// The fact used throughout: a task's demand W(t) = own + sum over hp of
-// ceil(t/T_h) C_h^TEE is constant between scheduling points, so the least
-// fixed point R of the recurrence (W(R) <= R <= D) stays a witness of
-// schedulability at every t in [R, P], P the next multiple of a
-// higher-priority period (or D). Over that interval W is linear in C^o and
-// in N_i and a step function of T_i, so how far the parameter can move with
-// the witness intact is one division. Beyond it, only the tasks whose
-// witness binds are re-analysed, starting from R (a lower bound of the new
-// fixed point, since every parameter moves in the harder direction).
+// The fact used throughout: task p's demand W(t) = own + sum over hp of
+// ceil(t/T_h) C_h^TEE is constant on the intervals between scheduling
+// points (multiples of higher-priority periods, and D_p), so p meets its
+// deadline iff W(b) <= b at the right end b of some interval up to D_p, and
+// only intervals from its response time R on can hold one (W(t) > t below
+// R, and every parameter here only moves W up). Over one interval W is
+// linear in a uniform C^o and in N_i, and a step function of T_i, so the
+// largest C^o, largest N_i or smallest T_i an interval admits is one
+// division; a task's figure is the best over its intervals in [R, D], found
+// by walking them in order (a heap of next releases) and stopping once no
+// later interval can do better.
+//
+// For T_i and N_i, which bind through every task they affect, the interval
+// holding each task's R gives a cheap bound first (a value at which it is
+// known to pass); a task is walked only when its bound could decide the
+// figure, which is rarely more than one or two per figure.
 #include <algorithm>
 #include <numeric>
 
@@ -20,53 +27,15 @@
 namespace contego::sched {
 namespace {
 
-// Rounds of jumps before falling back to a binary search (each round moves
-// past at least one scheduling point, so a task far below many short
-// periods could otherwise take many).
-constexpr int kMaxRounds = 64;
+Nanos ceil_div(Nanos a, Nanos b) { return (a + b - 1) / b; }
 
 struct Fix {
   Nanos t = 0;       // least fixed point (or the first iterate beyond D)
   bool ok = false;   // t <= D
   Nanos demand = 0;  // W(t) <= t
-  Nanos next = 0;    // the next scheduling point at or after t, at most D
+  Nanos next = 0;    // the right end of t's interval (the next scheduling point, at most D)
 };
 
-// As Fix, for a uniform C^o = x: W(t) = a + x b over [t, next].
-struct UniformFix {
-  bool ok = false;
-  Nanos t = 0, a = 0, b = 0, next = 0;
-};
-
-template <typename Ok>
-int64_t largest_ok(int64_t lo, int64_t hi, Ok ok) {
-  while (lo < hi) {
-    const int64_t mid = lo + (hi - lo + 1) / 2;
-    if (ok(mid)) {
-      lo = mid;
-    } else {
-      hi = mid - 1;
-    }
-  }
-  return lo;
-}
-
-template <typename Ok>
-int64_t smallest_ok(int64_t lo, int64_t hi, Ok ok) {
-  while (lo < hi) {
-    const int64_t mid = lo + (hi - lo) / 2;
-    if (ok(mid)) {
-      hi = mid;
-    } else {
-      lo = mid + 1;
-    }
-  }
-  return hi;
-}
-
-Nanos ceil_div(Nanos a, Nanos b) { return (a + b - 1) / b; }
-
-// The tasks by decreasing priority (stable, as Analyzer orders them).
 class Model {
  public:
   explicit Model(const TaskSet& set) : n(set.tasks.size()) {
@@ -144,26 +113,36 @@ class Model {
     }
   }
 
-  UniformFix uniform_fixpoint(size_t p, Nanos x, Nanos start) const {
+  // Walks p's intervals from the one holding `from` (> 0) to D_p in order:
+  // visit(b) for each right end b (false stops the walk), then release(q)
+  // for each higher-priority task q (other than `skip`) released at b,
+  // whose job count ceil(t/T_q) grows by one beyond b. The caller's sums
+  // start at the job counts ceil(from/T_q).
+  template <typename Release, typename Visit>
+  void walk(size_t p, Nanos from, size_t skip, Release release, Visit visit) {
     const Nanos d = deadline[p];
-    const Nanos a0 = wcet[p];
-    const Nanos b0 = sat_add(actuations[p], top_actuations[group_end[p]]);
-    Nanos r = std::max(start, sat_add(a0, sat_mul(x, b0)));
-    if (r > d) return {};
-    const size_t end = group_end[p];
+    heap_.clear();
+    for (size_t q = 0; q < group_end[p]; ++q) {
+      if (q == p || q == skip) continue;
+      const Nanos r = ceil_div(from, period[q]) * period[q];
+      if (r < d) heap_.push_back({r, q});
+    }
+    const auto later = [](const Release_& x, const Release_& y) { return x.at > y.at; };
+    std::make_heap(heap_.begin(), heap_.end(), later);
     while (true) {
-      Nanos a = a0, b = b0, next = d;
-      for (size_t q = 0; q < end; ++q) {
-        if (q == p) continue;
-        const Nanos jobs = ceil_div(r, period[q]);
-        a = sat_add(a, sat_mul(jobs, wcet[q]));
-        b = sat_add(b, sat_mul(jobs, actuations[q]));
-        next = std::min(next, jobs * period[q]);
+      const Nanos b = heap_.empty() ? d : std::min(heap_.front().at, d);
+      if (!visit(b) || b >= d) return;
+      while (!heap_.empty() && heap_.front().at == b) {
+        std::pop_heap(heap_.begin(), heap_.end(), later);
+        Release_& x = heap_.back();
+        release(x.task);
+        x.at += period[x.task];
+        if (x.at < d) {
+          std::push_heap(heap_.begin(), heap_.end(), later);
+        } else {
+          heap_.pop_back();
+        }
       }
-      const Nanos w = sat_add(a, sat_mul(x, b));
-      if (w > d) return {};
-      if (w <= r) return {true, r, a, b, next};
-      r = w;
     }
   }
 
@@ -175,44 +154,82 @@ class Model {
   std::vector<Nanos> top_block, second_block;
   std::vector<size_t> top_where;
   std::vector<int64_t> top_actuations;
+
+ private:
+  struct Release_ {
+    Nanos at;
+    size_t task;
+  };
+  std::vector<Release_> heap_;
 };
 
-// Largest uniform C^o at which position p meets its deadline.
-Nanos max_uniform_overhead(const Model& m, size_t p, bool any_checks) {
-  UniformFix f = m.uniform_fixpoint(p, 0, 0);
-  if (!f.ok) return kInfeasible;
-  if (!any_checks) return kUnbounded;  // then b is 0 everywhere
-  Nanos x = 0;                         // verified
-  for (int round = 0;; ++round) {
-    x = std::max(x, (f.next - f.a) / f.b);  // b >= 1: some task has checks
-    if (round == kMaxRounds) {
-      const Nanos from = f.t;
-      return largest_ok(x, m.deadline[p],
-                        [&](Nanos c) { return m.uniform_fixpoint(p, c, from).ok; });
+// Largest uniform C^o at which position p meets its deadline: over an
+// interval ending at b, W = a + x c, so x <= (b - a) / c.
+Nanos max_uniform_overhead(Model& m, size_t p, bool any_checks) {
+  // R at C^o = 0: the recurrence with C^TEE = C.
+  Nanos r = m.wcet[p];
+  const Nanos d = m.deadline[p];
+  while (true) {
+    if (r > d) return kInfeasible;
+    Nanos w = m.wcet[p];
+    for (size_t q = 0; q < m.group_end[p]; ++q) {
+      if (q != p) w = sat_add(w, sat_mul(ceil_div(r, m.period[q]), m.wcet[q]));
     }
-    const UniformFix g = m.uniform_fixpoint(p, x + 1, f.next);
-    if (!g.ok) return x;
-    f = g;
+    if (w > d) return kInfeasible;
+    if (w <= r) break;
+    r = w;
   }
+  if (!any_checks) return kUnbounded;  // then c is 0 everywhere
+  // c >= 1 from here: every other task is above p (a job at least) or below.
+  Nanos a = m.wcet[p];
+  Nanos c = sat_add(m.actuations[p], m.top_actuations[m.group_end[p]]);
+  for (size_t q = 0; q < m.group_end[p]; ++q) {
+    if (q == p) continue;
+    const Nanos jobs = ceil_div(r, m.period[q]);
+    a = sat_add(a, sat_mul(jobs, m.wcet[q]));
+    c = sat_add(c, sat_mul(jobs, m.actuations[q]));
+  }
+  Nanos best = 0;  // feasible at 0
+  m.walk(
+      p, r, m.n, [&](size_t q) { a = sat_add(a, m.wcet[q]), c = sat_add(c, m.actuations[q]); },
+      [&](Nanos b) {
+        if (a > d || (d - a) / c <= best) return false;  // no later interval does better
+        if (b >= a) best = std::max(best, (b - a) / c);
+        return true;
+      });
+  return best;
 }
 
-// A task's witness while one parameter of position i moves.
-struct Witness {
-  Fix fix;
-  int64_t at = 0;     // the parameter's value when fix was computed
-  int64_t bound = 0;  // how far the parameter may go with fix still a witness
-};
+// --- the smallest period of position i ------------------------------------
 
-// The smallest T_i with the fixed point f of p (computed at T_i = at) still
-// a witness: over [f.t, f.next] p's demand is `other` + ceil(t/T_i) C_i^TEE.
-Nanos period_bound(const Model& m, size_t i, const Fix& f, Nanos at) {
+// Over an interval of p's demand ending at b on which the tasks other than i
+// demand `other`, T_i passes iff for some m jobs of i, m C_i + other <= b and
+// T_i >= (m C_i + other) / m; the most jobs that fit is best.
+Nanos period_for_interval(Nanos b, Nanos other, Nanos c) {
+  if (b - other < c) return kUnbounded;
+  const Nanos k = (b - other) / c;
+  return ceil_div(sat_add(sat_mul(k, c), other), k);
+}
+
+// Exact smallest T_i keeping p (below i, or beside it) schedulable.
+Nanos min_period_of(Model& m, size_t i, size_t p, const Fix& f) {
   const Nanos c = m.c_tee[i];
-  const Nanos other = f.demand - ceil_div(f.t, at) * c;
-  Nanos best = at;
-  for (const Nanos t : {f.t, f.next}) {
-    if (t - other < c) continue;
-    best = std::min(best, ceil_div(t, (t - other) / c));
+  const Nanos d = m.deadline[p];
+  Nanos other = m.own(p);
+  for (size_t q = 0; q < m.group_end[p]; ++q) {
+    if (q != p && q != i) other = sat_add(other, sat_mul(ceil_div(f.t, m.period[q]), m.c_tee[q]));
   }
+  Nanos best = kUnbounded;
+  m.walk(
+      p, f.t, i, [&](size_t q) { other = sat_add(other, m.c_tee[q]); },
+      [&](Nanos b) {
+        if (other > d || d - other < c) return false;
+        // No later interval does better than the most jobs fitting before D.
+        const Nanos k = (d - other) / c;
+        if (ceil_div(sat_add(sat_mul(k, c), other), k) >= best) return false;
+        best = std::min(best, period_for_interval(b, other, c));
+        return true;
+      });
   return best;
 }
 
@@ -221,112 +238,87 @@ Nanos min_period(Model& m, size_t i, const std::vector<Fix>& base) {
   const bool implicit = m.deadline[i] == original;
   // Task i's own response does not depend on T_i; an implicit deadline
   // shrinks with it, so T_i >= R_i. The reference searches from here.
-  Nanos floor = implicit ? std::max<Nanos>(1, m.c_tee[i]) : m.deadline[i];
-  floor = std::min(floor, original);
-  if (implicit) floor = std::max(floor, base[i].t);
-  std::vector<std::pair<size_t, Witness>> affected;
-  for (size_t j = 0; j < m.n; ++j) {
-    if (!m.interferes(i, j)) continue;
-    affected.push_back({j, {base[j], original, period_bound(m, i, base[j], original)}});
+  Nanos result = implicit ? std::max<Nanos>(1, m.c_tee[i]) : m.deadline[i];
+  result = std::min(result, original);
+  if (implicit) result = std::max(result, base[i].t);
+  // Each affected task's R gives a period at which it still passes (its
+  // interval, as far as the next scheduling point): an upper bound of its
+  // smallest. Only tasks whose bound exceeds the answer so far are walked.
+  std::vector<std::pair<Nanos, size_t>> bounds;
+  for (size_t p = 0; p < m.n; ++p) {
+    if (!m.interferes(i, p)) continue;
+    const Fix& f = base[p];
+    const Nanos other = f.demand - ceil_div(f.t, original) * m.c_tee[i];
+    bounds.push_back({std::min(original, period_for_interval(f.next, other, m.c_tee[i])), p});
   }
-  auto candidate = [&] {
-    Nanos t = floor;
-    for (const auto& [j, w] : affected) t = std::max(t, w.bound);
-    return t;
-  };
-  Nanos t = candidate();  // verified: every witness holds there
-  for (int round = 0; t > floor; ++round) {
-    if (round == kMaxRounds) {
-      auto ok = [&](Nanos x) {
-        m.period[i] = x;
-        bool all = true;
-        for (const auto& [j, w] : affected) {
-          all = all && m.fixpoint(j, m.own(j), w.fix.t).ok;
-          if (!all) break;
-        }
-        m.period[i] = original;
-        return all;
-      };
-      return smallest_ok(floor, t, ok);
-    }
-    m.period[i] = t - 1;
-    bool ok = true;
-    for (auto& [j, w] : affected) {
-      if (w.bound < t) continue;  // still a witness at t - 1
-      const Fix g = m.fixpoint(j, m.own(j), w.fix.t);
-      if (!g.ok) {
-        ok = false;
-        break;
-      }
-      w = {g, t - 1, period_bound(m, i, g, t - 1)};
-    }
-    m.period[i] = original;
-    if (!ok) return t;
-    t = candidate();
+  std::sort(bounds.begin(), bounds.end(), std::greater<>());
+  for (const auto& [bound, p] : bounds) {
+    if (bound <= result) break;
+    result = std::max(result, min_period_of(m, i, p, base[p]));
   }
-  return t;
+  return result;
 }
 
-// The largest N_i with the fixed point f of p (computed at N_i = at) still a
-// witness over [f.t, f.next].
-int64_t actuations_bound(const Model& m, size_t i, size_t p, const Fix& f, int64_t at) {
+// --- the largest number of checked commands of position i ----------------
+
+// Exact largest N_i keeping p schedulable, from its fixed point f at the
+// current N_i (`now`).
+int64_t max_actuations_of(Model& m, size_t i, size_t p, const Fix& f, int64_t now) {
+  const Nanos o = m.overhead[i];
+  const Nanos d = m.deadline[p];
+  Nanos demand = m.own(p);
+  for (size_t q = 0; q < m.group_end[p]; ++q) {
+    if (q != p) demand = sat_add(demand, sat_mul(ceil_div(f.t, m.period[q]), m.c_tee[q]));
+  }
+  const bool above = m.interferes(i, p);
+  const bool below = p != i && !above;  // i blocks p
+  const Nanos others_block = below ? m.blocking_without(p, i) : 0;
+  const Nanos block_now = below ? std::max(others_block, sat_mul(now, o)) : 0;
+  Nanos jobs = above ? ceil_div(f.t, m.period[i]) : 1;
+  // N_i at most this over an interval ending at b (demand as of now there).
+  auto allows = [&](Nanos b) -> int64_t {
+    if (!below) return now + (b - demand) / sat_mul(jobs, o);
+    const Nanos rest = demand - block_now;  // without blocking
+    if (sat_add(rest, others_block) > b) return -1;
+    return (b - rest) / o;
+  };
+  int64_t best = now;
+  m.walk(
+      p, f.t, m.n,
+      [&](size_t q) {
+        demand = sat_add(demand, m.c_tee[q]);
+        if (q == i) ++jobs;
+      },
+      [&](Nanos b) {
+        if (demand > d || allows(d) <= best) return false;
+        if (b >= demand - (below ? block_now - others_block : 0)) best = std::max(best, allows(b));
+        return true;
+      });
+  return best;
+}
+
+// The largest N_i at which p's fixed point f still witnesses (over its
+// interval): a lower bound of p's largest.
+int64_t actuations_bound(const Model& m, size_t i, size_t p, const Fix& f, int64_t now) {
   const Nanos o = m.overhead[i];
   const Nanos slack = f.next - f.demand;
-  if (p == i) return at + slack / o;
-  if (m.interferes(i, p)) return at + slack / sat_mul(ceil_div(f.t, m.period[i]), o);
-  // i is below p: it enters p's demand through max(B without i, N_i C_i^o).
-  const Nanos block = std::max(m.blocking_without(p, i), sat_mul(at, o));
+  if (p == i) return now + slack / o;
+  if (m.interferes(i, p)) return now + slack / sat_mul(ceil_div(f.t, m.period[i]), o);
+  const Nanos block = std::max(m.blocking_without(p, i), sat_mul(now, o));
   return sat_add(slack, block) / o;
 }
 
-// p's own term with N_i = k.
-Nanos own_with(const Model& m, size_t i, size_t p, int64_t k) {
-  if (p == i || m.interferes(i, p)) return m.own(p);  // c_tee[i] is set by the caller
-  return sat_add(m.c_tee[p], std::max(m.blocking_without(p, i), sat_mul(k, m.overhead[i])));
-}
-
 int64_t max_actuations(Model& m, size_t i, const std::vector<Fix>& base) {
-  const int64_t original = m.actuations[i];
-  const Nanos original_c_tee = m.c_tee[i];
-  const Nanos o = m.overhead[i];
-  std::vector<Witness> w(m.n);
-  for (size_t j = 0; j < m.n; ++j) w[j] = {base[j], original, actuations_bound(m, i, j, base[j], original)};
-  auto candidate = [&] {
-    int64_t k = kUnbounded;
-    for (const Witness& x : w) k = std::min(k, x.bound);
-    return k;
-  };
-  auto set_n = [&](int64_t k) { m.c_tee[i] = sat_add(m.wcet[i], sat_mul(k, o)); };
-  int64_t k = candidate();  // verified
-  for (int round = 0;; ++round) {
-    if (round == kMaxRounds) {
-      const int64_t top = m.deadline[i] / o + 1;  // C^TEE > D beyond
-      auto ok = [&](int64_t x) {
-        set_n(x);
-        bool all = true;
-        for (size_t j = 0; j < m.n && all; ++j) {
-          all = m.fixpoint(j, own_with(m, i, j, x), w[j].fix.t).ok;
-        }
-        m.c_tee[i] = original_c_tee;
-        return all;
-      };
-      return largest_ok(k, std::max(top, k), ok);
-    }
-    set_n(k + 1);
-    bool ok = true;
-    for (size_t j = 0; j < m.n; ++j) {
-      if (w[j].bound > k) continue;
-      const Fix g = m.fixpoint(j, own_with(m, i, j, k + 1), w[j].fix.t);
-      if (!g.ok) {
-        ok = false;
-        break;
-      }
-      w[j] = {g, k + 1, actuations_bound(m, i, j, g, k + 1)};
-    }
-    m.c_tee[i] = original_c_tee;
-    if (!ok) return k;
-    k = candidate();
+  const int64_t now = m.actuations[i];
+  std::vector<std::pair<int64_t, size_t>> bounds;
+  for (size_t p = 0; p < m.n; ++p) bounds.push_back({actuations_bound(m, i, p, base[p], now), p});
+  std::sort(bounds.begin(), bounds.end());
+  int64_t result = kUnbounded;
+  for (const auto& [bound, p] : bounds) {
+    if (bound >= result) break;
+    result = std::min(result, max_actuations_of(m, i, p, base[p], now));
   }
+  return result;
 }
 
 }  // namespace
