@@ -11,8 +11,8 @@
 // linear in a uniform C^o and in N_i, and a step function of T_i, so the
 // largest C^o, largest N_i or smallest T_i an interval admits is one
 // division; a task's figure is the best over its intervals in [R, D], found
-// by walking them in order (a heap of next releases) and stopping once no
-// later interval can do better.
+// by branch and bound over time: the demand at the start of a range bounds
+// what any interval in it can admit, so most ranges are never split.
 //
 // For T_i and N_i, which bind through every task they affect, the interval
 // holding each task's R gives a cheap bound first (a value at which it is
@@ -113,37 +113,29 @@ class Model {
     }
   }
 
-  // Walks p's intervals from the one holding `from` (> 0) to D_p in order:
-  // visit(b) for each right end b (false stops the walk), then release(q)
-  // for each higher-priority task q (other than `skip`) released at b,
-  // whose job count ceil(t/T_q) grows by one beyond b. The caller's sums
-  // start at the job counts ceil(from/T_q).
-  template <typename Release, typename Visit>
-  void walk(size_t p, Nanos from, size_t skip, Release release, Visit visit) {
-    const Nanos d = deadline[p];
-    heap_.clear();
+  // p's demand at t > 0, and what is constant with it up to its interval's end.
+  struct Point {
+    Nanos t = 0;
+    Nanos next = 0;    // the right end of t's interval: the next scheduling point, at most D
+    Nanos demand = 0;  // own + sum over hp of ceil(t/T_q) C_q^TEE
+    Nanos a = 0, c = 0;  // for a uniform C^o x: the demand is a + x c
+  };
+  Point eval(size_t p, Nanos t) const {
+    Point x;
+    x.t = t;
+    x.next = deadline[p];
+    x.demand = own(p);
+    x.a = wcet[p];
+    x.c = sat_add(actuations[p], top_actuations[group_end[p]]);
     for (size_t q = 0; q < group_end[p]; ++q) {
-      if (q == p || q == skip) continue;
-      const Nanos r = ceil_div(from, period[q]) * period[q];
-      if (r < d) heap_.push_back({r, q});
+      if (q == p) continue;
+      const Nanos jobs = ceil_div(t, period[q]);
+      x.next = std::min(x.next, jobs * period[q]);
+      x.demand = sat_add(x.demand, sat_mul(jobs, c_tee[q]));
+      x.a = sat_add(x.a, sat_mul(jobs, wcet[q]));
+      x.c = sat_add(x.c, sat_mul(jobs, actuations[q]));
     }
-    const auto later = [](const Release_& x, const Release_& y) { return x.at > y.at; };
-    std::make_heap(heap_.begin(), heap_.end(), later);
-    while (true) {
-      const Nanos b = heap_.empty() ? d : std::min(heap_.front().at, d);
-      if (!visit(b) || b >= d) return;
-      while (!heap_.empty() && heap_.front().at == b) {
-        std::pop_heap(heap_.begin(), heap_.end(), later);
-        Release_& x = heap_.back();
-        release(x.task);
-        x.at += period[x.task];
-        if (x.at < d) {
-          std::push_heap(heap_.begin(), heap_.end(), later);
-        } else {
-          heap_.pop_back();
-        }
-      }
-    }
+    return x;
   }
 
   size_t n;
@@ -154,18 +146,27 @@ class Model {
   std::vector<Nanos> top_block, second_block;
   std::vector<size_t> top_where;
   std::vector<int64_t> top_actuations;
-
- private:
-  struct Release_ {
-    Nanos at;
-    size_t task;
-  };
-  std::vector<Release_> heap_;
 };
+
+// The largest value(x) over the right ends of p's intervals in [lo, hi], or
+// `best` if none is larger. bound(x, hi) is at least value() of every right
+// end in [x.t, hi] (the demand only grows with t).
+template <typename Value, typename Bound>
+int64_t best_over(const Model& m, size_t p, Nanos lo, Nanos hi, int64_t best, const Value& value,
+                  const Bound& bound) {
+  if (lo > hi) return best;
+  const Model::Point x = m.eval(p, lo);
+  if (bound(x, hi) <= best) return best;
+  if (x.next <= hi) best = std::max(best, value(x));
+  if (x.next >= hi) return best;
+  const Nanos mid = x.next + (hi - x.next) / 2;
+  best = best_over(m, p, mid + 1, hi, best, value, bound);  // the larger values lie late
+  return best_over(m, p, x.next + 1, mid, best, value, bound);
+}
 
 // Largest uniform C^o at which position p meets its deadline: over an
 // interval ending at b, W = a + x c, so x <= (b - a) / c.
-Nanos max_uniform_overhead(Model& m, size_t p, bool any_checks) {
+Nanos max_uniform_overhead(const Model& m, size_t p, bool any_checks) {
   // R at C^o = 0: the recurrence with C^TEE = C.
   Nanos r = m.wcet[p];
   const Nanos d = m.deadline[p];
@@ -181,23 +182,12 @@ Nanos max_uniform_overhead(Model& m, size_t p, bool any_checks) {
   }
   if (!any_checks) return kUnbounded;  // then c is 0 everywhere
   // c >= 1 from here: every other task is above p (a job at least) or below.
-  Nanos a = m.wcet[p];
-  Nanos c = sat_add(m.actuations[p], m.top_actuations[m.group_end[p]]);
-  for (size_t q = 0; q < m.group_end[p]; ++q) {
-    if (q == p) continue;
-    const Nanos jobs = ceil_div(r, m.period[q]);
-    a = sat_add(a, sat_mul(jobs, m.wcet[q]));
-    c = sat_add(c, sat_mul(jobs, m.actuations[q]));
-  }
-  Nanos best = 0;  // feasible at 0
-  m.walk(
-      p, r, m.n, [&](size_t q) { a = sat_add(a, m.wcet[q]), c = sat_add(c, m.actuations[q]); },
-      [&](Nanos b) {
-        if (a > d || (d - a) / c <= best) return false;  // no later interval does better
-        if (b >= a) best = std::max(best, (b - a) / c);
-        return true;
-      });
-  return best;
+  auto admits = [](Nanos b, Nanos a, Nanos c) -> int64_t { return b >= a ? (b - a) / c : -1; };
+  const Model::Point at_d = m.eval(p, d);
+  return best_over(
+      m, p, r, d, std::max<int64_t>(0, admits(d, at_d.a, at_d.c)),
+      [&](const Model::Point& x) { return admits(x.next, x.a, x.c); },
+      [&](const Model::Point& x, Nanos hi) { return admits(hi, x.a, x.c); });
 }
 
 // --- the smallest period of position i ------------------------------------
@@ -211,29 +201,23 @@ Nanos period_for_interval(Nanos b, Nanos other, Nanos c) {
   return ceil_div(sat_add(sat_mul(k, c), other), k);
 }
 
-// Exact smallest T_i keeping p (below i, or beside it) schedulable.
-Nanos min_period_of(Model& m, size_t i, size_t p, const Fix& f) {
-  const Nanos c = m.c_tee[i];
-  const Nanos d = m.deadline[p];
-  Nanos other = m.own(p);
-  for (size_t q = 0; q < m.group_end[p]; ++q) {
-    if (q != p && q != i) other = sat_add(other, sat_mul(ceil_div(f.t, m.period[q]), m.c_tee[q]));
-  }
-  Nanos best = kUnbounded;
-  m.walk(
-      p, f.t, i, [&](size_t q) { other = sat_add(other, m.c_tee[q]); },
-      [&](Nanos b) {
-        if (other > d || d - other < c) return false;
-        // No later interval does better than the most jobs fitting before D.
-        const Nanos k = (d - other) / c;
-        if (ceil_div(sat_add(sat_mul(k, c), other), k) >= best) return false;
-        best = std::min(best, period_for_interval(b, other, c));
-        return true;
-      });
-  return best;
+Model::Point point_of(const Fix& f) {
+  Model::Point x;
+  x.t = f.t;
+  x.next = f.next;
+  x.demand = f.demand;
+  return x;
 }
 
-Nanos min_period(Model& m, size_t i, const std::vector<Fix>& base) {
+// The smallest T_i an interval of p's demand (x at its start) ending at b
+// admits: the demand of the tasks other than i is constant over it.
+Nanos period_admitted(const Model& m, size_t i, Nanos b, const Model::Point& x) {
+  const Nanos c = m.c_tee[i];
+  return period_for_interval(b, x.demand - ceil_div(x.t, m.period[i]) * c, c);
+}
+
+Nanos min_period(const Model& m, size_t i, const std::vector<Fix>& base,
+                 const std::vector<Model::Point>& at_deadline) {
   const Nanos original = m.period[i];
   const bool implicit = m.deadline[i] == original;
   // Task i's own response does not depend on T_i; an implicit deadline
@@ -241,82 +225,83 @@ Nanos min_period(Model& m, size_t i, const std::vector<Fix>& base) {
   Nanos result = implicit ? std::max<Nanos>(1, m.c_tee[i]) : m.deadline[i];
   result = std::min(result, original);
   if (implicit) result = std::max(result, base[i].t);
-  // Each affected task's R gives a period at which it still passes (its
-  // interval, as far as the next scheduling point): an upper bound of its
-  // smallest. Only tasks whose bound exceeds the answer so far are walked.
+  // Periods at which each affected task is known to pass (its interval at
+  // R, the one ending at its deadline): upper bounds of its smallest. The
+  // largest is walked first; a task whose bound is no larger than the
+  // answer so far is not walked.
   std::vector<std::pair<Nanos, size_t>> bounds;
   for (size_t p = 0; p < m.n; ++p) {
     if (!m.interferes(i, p)) continue;
-    const Fix& f = base[p];
-    const Nanos other = f.demand - ceil_div(f.t, original) * m.c_tee[i];
-    bounds.push_back({std::min(original, period_for_interval(f.next, other, m.c_tee[i])), p});
+    const Model::Point x = point_of(base[p]);
+    bounds.push_back({std::min({original, period_admitted(m, i, x.next, x),
+                                period_admitted(m, i, m.deadline[p], at_deadline[p])}),
+                      p});
   }
   std::sort(bounds.begin(), bounds.end(), std::greater<>());
   for (const auto& [bound, p] : bounds) {
     if (bound <= result) break;
-    result = std::max(result, min_period_of(m, i, p, base[p]));
+    // The smallest period is the largest negated one.
+    const Nanos smallest = -best_over(
+        m, p, base[p].t, m.deadline[p], -bound,
+        [&](const Model::Point& x) { return -period_admitted(m, i, x.next, x); },
+        [&](const Model::Point& x, Nanos hi) { return -period_admitted(m, i, hi, x); });
+    result = std::max(result, smallest);
   }
   return result;
 }
 
-// --- the largest number of checked commands of position i ----------------
-
-// Exact largest N_i keeping p schedulable, from its fixed point f at the
-// current N_i (`now`).
-int64_t max_actuations_of(Model& m, size_t i, size_t p, const Fix& f, int64_t now) {
-  const Nanos o = m.overhead[i];
-  const Nanos d = m.deadline[p];
-  Nanos demand = m.own(p);
-  for (size_t q = 0; q < m.group_end[p]; ++q) {
-    if (q != p) demand = sat_add(demand, sat_mul(ceil_div(f.t, m.period[q]), m.c_tee[q]));
+// What N_i an interval of p's demand admits.
+class ActuationsOf {
+ public:
+  ActuationsOf(const Model& m, size_t i, size_t p)
+      : m_(m), i_(i), now_(m.actuations[i]), o_(m.overhead[i]) {
+    above_ = m.interferes(i, p);
+    below_ = p != i && !above_;  // i blocks p
+    others_block_ = below_ ? m.blocking_without(p, i) : 0;
+    block_now_ = below_ ? std::max(others_block_, sat_mul(now_, o_)) : 0;
   }
-  const bool above = m.interferes(i, p);
-  const bool below = p != i && !above;  // i blocks p
-  const Nanos others_block = below ? m.blocking_without(p, i) : 0;
-  const Nanos block_now = below ? std::max(others_block, sat_mul(now, o)) : 0;
-  Nanos jobs = above ? ceil_div(f.t, m.period[i]) : 1;
-  // N_i at most this over an interval ending at b (demand as of now there).
-  auto allows = [&](Nanos b) -> int64_t {
-    if (!below) return now + (b - demand) / sat_mul(jobs, o);
-    const Nanos rest = demand - block_now;  // without blocking
-    if (sat_add(rest, others_block) > b) return -1;
-    return (b - rest) / o;
-  };
-  int64_t best = now;
-  m.walk(
-      p, f.t, m.n,
-      [&](size_t q) {
-        demand = sat_add(demand, m.c_tee[q]);
-        if (q == i) ++jobs;
-      },
-      [&](Nanos b) {
-        if (demand > d || allows(d) <= best) return false;
-        if (b >= demand - (below ? block_now - others_block : 0)) best = std::max(best, allows(b));
-        return true;
-      });
-  return best;
-}
+  // N_i at most this over an interval ending at b, x its demand now.
+  int64_t admits(Nanos b, const Model::Point& x) const {
+    if (below_) {
+      const Nanos rest = x.demand - block_now_;  // without blocking
+      return sat_add(rest, others_block_) > b ? -1 : (b - rest) / o_;
+    }
+    if (b < x.demand) return -1;
+    const Nanos jobs = above_ ? ceil_div(x.t, m_.period[i_]) : 1;
+    return now_ + (b - x.demand) / sat_mul(jobs, o_);
+  }
 
-// The largest N_i at which p's fixed point f still witnesses (over its
-// interval): a lower bound of p's largest.
-int64_t actuations_bound(const Model& m, size_t i, size_t p, const Fix& f, int64_t now) {
-  const Nanos o = m.overhead[i];
-  const Nanos slack = f.next - f.demand;
-  if (p == i) return now + slack / o;
-  if (m.interferes(i, p)) return now + slack / sat_mul(ceil_div(f.t, m.period[i]), o);
-  const Nanos block = std::max(m.blocking_without(p, i), sat_mul(now, o));
-  return sat_add(slack, block) / o;
-}
+ private:
+  const Model& m_;
+  size_t i_;
+  int64_t now_;
+  Nanos o_;
+  bool above_ = false, below_ = false;
+  Nanos others_block_ = 0, block_now_ = 0;
+};
 
-int64_t max_actuations(Model& m, size_t i, const std::vector<Fix>& base) {
-  const int64_t now = m.actuations[i];
+int64_t max_actuations(const Model& m, size_t i, const std::vector<Fix>& base,
+                       const std::vector<Model::Point>& at_deadline) {
+  // Lower bounds of each task's largest N_i, from its interval at R and
+  // the one ending at its deadline; the smallest is walked first, and a
+  // task whose bound is already no smaller than the answer is not walked.
   std::vector<std::pair<int64_t, size_t>> bounds;
-  for (size_t p = 0; p < m.n; ++p) bounds.push_back({actuations_bound(m, i, p, base[p], now), p});
+  for (size_t p = 0; p < m.n; ++p) {
+    const ActuationsOf of(m, i, p);
+    const Model::Point x = point_of(base[p]);
+    bounds.push_back(
+        {std::max(of.admits(x.next, x), of.admits(m.deadline[p], at_deadline[p])), p});
+  }
   std::sort(bounds.begin(), bounds.end());
   int64_t result = kUnbounded;
   for (const auto& [bound, p] : bounds) {
     if (bound >= result) break;
-    result = std::min(result, max_actuations_of(m, i, p, base[p], now));
+    const ActuationsOf of(m, i, p);
+    result = std::min(
+        result, best_over(
+                    m, p, base[p].t, m.deadline[p], bound,
+                    [&](const Model::Point& x) { return of.admits(x.next, x); },
+                    [&](const Model::Point& x, Nanos hi) { return of.admits(hi, x); }));
   }
   return result;
 }
@@ -324,7 +309,7 @@ int64_t max_actuations(Model& m, size_t i, const std::vector<Fix>& base) {
 }  // namespace
 
 Sensitivity sensitivity(const TaskSet& set) {
-  Model m(set);
+  const Model m(set);
   const size_t n = m.n;
   Sensitivity out;
   out.tasks.resize(n);
@@ -337,6 +322,8 @@ Sensitivity sensitivity(const TaskSet& set) {
     out.max_overhead = std::min(out.max_overhead, x);
   }
 
+  std::vector<Model::Point> at_deadline(n);
+  for (size_t p = 0; p < n; ++p) at_deadline[p] = m.eval(p, m.deadline[p]);
   std::vector<Fix> base(n);
   bool feasible = true;
   for (size_t p = 0; p < n && feasible; ++p) {
@@ -350,8 +337,8 @@ Sensitivity sensitivity(const TaskSet& set) {
       s.max_actuations = kInfeasible;
       continue;
     }
-    s.min_period = min_period(m, p, base);
-    s.max_actuations = m.overhead[p] <= 0 ? kUnbounded : max_actuations(m, p, base);
+    s.min_period = min_period(m, p, base, at_deadline);
+    s.max_actuations = m.overhead[p] <= 0 ? kUnbounded : max_actuations(m, p, base, at_deadline);
   }
   return out;
 }
