@@ -14,9 +14,8 @@
 //     tenth of the sets) in units of one analysis of the same set.
 // Build with the release preset for real figures:
 //   cmake --build --preset release --target sched_bench && build/release/bench/sched_bench
-#include <benchmark/benchmark.h>
-
 #include <algorithm>
+#include <benchmark/benchmark.h>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -95,9 +94,8 @@ class PlainRta {
     const size_t n = set.tasks.size();
     idx_.resize(n);
     std::iota(idx_.begin(), idx_.end(), size_t{0});
-    std::sort(idx_.begin(), idx_.end(), [&](size_t a, size_t b) {
-      return set.tasks[a].priority > set.tasks[b].priority;
-    });
+    std::sort(idx_.begin(), idx_.end(),
+              [&](size_t a, size_t b) { return set.tasks[a].priority > set.tasks[b].priority; });
     c_.resize(n);
     t_.resize(n);
     for (size_t p = 0; p < n; ++p) {
@@ -194,17 +192,21 @@ int compare(size_t count) {
   const size_t few = std::max<size_t>(1, count / 10);
   double t_search = 0, t_analyse_few = 0;
   t_search = best_seconds(1, [&] {
-    for (size_t k = 0; k < few; ++k) sink += contego::sched::sensitivity_by_search(sets[k]).tasks.size();
+    for (size_t k = 0; k < few; ++k)
+      sink += contego::sched::sensitivity_by_search(sets[k]).tasks.size();
   });
   t_analyse_few = best_seconds(5, [&] {
     for (size_t k = 0; k < few; ++k) sink += analyzer.analyse(sets[k]).schedulable;
   });
   const double n = static_cast<double>(count);
-  std::printf("sched_bench comparison: %zu random sets of 5-50 tasks (%zu schedulable), C^o 50us, DM\n",
-              count, feasible);
+  std::printf(
+      "sched_bench comparison: %zu random sets of 5-50 tasks (%zu schedulable), C^o 50us, DM\n",
+      count, feasible);
   std::printf("  plain response-time test (this file)  %9.2f us/set\n", t_plain / n * 1e6);
-  std::printf("  library, verdict only                  %9.2f us/set  %.2fx the plain test's speed, identical verdicts\n",
-              t_verdict / n * 1e6, t_plain / t_verdict);
+  std::printf(
+      "  library, verdict only                  %9.2f us/set  %.2fx the plain test's speed, "
+      "identical verdicts\n",
+      t_verdict / n * 1e6, t_plain / t_verdict);
   std::printf("  library, full analysis                 %9.2f us/set  %.2fx\n", t_analyse / n * 1e6,
               t_plain / t_analyse);
   std::printf("  library, JSON parse + analysis         %9.2f us/set\n", t_parse_analyse / n * 1e6);

@@ -144,9 +144,8 @@ void run_batch(const SchedArgs& args) {
     if (!file) return fail(args.input + ": cannot open");
   }
   std::ios::sync_with_stdio(false);
-  const sched::BatchSummary s = sched::run_batch(from_stdin ? std::cin : file,
-                                                 from_stdin ? "<stdin>" : args.input, o,
-                                                 std::cout, &std::cerr);
+  const sched::BatchSummary s = sched::run_batch(
+      from_stdin ? std::cin : file, from_stdin ? "<stdin>" : args.input, o, std::cout, &std::cerr);
   std::cout.flush();
   fmt::print(stderr, "contego sched --batch: {} task sets, {} unschedulable, {} bad\n", s.sets,
              s.unschedulable, s.failed);

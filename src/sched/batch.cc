@@ -58,7 +58,8 @@ class Batch {
     if (options_.assign) {
       how = *options_.assign;
     } else if (!s.priorities_given) {
-      return error(line, where + ": the tasks carry no priorities; choose --assign rm, dm or audsley");
+      return error(line,
+                   where + ": the tasks carry no priorities; choose --assign rm, dm or audsley");
     }
     if (how != Assignment::kGiven) s = assign_priorities(s, how).set;
     const Analysis a = analyzer_.analyse(s);

@@ -1,7 +1,6 @@
 #include "sched/batch.h"
 
 #include <gtest/gtest.h>
-
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <vector>
@@ -56,7 +55,7 @@ TEST(BatchTest, JsonLinesAndCsvBlocksOneResultEachErrorsNamedByLine) {
   EXPECT_EQ(r.lines[0]["max_overhead_ns"], 3'000'000);  // 1ms + x <= 4ms
   EXPECT_EQ(r.lines[1]["line"], 3);
   EXPECT_NE(r.lines[1]["error"].get<std::string>().find("stream:3"), std::string::npos);
-  EXPECT_EQ(r.lines[2]["line"], 5);           // the block's header
+  EXPECT_EQ(r.lines[2]["line"], 5);         // the block's header
   EXPECT_FALSE(r.lines[2]["schedulable"]);  // b: 3.5 + 2 x 1.5 (a) > 5ms
   EXPECT_EQ(r.lines[3]["line"], 9);
   // The CSV reader's own message carries the stream's line number.

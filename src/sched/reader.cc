@@ -280,7 +280,8 @@ Result<MeasuredOverhead> parse_overhead_json(const std::string& text, const std:
     m.method = doc["method"].get<std::string>();
   }
   if (doc.contains("statistic")) {
-    if (!doc["statistic"].is_string()) return make_error(source + ": \"statistic\" must be a string");
+    if (!doc["statistic"].is_string())
+      return make_error(source + ": \"statistic\" must be a string");
     m.statistic = doc["statistic"].get<std::string>();
   }
   if (doc.contains("statistics_ns")) {
@@ -315,8 +316,9 @@ Result<ChosenOverhead> choose_overhead(const MeasuredOverhead& m, const std::str
     return c;
   }
   if (m.statistics.empty()) {
-    return make_error(source + ": has no statistics_ns (only overhead_ns, from an older contego "
-                               "bench); drop --stat or measure again");
+    return make_error(source +
+                      ": has no statistics_ns (only overhead_ns, from an older contego "
+                      "bench); drop --stat or measure again");
   }
   std::string names;
   for (const auto& [n, v] : m.statistics) names += (names.empty() ? "" : ", ") + n;

@@ -36,7 +36,7 @@ Result<TaskSet> read_task_set_file(const std::string& path);
 // older benches carry overhead_ns alone).
 struct MeasuredOverhead {
   Nanos overhead = 0;
-  std::string statistic;                 // which of statistics overhead_ns is
+  std::string statistic;                    // which of statistics overhead_ns is
   std::map<std::string, Nanos> statistics;  // name -> added ns per command
   std::string measured_on;
   std::string method;

@@ -131,9 +131,9 @@ TEST(ReaderTest, MeasuredOverheadStatisticIsChosenWithTheWorstBeside) {
   c = choose_overhead(*m, "p90", "o.json");
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().find("the file has max, median, p99, p999"), std::string::npos) << c.error();
-  EXPECT_FALSE(parse_overhead_json(R"({"overhead_ns": 1, "statistics_ns": {"p99": "20us"}})",
-                                   "o.json")
-                   .ok());
+  EXPECT_FALSE(
+      parse_overhead_json(R"({"overhead_ns": 1, "statistics_ns": {"p99": "20us"}})", "o.json")
+          .ok());
 }
 
 }  // namespace

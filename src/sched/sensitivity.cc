@@ -18,11 +18,12 @@
 // holding each task's R gives a cheap bound first (a value at which it is
 // known to pass); a task is walked only when its bound could decide the
 // figure, which is rarely more than one or two per figure.
+#include "sched/sensitivity.h"
+
 #include <algorithm>
 #include <numeric>
 
 #include "sched/analysis.h"
-#include "sched/sensitivity.h"
 
 namespace contego::sched {
 namespace {
@@ -116,8 +117,8 @@ class Model {
   // p's demand at t > 0, and what is constant with it up to its interval's end.
   struct Point {
     Nanos t = 0;
-    Nanos next = 0;    // the right end of t's interval: the next scheduling point, at most D
-    Nanos demand = 0;  // own + sum over hp of ceil(t/T_q) C_q^TEE
+    Nanos next = 0;      // the right end of t's interval: the next scheduling point, at most D
+    Nanos demand = 0;    // own + sum over hp of ceil(t/T_q) C_q^TEE
     Nanos a = 0, c = 0;  // for a uniform C^o x: the demand is a + x c
   };
   Point eval(size_t p, Nanos t) const {
@@ -289,19 +290,18 @@ int64_t max_actuations(const Model& m, size_t i, const std::vector<Fix>& base,
   for (size_t p = 0; p < m.n; ++p) {
     const ActuationsOf of(m, i, p);
     const Model::Point x = point_of(base[p]);
-    bounds.push_back(
-        {std::max(of.admits(x.next, x), of.admits(m.deadline[p], at_deadline[p])), p});
+    bounds.push_back({std::max(of.admits(x.next, x), of.admits(m.deadline[p], at_deadline[p])), p});
   }
   std::sort(bounds.begin(), bounds.end());
   int64_t result = kUnbounded;
   for (const auto& [bound, p] : bounds) {
     if (bound >= result) break;
     const ActuationsOf of(m, i, p);
-    result = std::min(
-        result, best_over(
-                    m, p, base[p].t, m.deadline[p], bound,
-                    [&](const Model::Point& x) { return of.admits(x.next, x); },
-                    [&](const Model::Point& x, Nanos hi) { return of.admits(hi, x); }));
+    result =
+        std::min(result, best_over(
+                             m, p, base[p].t, m.deadline[p], bound,
+                             [&](const Model::Point& x) { return of.admits(x.next, x); },
+                             [&](const Model::Point& x, Nanos hi) { return of.admits(hi, x); }));
   }
   return result;
 }

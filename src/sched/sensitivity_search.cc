@@ -1,11 +1,10 @@
 // The reference sensitivity search: binary searches of whole-set analyses.
 // Slow (hundreds of analyses per set) and obviously right; the tests hold
 // sensitivity() (sensitivity.cc) to it.
-#include "sched/sensitivity.h"
-
 #include <algorithm>
 
 #include "sched/analysis.h"
+#include "sched/sensitivity.h"
 
 namespace contego::sched {
 namespace {

@@ -1,7 +1,6 @@
 #include "sched/sensitivity.h"
 
 #include <gtest/gtest.h>
-
 #include <random>
 
 #include "sched/analysis.h"

@@ -124,7 +124,8 @@ TEST(SchedCliTest, BatchStream) {
   size_t start = 0;
   while (start < r.out.size()) {
     const size_t end = r.out.find('\n', start);
-    if (r.out[start] == '{') lines.push_back(nlohmann::json::parse(r.out.substr(start, end - start)));
+    if (r.out[start] == '{')
+      lines.push_back(nlohmann::json::parse(r.out.substr(start, end - start)));
     start = end + 1;
   }
   EXPECT_NE(r.out.find("4 task sets, 1 unschedulable, 1 bad"), std::string::npos) << r.out;
