@@ -121,6 +121,8 @@ class Model {
     Nanos demand = 0;    // own + sum over hp of ceil(t/T_q) C_q^TEE
     Nanos a = 0, c = 0;  // for a uniform C^o x: the demand is a + x c
   };
+  // kUniform: a and c only; otherwise demand only (the searches need one).
+  template <bool kUniform = false>
   Point eval(size_t p, Nanos t) const {
     Point x;
     x.t = t;
@@ -132,9 +134,12 @@ class Model {
       if (q == p) continue;
       const Nanos jobs = ceil_div(t, period[q]);
       x.next = std::min(x.next, jobs * period[q]);
-      x.demand = sat_add(x.demand, sat_mul(jobs, c_tee[q]));
-      x.a = sat_add(x.a, sat_mul(jobs, wcet[q]));
-      x.c = sat_add(x.c, sat_mul(jobs, actuations[q]));
+      if constexpr (kUniform) {
+        x.a = sat_add(x.a, sat_mul(jobs, wcet[q]));
+        x.c = sat_add(x.c, sat_mul(jobs, actuations[q]));
+      } else {
+        x.demand = sat_add(x.demand, sat_mul(jobs, c_tee[q]));
+      }
     }
     return x;
   }
@@ -152,17 +157,17 @@ class Model {
 // The largest value(x) over the right ends of p's intervals in [lo, hi], or
 // `best` if none is larger. bound(x, hi) is at least value() of every right
 // end in [x.t, hi] (the demand only grows with t).
-template <typename Value, typename Bound>
+template <bool kUniform = false, typename Value, typename Bound>
 int64_t best_over(const Model& m, size_t p, Nanos lo, Nanos hi, int64_t best, const Value& value,
                   const Bound& bound) {
   if (lo > hi) return best;
-  const Model::Point x = m.eval(p, lo);
+  const Model::Point x = m.eval<kUniform>(p, lo);
   if (bound(x, hi) <= best) return best;
   if (x.next <= hi) best = std::max(best, value(x));
   if (x.next >= hi) return best;
   const Nanos mid = x.next + (hi - x.next) / 2;
-  best = best_over(m, p, mid + 1, hi, best, value, bound);  // the larger values lie late
-  return best_over(m, p, x.next + 1, mid, best, value, bound);
+  best = best_over<kUniform>(m, p, mid + 1, hi, best, value, bound);  // larger values lie late
+  return best_over<kUniform>(m, p, x.next + 1, mid, best, value, bound);
 }
 
 // Largest uniform C^o at which position p meets its deadline: over an
@@ -184,8 +189,8 @@ Nanos max_uniform_overhead(const Model& m, size_t p, bool any_checks) {
   if (!any_checks) return kUnbounded;  // then c is 0 everywhere
   // c >= 1 from here: every other task is above p (a job at least) or below.
   auto admits = [](Nanos b, Nanos a, Nanos c) -> int64_t { return b >= a ? (b - a) / c : -1; };
-  const Model::Point at_d = m.eval(p, d);
-  return best_over(
+  const Model::Point at_d = m.eval<true>(p, d);
+  return best_over<true>(
       m, p, r, d, std::max<int64_t>(0, admits(d, at_d.a, at_d.c)),
       [&](const Model::Point& x) { return admits(x.next, x.a, x.c); },
       [&](const Model::Point& x, Nanos hi) { return admits(hi, x.a, x.c); });
