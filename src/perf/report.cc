@@ -1,12 +1,12 @@
 // The bench's report: the table, bench.json, the overhead file for
 // `contego sched --overhead-from` and the gnuplot chart (see overhead.h).
-#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
+#include <sys/utsname.h>
 
 #include "perf/overhead.h"
 
@@ -80,12 +80,8 @@ std::string table(const Report& r) {
 
 namespace {
 nlohmann::json stats_json(const Stats& s) {
-  return {{"n", s.n},
-          {"mean_us", s.mean_us},
-          {"median_us", s.median_us},
-          {"p99_us", s.p99_us},
-          {"p999_us", s.p999_us},
-          {"worst_us", s.worst_us}};
+  return {{"n", s.n},           {"mean_us", s.mean_us}, {"median_us", s.median_us},
+          {"p99_us", s.p99_us}, {"p999_us", s.p999_us}, {"worst_us", s.worst_us}};
 }
 
 std::string machine() {
@@ -132,7 +128,8 @@ nlohmann::json to_json(const Report& r) {
 
 nlohmann::json sched_overhead(const Report& r) {
   bool any_allowed = false;
-  for (const Row& row : r.rows) any_allowed = any_allowed || (row.path == Path::kSeccompMonitor && row.all_allowed());
+  for (const Row& row : r.rows)
+    any_allowed = any_allowed || (row.path == Path::kSeccompMonitor && row.all_allowed());
   struct Figure {
     const char* name;
     double Stats::*field;
@@ -152,16 +149,17 @@ nlohmann::json sched_overhead(const Report& r) {
     }
     stats[f.name] = static_cast<int64_t>(added * 1000.0 + 0.5);
   }
-  return {{"overhead_ns", stats["p999"]},
-          {"statistic", "p999"},
-          {"statistics_ns", stats},
-          {"measured_on", machine()},
-          {"method", fmt::format("contego bench: largest added figure (c2 minus a) over {} trials of "
-                                 "the seccomp client with a separate monitor process, {} ({})",
-                                 r.trials,
-                                 any_allowed ? "rows whose commands were all allowed"
-                                             : "all rows (none had every command allowed)",
-                                 r.checker)}};
+  return {
+      {"overhead_ns", stats["p999"]},
+      {"statistic", "p999"},
+      {"statistics_ns", stats},
+      {"measured_on", machine()},
+      {"method", fmt::format("contego bench: largest added figure (c2 minus a) over {} trials of "
+                             "the seccomp client with a separate monitor process, {} ({})",
+                             r.trials,
+                             any_allowed ? "rows whose commands were all allowed"
+                                         : "all rows (none had every command allowed)",
+                             r.checker)}};
 }
 
 Status write_chart(const Report& r, const std::string& stem) {
