@@ -14,10 +14,10 @@
 // by branch and bound over time: the demand at the start of a range bounds
 // what any interval in it can admit, so most ranges are never split.
 //
-// For T_i and N_i, which bind through every task they affect, the interval
-// holding each task's R gives a cheap bound first (a value at which it is
-// known to pass); a task is walked only when its bound could decide the
-// figure, which is rarely more than one or two per figure.
+// For T_i and N_i, which bind through every task they affect, the intervals
+// at each task's R and at its deadline give a cheap bound first (a value at
+// which it is known to pass); a task is searched only when its bound could
+// decide the figure.
 #include "sched/sensitivity.h"
 
 #include <algorithm>
@@ -233,8 +233,8 @@ Nanos min_period(const Model& m, size_t i, const std::vector<Fix>& base,
   if (implicit) result = std::max(result, base[i].t);
   // Periods at which each affected task is known to pass (its interval at
   // R, the one ending at its deadline): upper bounds of its smallest. The
-  // largest is walked first; a task whose bound is no larger than the
-  // answer so far is not walked.
+  // largest is searched first; a task whose bound is no larger than the
+  // answer so far is not searched.
   std::vector<std::pair<Nanos, size_t>> bounds;
   for (size_t p = 0; p < m.n; ++p) {
     if (!m.interferes(i, p)) continue;
@@ -289,8 +289,8 @@ class ActuationsOf {
 int64_t max_actuations(const Model& m, size_t i, const std::vector<Fix>& base,
                        const std::vector<Model::Point>& at_deadline) {
   // Lower bounds of each task's largest N_i, from its interval at R and
-  // the one ending at its deadline; the smallest is walked first, and a
-  // task whose bound is already no smaller than the answer is not walked.
+  // the one ending at its deadline; the smallest is searched first, and a
+  // task whose bound is already no smaller than the answer is not searched.
   std::vector<std::pair<int64_t, size_t>> bounds;
   for (size_t p = 0; p < m.n; ++p) {
     const ActuationsOf of(m, i, p);

@@ -4,12 +4,12 @@
 // C^o, N_i or a shorter T_i never shortens a response time), so each figure
 // is a boundary, exact to the nanosecond / command.
 //
-// sensitivity() finds it by "witness jumps": a response time R of the
-// current value holds its verdict up to the next scheduling point, over
-// which the demand is linear in C^o and N_i and a step function of T_i, so
-// the boundary of that witness is one division; only the tasks whose witness
-// binds are re-analysed (warm-started from R) at the value one step beyond.
-// sensitivity_by_search() is the plain binary search on whole-set analyses
+// sensitivity() finds each figure over the scheduling intervals of the
+// tasks it affects: a task's demand is constant between scheduling points,
+// and over one interval linear in C^o and N_i and a step function of T_i,
+// so what an interval admits is one division; a branch and bound over time
+// finds the best interval (sensitivity.cc). sensitivity_by_search() is the
+// plain binary search on whole-set analyses
 // (the reference the tests compare against, hundreds of analyses per set).
 //
 // Host code.

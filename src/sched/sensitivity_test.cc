@@ -116,11 +116,11 @@ TEST(SensitivityTest, HandExamplesMatchTheSearch) {
   expect_same(many, "many points");
 }
 
-// The witness jumps against the binary search of whole-set analyses, over
+// The interval search against the binary search of whole-set analyses, over
 // random sets: feasible and infeasible, implicit and constrained deadlines,
 // sets without checked commands, per-task and zero overheads, distinct
 // (DM) and random priorities with ties.
-TEST(SensitivityTest, WitnessJumpsEqualTheBinarySearchOnRandomSets) {
+TEST(SensitivityTest, IntervalSearchEqualsTheBinarySearchOnRandomSets) {
   std::mt19937_64 rng(15);
   Generator gen(15);
   int infeasible = 0, unchecked = 0, ties = 0, constrained = 0;
