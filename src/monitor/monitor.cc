@@ -282,8 +282,8 @@ uint32_t Monitor::job(uint16_t task) const {
 void Monitor::task_exited(uint16_t task) {
   drive_safe_state(fmt::format("task {} exited", task));
   std::lock_guard lock(mu_);
-  job_phase_us_.erase(task);
-  budgets_.erase(task);
+  // The job grid stays: a program that reconnects or restarts under the same
+  // task joins it, so leaving cannot open a fresh job (and budget).
   readings_.forget_task(task);
 }
 
