@@ -249,12 +249,22 @@ void Monitor::job_boundary(uint16_t task) {
   (void)job_at_locked(task, monotonic_us());  // at most sets the phase
 }
 
+namespace {
+
+// Job k (1-based) of a grid with phase `phase_us` spans
+// [phase + (k - 1)·period, phase + k·period).
+uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
+  if (now_us <= phase_us) return 1;
+  return static_cast<uint32_t>((now_us - phase_us) / period_us + 1);
+}
+
+}  // namespace
+
 uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   const uint64_t period = decider_.task_period_us(task);
   if (period == 0) return 0;  // no declared task: the core's own windows
   auto [it, first] = job_phase_us_.try_emplace(task, now_us);
-  if (now_us <= it->second) return 1;
-  return static_cast<uint32_t>((now_us - it->second) / period + 1);
+  return grid_job(it->second, period, now_us);
 }
 
 uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
@@ -272,11 +282,9 @@ uint16_t Monitor::task_priority(uint16_t task) const {
 uint32_t Monitor::job(uint16_t task) const {
   std::lock_guard lock(mu_);
   auto it = job_phase_us_.find(task);
-  if (it == job_phase_us_.end()) return 0;
   const uint64_t period = decider_.task_period_us(task);
-  const uint64_t now = monotonic_us();
-  if (period == 0 || now <= it->second) return period == 0 ? 0 : 1;
-  return static_cast<uint32_t>((now - it->second) / period + 1);
+  if (it == job_phase_us_.end() || period == 0) return 0;
+  return grid_job(it->second, period, monotonic_us());
 }
 
 void Monitor::task_exited(uint16_t task) {

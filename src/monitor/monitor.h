@@ -81,6 +81,7 @@ class Monitor final : public gate::Endpoint {
   bool has_bus(uint8_t bus) override;
   uint64_t funcs(uint8_t bus) override;
 
+  // The task's current job on its period grid (0: no contact yet, or no period).
   uint32_t job(uint16_t task) const;
   uint16_t task_priority(uint16_t task) const;
   uint64_t decisions() const { return decisions_.load(); }
