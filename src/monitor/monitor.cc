@@ -45,11 +45,11 @@ uint64_t Monitor::funcs(uint8_t bus) {
 }
 
 // Called by the core inside check(), with mu_ held: the reading the command
-// being checked is judged against (sensor_readings.h).
+// being checked is judged against (readings/sensor_readings.h).
 uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<Monitor*>(ctx);
-  const Reading* r =
+  const readings::Reading* r =
       self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
   if (r == nullptr) return 0;
   const uint32_t n = std::min(capacity, r->len);

@@ -3,7 +3,7 @@
 // decided by the core, and only the bytes the core emitted are put on the
 // bus. Samples the declared sensors itself and keeps every sensor reading a
 // task had it perform (S(t) never comes from a task's say-so: each reading is
-// bytes the monitor read from the bus; sensor_readings.h), numbers each
+// bytes the monitor read from the bus; readings/sensor_readings.h), numbers each
 // task's jobs on its period grid from the monitor's own clock, writes the
 // audit log, and drives every actuator to its safe state on start, on a fault
 // and when a supervised task exits.
@@ -29,7 +29,7 @@
 #include "gate/endpoint.h"
 #include "monitor/audit_log.h"
 #include "monitor/decider.h"
-#include "monitor/sensor_readings.h"
+#include "readings/sensor_readings.h"
 
 namespace contego::monitor {
 
@@ -116,7 +116,7 @@ class Monitor final : public gate::Endpoint {
   std::map<uint8_t, bus::Bus*> buses_;
   std::vector<std::string> task_names_;
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
-  SensorReadings readings_;
+  readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
   uint64_t checking_now_us_ = 0;
   std::map<uint16_t, uint64_t> job_phase_us_;  // the release of each task's job 1

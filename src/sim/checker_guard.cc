@@ -40,7 +40,7 @@ Result<std::unique_ptr<CheckerGuard>> CheckerGuard::create(const PolicyImage& im
 uint32_t CheckerGuard::read_sample(void* context, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<CheckerGuard*>(context);
-  const monitor::Reading* r =
+  const readings::Reading* r =
       self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
   if (r == nullptr) return 0;
   const uint32_t n = std::min(capacity, r->len);

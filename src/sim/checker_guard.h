@@ -3,7 +3,7 @@
 // only the bytes of its verdict reach the device models. The trusted side
 // samples its sensors itself, on each sensor's declared period, directly on
 // the virtual bus, and keeps the readings tasks made through it; a command is
-// judged against them exactly as the monitor judges (monitor/sensor_readings.h).
+// judged against them exactly as the monitor judges (readings/sensor_readings.h).
 //
 // Observe mode (protection off, but watching): the checker judges every
 // operation so the summary can say when the first violation happened, and
@@ -20,7 +20,7 @@
 
 #include "base/result.h"
 #include "bus/virtual_bus.h"
-#include "monitor/sensor_readings.h"
+#include "readings/sensor_readings.h"
 #include "sim/guard.h"
 
 namespace contego::sim {
@@ -56,7 +56,7 @@ class CheckerGuard : public Guard {
   bool observe_;
   std::unique_ptr<core::Checker> checker_;  // large: kept off the stack
   // The readings a command is judged against, kept as the monitor keeps them.
-  monitor::SensorReadings readings_;
+  readings::SensorReadings readings_;
   std::vector<uint64_t> sample_due_us_;  // by device id: the next own sample
   uint16_t checking_task_ = core::kNoTask;
   uint64_t checking_now_us_ = 0;

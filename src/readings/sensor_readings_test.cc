@@ -1,9 +1,9 @@
-#include "monitor/sensor_readings.h"
+#include "readings/sensor_readings.h"
 
 #include <gtest/gtest.h>
 #include <vector>
 
-namespace contego::monitor {
+namespace contego::readings {
 namespace {
 
 constexpr uint16_t kLine = 1;  // device id of the sensor
@@ -86,4 +86,4 @@ TEST_F(SensorReadingsTest, AFailedSampleDropsEveryReadingAndAnExitedTasksAreForg
 }
 
 }  // namespace
-}  // namespace contego::monitor
+}  // namespace contego::readings

@@ -16,8 +16,8 @@
 //
 // Shared by the monitor and the simulation's guard, so both judge the same.
 // Not thread-safe: the owner serialises calls (the monitor under its mutex).
-#ifndef CONTEGO_MONITOR_SENSOR_READINGS_H_
-#define CONTEGO_MONITOR_SENSOR_READINGS_H_
+#ifndef CONTEGO_READINGS_SENSOR_READINGS_H_
+#define CONTEGO_READINGS_SENSOR_READINGS_H_
 
 #include <array>
 #include <cstdint>
@@ -28,7 +28,7 @@
 #include "contego/core/image.h"
 #include "contego/core/limits.h"
 
-namespace contego::monitor {
+namespace contego::readings {
 
 struct Reading {
   std::array<uint8_t, core::kMaxSampleBytes> bytes{};
@@ -79,6 +79,6 @@ class SensorReadings {
   std::vector<Sensor> sensors_;  // by device id
 };
 
-}  // namespace contego::monitor
+}  // namespace contego::readings
 
-#endif  // CONTEGO_MONITOR_SENSOR_READINGS_H_
+#endif  // CONTEGO_READINGS_SENSOR_READINGS_H_

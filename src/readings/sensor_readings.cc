@@ -1,8 +1,8 @@
-#include "monitor/sensor_readings.h"
+#include "readings/sensor_readings.h"
 
 #include <algorithm>
 
-namespace contego::monitor {
+namespace contego::readings {
 namespace {
 
 void store(Reading& r, std::span<const uint8_t> data, uint32_t len, uint64_t taken_at_us) {
@@ -96,4 +96,4 @@ const Reading* SensorReadings::for_check(uint16_t task, uint16_t device, uint64_
   return s.newest.len != 0 ? &s.newest : nullptr;
 }
 
-}  // namespace contego::monitor
+}  // namespace contego::readings
