@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # `contego run`: a task whose second thread sleeps half a period gets exactly
 # its declared budget per period (3 writes per 200 ms job), judged from the
-# audit log: every whole job has exactly 3 writes that acted (the program
-# sends ~20 per period), the jobs follow the 200 ms grid (each job's records
+# audit log: every job has exactly 3 writes that acted, or all of them when
+# it sent fewer (the program sends ~20 per period), the jobs follow the 200 ms grid (each job's records
 # lie inside one period, and there are no more jobs than periods).
 # Usage: cli_thread_budget.sh CONTEGO SCRIPTS_DIR
 set -euo pipefail
@@ -46,9 +46,12 @@ if len(jobs) > span // period_us + 2:
 for j in jobs:
     if max(times[j]) - min(times[j]) >= period_us:
         sys.exit(f"job {j} spans more than a period")
-# The first and last jobs may be partial (the program starts and stops inside them).
-for j in jobs[1:-1]:
-    if acted[j] != 3:
-        sys.exit(f"job {j}: {acted[j]} writes acted, the budget is 3 per job")
+# Every job: min(sent, 3) writes acted (a loaded machine may starve the
+# program for part of a period; it usually sends about 20 per job).
+for j in jobs:
+    if acted[j] != min(len(times[j]), 3):
+        sys.exit(f"job {j}: {acted[j]} of {len(times[j])} writes acted, the budget is 3 per job")
+if sum(1 for j in jobs if len(times[j]) > 3) < len(jobs) // 2:
+    sys.exit("the program sent more than its budget in too few jobs to tell")
 print("ok", len(jobs), "jobs, 3 writes acted in each")
 PY
