@@ -22,6 +22,8 @@ Monitor::Monitor(Decider& decider, AuditLog& audit) : decider_(decider), audit_(
   host.read_sample = &Monitor::host_read_sample;
   host.audit = &Monitor::host_audit;
   decider_.set_host(host);
+  readings_.reset(decider_.device_count());
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) readings_.describe(d, decider_.device(d));
 }
 
 Monitor::~Monitor() { stop_sampling(); }
@@ -42,15 +44,17 @@ uint64_t Monitor::funcs(uint8_t bus) {
   return it == buses_.end() ? 0 : it->second->funcs();
 }
 
-// Called by the core inside check(), with mu_ held.
+// Called by the core inside check(), with mu_ held: the reading the command
+// being checked is judged against (readings/sensor_readings.h).
 uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<Monitor*>(ctx);
-  auto it = self->samples_.find(device);
-  if (it == self->samples_.end() || it->second.len == 0) return 0;
-  const uint32_t n = std::min(capacity, it->second.len);
-  std::copy_n(it->second.bytes.begin(), n, buf);
-  if (taken_at_us != nullptr) *taken_at_us = it->second.taken_at_us;
+  const readings::Reading* r =
+      self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
+  if (r == nullptr) return 0;
+  const uint32_t n = std::min(capacity, r->len);
+  std::copy_n(r->bytes.begin(), n, buf);
+  if (taken_at_us != nullptr) *taken_at_us = r->taken_at_us;
   return n;
 }
 
@@ -75,6 +79,7 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
     offset += len;
     bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes};
     if (int err = it->second->transfer({&m, 1}); err != 0) return err;
+    readings_.on_write(v.bus, v.addr, {v.emit_bytes + offset - len, len});
   }
   return 0;
 }
@@ -91,18 +96,14 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
     const uint64_t now = monotonic_us();
-    auto job_it = jobs_.find(task);
-    const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+    const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
-    // A new job (the task slept) or a whole period since the window opened
-    // (a task that never sleeps) starts a fresh budget.
-    if (b.job != job || now >= b.window_start_us + period) {
+    if (b.job != job) {  // a new release on the task's grid: a fresh budget
       b.job = job;
-      b.window_start_us = now;
       b.used = 0;
     }
     if (++b.used <= budget) return;
-    hold_until = b.window_start_us + period;
+    hold_until = next_release_locked(task, job);
     ++b.holds_unreported;
     holds_.fetch_add(1);
     if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
@@ -114,10 +115,9 @@ void Monitor::hold_if_over_budget(uint16_t task) {
       b.holds_unreported = 0;
       b.reported_at_us = now;
     }
-    // The held transfer opens the next window (another thread of the task
-    // arriving meanwhile spends that window's budget early, then waits for
-    // the one after: on average still `budget` per period).
-    b.window_start_us = hold_until;
+    // The held transfer is the first of the next job's budget (another
+    // thread of the task arriving meanwhile is held too, and counts there).
+    b.job = job + 1;
     b.used = 1;
   }
   const timespec until{static_cast<time_t>(hold_until / 1000000u),
@@ -154,8 +154,9 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   // nothing of it reaches the bus (a write cannot slip through inside a
   // combined transfer that is partly refused).
   const uint64_t now = monotonic_us();
-  auto job_it = jobs_.find(task);
-  const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+  const uint32_t job = job_at_locked(task, now);
+  checking_task_ = task;
+  checking_now_us_ = now;
   std::vector<core::Verdict>& verdicts = verdicts_;
   verdicts.resize(planned.size());
   for (size_t i = 0; i < planned.size(); ++i) {
@@ -229,6 +230,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
         msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
         reply.err = bus.transfer(msgs);
         out.resize(msgs.back().len);
+        if (reply.err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, monotonic_us());
       }
       reply.reads.push_back(std::move(out));
     }
@@ -244,19 +246,32 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
 
 void Monitor::job_boundary(uint16_t task) {
   std::lock_guard lock(mu_);
-  const uint64_t now = monotonic_us();
-  JobState& s = jobs_[task];
-  if (s.started_us == 0) {
-    s.started_us = now;
-    return;
-  }
-  // A sleep ends the job only after half a period: a burst of zero-length
-  // sleeps cannot reset the task's rate window.
+  (void)job_at_locked(task, monotonic_us());  // at most sets the phase
+}
+
+namespace {
+
+// Job k (1-based) of a grid with phase `phase_us` spans
+// [phase + (k - 1)·period, phase + k·period).
+uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
+  if (now_us <= phase_us) return 1;
+  return static_cast<uint32_t>((now_us - phase_us) / period_us + 1);
+}
+
+}  // namespace
+
+uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   const uint64_t period = decider_.task_period_us(task);
-  if (now - s.started_us >= period / 2) {
-    ++s.job;
-    s.started_us = now;
-  }
+  if (period == 0) return 0;  // no declared task: the core's own windows
+  auto [it, first] = job_phase_us_.try_emplace(task, now_us);
+  return grid_job(it->second, period, now_us);
+}
+
+uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
+  const uint64_t period = decider_.task_period_us(task);
+  auto it = job_phase_us_.find(task);
+  if (period == 0 || it == job_phase_us_.end()) return 0;
+  return it->second + uint64_t{job} * period;
 }
 
 uint16_t Monitor::task_priority(uint16_t task) const {
@@ -266,14 +281,18 @@ uint16_t Monitor::task_priority(uint16_t task) const {
 
 uint32_t Monitor::job(uint16_t task) const {
   std::lock_guard lock(mu_);
-  auto it = jobs_.find(task);
-  return it == jobs_.end() ? 0 : it->second.job;
+  auto it = job_phase_us_.find(task);
+  const uint64_t period = decider_.task_period_us(task);
+  if (it == job_phase_us_.end() || period == 0) return 0;
+  return grid_job(it->second, period, monotonic_us());
 }
 
 void Monitor::task_exited(uint16_t task) {
   drive_safe_state(fmt::format("task {} exited", task));
   std::lock_guard lock(mu_);
-  jobs_.erase(task);
+  // The job grid stays: a program that reconnects or restarts under the same
+  // task joins it, so leaving cannot open a fresh job (and budget).
+  readings_.forget_task(task);
 }
 
 std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
@@ -283,6 +302,8 @@ std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
 
 std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& why) {
   audit_.event("safe-state", why);
+  checking_task_ = core::kNoTask;  // a computed safe state reads the newest readings
+  checking_now_us_ = monotonic_us();
   std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
     const core::DeviceRecord& rec = decider_.device(d);
@@ -307,7 +328,7 @@ int Monitor::sample_device_locked(uint16_t d) {
   if (rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return 0;
   auto it = buses_.find(rec.bus);
   if (it == buses_.end()) return ENODEV;
-  Sample s;
+  std::array<uint8_t, core::kMaxSampleBytes> sample{};
   std::array<uint8_t, 8> request{};
   const uint8_t req_len = std::min<uint8_t>(rec.sample_request_len, 8);
   std::copy_n(rec.sample_request, req_len, request.begin());
@@ -318,21 +339,19 @@ int Monitor::sample_device_locked(uint16_t d) {
   bus::Msg w{rec.addr, ten, req_len, request.data()};
   if (req_len > 0 && !combined) {
     if (int err = it->second->transfer({&w, 1}); err != 0) {
-      samples_.erase(d);  // a failed sample makes the signal unavailable (fail closed)
+      readings_.on_sample_failed(d);  // the signal is unavailable (fail closed)
       return err;
     }
   }
   bus::Msg rw[2] = {
-      w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()}};
+      w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, sample.data()}};
   if (int err =
           it->second->transfer(combined ? std::span<bus::Msg>(rw) : std::span<bus::Msg>(rw + 1, 1));
       err != 0) {
-    samples_.erase(d);
+    readings_.on_sample_failed(d);
     return err;
   }
-  s.len = rw[1].len;
-  s.taken_at_us = monotonic_us();
-  samples_[d] = s;
+  readings_.on_sample(d, {sample.data(), rw[1].len}, monotonic_us());
   return 0;
 }
 

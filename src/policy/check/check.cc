@@ -831,7 +831,12 @@ class Sema {
     return error_expr(e.span);
   }
 
-  // Σ (raw_i − white_i)·100 / (black_i − white_i) · w_i, truncating division.
+  // Σ (raw_i − white_i)·100 / (black_i − white_i) · w_i, as the vendor
+  // computes it in floating point: each term is taken kLineScale times larger
+  // and the sum divided once (truncating), so the result is within 1 of the
+  // vendor's value (a per-term truncation was off by up to Σ|w_i|, enough to
+  // judge an honest command near the threshold against the wrong branch).
+  static constexpr int64_t kLineScale = 1000;
   IExprPtr resolve_line_position(const ast::Expr& e, const Ctx& c) {
     const ast::Expr* list = nullptr;
     const ast::Expr *white = nullptr, *black = nullptr, *weights = nullptr;
@@ -886,13 +891,15 @@ class Sema {
       if (raw->type == Type::kError) return raw;
       IExprPtr t =
           fold(IOp::kSub, Type::kInt, {raw, make_const((*w)[i], Type::kInt, e.span)}, e.span);
-      t = fold(IOp::kMul, Type::kInt, {t, make_const(100, Type::kInt, e.span)}, e.span);
+      t = fold(IOp::kMul, Type::kInt, {t, make_const(100 * kLineScale, Type::kInt, e.span)},
+               e.span);
       t = fold(IOp::kDiv, Type::kInt, {t, make_const((*b)[i] - (*w)[i], Type::kInt, e.span)},
                e.span);
       t = fold(IOp::kMul, Type::kInt, {t, make_const((*m)[i], Type::kInt, e.span)}, e.span);
       sum = sum ? fold(IOp::kAdd, Type::kInt, {sum, t}, e.span) : t;
     }
-    return sum ? sum : make_const(0, Type::kInt, e.span);
+    if (!sum) return make_const(0, Type::kInt, e.span);
+    return fold(IOp::kDiv, Type::kInt, {sum, make_const(kLineScale, Type::kInt, e.span)}, e.span);
   }
 
   IExprPtr resolve_binary(const ast::Expr& e, const Ctx& c) {
