@@ -60,6 +60,9 @@ for i in range(iterations):
     query(gpg, 53, 0)  # enc_read(0)
     query(gpg, 117, 15)  # us_dist(15)
     query(gpg, 114)  # read_motor_speed
-    time.sleep(0.25)  # one loop iteration per 200 ms period
+    # One iteration per 200 ms period. Two sleeps: the monitor starts a new
+    # job at a sleep entered at least half a period after the job began.
+    time.sleep(0.11)
+    time.sleep(0.15)
 cmd(gpg, 120)  # atexit: stop()
 print("done", iterations, flush=True)

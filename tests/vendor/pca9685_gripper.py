@@ -45,6 +45,7 @@ pca.write8(MODE1, oldmode)
 time.sleep(0.005)
 pca.write8(MODE1, oldmode | RESTART)
 set_pwm(5, 0, 420)  # Hand.open()
-time.sleep(1.2)  # the next job
+time.sleep(0.6)  # the next job (a sleep entered half a period into the job ends it)
+time.sleep(0.6)
 set_pwm(5, 0, 577)  # Hand.close()
 print("done", flush=True)
