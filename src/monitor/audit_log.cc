@@ -796,33 +796,6 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
 
 // Keys sorted as the earlier JSON writer had them, except "prev", which
 // comes last (it is appended when the rest of the line is known).
-RecordNames NameTable::of(const core::AuditRecord& r) const {
-  auto at = [](const std::vector<std::string>& v, uint16_t id) -> const char* {
-    return id < v.size() ? v[id].c_str() : nullptr;
-  };
-  RecordNames n;
-  n.task = at(tasks, r.task);
-  n.device = at(devices, r.device);
-  n.command = at(commands, r.command);
-  switch (r.rule_kind) {
-    case core::RuleKind::kRate:
-      n.rule = at(rates, r.rule);
-      break;
-    case core::RuleKind::kInvariant:
-      n.rule = at(invariants, r.rule);
-      break;
-    case core::RuleKind::kAccess:
-      n.rule = "access";
-      break;
-    case core::RuleKind::kLatch:
-      n.rule = "latch";
-      break;
-    case core::RuleKind::kNoRule:
-      break;
-  }
-  return n;
-}
-
 bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   const uint64_t t = wall_us();
   std::lock_guard lock(mu_);
