@@ -193,6 +193,9 @@ TEST_F(SetupTest, AnUnusedBusBesideTheRightOneOnlyWarns) {
 }  // namespace
 }  // namespace contego::monitor
 
+namespace contego::monitor {
+namespace {
+
 // A PCA9685 configured before contego started (auto-increment on, as the
 // vendor library leaves it): the shadow is read back at start, so a 5-byte
 // auto-increment write of one channel is decoded as the device will take it.
@@ -231,3 +234,6 @@ TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
   unlink(o.audit.c_str());
   rmdir(dir.c_str());
 }
+
+}  // namespace
+}  // namespace contego::monitor
