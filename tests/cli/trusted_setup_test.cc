@@ -197,8 +197,8 @@ namespace contego::monitor {
 namespace {
 
 // A PCA9685 configured before contego started (auto-increment on, as the
-// vendor library leaves it): the shadow is read back at start, so a 5-byte
-// auto-increment write of one channel is decoded as the device will take it.
+// vendor library leaves it): the shadow is read back at start (audited), and
+// whole-channel auto-increment writes are decided as the device takes them.
 TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
   char tmpl[] = "/tmp/contego-setup-XXXXXX";
   ASSERT_NE(mkdtemp(tmpl), nullptr);
@@ -221,9 +221,14 @@ TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
   m.data = {0x06, 0x00, 0x00, 0x40, 0x01};  // LED0: on 0, off 320
   m.len = static_cast<uint16_t>(m.data.size());
   tr.messages = {m};
-  const gate::TransferReply r = (*t)->monitor->transfer((*t)->tasks.at("pilot"), tr);
-  EXPECT_EQ(r.err, 0);
+  const uint16_t pilot = (*t)->tasks.at("pilot");
+  EXPECT_EQ((*t)->monitor->transfer(pilot, tr).err, 0);
   EXPECT_EQ(pca->led_off(0), 320);
+  // Full off through the same auto-increment write: the neutral pulse instead.
+  tr.messages[0].data = {0x06, 0x00, 0x00, 0x00, 0x10};
+  usleep(25000);  // the next 20 ms period: one pulse per thruster per job
+  EXPECT_EQ((*t)->monitor->transfer(pilot, tr).err, 0);
+  EXPECT_EQ(pca->led_off(0), 307);
   std::ifstream in(o.audit);
   std::stringstream s;
   s << in.rdbuf();
