@@ -60,11 +60,9 @@ uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uin
 
 void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
-  const char* name =
-      record->task < self->task_names_.size() ? self->task_names_[record->task].c_str() : nullptr;
   // No action without a record: a decision whose line is not in the log
   // is refused by transfer() (checked after each check()).
-  if (!self->audit_.decision(*record, name)) self->audit_lost_ = true;
+  if (!self->audit_.decision(*record, self->names_.of(*record))) self->audit_lost_ = true;
 }
 
 int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
@@ -85,6 +83,22 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
 }
 
 void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
+
+Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
+  std::lock_guard lock(mu_);
+  const auto& names = names_.devices;
+  const auto it = std::find(names.begin(), names.end(), device);
+  if (it == names.end()) return make_error("the policy has no device '" + device + "'");
+  const auto d = static_cast<uint16_t>(it - names.begin());
+  const bool was = decider_.latched(d);
+  // No action without a record.
+  if (!audit_.event("reset", fmt::format("device {} ({}) reset by uid {}; it was {}", d, device,
+                                         uid, was ? "latched" : "not latched"))) {
+    return make_error("the audit record of the reset could not be written; nothing was reset");
+  }
+  decider_.reset_latch(d);
+  return was;
+}
 
 void Monitor::hold_if_over_budget(uint16_t task) {
   const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
@@ -107,13 +121,24 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     ++b.holds_unreported;
     holds_.fetch_add(1);
     if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
-      const char* name = task < task_names_.size() ? task_names_[task].c_str() : "";
+      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
       audit_.event("over-budget",
                    fmt::format("task {} ({}): over its budget of {} transfers per job; {} "
                                "transfer(s) held to the end of the period since the last report",
                                task, name, budget, b.holds_unreported));
       b.holds_unreported = 0;
       b.reported_at_us = now;
+    }
+    if (!b.told) {
+      // Once per task, where the user sees it (the supervised program's terminal
+      // under `contego run`): a held program otherwise looks hung.
+      b.told = true;
+      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
+      fmt::print(
+          stderr,
+          "contego: task {}: more than {} bus writes in one job (its budget: --budget-factor "
+          "x actuations); further writes wait for the next period\n",
+          name, budget);
     }
     // The held transfer is the first of the next job's budget (another
     // thread of the task arriving meanwhile is held too, and counts there).
@@ -133,7 +158,9 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     reply.err = EINVAL;
     return reply;
   }
-  hold_if_over_budget(task);
+  // Probes (reads, register reads, SMBus quick: address scans) actuate
+  // nothing, so they do not spend the task's actuation budget.
+  if (!gate::is_probe(t)) hold_if_over_budget(task);
   std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);
   if (bus_it == buses_.end()) {

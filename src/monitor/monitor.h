@@ -49,7 +49,9 @@ class Monitor final : public gate::Endpoint {
   ~Monitor() override;
 
   void add_bus(uint8_t number, bus::Bus* bus);
-  void set_task_names(std::vector<std::string> names) { task_names_ = std::move(names); }
+  void set_task_names(std::vector<std::string> names) { names_.tasks = std::move(names); }
+  // The image's names, written beside the numbers of every audit record.
+  void set_names(NameTable names) { names_ = std::move(names); }
   // Over-budget hold (0 = off): once a task has sent more than `factor` x
   // its declared actuations per job in one job, its next transfer waits
   // until the next release of the task.
@@ -63,6 +65,10 @@ class Monitor final : public gate::Endpoint {
   // actuators whose safe state did not reach the bus (each also audited as a
   // `fault`); the others were driven.
   std::vector<DeviceFailure> drive_safe_state(const std::string& why);
+  // `contego reset DEVICE`: clears the device's latch, after an audit
+  // event naming who asked. True if it was latched; an error for an unknown
+  // device or an event that could not be written (then nothing changes).
+  Result<bool> reset_latch(const std::string& device, uid_t uid);
   // Starts / stops the sensor sampling thread (devices with a sample period).
   void start_sampling();
   void stop_sampling();
@@ -95,6 +101,7 @@ class Monitor final : public gate::Endpoint {
     uint32_t used = 0;
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
+    bool told = false;  // the first hold was explained on standard error
   };
 
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
@@ -114,7 +121,7 @@ class Monitor final : public gate::Endpoint {
   AuditLog& audit_;
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
-  std::vector<std::string> task_names_;
+  NameTable names_;
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging

@@ -294,9 +294,10 @@ invariant CAP on arm.led: require off <= 600 else failsafe off = 600
   const core::Verdict v = write({led_reg(2), 0x00, 0x00, 0x84, 0x03}, 2, 0x00);  // off = 900
   EXPECT_EQ(v.decision, Decision::kFailsafe);
   EXPECT_EQ(v.addr, 0x40);  // the substitute goes to the arm itself, not to everyone
-  // `failsafe off = 600` names one field; the others come from the shadow
-  // (power-on: LED2_OFF_H full-off bit set), as for every substitute.
-  EXPECT_EQ(pairs(v), (Pairs{{0x0E, 0x00}, {0x0F, 0x00}, {0x10, 0x58}, {0x11, 0x12}}));
+  // `failsafe off = 600` names one field; `on` comes from the shadow, but the
+  // full-on/full-off bits it does not name are 0, never the shadow's
+  // (power-on: LED2_OFF_H full-off bit set): a fail-safe pulse is a pulse.
+  EXPECT_EQ(pairs(v), (Pairs{{0x0E, 0x00}, {0x0F, 0x00}, {0x10, 0x58}, {0x11, 0x02}}));
   // Allowed as it is: the broadcast itself.
   const core::Verdict ok = write({led_reg(2), 0x00, 0x00, 0x2C, 0x01}, 3, 0x00);
   EXPECT_EQ(ok.decision, Decision::kAllow);
