@@ -1,6 +1,7 @@
 // `contego audit LOG...`: verifies the audit log's hash chain and summarises
 // it. Several files are one chain, oldest first (rotated files: LOG.3 LOG.2
 // LOG.1 LOG): each must continue from the last line of the one before.
+// With --explain, every record is first printed in words (one line each).
 // Exit status 0 when the chain holds, 1 when a line breaks it (named with
 // its file and line number) or a file cannot be read.
 #include <CLI/CLI.hpp>
@@ -9,6 +10,7 @@
 
 #include "base/read_file.h"
 #include "cli/command.h"
+#include "monitor/audit_explain.h"
 #include "monitor/audit_log.h"
 
 namespace contego::cli {
@@ -20,7 +22,22 @@ void register_audit(CLI::App& app) {
                   "the monitor's audit log (JSON lines); several: one chain across rotated "
                   "files, oldest first")
       ->required();
-  cmd->callback([paths] {
+  auto explain = std::make_shared<bool>(false);
+  cmd->add_flag("--explain", *explain,
+                "first print every record in words, one line each (task, device, command, "
+                "decision, rule and reason)");
+  cmd->callback([paths, explain] {
+    if (*explain) {
+      for (const std::string& path : *paths) {
+        if (Status s = require_regular_file(path); !s.ok()) continue;  // reported below
+        std::ifstream in(path);
+        std::string line;
+        while (std::getline(in, line)) {
+          const std::string words = monitor::explain_audit_line(line);
+          if (!words.empty()) fmt::print("{}\n", words);
+        }
+      }
+    }
     std::string last_hash;
     uint64_t total_lines = 0, total_decisions = 0;
     bool from_genesis = false;

@@ -11,6 +11,7 @@
 #include "base/json_text.h"
 #include "cli/command.h"
 #include "cli/sched_closure.h"
+#include "monitor/sha256.h"
 #include "policy/compile.h"
 #include "policy/diag/diag.h"
 
@@ -163,6 +164,10 @@ void register_check(CLI::App& app) {
         set_exit_code(2);
         return;
       }
+      // The hash `contego monitor --image IMAGE --image-sha256 HASH` pins.
+      fmt::print(stderr, "contego check: wrote {} ({} bytes, SHA-256 {})\n", emit, out.image.size(),
+                 monitor::sha256_hex(std::string_view(
+                     reinterpret_cast<const char*>(out.image.data()), out.image.size())));
     }
     if (json) {
       nlohmann::json j;

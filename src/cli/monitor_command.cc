@@ -18,7 +18,7 @@ namespace contego::cli {
 void register_monitor(CLI::App& app) {
   auto* cmd = app.add_subcommand("monitor", "The trusted-side daemon: sole owner of the buses");
   struct Args {
-    std::string policy, socket = "/run/contego/monitor.sock", audit = "-";
+    std::string policy, image, image_sha256, socket = "/run/contego/monitor.sock", audit = "-";
     std::vector<std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<unsigned> uids;
@@ -31,7 +31,12 @@ void register_monitor(CLI::App& app) {
     monitor::ServerLimits limits;
   };
   auto args = std::make_shared<Args>();
-  cmd->add_option("--policy", args->policy, "policy file")->required();
+  cmd->add_option("--policy", args->policy, "policy file");
+  cmd->add_option("--image", args->image,
+                  "a verified policy image (`contego check --emit`) to enforce; it must match "
+                  "--image-sha256 or the image --policy compiles to");
+  cmd->add_option("--image-sha256", args->image_sha256,
+                  "the SHA-256 (hex) the --image file must have");
   cmd->add_option("--socket", args->socket, "Unix socket to serve");
   cmd->add_option("--audit", args->audit, "audit log (JSON lines; - = stderr)");
   add_audit_options(cmd, &args->audit_options);
@@ -83,6 +88,16 @@ void register_monitor(CLI::App& app) {
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     monitor::SetupOptions so;
     so.policy = args->policy;
+    so.image = args->image;
+    so.image_sha256 = args->image_sha256;
+    if (so.policy.empty() && so.image.empty()) {
+      fmt::print(stderr, "contego monitor: give --policy FILE or --image FILE\n");
+      return set_exit_code(2);
+    }
+    if (!so.image_sha256.empty() && so.image.empty()) {
+      fmt::print(stderr, "contego monitor: --image-sha256 needs --image FILE\n");
+      return set_exit_code(2);
+    }
     so.audit = args->audit;
     so.audit_options = args->audit_options;
     auto buses = parse_bus_specs(args->buses, args->virtual_buses);
@@ -118,7 +133,8 @@ void register_monitor(CLI::App& app) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);
     }
-    fmt::print(stderr, "contego monitor: serving {} on {}\n", args->policy, args->socket);
+    fmt::print(stderr, "contego monitor: serving {} on {}\n",
+               args->image.empty() ? args->policy : args->image, args->socket);
     std::atomic<bool> served{false};
     std::string why = "monitor stopping";
     std::thread waiter([&] {

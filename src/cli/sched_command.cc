@@ -1,14 +1,17 @@
 // `contego sched`: design-time schedulability with checking overhead.
 //
-//   contego sched TASKSET [--overhead D | --overhead-from FILE] [--assign A] [--json]
+//   contego sched TASKSET [--overhead D | --overhead-from FILE [--stat S]] [--assign A] [--json]
+//   contego sched --batch [STREAM|-] ...   (sched/batch.h: one JSON line per set)
 //   contego sched experiment ...   (see sched_experiment below)
 //
-// Exit status: 0 schedulable, 1 some task can miss its deadline, 2 bad input.
+// Exit status: 0 schedulable, 1 some task can miss its deadline, 2 bad input
+// (--batch: 2 if any set was bad input, else 1 if any set can miss).
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -17,6 +20,7 @@
 #include "cli/command.h"
 #include "sched/analysis.h"
 #include "sched/assign.h"
+#include "sched/batch.h"
 #include "sched/duration.h"
 #include "sched/experiment.h"
 #include "sched/reader.h"
@@ -38,9 +42,11 @@ struct SchedArgs {
   std::string input;
   std::string overhead;
   std::string overhead_from;
+  std::string stat;
   std::string assign;
   bool json = false;
   bool no_sensitivity = false;
+  bool batch = false;
 };
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -87,27 +93,77 @@ Result<sched::TaskSet> read_input(const std::string& path) {
 #endif
 }
 
+// C^o forced by a flag: --overhead, or a statistic of a measured file.
+struct ForcedOverhead {
+  std::optional<sched::Nanos> value;
+  std::string source;                 // for the report
+  std::string statistic;              // --overhead-from: which one
+  std::optional<sched::Nanos> worst;  // --overhead-from: the file's max, shown beside
+};
+
+Result<ForcedOverhead> forced_overhead(const SchedArgs& args) {
+  ForcedOverhead f;
+  if (!args.overhead.empty()) {
+    Result<sched::Nanos> d = sched::parse_duration(args.overhead);
+    if (!d) return make_error("--overhead: " + d.error());
+    f.value = *d;
+    f.source = "--overhead";
+  } else if (!args.overhead_from.empty()) {
+    Result<sched::MeasuredOverhead> m = sched::read_overhead_file(args.overhead_from);
+    if (!m) return make_error("--overhead-from: " + m.error());
+    Result<sched::ChosenOverhead> c = sched::choose_overhead(*m, args.stat, args.overhead_from);
+    if (!c) return make_error("--stat: " + c.error());
+    f.value = c->overhead;
+    f.statistic = c->statistic;
+    f.worst = c->worst;
+    f.source = "measured " + c->statistic +
+               (c->worst ? " (worst " + sched::format_duration(*c->worst) + ")" : "") + " of " +
+               args.overhead_from + (m->measured_on.empty() ? "" : ", on " + m->measured_on) +
+               (m->method.empty() ? "" : ", " + m->method);
+  } else if (!args.stat.empty()) {
+    return make_error("--stat chooses a statistic of --overhead-from FILE; give the file");
+  }
+  return f;
+}
+
+void run_batch(const SchedArgs& args) {
+  Result<ForcedOverhead> forced = forced_overhead(args);
+  if (!forced) return fail(forced.error());
+  sched::BatchOptions o;
+  o.overhead = forced->value;
+  o.sensitivity = !args.no_sensitivity;
+  if (!args.assign.empty()) {
+    Result<sched::Assignment> how = sched::parse_assignment(args.assign);
+    if (!how) return fail("--assign: " + how.error());
+    o.assign = *how;
+  }
+  const bool from_stdin = args.input.empty() || args.input == "-";
+  std::ifstream file;
+  if (!from_stdin) {
+    file.open(args.input);
+    if (!file) return fail(args.input + ": cannot open");
+  }
+  std::ios::sync_with_stdio(false);
+  const sched::BatchSummary s = sched::run_batch(
+      from_stdin ? std::cin : file, from_stdin ? "<stdin>" : args.input, o, std::cout, &std::cerr);
+  std::cout.flush();
+  fmt::print(stderr, "contego sched --batch: {} task sets, {} unschedulable, {} bad\n", s.sets,
+             s.unschedulable, s.failed);
+  set_exit_code(s.failed > 0 ? kExitBadInput : s.unschedulable > 0 ? kExitUnschedulable : 0);
+}
+
 void run_sched(const SchedArgs& args) {
   Result<sched::TaskSet> read = read_input(args.input);
   if (!read) return fail(read.error());
   sched::TaskSet set = std::move(*read);
 
   // Where C^o comes from: the flag, a measured file, the input, or nowhere.
-  std::optional<sched::Nanos> forced;
-  std::string source = "input";
-  if (!args.overhead.empty()) {
-    Result<sched::Nanos> d = sched::parse_duration(args.overhead);
-    if (!d) return fail("--overhead: " + d.error());
-    forced = *d;
-    source = "--overhead";
-  } else if (!args.overhead_from.empty()) {
-    Result<sched::MeasuredOverhead> m = sched::read_overhead_file(args.overhead_from);
-    if (!m) return fail("--overhead-from: " + m.error());
-    forced = m->overhead;
-    source = "measured (" + args.overhead_from +
-             (m->measured_on.empty() ? "" : ", on " + m->measured_on) +
-             (m->method.empty() ? "" : ", " + m->method) + ")";
-  } else {
+  Result<ForcedOverhead> forced_or = forced_overhead(args);
+  if (!forced_or) return fail(forced_or.error());
+  const ForcedOverhead& measured = *forced_or;
+  const std::optional<sched::Nanos> forced = measured.value;
+  std::string source = forced ? measured.source : "input";
+  if (!forced) {
     bool declared = set.overhead.has_value();
     for (const sched::Task& t : set.tasks)
       declared = declared || t.overhead != sched::kOverheadUnset;
@@ -144,6 +200,8 @@ void run_sched(const SchedArgs& args) {
     out["assignment"] = sched::assignment_name(*how);
     if (*how == sched::Assignment::kAudsley) out["audsley_found_order"] = assigned.found;
     out["overhead_source"] = source;
+    if (!measured.statistic.empty()) out["overhead_statistic"] = measured.statistic;
+    if (measured.worst) out["overhead_worst_ns"] = *measured.worst;
     out["schedulable"] = a.schedulable;
     out["utilisation"] = sched::utilisation(set);
     out["utilisation_with_checking"] = sched::utilisation_with_checking(set);
@@ -212,7 +270,7 @@ void run_sched(const SchedArgs& args) {
     fmt::print("Audsley: no priority order makes this set schedulable\n");
   }
   if (!sens) return;
-  fmt::print("\nsensitivity (binary search on the exact test):\n");
+  fmt::print("\nsensitivity (exact boundaries of the test):\n");
   if (sens->max_overhead == sched::kInfeasible) {
     fmt::print("  the set misses a deadline even with free checking (C^o = 0)\n");
   } else if (sens->max_overhead == sched::kUnbounded) {
@@ -385,6 +443,11 @@ void register_sched(CLI::App& app) {
   cmd->add_option("--overhead-from", args->overhead_from,
                   "JSON file with the measured C^o written by `contego bench`")
       ->excludes(over);
+  cmd->add_option("--stat", args->stat,
+                  "Which statistic of --overhead-from: median, p99, p999 (default) or max");
+  cmd->add_flag("--batch", args->batch,
+                "A stream of task sets (JSON lines, CSV blocks; TASKSET or - for stdin), one "
+                "JSON result line each");
   cmd->add_option("--assign", args->assign, "Priorities: given (default), rm, dm or audsley");
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->add_flag("--no-sensitivity", args->no_sensitivity, "Skip the sensitivity analysis");
@@ -415,6 +478,7 @@ void register_sched(CLI::App& app) {
   // The task-set positional is required unless the experiment runs.
   cmd->callback([args, exp] {
     if (exp->parsed()) return;
+    if (args->batch) return run_batch(*args);
     if (args->input.empty()) {
       fail("a task-set file is required (or use `contego sched experiment`)");
       return;

@@ -3,10 +3,13 @@
 #include <string.h>
 
 #include <fmt/core.h>
+#include <optional>
 #include <set>
 
+#include "base/read_file.h"
 #include "bus/linux_i2cdev.h"
 #include "gate/transfer.h"
+#include "monitor/sha256.h"
 #include "policy/compile.h"
 
 namespace contego::monitor {
@@ -39,35 +42,150 @@ int probe(bus::Bus& b, const core::DeviceRecord& r, std::string* how) {
   return b.transfer({&m, 1});
 }
 
+// One register read: the pointer byte, then one byte (a combined transfer).
+int read_register(bus::Bus& b, const core::DeviceRecord& r, uint8_t reg, uint8_t* value) {
+  const uint16_t ten = r.ten_bit ? gate::kMsgTen : 0;
+  bus::Msg m[2] = {{r.addr, ten, 1, &reg},
+                   {r.addr, static_cast<uint16_t>(gate::kMsgRead | ten), 1, value}};
+  return b.transfer({m, 2});
+}
+
+// The registers of register-map device `d` that its commands cover.
+std::vector<uint8_t> command_registers(const image::ImageModel& model, uint16_t d) {
+  std::set<uint8_t> regs;
+  for (const auto& c : model.commands) {
+    const core::CommandRecord& r = c.record;
+    if (r.device != d || r.group_len == 0) continue;
+    for (uint32_t i = 0; i < r.repeat; ++i) {
+      for (uint32_t j = 0; j < r.group_len; ++j) {
+        const uint32_t reg = r.match + i * r.stride + j;
+        if (reg < core::kMaxRegisters) regs.insert(static_cast<uint8_t>(reg));
+      }
+    }
+  }
+  return {regs.begin(), regs.end()};
+}
+
 }  // namespace
+
+// A device configured before contego started (or by a run before it) need
+// not hold its power-on values: the shadow the core keeps of a register map
+// is read back from the device where every register answers a read. A
+// device that refuses one keeps the power-on shadow (write-only devices).
+std::vector<std::string> seed_shadows(core::Checker& checker, const image::ImageModel& model,
+                                      const std::map<int, bus::Bus*>& adapters) {
+  std::vector<std::string> notes;
+  for (uint16_t d = 0; d < checker.device_count(); ++d) {
+    const core::DeviceRecord& r = checker.device(d);
+    if (r.profile != static_cast<uint8_t>(core::Profile::kRegisterMap)) continue;
+    auto it = adapters.find(r.bus);
+    if (it == adapters.end()) continue;
+    const std::string name = d < model.devices.size() ? model.devices[d].name : std::to_string(d);
+    std::vector<std::pair<uint8_t, uint8_t>> values;
+    int err = 0;
+    for (uint8_t reg : command_registers(model, d)) {
+      uint8_t v = 0;
+      if ((err = read_register(*it->second, r, reg, &v)) != 0) {
+        notes.push_back(fmt::format(
+            "{}: register 0x{:02x} cannot be read ({}); the shadow keeps the power-on values",
+            where(name, r), reg, errno_text(err)));
+        break;
+      }
+      values.emplace_back(reg, v);
+    }
+    if (err != 0 || values.empty()) continue;
+    for (auto [reg, v] : values) checker.seed_register(d, reg, v);
+    notes.push_back(fmt::format("{}: shadow read back from the device ({} registers)",
+                                where(name, r), values.size()));
+  }
+  return notes;
+}
+
+Result<LoadedPolicy> load_policy(const SetupOptions& o) {
+  LoadedPolicy p;
+  std::optional<policy::CompileOutput> compiled;
+  if (!o.policy.empty()) {
+    compiled = policy::compile_file(o.policy);
+    if (!compiled->ok) {
+      std::string msg = "policy " + o.policy + " does not compile:";
+      for (const auto& d : compiled->diagnostics) msg += "\n" + d.rendered;
+      return make_error(msg);
+    }
+  }
+  if (o.image.empty()) {
+    if (!compiled) return make_error("no policy: give a policy file or an image");
+    p.source = o.policy;
+    p.image = std::move(compiled->image);
+    p.model = std::move(compiled->model);
+    return p;
+  }
+  // A verified image (`contego check --emit`): it is used only when its
+  // SHA-256 is the one given, or equals the image the policy compiles to.
+  auto bytes = read_input_file(o.image);
+  if (!bytes.ok()) return make_error("image " + bytes.error());
+  const std::string hash = sha256_hex(*bytes);
+  if (!o.image_sha256.empty() && hash != o.image_sha256) {
+    return make_error(fmt::format("image {} has SHA-256 {}; --image-sha256 expects {}: refusing it",
+                                  o.image, hash, o.image_sha256));
+  }
+  if (o.image_sha256.empty() && !compiled) {
+    return make_error(fmt::format(
+        "image {} (SHA-256 {}) is not pinned: give --image-sha256 or the --policy it was "
+        "emitted from",
+        o.image, hash));
+  }
+  p.image.assign(bytes->begin(), bytes->end());
+  if (compiled && compiled->image != p.image) {
+    return make_error(fmt::format(
+        "image {} (SHA-256 {}) is not the image policy {} compiles to (SHA-256 {}): refusing it",
+        o.image, hash, o.policy,
+        sha256_hex(std::string_view(reinterpret_cast<const char*>(compiled->image.data()),
+                                    compiled->image.size()))));
+  }
+  auto model = image::deserialize(p.image);
+  if (!model.ok()) return make_error(fmt::format("image {}: {}", o.image, model.error()));
+  p.model = std::move(*model);
+  p.source = fmt::format("{} (SHA-256 {})", o.image, hash);
+  return p;
+}
+
+monitor::NameTable name_table(const image::ImageModel& model) {
+  monitor::NameTable n;
+  auto names = [](const auto& records) {
+    std::vector<std::string> v;
+    for (const auto& r : records) v.push_back(r.name);
+    return v;
+  };
+  n.tasks = names(model.tasks);
+  n.devices = names(model.devices);
+  n.commands = names(model.commands);
+  n.rates = names(model.rates);
+  n.invariants = names(model.invariants);
+  return n;
+}
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   auto t = std::make_unique<Trusted>();
   if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
-  const policy::CompileOutput out = policy::compile_file(o.policy);
-  if (!out.ok) {
-    std::string msg = "policy " + o.policy + " does not compile:";
-    for (const auto& d : out.diagnostics) msg += "\n" + d.rendered;
-    return make_error(msg);
-  }
+  auto loaded = load_policy(o);
+  if (!loaded.ok()) return make_error(loaded.error());
+  const LoadedPolicy& out = *loaded;
   t->decider = std::make_unique<CoreDecider>();
   const core::LoadResult lr =
       t->decider->checker().load(out.image.data(), static_cast<uint32_t>(out.image.size()));
   if (lr.status != core::LoadStatus::kOk) {
     return make_error(
         fmt::format("policy image of {} refused by the verifier: {} (section {}, record {})",
-                    o.policy, core::load_status_name(lr.status), lr.section, lr.index));
+                    out.source, core::load_status_name(lr.status), lr.section, lr.index));
   }
-  std::vector<std::string> names;
   for (size_t i = 0; i < out.model.tasks.size(); ++i) {
     t->tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
-    names.push_back(out.model.tasks[i].name);
   }
   if (!o.task.empty() && !t->tasks.contains(o.task)) {
-    return make_error(fmt::format("policy {} declares no task '{}'", o.policy, o.task));
+    return make_error(fmt::format("policy {} declares no task '{}'", out.source, o.task));
   }
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
-  t->monitor->set_task_names(names);
+  t->monitor->set_names(name_table(out.model));
   t->monitor->set_budget_factor(o.budget_factor);
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;
@@ -95,8 +213,9 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     adapter_name[n] = "a test bus";
   }
   for (const auto& [n, b] : adapters) t->monitor->add_bus(static_cast<uint8_t>(n), b);
-  t->audit.event("start", fmt::format("policy {}, {} tasks, worst-case cost {} instructions",
-                                      o.policy, names.size(), out.worst_case_cost));
+  t->audit.event("start",
+                 fmt::format("policy {}, {} tasks, worst-case cost {} instructions", out.source,
+                             out.model.tasks.size(), t->decider->checker().worst_case_cost()));
 
   const auto& devices = out.model.devices;
   auto device_name = [&](uint16_t d) {
@@ -144,6 +263,10 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     return make_error(msg);
   };
   if (!problems.empty() && !o.allow_degraded) return refuse("devices missing");
+  // Phase 2b: the shadow of every register map, from the device itself.
+  for (const std::string& note : seed_shadows(t->decider->checker(), out.model, adapters)) {
+    t->audit.event("shadow", note);
+  }
   // Phase 3: the first sample of every sensor.
   for (const DeviceFailure& f : t->monitor->sample_all()) {
     problems.push_back(fmt::format("{} cannot be read: {}",

@@ -24,6 +24,7 @@
 
 #include "base/result.h"
 #include "bus/virtual_bus.h"
+#include "image/image_model.h"
 #include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
@@ -32,6 +33,8 @@ namespace contego::monitor {
 
 struct SetupOptions {
   std::string policy;          // policy source file
+  std::string image;           // a verified image (`contego check --emit`) instead of compiling
+  std::string image_sha256;    // the image's expected SHA-256 (hex); or `policy` must compile to it
   std::string audit = "-";     // audit log path ("-" = stderr)
   AuditOptions audit_options;  // --audit-unsafe, --audit-max-bytes, --audit-keep
   std::string task;            // contego run: the program's task, checked before any bus is touched
@@ -68,6 +71,24 @@ struct Trusted {
 std::string virtual_state(const Trusted& trusted);
 
 // Fails with a message naming the file and the reason (diagnostics, verifier status).
+struct LoadedPolicy {
+  std::string source;  // what the start event and errors name
+  std::vector<uint8_t> image;
+  image::ImageModel model;
+};
+// The image to enforce: compiled from `policy`, or read from `image` and
+// accepted only if its SHA-256 matches `image_sha256` or the compiled policy.
+Result<LoadedPolicy> load_policy(const SetupOptions& options);
+
+// Reads every register the commands of each register-map device cover back
+// from the device and seeds the checker's shadow with them (a device that
+// refuses a read keeps its power-on shadow). One note per device.
+std::vector<std::string> seed_shadows(core::Checker& checker, const image::ImageModel& model,
+                                      const std::map<int, bus::Bus*>& adapters);
+
+// The image's names by id, for the audit records.
+NameTable name_table(const image::ImageModel& model);
+
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options);
 
 }  // namespace contego::monitor

@@ -486,7 +486,8 @@ void Checker::evaluate(const Transaction& tx, Outcome& o) {
     bool decided = false;
     for (uint32_t r = 0; r < rate_count_; ++r) {
       const RateRecord& rr = rates_[r];
-      if (rr.task != tx.task || rr.device != dev || !internal::mask_has(rr.commands, d.command)) {
+      if (rr.task != tx.task || rr.device != dev || !internal::mask_has(rr.commands, d.command) ||
+          (rr.only_channel != 0 && d.index != rr.only_channel - 1)) {
         continue;
       }
       if (rate_used_[r] != 0xFFFFFFFFu) ++rate_used_[r];
@@ -528,7 +529,11 @@ void Checker::evaluate(const Transaction& tx, Outcome& o) {
       }
     }
   }
-  if (o.decision != Decision::kAllow && record_violation(dev, tx.now_us)) {
+  // Commands dropped by a rate limit do not count toward the latch: a burst
+  // is already held to its budget, and latching on it would hand the
+  // attacker the stop it is after while the honest commands are fine.
+  if (o.decision != Decision::kAllow && o.reason != Reason::kRateExceeded &&
+      record_violation(dev, tx.now_us)) {
     // The K-th violation in the window: drive the safe state once, hold it.
     Verdict& v = *tx_.out;
     v.emit_count = o.emit_index;

@@ -437,6 +437,36 @@ TEST_F(RoverTest, LastFieldAndSinceLastSeeWhatReachedTheBus) {
   EXPECT_EQ(send({71, 150, 0, 0}, rover::kFollower, 60000).decision, Decision::kAllow);
 }
 
+TEST_F(RoverTest, HasLastGuardsTheHistoryBeforeTheFirstCommand) {
+  // last(speed, 100): 100 until a command reached the bus; then at most +-50.
+  image::ImageModel m = rover::model();
+  Prog slew;
+  slew.field(0).op(Op::kHasLast);
+  const size_t none = slew.jump(Op::kJumpIfZero);
+  slew.op(Op::kLastField, 0);
+  const size_t done = slew.jump(Op::kJump);
+  slew.land(none).push(100);
+  slew.land(done).op(Op::kSub).op(Op::kAbs).push(50).op(Op::kGt);
+  const size_t small = slew.jump(Op::kJumpIfZero);
+  slew.op(Op::kFail);
+  slew.land(small).op(Op::kPass);
+  Named<InvariantRecord> v;
+  v.name = "slew";
+  v.record.device = rover::kGopigo;
+  v.record.code_first = testing::add_code(m, slew);
+  v.record.code_len = static_cast<uint16_t>(slew.size());
+  v.record.response = static_cast<uint8_t>(Response::kIgnore);
+  v.record.template_id = kNone;
+  v.record.commands = testing::mask_of({rover::kSetRightSpeed});
+  m.invariants.push_back(v);
+  m.rates.clear();
+  load(m);
+  EXPECT_EQ(send({71, 200, 0, 0}, rover::kFollower, 1000).decision, Decision::kIgnore);  // 100+100
+  EXPECT_EQ(send({71, 140, 0, 0}, rover::kFollower, 2000).decision, Decision::kAllow);   // no fault
+  EXPECT_EQ(send({71, 200, 0, 0}, rover::kFollower, 3000).decision, Decision::kIgnore);  // 140+60
+  EXPECT_EQ(send({71, 190, 0, 0}, rover::kFollower, 4000).decision, Decision::kAllow);
+}
+
 TEST_F(RoverTest, LatchAfterKViolationsDrivesSafeStateThenIgnores) {
   image::ImageModel m = rover::model();
   m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(LatchMode::kHoldSafe);

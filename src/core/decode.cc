@@ -26,6 +26,9 @@ void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
 
 void Checker::check_frame(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
+  if (tx.len == 1 && dr.short_queries != 0 && tx.len != dr.frame_len) {
+    return check_short_query(tx, dev);
+  }
   uint32_t prefix = 0;
   if (tx.len == dr.frame_len) {
     prefix = 0;
@@ -60,6 +63,35 @@ void Checker::check_frame(const Transaction& tx, uint16_t dev) {
     o->emit_len = static_cast<uint16_t>(tx.len);
     o->bus_command = d.command;
     for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+  }
+}
+
+// A one-byte write naming a query: decoded as that query with no fields (it
+// needs read access); any other single byte is malformed.
+void Checker::check_short_query(const Transaction& tx, uint16_t dev) {
+  const DeviceRecord& dr = devices_[dev];
+  const uint8_t k = state_[dev].lookup[tx.bytes[0]];
+  if (k == 0xFF ||
+      commands_[dr.command_first + k].command_class != static_cast<uint8_t>(CommandClass::kQuery)) {
+    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  }
+  Decoded& d = decoded_;
+  d.device = dev;
+  d.command = static_cast<uint16_t>(dr.command_first + k);
+  d.index = 0;
+  d.prefix = 0;
+  d.prefix_byte = 0;
+  d.base_reg = 0;
+  d.len = 1;
+  d.bytes[0] = tx.bytes[0];
+  d.field_count = 0;
+  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) d.fields[f] = 0;
+  Outcome* o = new_outcome(dev);
+  if (o == nullptr) return;
+  evaluate(tx, *o);
+  if (o->decision == Decision::kAllow) {
+    emit(tx.bytes, tx.len);
+    o->emit_len = static_cast<uint16_t>(tx.len);
   }
 }
 

@@ -173,6 +173,9 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
         stack[sp++] = static_cast<int64_t>(dt);
         break;
       }
+      case Op::kHasLast:
+        stack[sp++] = last(env.d->command, env.d->index).valid ? 1 : 0;
+        break;
       case Op::kState:
         stack[sp++] = internal::bit_test(tx_.pending_state, env.invariant)
                           ? pending_state_[env.invariant]

@@ -256,8 +256,9 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
       return fail(S::kBadTag, kDevSec, i);
     }
     if (d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
-        d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafe) || d.pad0[0] != 0 ||
-        d.pad0[1] != 0 || d.pad0[2] != 0) {
+        d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafe) || d.short_queries > 1 ||
+        d.pad0[0] != 0 || d.pad0[1] != 0 ||
+        (d.short_queries != 0 && d.profile != static_cast<uint8_t>(Profile::kFrame))) {
       return fail(S::kBadTag, kDevSec, i);
     }
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
@@ -492,7 +493,7 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
   const uint32_t kRateSec = sec(SectionKind::kRates);
   for (uint32_t i = 0; i < rate_count_; ++i) {
     const RateRecord& r = rates_[i];
-    if (!response_ok(r.response)) return fail(S::kBadTag, kRateSec, i);
+    if (!response_ok(r.response) || r.reserved != 0) return fail(S::kBadTag, kRateSec, i);
     if (r.task >= task_count_ || !is_actuator(r.device) || !mask_ok(r.commands, r.device) ||
         !template_ok(r.template_id, r.device)) {
       return fail(S::kBadReference, kRateSec, i);
@@ -612,6 +613,7 @@ bool Checker::verify_program(uint32_t code_first, uint32_t code_len, bool derive
       case Op::kIndex:
       case Op::kJobCount:
       case Op::kSinceLast:
+      case Op::kHasLast:
       case Op::kState:
         if (derived) return fail_at(S::kBadProgram, pc);
         pushes = 1;

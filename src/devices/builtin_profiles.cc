@@ -173,6 +173,13 @@ ProfileSpec make_line_follower() {
   p.doc = "Dexter Industries red line follower: 5 IR reflectance sensors, 10-bit readings";
   p.commands.push_back(frame_command("read_sensors", 3, CommandClass::kQuery, "read_sensors", {},
                                      "latch the five sensor readings for the next 10-byte read"));
+  // DI's current driver probes the board before each read: a one-byte
+  // write [0x12], then a 20-byte read of the board name.
+  p.short_queries = true;
+  p.commands.push_back(frame_command("manufacturer", 0x11, CommandClass::kQuery, "identity", {},
+                                     "load the 20-byte manufacturer name"));
+  p.commands.push_back(frame_command("board_name", 0x12, CommandClass::kQuery, "identity", {},
+                                     "load the 20-byte board name (\"Line Follower\")"));
   p.sample_request = {0x01, 0x03, 0x00, 0x00, 0x00};
   p.sample_len = 10;
   for (uint8_t i = 0; i < 5; ++i) {
@@ -185,9 +192,11 @@ ProfileSpec make_line_follower() {
 
 // LEDn / ALL_LED: ON_L ON_H OFF_L OFF_H; 12-bit counts, bit 4 of the high bytes = full on/off.
 std::vector<FieldSpec> led_fields() {
+  FieldSpec full_on = bit_field("full_on", 1, 4), full_off = bit_field("full_off", 3, 4);
+  full_on.output_override = full_off.output_override = true;
   return {field("on", 0, 2, 0, 12, false, 0, 4095, "ticks"),
-          field("off", 2, 2, 0, 12, false, 0, 4095, "ticks"), bit_field("full_on", 1, 4),
-          bit_field("full_off", 3, 4)};
+          field("off", 2, 2, 0, 12, false, 0, 4095, "ticks"), std::move(full_on),
+          std::move(full_off)};
 }
 
 ProfileSpec make_pca9685() {

@@ -231,6 +231,7 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
   r.command_count = static_cast<uint16_t>(profile.commands.size());
   r.frame_len = profile.frame_len;
   r.prefix_len = profile.prefix_len;
+  r.short_queries = profile.short_queries ? 1 : 0;
   if (profile.kind == core::Profile::kRegisterMap) {
     r.auto_increment = static_cast<uint8_t>(profile.auto_increment);
     r.ai_reg = profile.ai_reg;

@@ -27,6 +27,10 @@ struct FieldSpec {
   int64_t min = 0;             // legal range of the value, for the compiler's range checks
   int64_t max = 0;
   std::string unit;  // "", "ticks", "ms" ... (documentation and unit checks)
+  // A one-bit override that forces the output fully on or off whatever the
+  // pulse (PCA9685 full_on / full_off). A fail-safe that does not name it
+  // writes 0, never the value the device's shadow holds (power-on: full off).
+  bool output_override = false;
 };
 
 struct CommandSpec {
@@ -66,6 +70,7 @@ struct ProfileSpec {
   // kFrame
   uint8_t frame_len = 0;
   uint8_t prefix_len = 0;
+  bool short_queries = false;  // a one-byte write [opcode] of a query is that query
   // kRegisterMap
   core::AutoIncrement auto_increment = core::AutoIncrement::kNever;
   uint8_t ai_reg = 0;

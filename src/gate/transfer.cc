@@ -4,6 +4,18 @@
 
 namespace contego::gate {
 
+bool is_probe(const Transfer& t) {
+  if (t.quick) return true;
+  const auto& m = t.messages;
+  for (size_t i = 0; i < m.size(); ++i) {
+    if (m[i].is_read()) continue;
+    const bool pointer = m[i].data.size() == 1 && i + 1 < m.size() && m[i + 1].is_read() &&
+                         m[i + 1].addr == m[i].addr;
+    if (!pointer) return false;
+  }
+  return !m.empty();
+}
+
 std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
   std::vector<PlannedTx> out;
   if (transfer.quick) {

@@ -45,6 +45,12 @@ struct Transfer {
   std::vector<Message> messages;  // performed as one combined transfer
 };
 
+// A transfer that can actuate nothing: an SMBus quick, reads, and one-byte
+// register pointers each followed by a read (address scans, i2cdump, sensor
+// and status reads). Such transfers are still checked; they only do not
+// count against a task's actuation budget.
+bool is_probe(const Transfer& t);
+
 // The reply to a transfer: 0 or an errno, and the bytes of every read
 // message (in message order; one entry per read message).
 struct TransferReply {

@@ -63,6 +63,31 @@ TEST(ToTransactions, GeneralCallByteIsNeverAPointer) {
   EXPECT_EQ(txs[0].addr, 0);
 }
 
+TEST(IsProbe, ScansAndReadsAreProbesWritesAreNot) {
+  Transfer quick;
+  quick.quick = true;  // i2cdetect's default probe
+  EXPECT_TRUE(is_probe(quick));
+  Transfer read_byte;
+  read_byte.messages = {r(0x50, 1)};  // i2cdetect at 0x50..0x5f
+  EXPECT_TRUE(is_probe(read_byte));
+  Transfer register_read;
+  register_read.messages = {w(0x40, {0x00}), r(0x40, 1)};  // i2cdump, i2cget
+  EXPECT_TRUE(is_probe(register_read));
+  Transfer write;
+  write.messages = {w(0x40, {0x00, 0x11})};
+  EXPECT_FALSE(is_probe(write));
+  Transfer send_byte;
+  send_byte.messages = {w(0x00, {0x06})};  // a one-byte command (software reset) actuates
+  EXPECT_FALSE(is_probe(send_byte));
+  Transfer hidden;
+  hidden.messages = {r(0x40, 1), w(0x40, {0x06, 0x00, 0x00, 0xA4, 0x01}), r(0x40, 1)};
+  EXPECT_FALSE(is_probe(hidden));
+  Transfer pointer_elsewhere;
+  pointer_elsewhere.messages = {w(0x40, {0x00}), r(0x41, 1)};
+  EXPECT_FALSE(is_probe(pointer_elsewhere));
+  EXPECT_FALSE(is_probe(Transfer{}));
+}
+
 TEST(ToTransactions, QuickIsOneQuickTransaction) {
   Transfer t;
   t.quick = true;

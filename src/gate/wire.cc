@@ -92,6 +92,8 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kChannel:
     case Type::kChannelOk:
     case Type::kJobEndOk:
+    case Type::kReset:
+    case Type::kResetOk:
     case Type::kError:
       return {};
   }

@@ -35,6 +35,8 @@ enum class Type : uint8_t {
   kChannel = 8,    // client: empty; asks for a shared-memory channel -> kChannelOk | kError
   kChannelOk = 9,  // server: u32 channel size; the memfd rides along (SCM_RIGHTS)
   kJobEndOk = 10,  // server, channel only: the job-end was taken
+  kReset = 11,     // operator: device name; clears its latch -> kResetOk | kError
+  kResetOk = 12,   // server: u8 1 if the device was latched
   kError = 0x7F,   // server: errno and reason text
 };
 

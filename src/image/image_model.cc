@@ -204,6 +204,8 @@ const char* op_name(uint8_t op) {
       return "lastfield";
     case Op::kSinceLast:
       return "sincelast";
+    case Op::kHasLast:
+      return "haslast";
     case Op::kState:
       return "state";
     case Op::kSetState:
@@ -419,6 +421,7 @@ std::string dump(const ImageModel& m) {
     out += fmt::format("  r{} {}: t{} -> d{} max {} per job over [{}] else {}", i, m.rates[i].name,
                        r.task, r.device, r.max_per_job, mask_list(r.commands),
                        response_name(r.response));
+    if (r.only_channel != 0) out += fmt::format(" channel {}", r.only_channel - 1);
     if (r.template_id != core::kNone) out += fmt::format(" tpl{}", r.template_id);
     if (r.response == 3) out += fmt::format(" errno {}", r.reply_errno);
     out += "\n";

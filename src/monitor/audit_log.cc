@@ -23,6 +23,8 @@
 #include <sys/statvfs.h>
 #include <sys/sysmacros.h>
 
+#include "contego/core/checker.h"
+
 #include "base/json_text.h"
 #include "monitor/sha256.h"
 
@@ -119,21 +121,6 @@ void put_string(std::string& out, std::string_view text) {
     }
   }
   out += '"';
-}
-
-// Local names so the log does not depend on the core's string tables.
-const char* decision_str(core::Decision d) {
-  switch (d) {
-    case core::Decision::kAllow:
-      return "allow";
-    case core::Decision::kIgnore:
-      return "ignore";
-    case core::Decision::kFailsafe:
-      return "failsafe";
-    case core::Decision::kReject:
-      return "reject";
-  }
-  return "?";
 }
 
 std::string fmt_line(uint64_t n, const std::string& why) {
@@ -809,36 +796,45 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
 
 // Keys sorted as the earlier JSON writer had them, except "prev", which
 // comes last (it is appended when the rest of the line is known).
-bool AuditLog::decision(const core::AuditRecord& r, const char* task_name) {
+bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   const uint64_t t = wall_us();
   std::lock_guard lock(mu_);
   if (mode_ == Mode::kNone) {
     ++lines_;
     return true;
   }
+  // Each name beside its number, so a person reads the line without the image.
+  auto name = [&](const char* key, const char* value) {
+    if (value == nullptr) return;
+    fmt::format_to(Out(line_), ",\"{}\":", key);
+    put_string(line_, value);
+  };
   line_.clear();
   fmt::format_to(Out(line_), "{{\"addr\":{},\"bus\":{},\"bytes\":\"", r.addr, r.bus);
   put_hex(line_, r.original, r.original_len);
-  fmt::format_to(Out(line_), "\",\"command\":{},\"decision\":\"{}\",\"device\":{},\"fields\":[",
-                 r.command, decision_str(r.decision), r.device);
+  fmt::format_to(Out(line_), "\",\"command\":{}", r.command);
+  name("command_name", names.command);
+  fmt::format_to(Out(line_), ",\"decision\":\"{}\",\"device\":{}", core::decision_name(r.decision),
+                 r.device);
+  name("device_name", names.device);
+  line_ += ",\"fields\":[";
   const uint8_t nfields = std::min<uint8_t>(r.field_count, 8);
   for (uint8_t i = 0; i < nfields; ++i) {
     fmt::format_to(Out(line_), "{}{}", i ? "," : "", r.fields[i]);
   }
   fmt::format_to(Out(line_),
-                 "],\"index\":{},\"job\":{},\"kind\":\"decision\",\"reason\":{},\"rule\":{},"
-                 "\"rule_kind\":{}",
-                 r.index, r.job, static_cast<int>(r.reason), r.rule, static_cast<int>(r.rule_kind));
+                 "],\"index\":{},\"job\":{},\"kind\":\"decision\",\"reason\":{},"
+                 "\"reason_name\":\"{}\",\"rule\":{},\"rule_kind\":{}",
+                 r.index, r.job, static_cast<int>(r.reason), core::reason_name(r.reason), r.rule,
+                 static_cast<int>(r.rule_kind));
+  name("rule_name", names.rule);
   if (r.substitute != nullptr) {
     line_ += ",\"substitute\":\"";
     put_hex(line_, r.substitute, r.substitute_len);
     line_ += '"';
   }
   fmt::format_to(Out(line_), ",\"t_us\":{},\"task\":{}", t, r.task);
-  if (task_name != nullptr) {
-    line_ += ",\"task_name\":";
-    put_string(line_, task_name);
-  }
+  name("task_name", names.task);
   return commit_locked(line_);
 }
 

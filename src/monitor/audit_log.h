@@ -53,6 +53,21 @@ struct AuditOptions {
   unsigned keep = 5;       // rotated files kept: PATH.1 (newest) .. PATH.keep
 };
 
+// The policy's names of the numbers in a decision record (any may be null:
+// the record then carries the number only).
+struct RecordNames {
+  const char* task = nullptr;
+  const char* device = nullptr;
+  const char* command = nullptr;
+  const char* rule = nullptr;
+};
+
+// The policy image's names, by id: what a decision record's numbers mean.
+struct NameTable {
+  std::vector<std::string> tasks, devices, commands, rates, invariants;
+  RecordNames of(const core::AuditRecord& record) const;
+};
+
 class AuditLog {
  public:
   AuditLog() = default;  // discards everything
@@ -67,7 +82,10 @@ class AuditLog {
   Status open(const std::string& path, const AuditOptions& options = {});
   // False: the line is NOT in the log (the caller must not act on it). A
   // loud, rate-limited message goes to standard error.
-  bool decision(const core::AuditRecord& record, const char* task_name);
+  bool decision(const core::AuditRecord& record, const RecordNames& names);
+  bool decision(const core::AuditRecord& record, const char* task_name) {
+    return decision(record, RecordNames{task_name, nullptr, nullptr, nullptr});
+  }
   // Monitor events: start, safe-state, fault, task-exit, peer ...
   bool event(const std::string& kind, const std::string& detail);
   // SIGHUP: if the path no longer names the open file (moved away by

@@ -12,6 +12,8 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include "monitor/audit_explain.h"
+
 namespace contego::monitor {
 namespace {
 
@@ -61,6 +63,56 @@ class AuditChain : public ::testing::Test {
 
 // A client's bytes reach the log (a task name in a refused hello, say): they
 // must not be able to stop the monitor, and the chain must still verify.
+TEST_F(AuditChain, DecisionRecordsCarryNamesAndExplainInWords) {
+  {
+    AuditLog log;
+    ASSERT_TRUE(log.open(path).ok());
+    NameTable names;
+    names.tasks = {"follower"};
+    names.devices = {"gopigo"};
+    names.commands = {"fwd", "set_left_speed"};
+    names.invariants = {"INV3"};
+    const uint8_t bytes[] = {0x01, 0x46, 0xFF, 0x00, 0x00};
+    const uint8_t sub[] = {0x01, 0x46, 0x50, 0x00, 0x00};
+    core::AuditRecord r{};
+    r.task = 0;
+    r.job = 7;
+    r.device = 0;
+    r.command = 1;
+    r.decision = core::Decision::kFailsafe;
+    r.reason = core::Reason::kInvariantViolated;
+    r.rule_kind = core::RuleKind::kInvariant;
+    r.rule = 0;
+    r.fields[0] = 255;
+    r.field_count = 1;
+    r.bus = 1;
+    r.addr = 0x08;
+    r.original = bytes;
+    r.original_len = 5;
+    r.substitute = sub;
+    r.substitute_len = 5;
+    ASSERT_TRUE(log.decision(r, names.of(r)));
+  }
+  const auto v = lines();
+  ASSERT_EQ(v.size(), 1u);
+  const auto j = nlohmann::json::parse(v[0]);
+  EXPECT_EQ(j["task_name"], "follower");
+  EXPECT_EQ(j["device_name"], "gopigo");
+  EXPECT_EQ(j["command_name"], "set_left_speed");
+  EXPECT_EQ(j["rule_name"], "INV3");
+  EXPECT_EQ(j["reason_name"], "invariant-violated");
+  EXPECT_EQ(j["decision"], "failsafe");
+  EXPECT_TRUE(verify().ok);
+  const std::string words = explain_audit_line(v[0]);
+  EXPECT_NE(words.find("follower (job 7) -> gopigo at i2c-1 0x08: set_left_speed(255) REPLACED"),
+            std::string::npos)
+      << words;
+  EXPECT_NE(words.find("by invariant INV3 (invariant-violated); wrote [01 46 50 00 00] instead"),
+            std::string::npos)
+      << words;
+  EXPECT_EQ(explain_audit_line(""), "");
+}
+
 TEST_F(AuditChain, InvalidUtf8FromAClientIsWrittenNotThrown) {
   {
     AuditLog log;

@@ -32,6 +32,8 @@ class CoreDecider final : public Decider {
   uint32_t task_actuations_per_job(uint16_t task) const override {
     return task < checker_.task_count() ? checker_.task(task).actuations_per_job : 0;
   }
+  bool latched(uint16_t device) const override { return checker_.latched(device); }
+  void reset_latch(uint16_t device) override { checker_.reset_latch(device); }
 
  private:
   core::Checker checker_;

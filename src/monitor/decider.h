@@ -37,6 +37,9 @@ class Decider {
   // Checked commands the task declares per job (N_i of the schedulability
   // test), 0 = none declared.
   virtual uint32_t task_actuations_per_job(uint16_t /*task*/) const { return 0; }
+  // Operator reset of a latched device (`contego reset`).
+  virtual bool latched(uint16_t /*device*/) const { return false; }
+  virtual void reset_latch(uint16_t /*device*/) {}
 };
 
 }  // namespace contego::monitor

@@ -22,6 +22,8 @@ Monitor::Monitor(Decider& decider, AuditLog& audit) : decider_(decider), audit_(
   host.read_sample = &Monitor::host_read_sample;
   host.audit = &Monitor::host_audit;
   decider_.set_host(host);
+  readings_.reset(decider_.device_count());
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) readings_.describe(d, decider_.device(d));
 }
 
 Monitor::~Monitor() { stop_sampling(); }
@@ -42,25 +44,25 @@ uint64_t Monitor::funcs(uint8_t bus) {
   return it == buses_.end() ? 0 : it->second->funcs();
 }
 
-// Called by the core inside check(), with mu_ held.
+// Called by the core inside check(), with mu_ held: the reading the command
+// being checked is judged against (readings/sensor_readings.h).
 uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<Monitor*>(ctx);
-  auto it = self->samples_.find(device);
-  if (it == self->samples_.end() || it->second.len == 0) return 0;
-  const uint32_t n = std::min(capacity, it->second.len);
-  std::copy_n(it->second.bytes.begin(), n, buf);
-  if (taken_at_us != nullptr) *taken_at_us = it->second.taken_at_us;
+  const readings::Reading* r =
+      self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
+  if (r == nullptr) return 0;
+  const uint32_t n = std::min(capacity, r->len);
+  std::copy_n(r->bytes.begin(), n, buf);
+  if (taken_at_us != nullptr) *taken_at_us = r->taken_at_us;
   return n;
 }
 
 void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
-  const char* name =
-      record->task < self->task_names_.size() ? self->task_names_[record->task].c_str() : nullptr;
   // No action without a record: a decision whose line is not in the log
   // is refused by transfer() (checked after each check()).
-  if (!self->audit_.decision(*record, name)) self->audit_lost_ = true;
+  if (!self->audit_.decision(*record, self->names_.of(*record))) self->audit_lost_ = true;
 }
 
 int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
@@ -75,11 +77,28 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
     offset += len;
     bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes};
     if (int err = it->second->transfer({&m, 1}); err != 0) return err;
+    readings_.on_write(v.bus, v.addr, {v.emit_bytes + offset - len, len});
   }
   return 0;
 }
 
 void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
+
+Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
+  std::lock_guard lock(mu_);
+  const auto& names = names_.devices;
+  const auto it = std::find(names.begin(), names.end(), device);
+  if (it == names.end()) return make_error("the policy has no device '" + device + "'");
+  const auto d = static_cast<uint16_t>(it - names.begin());
+  const bool was = decider_.latched(d);
+  // No action without a record.
+  if (!audit_.event("reset", fmt::format("device {} ({}) reset by uid {}; it was {}", d, device,
+                                         uid, was ? "latched" : "not latched"))) {
+    return make_error("the audit record of the reset could not be written; nothing was reset");
+  }
+  decider_.reset_latch(d);
+  return was;
+}
 
 void Monitor::hold_if_over_budget(uint16_t task) {
   const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
@@ -91,22 +110,18 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
     const uint64_t now = monotonic_us();
-    auto job_it = jobs_.find(task);
-    const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+    const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
-    // A new job (the task slept) or a whole period since the window opened
-    // (a task that never sleeps) starts a fresh budget.
-    if (b.job != job || now >= b.window_start_us + period) {
+    if (b.job != job) {  // a new release on the task's grid: a fresh budget
       b.job = job;
-      b.window_start_us = now;
       b.used = 0;
     }
     if (++b.used <= budget) return;
-    hold_until = b.window_start_us + period;
+    hold_until = next_release_locked(task, job);
     ++b.holds_unreported;
     holds_.fetch_add(1);
     if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
-      const char* name = task < task_names_.size() ? task_names_[task].c_str() : "";
+      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
       audit_.event("over-budget",
                    fmt::format("task {} ({}): over its budget of {} transfers per job; {} "
                                "transfer(s) held to the end of the period since the last report",
@@ -114,10 +129,20 @@ void Monitor::hold_if_over_budget(uint16_t task) {
       b.holds_unreported = 0;
       b.reported_at_us = now;
     }
-    // The held transfer opens the next window (another thread of the task
-    // arriving meanwhile spends that window's budget early, then waits for
-    // the one after: on average still `budget` per period).
-    b.window_start_us = hold_until;
+    if (!b.told) {
+      // Once per task, where the user sees it (the supervised program's terminal
+      // under `contego run`): a held program otherwise looks hung.
+      b.told = true;
+      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
+      fmt::print(
+          stderr,
+          "contego: task {}: more than {} bus writes in one job (its budget: --budget-factor "
+          "x actuations); further writes wait for the next period\n",
+          name, budget);
+    }
+    // The held transfer is the first of the next job's budget (another
+    // thread of the task arriving meanwhile is held too, and counts there).
+    b.job = job + 1;
     b.used = 1;
   }
   const timespec until{static_cast<time_t>(hold_until / 1000000u),
@@ -133,7 +158,9 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     reply.err = EINVAL;
     return reply;
   }
-  hold_if_over_budget(task);
+  // Probes (reads, register reads, SMBus quick: address scans) actuate
+  // nothing, so they do not spend the task's actuation budget.
+  if (!gate::is_probe(t)) hold_if_over_budget(task);
   std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);
   if (bus_it == buses_.end()) {
@@ -174,7 +201,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
       }
     }
     decider_.commit_transfer();
-    return perform_transfer(t, planned);
+    return perform_transfer(task, t, planned);
   }
   audit_lost_ = false;
   decider_.abort_transfer(core::transfer_decision(tv.action));
@@ -206,8 +233,9 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
 int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
                             const std::vector<gate::PlannedTx>& planned, size_t* checked) {
   const uint64_t now = monotonic_us();
-  auto job_it = jobs_.find(task);
-  const uint32_t job = job_it == jobs_.end() ? 0 : job_it->second.job;
+  const uint32_t job = job_at_locked(task, now);
+  checking_task_ = task;
+  checking_now_us_ = now;
   verdicts_.resize(planned.size());
   decider_.begin_transfer();
   for (size_t i = 0; i < planned.size(); ++i) {
@@ -269,7 +297,7 @@ void Monitor::drive_transfer_safe_states(uint16_t task, size_t checked) {
 }
 
 // Performs, in message order, only what the core allowed or substituted.
-gate::TransferReply Monitor::perform_transfer(const gate::Transfer& t,
+gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfer& t,
                                               const std::vector<gate::PlannedTx>& planned) {
   gate::TransferReply reply;
   bus::Bus& bus = *buses_.at(t.bus);
@@ -292,6 +320,7 @@ gate::TransferReply Monitor::perform_transfer(const gate::Transfer& t,
       msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
       reply.err = bus.transfer(msgs);
       out.resize(msgs.back().len);
+      if (reply.err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, monotonic_us());
       reply.reads.push_back(std::move(out));
     }
     if (reply.err != 0) {
@@ -306,19 +335,32 @@ gate::TransferReply Monitor::perform_transfer(const gate::Transfer& t,
 
 void Monitor::job_boundary(uint16_t task) {
   std::lock_guard lock(mu_);
-  const uint64_t now = monotonic_us();
-  JobState& s = jobs_[task];
-  if (s.started_us == 0) {
-    s.started_us = now;
-    return;
-  }
-  // A sleep ends the job only after half a period: a burst of zero-length
-  // sleeps cannot reset the task's rate window.
+  (void)job_at_locked(task, monotonic_us());  // at most sets the phase
+}
+
+namespace {
+
+// Job k (1-based) of a grid with phase `phase_us` spans
+// [phase + (k - 1)·period, phase + k·period).
+uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
+  if (now_us <= phase_us) return 1;
+  return static_cast<uint32_t>((now_us - phase_us) / period_us + 1);
+}
+
+}  // namespace
+
+uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   const uint64_t period = decider_.task_period_us(task);
-  if (now - s.started_us >= period / 2) {
-    ++s.job;
-    s.started_us = now;
-  }
+  if (period == 0) return 0;  // no declared task: the core's own windows
+  auto [it, first] = job_phase_us_.try_emplace(task, now_us);
+  return grid_job(it->second, period, now_us);
+}
+
+uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
+  const uint64_t period = decider_.task_period_us(task);
+  auto it = job_phase_us_.find(task);
+  if (period == 0 || it == job_phase_us_.end()) return 0;
+  return it->second + uint64_t{job} * period;
 }
 
 uint16_t Monitor::task_priority(uint16_t task) const {
@@ -328,14 +370,18 @@ uint16_t Monitor::task_priority(uint16_t task) const {
 
 uint32_t Monitor::job(uint16_t task) const {
   std::lock_guard lock(mu_);
-  auto it = jobs_.find(task);
-  return it == jobs_.end() ? 0 : it->second.job;
+  auto it = job_phase_us_.find(task);
+  const uint64_t period = decider_.task_period_us(task);
+  if (it == job_phase_us_.end() || period == 0) return 0;
+  return grid_job(it->second, period, monotonic_us());
 }
 
 void Monitor::task_exited(uint16_t task) {
   drive_safe_state(fmt::format("task {} exited", task));
   std::lock_guard lock(mu_);
-  jobs_.erase(task);
+  // The job grid stays: a program that reconnects or restarts under the same
+  // task joins it, so leaving cannot open a fresh job (and budget).
+  readings_.forget_task(task);
 }
 
 std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
@@ -345,6 +391,8 @@ std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
 
 std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& why) {
   audit_.event("safe-state", why);
+  checking_task_ = core::kNoTask;  // a computed safe state reads the newest readings
+  checking_now_us_ = monotonic_us();
   std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
     const core::DeviceRecord& rec = decider_.device(d);
@@ -369,7 +417,7 @@ int Monitor::sample_device_locked(uint16_t d) {
   if (rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return 0;
   auto it = buses_.find(rec.bus);
   if (it == buses_.end()) return ENODEV;
-  Sample s;
+  std::array<uint8_t, core::kMaxSampleBytes> sample{};
   std::array<uint8_t, 8> request{};
   const uint8_t req_len = std::min<uint8_t>(rec.sample_request_len, 8);
   std::copy_n(rec.sample_request, req_len, request.begin());
@@ -380,21 +428,19 @@ int Monitor::sample_device_locked(uint16_t d) {
   bus::Msg w{rec.addr, ten, req_len, request.data()};
   if (req_len > 0 && !combined) {
     if (int err = it->second->transfer({&w, 1}); err != 0) {
-      samples_.erase(d);  // a failed sample makes the signal unavailable (fail closed)
+      readings_.on_sample_failed(d);  // the signal is unavailable (fail closed)
       return err;
     }
   }
   bus::Msg rw[2] = {
-      w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, s.bytes.data()}};
+      w, {rec.addr, static_cast<uint16_t>(ten | gate::kMsgRead), rec.sample_len, sample.data()}};
   if (int err =
           it->second->transfer(combined ? std::span<bus::Msg>(rw) : std::span<bus::Msg>(rw + 1, 1));
       err != 0) {
-    samples_.erase(d);
+    readings_.on_sample_failed(d);
     return err;
   }
-  s.len = rw[1].len;
-  s.taken_at_us = monotonic_us();
-  samples_[d] = s;
+  readings_.on_sample(d, {sample.data(), rw[1].len}, monotonic_us());
   return 0;
 }
 

@@ -1,9 +1,12 @@
 // Monitor: the trusted side on Linux. Sole owner of the bus backends; every
 // transfer an enclave client sends is normalised into core transactions,
 // decided by the core, and only the bytes the core emitted are put on the
-// bus. Samples the declared sensors itself (S(t) never comes from a task),
-// keeps job numbers per task, writes the audit log, and drives every actuator
-// to its safe state on start, on a fault and when a supervised task exits.
+// bus. Samples the declared sensors itself and keeps every sensor reading a
+// task had it perform (S(t) never comes from a task's say-so: each reading is
+// bytes the monitor read from the bus; readings/sensor_readings.h), numbers each
+// task's jobs on its period grid from the monitor's own clock, writes the
+// audit log, and drives every actuator to its safe state on start, on a fault
+// and when a supervised task exits.
 //
 // Thread-safety: all public methods may be called from any thread; one mutex
 // serialises the core and the buses (the core is single-threaded by design).
@@ -26,6 +29,7 @@
 #include "gate/endpoint.h"
 #include "monitor/audit_log.h"
 #include "monitor/decider.h"
+#include "readings/sensor_readings.h"
 
 namespace contego::monitor {
 
@@ -45,10 +49,12 @@ class Monitor final : public gate::Endpoint {
   ~Monitor() override;
 
   void add_bus(uint8_t number, bus::Bus* bus);
-  void set_task_names(std::vector<std::string> names) { task_names_ = std::move(names); }
+  void set_task_names(std::vector<std::string> names) { names_.tasks = std::move(names); }
+  // The image's names, written beside the numbers of every audit record.
+  void set_names(NameTable names) { names_ = std::move(names); }
   // Over-budget hold (0 = off): once a task has sent more than `factor` x
-  // its declared actuations per job in one job (or one period, for a task
-  // that never sleeps), its next transfer waits until that period is over.
+  // its declared actuations per job in one job, its next transfer waits
+  // until the next release of the task.
   // The schedulability test assumes N_i checked commands per job; this bounds
   // what a runaway or hostile task can make the monitor do for it.
   void set_budget_factor(uint32_t factor);
@@ -59,6 +65,10 @@ class Monitor final : public gate::Endpoint {
   // actuators whose safe state did not reach the bus (each also audited as a
   // `fault`); the others were driven.
   std::vector<DeviceFailure> drive_safe_state(const std::string& why);
+  // `contego reset DEVICE`: clears the device's latch, after an audit
+  // event naming who asked. True if it was latched; an error for an unknown
+  // device or an event that could not be written (then nothing changes).
+  Result<bool> reset_latch(const std::string& device, uid_t uid);
   // Starts / stops the sensor sampling thread (devices with a sample period).
   void start_sampling();
   void stop_sampling();
@@ -68,11 +78,16 @@ class Monitor final : public gate::Endpoint {
   std::vector<DeviceFailure> sample_all();
 
   gate::TransferReply transfer(uint16_t task, const gate::Transfer& transfer) override;
+  // A hint that the task went to sleep. Jobs are released on the task's
+  // period grid, whose phase is the task's first contact (a transfer or this
+  // hint); the hint never starts a job itself, so no sleeping thread can
+  // grant the task an extra budget.
   void job_boundary(uint16_t task) override;
   void task_exited(uint16_t task) override;
   bool has_bus(uint8_t bus) override;
   uint64_t funcs(uint8_t bus) override;
 
+  // The task's current job on its period grid (0: no contact yet, or no period).
   uint32_t job(uint16_t task) const;
   uint16_t task_priority(uint16_t task) const;
   uint64_t decisions() const { return decisions_.load(); }
@@ -81,21 +96,12 @@ class Monitor final : public gate::Endpoint {
   uint64_t audit_refusals() const { return audit_refusals_.load(); }
 
  private:
-  struct Sample {
-    std::array<uint8_t, core::kMaxSampleBytes> bytes{};
-    uint32_t len = 0;
-    uint64_t taken_at_us = 0;
-  };
-  struct JobState {
-    uint32_t job = 1;
-    uint64_t started_us = 0;
-  };
   struct Budget {
     uint32_t job = 0;
-    uint64_t window_start_us = 0;
     uint32_t used = 0;
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
+    bool told = false;  // the first hold was explained on standard error
   };
 
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
@@ -105,22 +111,29 @@ class Monitor final : public gate::Endpoint {
   // transfer()'s steps, under mu_ (verdicts_ holds the verdicts).
   int check_transfer(uint16_t task, const gate::Transfer& t,
                      const std::vector<gate::PlannedTx>& planned, size_t* checked);
-  gate::TransferReply perform_transfer(const gate::Transfer& t,
+  gate::TransferReply perform_transfer(uint16_t task, const gate::Transfer& t,
                                        const std::vector<gate::PlannedTx>& planned);
   void drive_transfer_safe_states(uint16_t task, size_t checked);
   int sample_device_locked(uint16_t device);  // 0 or the bus's errno
   void hold_if_over_budget(uint16_t task);
+  // The task's job at `now_us` on its period grid (1 = the first), starting
+  // the grid on the first call; 0 for a task without a period.
+  uint32_t job_at_locked(uint16_t task, uint64_t now_us);
+  // When job `job` + 1 of the task is released (0: never).
+  uint64_t next_release_locked(uint16_t task, uint32_t job) const;
   std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why);
 
   Decider& decider_;
   AuditLog& audit_;
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
-  std::vector<std::string> task_names_;
+  NameTable names_;
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
-  std::map<uint16_t, Sample> samples_;
-  std::map<uint16_t, JobState> jobs_;
-  std::atomic<uint32_t> budget_factor_{0};  // read without mu_ when off
+  readings::SensorReadings readings_;
+  uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
+  uint64_t checking_now_us_ = 0;
+  std::map<uint16_t, uint64_t> job_phase_us_;  // the release of each task's job 1
+  std::atomic<uint32_t> budget_factor_{0};     // read without mu_ when off
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
   std::atomic<uint64_t> decisions_{0};

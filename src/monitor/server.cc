@@ -306,9 +306,35 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       s.out = wire::encode_bus_info(info);
       return wire::Type::kBusInfoOk;
     }
+    case wire::Type::kReset:
+      return reset(s, payload);
     default:
       return refuse(EPROTO, fmt::format("unexpected message type {}", type));
   }
+}
+
+// `contego reset DEVICE`: only root and the monitor's own uid may clear a
+// latch; every request, granted or not, is audited.
+wire::Type Server::reset(Session& s, std::span<const uint8_t> payload) {
+  std::string device;
+  const uid_t uid = s.conn->uid;
+  auto answer_error = [&](int err, const std::string& reason) {
+    s.out = wire::encode_error({err, reason});
+    return wire::Type::kError;
+  };
+  if (std::string e = wire::decode_hello(payload, &device); !e.empty()) {
+    return answer_error(EPROTO, "malformed reset request (a device name of 1..64 bytes expected)");
+  }
+  if (uid != 0 && uid != geteuid()) {
+    audit_.event("reset-refused", fmt::format("device {}: uid {} is neither root nor the "
+                                              "monitor's uid {}",
+                                              device, uid, geteuid()));
+    return answer_error(EPERM, "only root or the monitor's uid may reset a latch");
+  }
+  const Result<bool> r = monitor_.reset_latch(device, uid);
+  if (!r.ok()) return answer_error(ENOENT, r.error());
+  s.out = {static_cast<uint8_t>(*r ? 1 : 0)};
+  return wire::Type::kResetOk;
 }
 
 void Server::connection(Conn* conn) {

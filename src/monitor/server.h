@@ -90,6 +90,7 @@ class Server {
   void housekeeping();              // joins finished threads, enforces hello deadlines
   std::optional<gate::wire::Type> dispatch(Session& s, uint8_t type,
                                            std::span<const uint8_t> payload, bool channel);
+  gate::wire::Type reset(Session& s, std::span<const uint8_t> payload);  // `contego reset`
   void serve_channel(Session& s, gate::Channel& channel);
   Monitor& monitor_;
   AuditLog& audit_;

@@ -3,13 +3,17 @@
 // write() with CLOCK_MONOTONIC (the paper's method: measured inside the task,
 // so the figure includes whatever enclave client it runs under).
 //
-//   contego-bench-task BUS ADDR HEXBYTES TRIALS OUT PERIOD_US [BURST_MS]
+//   contego-bench-task BUS ADDR HEXBYTES[,HEXBYTES...] TRIALS OUT PERIOD_US [PER_JOB | BURST_MS]
 //
-// OUT receives TRIALS native-endian uint64 nanosecond figures. PERIOD_US > 0
-// sleeps to the next period between trials (a periodic task); 0 sends
-// back to back. TRIALS = 0 sends back to back for BURST_MS milliseconds and
-// writes the number of commands sent (the DoS load). Exit status: 0, 1 on bad arguments or I/O
-// errors, 2 if any write failed.
+// OUT receives TRIALS native-endian uint64 nanosecond figures. Several
+// commands are sent in turn (a job's sequence). PERIOD_US > 0 without
+// PER_JOB sleeps to the next period before each command (a periodic task);
+// with PER_JOB, it pauses PERIOD_US before every PER_JOB commands (a
+// relative sleep, so every pause is long enough to end a job at the monitor
+// however late the job before it ran); 0 sends back to back. TRIALS = 0 sends the first command
+// back to back for BURST_MS milliseconds and writes the number of commands sent (the DoS load).
+// Exit status: 0, 1 on bad arguments or I/O errors, 2 if any write failed.
+#include <errno.h>
 #include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,19 +51,30 @@ bool parse_hex(const char* text, std::vector<uint8_t>* out) {
 
 int main(int argc, char** argv) {
   if (argc != 7 && argc != 8) {
-    fprintf(stderr, "usage: %s BUS ADDR HEXBYTES TRIALS OUT PERIOD_US [BURST_MS]\n", argv[0]);
+    fprintf(stderr,
+            "usage: %s BUS ADDR HEXBYTES[,HEXBYTES...] TRIALS OUT PERIOD_US [PER_JOB | BURST_MS]\n",
+            argv[0]);
     return 1;
   }
   const long addr = strtol(argv[2], nullptr, 0);
-  std::vector<uint8_t> bytes;
-  if (!parse_hex(argv[3], &bytes)) {
-    fprintf(stderr, "bench task: bad HEXBYTES '%s'\n", argv[3]);
+  std::vector<std::vector<uint8_t>> commands;
+  for (char* part = strtok(argv[3], ","); part != nullptr; part = strtok(nullptr, ",")) {
+    commands.emplace_back();
+    if (!parse_hex(part, &commands.back())) {
+      fprintf(stderr, "bench task: bad HEXBYTES '%s'\n", part);
+      return 1;
+    }
+  }
+  if (commands.empty()) {
+    fprintf(stderr, "bench task: no command\n");
     return 1;
   }
+  const std::vector<uint8_t>& bytes = commands.front();
   const long trials = strtol(argv[4], nullptr, 10);
   const long period_us = strtol(argv[6], nullptr, 10);
-  if (trials < 0 || period_us < 0 || addr <= 0 || addr > 0x7F) {
-    fprintf(stderr, "bench task: bad TRIALS, PERIOD_US or ADDR\n");
+  const long per_job = trials > 0 && argc == 8 ? strtol(argv[7], nullptr, 10) : 1;
+  if (trials < 0 || period_us < 0 || addr <= 0 || addr > 0x7F || per_job < 1) {
+    fprintf(stderr, "bench task: bad TRIALS, PERIOD_US, PER_JOB or ADDR\n");
     return 1;
   }
   const int fd = open(argv[1], O_RDWR);
@@ -88,18 +103,25 @@ int main(int argc, char** argv) {
   timespec next{};
   clock_gettime(CLOCK_MONOTONIC, &next);
   for (long i = 0; i < trials; ++i) {
-    if (period_us > 0) {
+    if (period_us > 0 && argc == 8 && i % per_job == 0) {
+      const timespec pause{period_us / 1000000, (period_us % 1000000) * 1000};
+      timespec left = pause;
+      while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+      }
+    } else if (period_us > 0 && argc != 8) {
       next.tv_nsec += period_us * 1000;
       while (next.tv_nsec >= 1000000000) {
         next.tv_nsec -= 1000000000;
         ++next.tv_sec;
       }
-      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+      while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR) {
+      }
     }
+    const std::vector<uint8_t>& command = commands[static_cast<size_t>(i) % commands.size()];
     const uint64_t t0 = now_ns();
-    const ssize_t r = write(fd, bytes.data(), bytes.size());
+    const ssize_t r = write(fd, command.data(), command.size());
     const uint64_t t1 = now_ns();
-    if (r != static_cast<ssize_t>(bytes.size())) ++failed;
+    if (r != static_cast<ssize_t>(command.size())) ++failed;
     ns[static_cast<size_t>(i)] = t1 - t0;
   }
   close(fd);

@@ -251,18 +251,32 @@ std::string hex(const std::vector<uint8_t>& bytes) {
   return s;
 }
 
+// The bench task's command line (see bench_task.cc): the workload's job
+// (commands separated by ','), and PER_JOB commands between sleeps.
 std::vector<std::string> task_argv(const Options& o, const Workload& w, uint32_t trials,
                                    const std::string& out, uint32_t period_us,
                                    uint32_t burst_ms = 0) {
+  std::string commands;
+  for (const auto& c : w.commands()) commands += (commands.empty() ? "" : ",") + hex(c);
   std::vector<std::string> argv = {o.task_exe,
                                    "/dev/i2c-1",
                                    fmt::format("0x{:02x}", w.addr),
-                                   hex(w.bytes),
+                                   commands,
                                    std::to_string(trials),
                                    out,
                                    std::to_string(period_us)};
   if (burst_ms > 0) argv.push_back(std::to_string(burst_ms));
+  if (burst_ms == 0 && period_us > 0) argv.push_back(std::to_string(w.commands().size()));
   return argv;
+}
+
+// The pause between two jobs (relative, like the task program's: every
+// pause is long enough to end a job at the monitor).
+void next_job(uint32_t period_us) {
+  timespec left{static_cast<time_t>(period_us / 1000000),
+                static_cast<long>(period_us % 1000000) * 1000};
+  while (nanosleep(&left, &left) != 0 && errno == EINTR) {
+  }
 }
 
 Result<std::vector<uint64_t>> read_samples(const std::string& path) {
@@ -351,8 +365,10 @@ Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& s
 
 std::vector<uint64_t> time_unprotected(bus::Bus& bus, const Workload& w, uint32_t trials) {
   std::vector<uint64_t> ns(trials);
-  std::vector<uint8_t> buf = w.bytes;
+  std::vector<std::vector<uint8_t>> job = w.commands();
   for (uint32_t i = 0; i < trials; ++i) {
+    if (w.job_period_us > 0 && i % job.size() == 0) next_job(w.job_period_us);
+    std::vector<uint8_t>& buf = job[i % job.size()];
     bus::Msg m{w.addr, 0, static_cast<uint16_t>(buf.size()), buf.data()};
     const uint64_t t0 = now_ns();
     (void)bus.transfer({&m, 1});
@@ -364,15 +380,24 @@ std::vector<uint64_t> time_unprotected(bus::Bus& bus, const Workload& w, uint32_
 std::vector<uint64_t> time_core(monitor::Monitor& mon, const Workload& w, uint32_t trials,
                                 uint64_t* failures) {
   std::vector<uint64_t> ns(trials);
-  gate::Transfer t;
-  t.bus = 1;
-  gate::Message m;
-  m.addr = w.addr;
-  m.len = static_cast<uint16_t>(w.bytes.size());
-  m.data = w.bytes;
-  t.messages.push_back(m);
+  std::vector<gate::Transfer> job;
+  for (const auto& bytes : w.commands()) {
+    gate::Transfer t;
+    t.bus = 1;
+    gate::Message m;
+    m.addr = w.addr;
+    m.len = static_cast<uint16_t>(bytes.size());
+    m.data = bytes;
+    t.messages.push_back(m);
+    job.push_back(t);
+  }
   const uint16_t task = w.task_id;
   for (uint32_t i = 0; i < trials; ++i) {
+    if (w.job_period_us > 0 && i % job.size() == 0) {
+      next_job(w.job_period_us);
+      mon.job_boundary(task);  // what the supervisor reports when the task sleeps
+    }
+    const gate::Transfer& t = job[i % job.size()];
     const uint64_t t0 = now_ns();
     const gate::TransferReply r = mon.transfer(task, t);
     ns[i] = now_ns() - t0;
@@ -399,6 +424,7 @@ Stats summarise(std::vector<uint64_t> ns) {
   s.mean_us = static_cast<double>(sum / static_cast<long double>(ns.size())) / 1000.0;
   s.median_us = rank(0.5);
   s.p99_us = rank(0.99);
+  s.p999_us = rank(0.999);
   s.worst_us = static_cast<double>(ns.back()) / 1000.0;
   return s;
 }
@@ -406,9 +432,16 @@ Stats summarise(std::vector<uint64_t> ns) {
 std::vector<Workload> example_workloads() {
   return {
       // rover.policy, task follower: a GoPiGo2 set-left-speed frame.
-      {"rover follower (pass-through)", "follower", 0, 0x08, {0x01, 0x46, 100, 0x00, 0x00}, {}},
+      {"rover follower (pass-through)",
+       "follower",
+       0,
+       0x08,
+       {0x01, 0x46, 100, 0x00, 0x00},
+       {},
+       {},
+       0},
       // arm.policy, task gripper: LED5 (the gripper servo) pulse 577 (grip_open).
-      {"arm gripper (pass-through)", "gripper", 1, 0x40, {0x1A, 0x00, 0x00, 0x41, 0x02}, {}},
+      {"arm gripper (pass-through)", "gripper", 1, 0x40, {0x1A, 0x00, 0x00, 0x41, 0x02}, {}, {}, 0},
   };
 }
 
@@ -450,6 +483,15 @@ const char* path_key(Path p) {
       return "in_process_core";
   }
   return "?";
+}
+
+bool Row::all_allowed() const {
+  uint64_t allowed = 0, total = 0;
+  for (const auto& [decision, count] : decisions) {
+    total += count;
+    if (decision == "allow") allowed += count;
+  }
+  return total > 0 && allowed == total && failures == 0;
 }
 
 const Row* Report::find(const std::string& workload, Path p) const {
@@ -509,6 +551,13 @@ Result<Report> run(const Options& o) {
       "(allow + emit + audit line)";
   report.trials = o.trials;
   const std::string out = dir.path + "/samples.bin";
+  size_t row_count = 0, row_no = 0;
+  for (size_t wi = 0; wi < workloads.size(); ++wi) {
+    for (Path p : kAllPaths) row_count += !is_remote(p) || processes.count({wi, p}) ? 1 : 0;
+  }
+  auto say = [&](const std::string& line) {
+    if (o.progress) o.progress(line);
+  };
   for (size_t wi = 0; wi < workloads.size(); ++wi) {
     const Workload& w = workloads[wi];
     for (Path p : kAllPaths) {
@@ -530,8 +579,14 @@ Result<Report> run(const Options& o) {
       Row row;
       row.workload = w.name;
       row.path = p;
+      say(fmt::format(
+          "[{}/{}] {} / {}: {} commands{}", ++row_no, row_count, w.name, path_label(p), o.trials,
+          w.job_period_us > 0
+              ? fmt::format(", {} per job every {} us", w.commands().size(), w.job_period_us)
+              : ", back to back"));
+      const uint64_t row_start = now_ns();
       Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
-      const auto argv = task_argv(o, w, o.trials, out, 0);
+      const auto argv = task_argv(o, w, o.trials, out, w.job_period_us);
       const std::string& audit = remote ? proc->audit() : local_audit;
       const auto before = decisions_in(audit);
       switch (p) {
@@ -565,6 +620,13 @@ Result<Report> run(const Options& o) {
       }
       if (p != Path::kUnprotected) row.decisions = minus(decisions_in(audit), before);
       row.stats = summarise(std::move(*ns));
+      std::string decided;
+      for (const auto& [decision, count] : row.decisions)
+        decided += fmt::format(" {} {}", decision, count);
+      say(fmt::format("[{}/{}]   done in {:.1f} s: median {:.2f} us, p99 {:.2f} us;{}", row_no,
+                      row_count, static_cast<double>(now_ns() - row_start) / 1e9,
+                      row.stats.median_us, row.stats.p99_us,
+                      decided.empty() ? " (not checked)" : decided));
       report.rows.push_back(row);
     }
   }
@@ -601,6 +663,8 @@ Result<Report> run(const Options& o) {
       dos.transport = v.transport;
       dos.period_us = o.dos_period_us;
       const std::string& socket = v.process->socket();
+      say(fmt::format("DoS ({}): a follower every {} us, alone then under a burst", v.transport,
+                      o.dos_period_us));
       auto quiet = run_over_socket(socket, follower, periodic, nullptr, v.how);
       if (!quiet.ok() && v.how.realtime) {
         dos.skipped = quiet.error();  // no CAP_SYS_NICE here: reported, not fatal
@@ -627,182 +691,6 @@ Result<Report> run(const Options& o) {
     }
   }
   return report;
-}
-
-std::string table(const Report& r) {
-  std::string s = fmt::format(
-      "contego bench: {} trials per cell, CLOCK_MONOTONIC around each write() in the task\n"
-      "checker: {}\n\n",
-      r.trials, r.checker);
-  s += fmt::format("{:<30} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}   {}\n", "task",
-                   "path", "mean", "median", "p99", "worst", "+median", "+p99", "+worst",
-                   "decisions (audit log)");
-  s += fmt::format("{:<30} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}\n", "", "", "µs",
-                   "µs", "µs", "µs", "µs", "µs", "µs");
-  for (const Row& row : r.rows) {
-    const Row* base = r.find(row.workload, Path::kUnprotected);
-    const Stats& b = base != nullptr ? base->stats : row.stats;
-    const Stats& x = row.stats;
-    s += fmt::format("{:<30} {:<20} {:>9.2f} {:>9.2f} {:>9.2f} {:>10.2f}", row.workload,
-                     path_label(row.path), x.mean_us, x.median_us, x.p99_us, x.worst_us);
-    if (row.path == Path::kUnprotected) {
-      s += "   (baseline)";
-    } else {
-      s += fmt::format("   {:>9.2f} {:>9.2f} {:>9.2f}  ", x.median_us - b.median_us,
-                       x.p99_us - b.p99_us, x.worst_us - b.worst_us);
-      for (const auto& [decision, count] : row.decisions) {
-        s += fmt::format(" {} {}", decision, count);
-      }
-    }
-    if (row.failures != 0) s += "  (some commands failed)";
-    s += "\n";
-  }
-  s += "\nadded µs per checked command (mean vs a):";
-  for (const Row& row : r.rows) {
-    const Row* base = r.find(row.workload, Path::kUnprotected);
-    if (row.path == Path::kUnprotected || base == nullptr) continue;
-    s += fmt::format("\n  {:<30} {:<20} {:>8.2f}", row.workload, path_label(row.path),
-                     row.stats.mean_us - base->stats.mean_us);
-  }
-  s += "\n";
-  for (const DosResult& d : r.dos) {
-    if (!d.skipped.empty()) {
-      s += fmt::format("\nDoS ({}): not measured: {}", d.transport, d.skipped);
-      continue;
-    }
-    s += fmt::format(
-        "\nDoS: follower every {} µs through the monitor process ({}); p99 {:.2f} µs alone, "
-        "{:.2f} µs while another supervised task bursts ({} commands sent); worst {:.2f} / "
-        "{:.2f} µs",
-        d.period_us, d.transport, d.quiet.p99_us, d.under_burst.p99_us, d.burst_commands,
-        d.quiet.worst_us, d.under_burst.worst_us);
-  }
-  if (!r.dos.empty()) s += "\n";
-  return s;
-}
-
-namespace {
-nlohmann::json stats_json(const Stats& s) {
-  return {{"n", s.n},
-          {"mean_us", s.mean_us},
-          {"median_us", s.median_us},
-          {"p99_us", s.p99_us},
-          {"worst_us", s.worst_us}};
-}
-
-std::string machine() {
-  utsname u{};
-  uname(&u);
-  return fmt::format("{} {} {} ({} CPUs online)", u.nodename, u.sysname, u.release,
-                     sysconf(_SC_NPROCESSORS_ONLN));
-}
-}  // namespace
-
-nlohmann::json to_json(const Report& r) {
-  nlohmann::json j;
-  j["trials"] = r.trials;
-  j["checker"] = r.checker;
-  j["measured_on"] = machine();
-  for (const Row& row : r.rows) {
-    nlohmann::json cell = stats_json(row.stats);
-    const Row* base = r.find(row.workload, Path::kUnprotected);
-    if (base != nullptr && row.path != Path::kUnprotected) {
-      cell["added_mean_us"] = row.stats.mean_us - base->stats.mean_us;
-      cell["added_median_us"] = row.stats.median_us - base->stats.median_us;
-      cell["added_p99_us"] = row.stats.p99_us - base->stats.p99_us;
-      cell["added_worst_us"] = row.stats.worst_us - base->stats.worst_us;
-    }
-    cell["failures"] = row.failures;
-    cell["decisions"] = row.decisions;
-    j["workloads"][row.workload][path_key(row.path)] = cell;
-  }
-  for (const DosResult& d : r.dos) {
-    if (!d.skipped.empty()) {
-      j["dos"][d.transport] = {{"skipped", d.skipped}};
-      continue;
-    }
-    j["dos"][d.transport] = {{"period_us", d.period_us},
-                             {"quiet", stats_json(d.quiet)},
-                             {"under_burst", stats_json(d.under_burst)},
-                             {"burst_commands", d.burst_commands}};
-  }
-  j["sched_overhead"] = sched_overhead(r);
-  return j;
-}
-
-nlohmann::json sched_overhead(const Report& r) {
-  double worst_added = 0;
-  for (const Row& row : r.rows) {
-    const Row* base = r.find(row.workload, Path::kUnprotected);
-    if (row.path != Path::kSeccompMonitor || base == nullptr) continue;
-    worst_added = std::max(worst_added, row.stats.worst_us - base->stats.worst_us);
-  }
-  return {{"overhead_ns", static_cast<int64_t>(worst_added * 1000.0 + 0.5)},
-          {"measured_on", machine()},
-          {"method", fmt::format("contego bench: largest added worst case over {} trials of the "
-                                 "seccomp client with a separate monitor process ({})",
-                                 r.trials, r.checker)}};
-}
-
-Status write_chart(const Report& r, const std::string& stem) {
-  const std::string dat = stem + ".dat", gp = stem + ".gp";
-  // One data block per workload (gnuplot `index`), one row per path.
-  std::vector<std::string> workloads;
-  for (const Row& row : r.rows) {
-    if (std::find(workloads.begin(), workloads.end(), row.workload) == workloads.end()) {
-      workloads.push_back(row.workload);
-    }
-  }
-  {
-    std::ofstream d(dat);
-    d << "# path mean_us p99_us worst_us; one block per workload\n";
-    for (const std::string& w : workloads) {
-      d << "# " << w << "\n";
-      for (const Row& row : r.rows) {
-        if (row.workload != w) continue;
-        d << fmt::format("\"{}\" {:.3f} {:.3f} {:.3f}\n", path_label(row.path), row.stats.mean_us,
-                         row.stats.p99_us, row.stats.worst_us);
-      }
-      d << "\n\n";
-    }
-    if (!d) return make_error("cannot write " + dat);
-  }
-  std::ofstream g(gp);
-  const auto plot = [&](const std::string& term, const std::string& out) {
-    g << "set terminal " << term << "\n"
-      << "set output '" << out << "'\n"
-      << "set title 'contego: time per actuation command (" << r.trials
-      << " trials per bar; a = unprotected transfer)'\n"
-      << "set ylabel 'microseconds (log scale)'\n"
-      << "set logscale y\n"
-      << "set yrange [0.01:*]\n"  // also where each group's title goes
-      << "set grid ytics\n"
-      << "set style data histograms\n"
-      << "set style histogram clustered gap 1\n"
-      << "set style fill solid 0.85 border -1\n"
-      << "set boxwidth 0.9\n"
-      << "set xtics rotate by -45 font ',8' nomirror\n"
-      << "set bmargin 10\n"
-      << "set key top left horizontal\n"
-      << "plot ";
-    for (size_t i = 0; i < workloads.size(); ++i) {
-      const bool first = i == 0;
-      if (!first) g << ", \\\n  ";
-      g << "newhistogram '" << workloads[i] << "', '" << dat << "' index " << i
-        << " using 2:xtic(1) " << (first ? "title 'mean'" : "notitle")
-        << " lc rgb '#4c72b0', '' index " << i << " using 3 "
-        << (first ? "title '99th percentile'" : "notitle") << " lc rgb '#dd8452', '' index " << i
-        << " using 4 " << (first ? "title 'worst case'" : "notitle") << " lc rgb '#c44e52'";
-    }
-    g << "\n";
-  };
-  plot("svg size 1400,640 dynamic", stem + ".svg");
-  plot("pngcairo size 1400,640", stem + ".png");
-  g.close();
-  if (!g) return make_error("cannot write " + gp);
-  const int rc = system(("gnuplot '" + gp + "' 2>&1").c_str());
-  if (rc != 0) return make_error("gnuplot failed on " + gp);
-  return {};
 }
 
 }  // namespace contego::perf

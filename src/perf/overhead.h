@@ -16,6 +16,7 @@
 #define CONTEGO_PERF_OVERHEAD_H_
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -28,7 +29,7 @@ namespace contego::perf {
 
 struct Stats {
   size_t n = 0;
-  double mean_us = 0, median_us = 0, p99_us = 0, worst_us = 0;
+  double mean_us = 0, median_us = 0, p99_us = 0, p999_us = 0, worst_us = 0;
 };
 // Nearest-rank percentiles over nanosecond samples.
 Stats summarise(std::vector<uint64_t> ns);
@@ -43,6 +44,17 @@ struct Workload {
   uint8_t addr = 0;
   std::vector<uint8_t> bytes;  // one write()
   std::vector<uint8_t> image;  // compiled policy; empty = pass-through decider
+  // A job of several commands, sent in turn instead of `bytes` (the
+  // sequence a policy's invariant expects), with a pause of job_period_us
+  // after each job when it is > 0 (at least half the policy's period: the
+  // monitor then starts a new job, and a new rate window, for each, and
+  // every command can be allowed).
+  std::vector<std::vector<uint8_t>> job;
+  uint32_t job_period_us = 0;
+  // The commands of one job, in order (`job`, or `bytes` alone).
+  std::vector<std::vector<uint8_t>> commands() const {
+    return job.empty() ? std::vector<std::vector<uint8_t>>{bytes} : job;
+  }
 };
 // The pass-through workloads (rover follower, arm gripper command shapes).
 std::vector<Workload> example_workloads();
@@ -72,6 +84,9 @@ struct Row {
   Stats stats;
   uint64_t failures = 0;  // commands the task saw fail (must be 0 with the pass-through checker)
   std::map<std::string, uint64_t> decisions;  // from the audit log: allow, ignore, failsafe, reject
+  // Every command of the row was allowed (the figures are those of an
+  // allowed command; only such rows make the headline and overhead.json).
+  bool all_allowed() const;
 };
 
 struct DosResult {
@@ -91,6 +106,9 @@ struct Options {
   bool dos = true;
   uint32_t dos_period_us = 1000;
   uint32_t spin_us = 100;  // channel busy-wait of both ends (gate::SpinPolicy)
+  // Called before and after each row and DoS variant with a line saying
+  // which (the CLI prints it on stderr); may be empty.
+  std::function<void(const std::string&)> progress;
 };
 
 struct Report {
@@ -113,9 +131,12 @@ Result<Report> run(const Options& options);
 std::string table(const Report& report);
 // Per workload and path, with the added figures; also the sched overhead.
 nlohmann::json to_json(const Report& report);
-// {"overhead_ns", "measured_on", "method"}: what `contego sched
-// --overhead-from` reads. The figure is the largest added worst case of the
-// enforcing deployment path (c2) over the workloads.
+// What `contego sched --overhead-from` reads: {"overhead_ns", "statistic",
+// "statistics_ns": {"median", "p99", "p999", "max"}, "measured_on",
+// "method"}. Each statistic is the largest added figure (protected minus
+// unprotected, at least 0) of the enforcing deployment path (c2) over the
+// workloads whose commands were all allowed (all workloads if none was);
+// overhead_ns is the p99.9.
 nlohmann::json sched_overhead(const Report& report);
 // Writes DATA.dat and the gnuplot script next to `stem`, then stem.svg and
 // stem.png. Fails if gnuplot is missing or fails.

@@ -279,7 +279,50 @@ Result<MeasuredOverhead> parse_overhead_json(const std::string& text, const std:
   if (doc.contains("method") && doc["method"].is_string()) {
     m.method = doc["method"].get<std::string>();
   }
+  if (doc.contains("statistic")) {
+    if (!doc["statistic"].is_string())
+      return make_error(source + ": \"statistic\" must be a string");
+    m.statistic = doc["statistic"].get<std::string>();
+  }
+  if (doc.contains("statistics_ns")) {
+    const nlohmann::json& stats = doc["statistics_ns"];
+    if (!stats.is_object()) return make_error(source + ": \"statistics_ns\" must be an object");
+    for (const auto& [name, value] : stats.items()) {
+      if (!value.is_number_integer() || value.get<int64_t>() < 0 ||
+          value.get<int64_t>() > kMaxDuration) {
+        return make_error(source + ": statistics_ns." + name +
+                          ": must be an integer number of nanoseconds, 0.." +
+                          std::to_string(kMaxDuration));
+      }
+      m.statistics[name] = value.get<int64_t>();
+    }
+  }
   return m;
+}
+
+Result<ChosenOverhead> choose_overhead(const MeasuredOverhead& m, const std::string& wanted,
+                                       const std::string& source) {
+  ChosenOverhead c;
+  if (auto worst = m.statistics.find("max"); worst != m.statistics.end()) c.worst = worst->second;
+  const std::string name = wanted.empty() ? kDefaultOverheadStatistic : wanted;
+  if (auto it = m.statistics.find(name); it != m.statistics.end()) {
+    c.overhead = it->second;
+    c.statistic = name;
+    return c;
+  }
+  if (wanted.empty()) {  // an older file: its one figure
+    c.overhead = m.overhead;
+    c.statistic = m.statistic.empty() ? "overhead_ns" : m.statistic;
+    return c;
+  }
+  if (m.statistics.empty()) {
+    return make_error(source +
+                      ": has no statistics_ns (only overhead_ns, from an older contego "
+                      "bench); drop --stat or measure again");
+  }
+  std::string names;
+  for (const auto& [n, v] : m.statistics) names += (names.empty() ? "" : ", ") + n;
+  return make_error(source + ": no statistic '" + wanted + "' (the file has " + names + ")");
 }
 
 Result<MeasuredOverhead> read_overhead_file(const std::string& path) {

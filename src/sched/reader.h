@@ -14,6 +14,8 @@
 #ifndef CONTEGO_SCHED_READER_H_
 #define CONTEGO_SCHED_READER_H_
 
+#include <map>
+#include <optional>
 #include <string>
 
 #include "base/result.h"
@@ -28,14 +30,32 @@ Result<TaskSet> parse_json(const std::string& text, const std::string& source);
 // The result has passed validate().
 Result<TaskSet> read_task_set_file(const std::string& path);
 
-// {"overhead_ns": 41000, "measured_on": "...", "method": "..."}
+// {"overhead_ns": 41000, "statistic": "p999", "statistics_ns": {"median":
+// 9000, "p99": 23000, "p999": 41000, "max": 1300000}, "measured_on": "...",
+// "method": "..."}. statistic and statistics_ns are optional (files of
+// older benches carry overhead_ns alone).
 struct MeasuredOverhead {
   Nanos overhead = 0;
+  std::string statistic;                    // which of statistics overhead_ns is
+  std::map<std::string, Nanos> statistics;  // name -> added ns per command
   std::string measured_on;
   std::string method;
 };
 Result<MeasuredOverhead> parse_overhead_json(const std::string& text, const std::string& source);
 Result<MeasuredOverhead> read_overhead_file(const std::string& path);
+
+// The statistic `contego sched --overhead-from` uses when --stat is not given.
+inline constexpr const char* kDefaultOverheadStatistic = "p999";
+
+struct ChosenOverhead {
+  Nanos overhead = 0;
+  std::string statistic;       // its name ("overhead_ns" for a file without statistics)
+  std::optional<Nanos> worst;  // the file's "max", shown beside the choice
+};
+// `wanted` empty: kDefaultOverheadStatistic when the file has it, else
+// overhead_ns. Otherwise that statistic, or an error naming the ones there.
+Result<ChosenOverhead> choose_overhead(const MeasuredOverhead& m, const std::string& wanted,
+                                       const std::string& source);
 
 Result<std::string> read_text_file(const std::string& path);
 

@@ -103,6 +103,37 @@ TEST(ReaderTest, MeasuredOverheadFile) {
   EXPECT_EQ(m->measured_on, "rpi3");
   EXPECT_FALSE(parse_overhead_json(R"({"overhead": "41us"})", "o.json").ok());
   EXPECT_FALSE(parse_overhead_json(R"({"overhead_ns": -5})", "o.json").ok());
+  // An older file: its one figure by default, no statistic to choose from.
+  Result<ChosenOverhead> c = choose_overhead(*m, "", "o.json");
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->overhead, us(41));
+  EXPECT_EQ(c->statistic, "overhead_ns");
+  EXPECT_FALSE(c->worst.has_value());
+  c = choose_overhead(*m, "p99", "o.json");
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().find("no statistics_ns"), std::string::npos) << c.error();
+}
+
+TEST(ReaderTest, MeasuredOverheadStatisticIsChosenWithTheWorstBeside) {
+  Result<MeasuredOverhead> m = parse_overhead_json(
+      R"({"overhead_ns": 30000, "statistic": "p999",
+          "statistics_ns": {"median": 9000, "p99": 20000, "p999": 30000, "max": 1300000}})",
+      "o.json");
+  ASSERT_TRUE(m.ok()) << m.error();
+  Result<ChosenOverhead> c = choose_overhead(*m, "", "o.json");  // the default: p99.9
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->statistic, "p999");
+  EXPECT_EQ(c->overhead, us(30));
+  EXPECT_EQ(c->worst, us(1300));
+  c = choose_overhead(*m, "max", "o.json");
+  ASSERT_TRUE(c.ok());
+  EXPECT_EQ(c->overhead, us(1300));
+  c = choose_overhead(*m, "p90", "o.json");
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().find("the file has max, median, p99, p999"), std::string::npos) << c.error();
+  EXPECT_FALSE(
+      parse_overhead_json(R"({"overhead_ns": 1, "statistics_ns": {"p99": "20us"}})", "o.json")
+          .ok());
 }
 
 }  // namespace

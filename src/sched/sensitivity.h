@@ -1,9 +1,16 @@
 // Sensitivity analysis: how far the checking cost, a period or a task's
 // number of checked commands can move before the exact test of
-// sched/analysis.h fails. Every figure comes from a binary search on that
-// test, which is monotone in each parameter searched (a larger C^o, N_i or
-// a shorter T_i never shortens a response time), so the search is exact to
-// the nanosecond / command.
+// sched/analysis.h fails. The test is monotone in each parameter (a larger
+// C^o, N_i or a shorter T_i never shortens a response time), so each figure
+// is a boundary, exact to the nanosecond / command.
+//
+// sensitivity() finds each figure over the scheduling intervals of the
+// tasks it affects: a task's demand is constant between scheduling points,
+// and over one interval linear in C^o and N_i and a step function of T_i,
+// so what an interval admits is one division; a branch and bound over time
+// finds the best interval (sensitivity.cc). sensitivity_by_search() is the
+// plain binary search on whole-set analyses
+// (the reference the tests compare against, hundreds of analyses per set).
 //
 // Host code.
 #ifndef CONTEGO_SCHED_SENSITIVITY_H_
@@ -44,6 +51,7 @@ struct Sensitivity {
 
 // REQUIRES: validate(set) succeeded, overheads resolved, priorities final.
 Sensitivity sensitivity(const TaskSet& set);
+Sensitivity sensitivity_by_search(const TaskSet& set);
 
 }  // namespace contego::sched
 

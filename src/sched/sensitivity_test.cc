@@ -1,8 +1,10 @@
 #include "sched/sensitivity.h"
 
 #include <gtest/gtest.h>
+#include <random>
 
 #include "sched/analysis.h"
+#include "sched/generate.h"
 #include "sched/test_util.h"
 
 namespace contego::sched {
@@ -85,6 +87,76 @@ TEST(SensitivityTest, InfeasibleSetReportsInfeasible) {
   EXPECT_EQ(sens.max_overhead, kInfeasible);
   EXPECT_EQ(sens.tasks[0].min_period, kInfeasible);
   EXPECT_EQ(sens.tasks[0].max_actuations, kInfeasible);
+}
+
+void expect_same(const TaskSet& s, const std::string& what) {
+  const Sensitivity fast = sensitivity(s);
+  const Sensitivity ref = sensitivity_by_search(s);
+  ASSERT_EQ(fast.tasks.size(), ref.tasks.size());
+  EXPECT_EQ(fast.max_overhead, ref.max_overhead) << what;
+  for (size_t i = 0; i < s.tasks.size(); ++i) {
+    EXPECT_EQ(fast.tasks[i].max_overhead, ref.tasks[i].max_overhead) << what << " task " << i;
+    EXPECT_EQ(fast.tasks[i].min_period, ref.tasks[i].min_period) << what << " task " << i;
+    EXPECT_EQ(fast.tasks[i].max_actuations, ref.tasks[i].max_actuations) << what << " task " << i;
+  }
+}
+
+TEST(SensitivityTest, HandExamplesMatchTheSearch) {
+  expect_same(issue_example(), "issue example");
+  TaskSet s;
+  s.tasks = {task("hi", ms(1), ms(3), ms(3), 2, 0, us(200)),
+             task("lo", ms(1), ms(100), ms(100), 1, 5, us(200))};
+  expect_same(s, "blocking");
+  // A task far below many short periods: thousands of scheduling points
+  // before its deadline, so the jumps hand over to their bounded search.
+  TaskSet many;
+  many.tasks = {task("fast", us(3), us(10), us(10), 3, 1, us(1)),
+                task("mid", us(40), us(170), us(150), 2, 2, us(2)),
+                task("slow", ms(20), ms(100), ms(90), 1, 3, us(5))};
+  expect_same(many, "many points");
+}
+
+// The interval search against the binary search of whole-set analyses, over
+// random sets: feasible and infeasible, implicit and constrained deadlines,
+// sets without checked commands, per-task and zero overheads, distinct
+// (DM) and random priorities with ties.
+TEST(SensitivityTest, IntervalSearchEqualsTheBinarySearchOnRandomSets) {
+  std::mt19937_64 rng(15);
+  Generator gen(15);
+  int infeasible = 0, unchecked = 0, ties = 0, constrained = 0;
+  for (int k = 0; k < 3000; ++k) {
+    GenOptions o;
+    o.tasks = 1 + rng() % 9;
+    o.period_min = us(100);
+    o.period_max = ms(20);
+    o.period_granularity = 1 + rng() % 2 * 999;
+    o.constrained = rng() % 2 == 0;
+    const bool no_checks = rng() % 10 == 0;
+    o.actuations_min = 0;
+    o.actuations_max = no_checks ? 0 : 1 + static_cast<int64_t>(rng() % 5);
+    const double u = 0.05 + static_cast<double>(rng() % 110) / 100.0;  // some beyond 1
+    TaskSet s = gen.generate(o, std::min(u, 0.99 * static_cast<double>(o.tasks)));
+    const int priorities = static_cast<int>(rng() % 3);  // 0 DM-like, 1 random, 2 few levels
+    for (size_t i = 0; i < s.tasks.size(); ++i) {
+      Task& t = s.tasks[i];
+      t.overhead = rng() % 8 == 0 ? 0 : static_cast<Nanos>(rng() % 20'000);
+      if (priorities == 0) t.priority = -t.deadline;
+      if (priorities == 1) t.priority = static_cast<int64_t>(rng() % 1000);
+      if (priorities == 2) t.priority = static_cast<int64_t>(rng() % 3);
+    }
+    ASSERT_TRUE(validate(s).ok()) << validate(s).error();
+    infeasible += is_schedulable(s) ? 0 : 1;
+    unchecked += no_checks ? 1 : 0;
+    ties += priorities == 2 && s.tasks.size() > 3 ? 1 : 0;
+    constrained += o.constrained ? 1 : 0;
+    expect_same(s, "set " + std::to_string(k));
+    if (::testing::Test::HasFailure()) return;
+  }
+  // The edge cases were all visited.
+  EXPECT_GT(infeasible, 100);
+  EXPECT_GT(unchecked, 100);
+  EXPECT_GT(ties, 100);
+  EXPECT_GT(constrained, 1000);
 }
 
 }  // namespace

@@ -29,38 +29,50 @@ Result<std::unique_ptr<CheckerGuard>> CheckerGuard::create(const PolicyImage& im
   host.read_sample = &CheckerGuard::read_sample;
   host.audit = nullptr;
   g->checker_->set_host(host);
-  g->samples_.resize(g->checker_->device_count());
+  g->readings_.reset(g->checker_->device_count());
+  for (uint16_t d = 0; d < g->checker_->device_count(); ++d) {
+    g->readings_.describe(d, g->checker_->device(d));
+  }
+  g->sample_due_us_.assign(g->checker_->device_count(), 0);
   return g;
 }
 
 uint32_t CheckerGuard::read_sample(void* context, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<CheckerGuard*>(context);
-  if (device >= self->samples_.size()) return 0;
-  const Sample& s = self->samples_[device];
-  if (!s.valid) return 0;
-  const auto n = static_cast<uint32_t>(std::min<size_t>(capacity, s.bytes.size()));
-  std::memcpy(buf, s.bytes.data(), n);
-  *taken_at_us = s.taken_at_us;
+  const readings::Reading* r =
+      self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
+  if (r == nullptr) return 0;
+  const uint32_t n = std::min(capacity, r->len);
+  std::memcpy(buf, r->bytes.data(), n);
+  *taken_at_us = r->taken_at_us;
   return n;
 }
 
+void CheckerGuard::wrote(uint16_t addr, const std::vector<uint8_t>& bytes) {
+  readings_.on_write(1, addr, bytes);
+}
+
+void CheckerGuard::read(const std::string& task, const BusOp& op, const std::vector<uint8_t>& data,
+                        uint64_t now_us) {
+  readings_.on_read(task_id(task), 1, op.addr, op.bytes, data, now_us);
+}
+
 void CheckerGuard::tick(uint64_t now_us) {
-  for (uint16_t d = 0; d < samples_.size(); ++d) {
+  for (uint16_t d = 0; d < sample_due_us_.size(); ++d) {
     const core::DeviceRecord& rec = checker_->device(d);
     if ((rec.role & core::kRoleSensor) == 0 || rec.sample_len == 0) continue;
-    Sample& s = samples_[d];
-    if (s.valid && now_us < s.next_due_us) continue;
+    if (now_us < sample_due_us_[d]) continue;
     // The device's sample request, then its sample, in one combined transfer.
     std::vector<uint8_t> out(rec.sample_len);
     const std::span<const uint8_t> request(rec.sample_request, rec.sample_request_len);
     if (bus_read(bus_, rec.addr, request, out) == 0) {
-      s.bytes = std::move(out);
-      s.taken_at_us = now_us;
-      s.valid = true;
+      readings_.on_sample(d, out, now_us);
+    } else {
+      readings_.on_sample_failed(d);
     }
     const uint64_t period = rec.sample_period_us ? rec.sample_period_us : 10'000;
-    s.next_due_us = now_us + period;
+    sample_due_us_[d] = now_us + period;
   }
 }
 
@@ -82,6 +94,8 @@ GuardResult CheckerGuard::check(const std::string& task, uint64_t job, const Bus
   tx.len = static_cast<uint32_t>(op.bytes.size());
   tx.bytes = op.bytes.data();
   tx.now_us = now_us;
+  checking_task_ = tx.task;
+  checking_now_us_ = now_us;
   auto verdict = std::make_unique<core::Verdict>();
   checker_->check(tx, verdict.get());
 

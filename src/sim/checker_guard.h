@@ -2,7 +2,8 @@
 // real trusted core (core::Checker loaded with a compiled policy image), and
 // only the bytes of its verdict reach the device models. The trusted side
 // samples its sensors itself, on each sensor's declared period, directly on
-// the virtual bus (never through a task).
+// the virtual bus, and keeps the readings tasks made through it; a command is
+// judged against them exactly as the monitor judges (readings/sensor_readings.h).
 //
 // Observe mode (protection off, but watching): the checker judges every
 // operation so the summary can say when the first violation happened, and
@@ -19,6 +20,7 @@
 
 #include "base/result.h"
 #include "bus/virtual_bus.h"
+#include "readings/sensor_readings.h"
 #include "sim/guard.h"
 
 namespace contego::sim {
@@ -37,16 +39,13 @@ class CheckerGuard : public Guard {
   GuardResult check(const std::string& task, uint64_t job, const BusOp& op,
                     uint64_t now_us) override;
   void tick(uint64_t now_us) override;
+  void wrote(uint16_t addr, const std::vector<uint8_t>& bytes) override;
+  void read(const std::string& task, const BusOp& op, const std::vector<uint8_t>& data,
+            uint64_t now_us) override;
 
   const core::Checker& checker() const { return *checker_; }
 
  private:
-  struct Sample {
-    std::vector<uint8_t> bytes;
-    uint64_t taken_at_us = 0;
-    uint64_t next_due_us = 0;
-    bool valid = false;
-  };
   CheckerGuard(bus::VirtualBus& bus, std::vector<std::string> task_names, bool observe);
   static uint32_t read_sample(void* context, uint16_t device, uint8_t* buf, uint32_t capacity,
                               uint64_t* taken_at_us);
@@ -56,7 +55,11 @@ class CheckerGuard : public Guard {
   std::vector<std::string> task_names_;
   bool observe_;
   std::unique_ptr<core::Checker> checker_;  // large: kept off the stack
-  std::vector<Sample> samples_;             // by device id
+  // The readings a command is judged against, kept as the monitor keeps them.
+  readings::SensorReadings readings_;
+  std::vector<uint64_t> sample_due_us_;  // by device id: the next own sample
+  uint16_t checking_task_ = core::kNoTask;
+  uint64_t checking_now_us_ = 0;
 };
 
 }  // namespace contego::sim

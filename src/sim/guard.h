@@ -36,6 +36,12 @@ class Guard {
   // Called once per simulation step before the tasks run: the trusted side
   // samples its sensors here.
   virtual void tick(uint64_t /*now_us*/) {}
+  // What the bus performed after check(): a write's bytes (each emit), and a
+  // read `task` made, with its pointer bytes and the data the device returned
+  // (the trusted side keeps sensor readings from them).
+  virtual void wrote(uint16_t /*addr*/, const std::vector<uint8_t>& /*bytes*/) {}
+  virtual void read(const std::string& /*task*/, const BusOp& /*op*/,
+                    const std::vector<uint8_t>& /*data*/, uint64_t /*now_us*/) {}
 };
 
 // Protection off: the bus sees exactly what the tasks send.

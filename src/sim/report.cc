@@ -10,6 +10,8 @@
 #include <fstream>
 #include <sys/wait.h>
 
+#include "contego/core/checker.h"
+
 #include "sim/settings.h"
 
 extern char** environ;
@@ -26,20 +28,6 @@ std::string hex(const std::vector<uint8_t>& bytes) {
   std::string s;
   for (size_t i = 0; i < bytes.size(); ++i) s += fmt::format("{}{:02x}", i ? " " : "", bytes[i]);
   return s;
-}
-
-const char* decision_text(core::Decision d) {
-  switch (d) {
-    case core::Decision::kAllow:
-      return "allow";
-    case core::Decision::kIgnore:
-      return "ignore";
-    case core::Decision::kFailsafe:
-      return "failsafe";
-    case core::Decision::kReject:
-      return "reject";
-  }
-  return "?";
 }
 
 // A gnuplot string literal.
@@ -215,7 +203,7 @@ std::string ops_csv(const RunResult& run) {
     out += fmt::format("{},{},0x{:02x},{},{},{},{},{},{}\n",
                        num(static_cast<double>(o.time_us) * 1e-6), o.task, o.addr,
                        o.read ? "read" : "write", hex(o.bytes), o.injected ? 1 : 0,
-                       decision_text(o.decision), static_cast<int>(o.reason), emitted);
+                       core::decision_name(o.decision), static_cast<int>(o.reason), emitted);
   }
   return out;
 }

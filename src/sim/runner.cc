@@ -39,7 +39,10 @@ class GuardedPort : public Port {
     }
     note_violation(g);
     for (const auto& e : g.emits) {
-      if (bus_write(bus_, g.addr, e) == 0) world_.on_write(now_us_, g.addr, e);
+      if (bus_write(bus_, g.addr, e) == 0) {
+        guard_.wrote(g.addr, e);
+        world_.on_write(now_us_, g.addr, e);
+      }
     }
     record(task, op, g, false);
     return g.decision != core::Decision::kReject;
@@ -54,6 +57,7 @@ class GuardedPort : public Port {
     std::vector<uint8_t> out(op.read_len);
     // A register pointer goes first in the same combined transfer, as I2C_RDWR does it.
     if (bus_read(bus_, op.addr, op.bytes, out) != 0) return std::nullopt;
+    guard_.read(task, op, out, now_us_);
     return out;
   }
 

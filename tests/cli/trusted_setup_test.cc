@@ -192,3 +192,53 @@ TEST_F(SetupTest, AnUnusedBusBesideTheRightOneOnlyWarns) {
 
 }  // namespace
 }  // namespace contego::monitor
+
+namespace contego::monitor {
+namespace {
+
+// A PCA9685 configured before contego started (auto-increment on, as the
+// vendor library leaves it): the shadow is read back at start (audited), and
+// whole-channel auto-increment writes are decided as the device takes them.
+TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
+  char tmpl[] = "/tmp/contego-setup-XXXXXX";
+  ASSERT_NE(mkdtemp(tmpl), nullptr);
+  const std::string dir = tmpl;
+  SetupOptions o;
+  o.policy = std::string(CONTEGO_POLICIES_DIR) + "/boat.policy";
+  o.audit = dir + "/audit.jsonl";
+  bus::VirtualBus vb;
+  auto pca = std::make_shared<bus::Pca9685>(0x40);
+  vb.attach(pca);
+  const uint8_t mode1[] = {0x00, 0x21};  // AI | ALLCALL, awake
+  pca->write(0x40, mode1);
+  o.buses = {{1, &vb}};
+  auto t = setup(o);
+  ASSERT_TRUE(t.ok()) << t.error();
+  gate::Transfer tr;
+  tr.bus = 1;
+  gate::Message m;
+  m.addr = 0x40;
+  m.data = {0x06, 0x00, 0x00, 0x40, 0x01};  // LED0: on 0, off 320
+  m.len = static_cast<uint16_t>(m.data.size());
+  tr.messages = {m};
+  const uint16_t pilot = (*t)->tasks.at("pilot");
+  EXPECT_EQ((*t)->monitor->transfer(pilot, tr).err, 0);
+  EXPECT_EQ(pca->led_off(0), 320);
+  // Full off through the same auto-increment write: the neutral pulse instead.
+  tr.messages[0].data = {0x06, 0x00, 0x00, 0x00, 0x10};
+  usleep(25000);  // the next 20 ms period: one pulse per thruster per job
+  EXPECT_EQ((*t)->monitor->transfer(pilot, tr).err, 0);
+  EXPECT_EQ(pca->led_off(0), 307);
+  std::ifstream in(o.audit);
+  std::stringstream s;
+  s << in.rdbuf();
+  EXPECT_NE(s.str().find("shadow read back from the device (76 registers)"), std::string::npos);
+  EXPECT_NE(s.str().find("\"command_name\":\"led\""), std::string::npos);
+  (*t)->monitor->stop_sampling();
+  t->reset();
+  unlink(o.audit.c_str());
+  rmdir(dir.c_str());
+}
+
+}  // namespace
+}  // namespace contego::monitor

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <sys/wait.h>
+#include <vector>
 
 namespace {
 
@@ -87,6 +88,58 @@ TEST(SchedCliTest, MeasuredOverheadFromBenchFile) {
   const nlohmann::json doc = nlohmann::json::parse(r.out);
   EXPECT_EQ(doc["tasks"][0]["overhead_ns"], 500'000);
   EXPECT_NE(doc["overhead_source"].get<std::string>().find("measured"), std::string::npos);
+}
+
+// The default statistic of a file with several is p99.9; the worst is shown
+// beside it; --stat chooses another.
+TEST(SchedCliTest, MeasuredOverheadStatistic) {
+  CliRun r = run("sched " + data("issue_example.csv") + " --overhead-from " +
+                 data("measured_statistics.json") + " --json");
+  ASSERT_EQ(r.status, 0) << r.out;
+  nlohmann::json doc = nlohmann::json::parse(r.out);
+  EXPECT_EQ(doc["tasks"][0]["overhead_ns"], 300'000);
+  EXPECT_EQ(doc["overhead_statistic"], "p999");
+  EXPECT_EQ(doc["overhead_worst_ns"], 2'000'000);
+  r = run("sched " + data("issue_example.csv") + " --overhead-from " +
+          data("measured_statistics.json") + " --stat max");
+  EXPECT_EQ(r.status, 1) << r.out;  // 2 ms per command: t1 misses
+  EXPECT_NE(r.out.find("C^o from measured max (worst 2ms)"), std::string::npos) << r.out;
+  r = run("sched " + data("issue_example.csv") + " --overhead-from " +
+          data("measured_statistics.json") + " --stat p42");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("no statistic 'p42' (the file has max, median, p99, p999)"),
+            std::string::npos)
+      << r.out;
+  r = run("sched " + data("issue_example.csv") + " --stat p99");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.out.find("give the file"), std::string::npos) << r.out;
+}
+
+// One result line per set, errors named by line, the stream goes on; the
+// exit status says a set was bad.
+TEST(SchedCliTest, BatchStream) {
+  CliRun r = run("sched --batch " + data("stream.jsonl"));
+  EXPECT_EQ(r.status, 2) << r.out;
+  std::vector<nlohmann::json> lines;  // stdout's; stderr's lines do not start with '{'
+  size_t start = 0;
+  while (start < r.out.size()) {
+    const size_t end = r.out.find('\n', start);
+    if (r.out[start] == '{')
+      lines.push_back(nlohmann::json::parse(r.out.substr(start, end - start)));
+    start = end + 1;
+  }
+  EXPECT_NE(r.out.find("4 task sets, 1 unschedulable, 1 bad"), std::string::npos) << r.out;
+  ASSERT_EQ(lines.size(), 4u) << r.out;
+  EXPECT_TRUE(lines[0]["schedulable"].get<bool>());
+  EXPECT_FALSE(lines[1]["schedulable"].get<bool>());
+  EXPECT_EQ(lines[2]["line"], 3);
+  EXPECT_NE(lines[2]["error"].get<std::string>().find("stream.jsonl:3"), std::string::npos);
+  EXPECT_EQ(lines[3]["line"], 5);
+  EXPECT_EQ(lines[3]["max_overhead_ns"], 800'000);  // the issue's example
+  EXPECT_EQ(lines[3]["tasks"][2]["response_ns"], 15'500'000);
+  // Without the bad line: 1 (a set can miss); stdin works as well.
+  r = run("sched --batch - --no-sensitivity < " + data("stream_ok.jsonl"));
+  EXPECT_EQ(r.status, 1) << r.out;
 }
 
 TEST(SchedCliTest, BadInputsExitTwoWithAClearMessage) {

@@ -276,6 +276,7 @@ class Checker {
   void check_device(const Transaction& tx, uint16_t dev);
   bool resolve_general_call(const Transaction& tx, Verdict* out);
   void check_frame(const Transaction& tx, uint16_t dev);
+  void check_short_query(const Transaction& tx, uint16_t dev);
   void check_register_map(const Transaction& tx, uint16_t dev);
   void evaluate(const Transaction& tx, Outcome& o);
   void finish(const Transaction& tx, Verdict* out);

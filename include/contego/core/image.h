@@ -20,7 +20,7 @@ namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
 inline constexpr uint16_t kImageVersionMajor = 2;
-inline constexpr uint16_t kImageVersionMinor = 0;
+inline constexpr uint16_t kImageVersionMinor = 1;  // 1: HAS_LAST, per-channel rate limits
 inline constexpr uint16_t kNone = 0xFFFF;
 inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
@@ -115,7 +115,11 @@ struct DeviceRecord {
   uint8_t sample_request_len;  // sensors: bytes the host writes before reading a sample
   uint8_t sample_request[8];
   uint8_t sample_len;  // sensors: bytes read per sample (<= kMaxSampleBytes)
-  uint8_t pad0[3];
+  // kFrame (since 2.1): 1 = a one-byte write [opcode] of a kQuery command is
+  // that query (a register pointer such as the DI line follower's 0x12 "board
+  // name"); 0 = one-byte writes are malformed.
+  uint8_t short_queries;
+  uint8_t pad0[2];
   // kRegisterMap (since 2.0): the bytes a commit of command
   // `command_first + broadcast` writes are also loaded into the same group
   // offsets of every channel of command `command_first + broadcast_target`, as
@@ -230,7 +234,11 @@ struct CommandMask {
 struct RateRecord {
   uint16_t task;
   uint16_t device;
-  uint32_t max_per_job;  // theta-hat: commands allowed in one job; the next ones get `response`
+  uint16_t max_per_job;  // theta-hat: commands allowed in one job; the next ones get `response`
+  // 0: commands of every channel count; n: only those of channel n-1 (a
+  // repeated register group). Images before 2.1 had a u32 count here.
+  uint8_t only_channel;
+  uint8_t reserved;      // 0
   CommandMask commands;  // which commands count
   uint8_t response;      // Response
   uint8_t reply_errno;
@@ -300,6 +308,8 @@ enum class Op : uint8_t {
   kState = 10,     // push this invariant's state word (starts at 0; sequences)
   kSetState = 11,  // pop into this invariant's pending state word; it is committed only if the
                    // transaction's final decision writes to the bus (allow or fail-safe)
+  kHasLast = 12,   // push 1 if a command of the same kind (and channel) has reached the device,
+                   // else 0: guards LAST_FIELD / SINCE_LAST for `last(x, default)`
   kAdd = 16,
   kSub,
   kMul,

@@ -328,7 +328,7 @@ class Sema {
             break;
         }
       }
-      if (decided && !all_const) {
+      if (decided && !all_const && !quiet_comparisons_) {
         diags_.emit(DiagKind::kImpossibleComparison, span,
                     std::string(source_.text().substr(span.begin, span.end - span.begin)),
                     *decided ? "true" : "false",
@@ -576,7 +576,10 @@ class Sema {
         auto x = std::make_shared<IExpr>();
         x->op = IOp::kIndex;
         x->lo = 0;
-        x->hi = 255;
+        x->hi = 0;  // the channels the rule's commands have
+        for (uint16_t ci : *c.commands) {
+          x->hi = std::max<int64_t>(x->hi, c.device->profile.commands[ci].repeat - 1);
+        }
         x->span = e.span;
         return x;
       }
@@ -796,42 +799,76 @@ class Sema {
       IExprPtr lo = fold(IOp::kMax, args[0]->type, {args[0], args[1]}, e.span);
       return fold(IOp::kMin, args[0]->type, {lo, args[2]}, e.span);
     }
-    if (f == "last" || f == "since_last") {
-      const bool last = f == "last";
-      if (!positional(last ? 1 : 0, last ? "one field name" : "no arguments")) {
-        return error_expr(e.span);
-      }
-      if (!c.device || !c.commands || c.constant) {
-        diags_.emit(DiagKind::kNotConstant, e.span, c.what, "the command history");
-        return error_expr(e.span);
-      }
-      if (!last) {
-        auto x = std::make_shared<IExpr>();
-        x->op = IOp::kSinceLast;
-        x->type = Type::kDuration;
-        x->lo = 0;
-        x->span = e.span;
-        return x;
-      }
+    if (f == "last" || f == "since_last") return resolve_history(e, c, positional);
+    if (f == "line_position") return resolve_line_position(e, c);
+    diags_.emit(DiagKind::kUnknownFunction, e.name_span, f);
+    return error_expr(e.span);
+  }
+
+  // `last(field [, default])` and `since_last([default])`: the history of this
+  // command kind and channel. Without a default, reading it before the first
+  // command reached the device faults (fails closed); with one, the default
+  // is used instead (lowered behind HAS_LAST).
+  template <typename Positional>
+  IExprPtr resolve_history(const ast::Expr& e, const Ctx& c, Positional& positional) {
+    const bool last = e.name == "last";
+    const size_t required = last ? 1 : 0;
+    const bool with_default = e.kids.size() == required + 1;
+    if (!positional(
+            with_default ? required + 1 : required,
+            last ? "a field name and an optional default" : "no arguments or a default duration")) {
+      return error_expr(e.span);
+    }
+    if (!c.device || !c.commands || c.constant) {
+      diags_.emit(DiagKind::kNotConstant, e.span, c.what, "the command history");
+      return error_expr(e.span);
+    }
+    IExprPtr r;
+    if (!last) {
+      auto x = std::make_shared<IExpr>();
+      x->op = IOp::kSinceLast;
+      x->type = Type::kDuration;
+      x->lo = 0;
+      x->span = e.span;
+      r = x;
+    } else {
       const ast::Expr& a = *e.kids[0];
       if (a.kind != ExprKind::kName) {
         diags_.emit(DiagKind::kExpectedToken, a.span, "a field name",
                     "`" + source_text(a.span) + "`");
         return error_expr(e.span);
       }
-      IExprPtr r = field_ref(a.name, a.span, c, IOp::kLastField);
+      r = field_ref(a.name, a.span, c, IOp::kLastField);
       if (!r) {
         unknown_field(a.name, a.span, *c.device, (*c.commands)[0]);
         return error_expr(e.span);
       }
-      return r;
+      if (r->type == Type::kError) return r;
     }
-    if (f == "line_position") return resolve_line_position(e, c);
-    diags_.emit(DiagKind::kUnknownFunction, e.name_span, f);
-    return error_expr(e.span);
+    if (!with_default) return r;
+    IExprPtr d = resolve(*e.kids[required], c);
+    if (d->type == Type::kError) return d;
+    if (d->type != r->type) {
+      diags_.emit(DiagKind::kTypeMismatch, e.kids[required]->span,
+                  "the default of `" + e.name + "`", type_phrase(d->type), type_phrase(r->type));
+      return error_expr(e.span);
+    }
+    auto x = std::make_shared<IExpr>();
+    x->op = IOp::kLastOr;
+    x->type = r->type;
+    x->span = e.span;
+    x->lo = std::min(r->lo, d->lo);
+    x->hi = std::max(r->hi, d->hi);
+    x->kids = {r, d};
+    return x;
   }
 
-  // Σ (raw_i − white_i)·100 / (black_i − white_i) · w_i, truncating division.
+  // Σ (raw_i − white_i)·100 / (black_i − white_i) · w_i, as the vendor
+  // computes it in floating point: each term is taken kLineScale times larger
+  // and the sum divided once (truncating), so the result is within 1 of the
+  // vendor's value (a per-term truncation was off by up to Σ|w_i|, enough to
+  // judge an honest command near the threshold against the wrong branch).
+  static constexpr int64_t kLineScale = 1000;
   IExprPtr resolve_line_position(const ast::Expr& e, const Ctx& c) {
     const ast::Expr* list = nullptr;
     const ast::Expr *white = nullptr, *black = nullptr, *weights = nullptr;
@@ -886,13 +923,15 @@ class Sema {
       if (raw->type == Type::kError) return raw;
       IExprPtr t =
           fold(IOp::kSub, Type::kInt, {raw, make_const((*w)[i], Type::kInt, e.span)}, e.span);
-      t = fold(IOp::kMul, Type::kInt, {t, make_const(100, Type::kInt, e.span)}, e.span);
+      t = fold(IOp::kMul, Type::kInt, {t, make_const(100 * kLineScale, Type::kInt, e.span)},
+               e.span);
       t = fold(IOp::kDiv, Type::kInt, {t, make_const((*b)[i] - (*w)[i], Type::kInt, e.span)},
                e.span);
       t = fold(IOp::kMul, Type::kInt, {t, make_const((*m)[i], Type::kInt, e.span)}, e.span);
       sum = sum ? fold(IOp::kAdd, Type::kInt, {sum, t}, e.span) : t;
     }
-    return sum ? sum : make_const(0, Type::kInt, e.span);
+    if (!sum) return make_const(0, Type::kInt, e.span);
+    return fold(IOp::kDiv, Type::kInt, {sum, make_const(kLineScale, Type::kInt, e.span)}, e.span);
   }
 
   IExprPtr resolve_binary(const ast::Expr& e, const Ctx& c) {
@@ -960,10 +999,28 @@ class Sema {
         diags_.emit(DiagKind::kEmptyRange, r.span, lo->value, hi->value);
         return error_expr(e.span);
       }
+      // The halves are not reported on their own (`index in 0..1`: `index >= 0`
+      // always holds, the range does not): the range as a whole is.
+      quiet_comparisons_ = true;
       result = fold(IOp::kAnd, Type::kBool,
                     {fold(IOp::kGe, Type::kBool, {x, lo}, e.span),
                      fold(IOp::kLe, Type::kBool, {x, hi}, e.span)},
                     e.span);
+      quiet_comparisons_ = false;
+      std::optional<bool> decided;
+      if (x->lo != kMin && x->hi != kMax && lo->is_const() && hi->is_const()) {
+        if (x->lo >= lo->value && x->hi <= hi->value) decided = true;
+        if (x->hi < lo->value || x->lo > hi->value) decided = false;
+      }
+      if (decided && !x->is_const()) {
+        diags_.emit(DiagKind::kImpossibleComparison, e.span, source_text(e.span),
+                    *decided != e.negated ? "true" : "false",
+                    fmt::format("the value is within {}..{} and the range is {}..{}", x->lo, x->hi,
+                                lo->value, hi->value));
+        auto whole = std::make_shared<IExpr>(*result);
+        whole->lo = whole->hi = *decided ? 1 : 0;
+        result = whole;
+      }
     } else if (r.kind == ExprKind::kSet) {
       for (const auto& k : r.kids) {
         IExprPtr v = resolve(*k, c);
@@ -973,8 +1030,16 @@ class Sema {
                       type_phrase(v->type), "a set of the same kind as the value");
           return error_expr(e.span);
         }
+        quiet_comparisons_ = true;  // one member out of reach does not decide the set
         IExprPtr eq = fold(IOp::kEq, Type::kBool, {x, v}, e.span);
         result = result ? fold(IOp::kOr, Type::kBool, {result, eq}, e.span) : eq;
+        quiet_comparisons_ = false;
+      }
+      if (result && result->lo == 0 && result->hi == 0 && !x->is_const() && !result->is_const()) {
+        diags_.emit(
+            DiagKind::kImpossibleComparison, e.span, source_text(e.span),
+            e.negated ? "true" : "false",
+            fmt::format("the value is within {}..{} and no member of the set is", x->lo, x->hi));
       }
       if (!result) result = make_const(0, Type::kBool, e.span);
     } else {
@@ -1731,6 +1796,7 @@ class Sema {
                       "values known only when the command is checked");
           return std::nullopt;
         }
+        clear_unnamed_overrides(*cv, out_.devices[dev_id], cmds);
         out.command = std::move(cv);
         return out;
       }
@@ -1776,6 +1842,7 @@ class Sema {
           cv.fields.push_back(fv);
         }
         if (!ok) return std::nullopt;
+        clear_unnamed_overrides(cv, dev, cmds);
         out.kind =
             cv.constant() ? ResponseKind::kFailsafeTemplate : ResponseKind::kFailsafeComputed;
         if (!in_invariant && !cv.constant()) {
@@ -1790,11 +1857,40 @@ class Sema {
     return std::nullopt;
   }
 
+  // A fail-safe never inherits an output override (full on / full off) from
+  // the device's shadow: the ones it does not name are written as 0.
+  void clear_unnamed_overrides(CommandValue& cv, const Device& dev,
+                               const std::vector<uint16_t>& cmds) {
+    if (dev.profile.kind != core::Profile::kRegisterMap) return;
+    std::vector<uint16_t> which;
+    if (cv.command != core::kNone) {
+      which.push_back(cv.command);
+    } else {
+      which = cmds;
+    }
+    if (which.empty()) return;
+    const auto& first = dev.profile.commands[which[0]].fields;
+    for (size_t slot = 0; slot < first.size(); ++slot) {
+      const bool everywhere = std::all_of(which.begin(), which.end(), [&](uint16_t ci) {
+        const auto& fields = dev.profile.commands[ci].fields;
+        return slot < fields.size() && fields[slot].output_override &&
+               fields[slot].name == first[slot].name;
+      });
+      const bool named = std::any_of(cv.fields.begin(), cv.fields.end(),
+                                     [&](const FieldValue& f) { return f.slot == slot; });
+      if (!everywhere || named) continue;
+      FieldValue fv;
+      fv.slot = static_cast<uint8_t>(slot);
+      fv.value = make_const(0, Type::kInt, cv.span);
+      cv.fields.push_back(fv);
+    }
+  }
+
   // --- rules -----------------------------------------------------------------
   void check_limit(const ast::LimitDecl& l) {
     auto task = rule_task(l.task);
     auto dev = rule_device(l.target.device, "a rate limit", true);
-    auto count = int_in(*l.count, "the rate limit", 0, std::numeric_limits<uint32_t>::max());
+    auto count = int_in(*l.count, "the rate limit", 0, std::numeric_limits<uint16_t>::max());
     if (!dev) return;
     std::vector<uint16_t> cmds;
     if (l.target.commands.empty()) {
@@ -1804,10 +1900,10 @@ class Sema {
     } else {
       return;
     }
+    std::optional<int64_t> channel;
     if (l.target.index) {
-      diags_.emit(DiagKind::kNotSupported, l.target.index->span,
-                  "a rate limit on one channel (rate limits count every channel)");
-      return;
+      channel = selected_channel(*l.target.index, l.target.span, cmds, out_.devices[*dev]);
+      if (!channel) return;
     }
     const std::string rule = "the rate limit `" + source_text(l.target.span) + "`";
     auto resp = response(l.response, *dev, cmds, false, false, rule);
@@ -1826,10 +1922,27 @@ class Sema {
     r.device = *dev;
     r.commands = cmds;
     r.count = static_cast<uint32_t>(*count);
+    r.index = channel;
     r.response = std::move(*resp);
     r.text = collapse(source_text(l.span));
     r.span = l.span;
     out_.rates.push_back(std::move(r));
+  }
+
+  // The channel of a selection `dev.led(5)`: a repeated register group's
+  // channel, within its repeat count.
+  std::optional<int64_t> selected_channel(const ast::Expr& index, Span target,
+                                          const std::vector<uint16_t>& cmds, const Device& device) {
+    int64_t max_repeat = 1;
+    for (uint16_t ci : cmds) {
+      max_repeat = std::max<int64_t>(max_repeat, device.profile.commands[ci].repeat);
+    }
+    if (max_repeat <= 1) {
+      diags_.emit(DiagKind::kTypeMismatch, index.span, "`" + source_text(target) + "`",
+                  "a command without channels", "a repeated register group such as `led`");
+      return std::nullopt;
+    }
+    return int_in(index, "the channel", 0, max_repeat - 1);
   }
 
   static std::string collapse(const std::string& s) {
@@ -1888,20 +2001,9 @@ class Sema {
       cmds = *c;
     }
     if (d.target.index) {
-      int64_t max_repeat = 1;
-      for (uint16_t ci : cmds.empty() ? all_actuation(device) : cmds) {
-        max_repeat = std::max<int64_t>(max_repeat, device.profile.commands[ci].repeat);
-      }
-      if (max_repeat <= 1) {
-        diags_.emit(DiagKind::kTypeMismatch, d.target.index->span,
-                    "`" + source_text(d.target.span) + "`", "a command without channels",
-                    "a repeated register group such as `led`");
-        ok = false;
-      } else if (auto idx = int_in(*d.target.index, "the channel", 0, max_repeat - 1)) {
-        inv.index = *idx;
-      } else {
-        ok = false;
-      }
+      inv.index = selected_channel(*d.target.index, d.target.span,
+                                   cmds.empty() ? all_actuation(device) : cmds, device);
+      if (!inv.index) ok = false;
     }
     const std::string rule = "invariant `" + inv.name + "`";
     // Expected commands first: they decide the default command set.
@@ -2008,7 +2110,39 @@ class Sema {
     if (!resp) return;
     inv.response = std::move(*resp);
     if (!ok || !declared) return;
+    warn_if_never_starts(inv, d.span);
     out_.invariants.push_back(std::move(inv));
+  }
+
+  // True if `e` reads the command history where no default guards it: before
+  // the first command of its kind reached the device, it faults.
+  static bool reads_unguarded_history(const IExpr* e) {
+    if (!e) return false;
+    if (e->op == IOp::kLastField || e->op == IOp::kSinceLast) return true;
+    if (e->op == IOp::kLastOr) return reads_unguarded_history(e->kids[1].get());
+    return std::any_of(e->kids.begin(), e->kids.end(),
+                       [](const IExprPtr& k) { return reads_unguarded_history(k.get()); });
+  }
+
+  // A rule whose check faults until a command reached the device, and whose
+  // response then writes nothing, refuses every command forever: the history
+  // it waits for never starts. A constant or expected fail-safe writes a
+  // command, so it is not reported.
+  void warn_if_never_starts(const Invariant& inv, Span span) {
+    const IExpr* cond = reads_unguarded_history(inv.when.get())      ? inv.when.get()
+                        : reads_unguarded_history(inv.require.get()) ? inv.require.get()
+                                                                     : nullptr;
+    if (!cond) return;
+    bool writes = inv.response.kind == ResponseKind::kFailsafeTemplate ||
+                  inv.response.kind == ResponseKind::kFailsafeExpected;
+    if (inv.response.kind == ResponseKind::kFailsafeComputed && inv.response.command) {
+      writes =
+          std::none_of(inv.response.command->fields.begin(), inv.response.command->fields.end(),
+                       [](const FieldValue& f) { return reads_unguarded_history(f.value.get()); });
+    }
+    if (writes) return;
+    diags_.emit(DiagKind::kNeverStarts, cond->span.end > cond->span.begin ? cond->span : span,
+                inv.name);
   }
 
   void final_checks() {
@@ -2087,6 +2221,7 @@ class Sema {
   const SourceBuffer& source_;
   DiagnosticEmitter& diags_;
   const ProfileLookup& profiles_;
+  bool quiet_comparisons_ = false;  // W0704 is decided by the enclosing `in`
   CheckedPolicy out_;
   std::map<std::string, Sym> names_;
   std::vector<Const> consts_;
@@ -2124,9 +2259,9 @@ bool CommandValue::constant() const {
 
 std::string to_string(const IExpr& e) {
   static const char* kNames[] = {
-      "const", "signal", "field", "last", "since_last", "index", "jobcount", "neg", "not",
-      "abs",   "add",    "sub",   "mul",  "div",        "mod",   "min",      "max", "eq",
-      "ne",    "lt",     "le",    "gt",   "ge",         "and",   "or"};
+      "const", "signal", "field", "last", "since_last", "index", "jobcount", "neg",    "not",
+      "abs",   "add",    "sub",   "mul",  "div",        "mod",   "min",      "max",    "eq",
+      "ne",    "lt",     "le",    "gt",   "ge",         "and",   "or",       "last_or"};
   std::string out = kNames[static_cast<int>(e.op)];
   if (e.op == IOp::kConst) return std::to_string(e.value);
   if (e.op == IOp::kSignal || e.op == IOp::kField || e.op == IOp::kLastField) {

@@ -53,6 +53,7 @@ enum class IOp : uint8_t {
   kGe,
   kAnd,
   kOr,
+  kLastOr,  // kids[0] (a kLastField or kSinceLast) if the history exists, else kids[1]
 };
 
 struct IExpr {
@@ -147,6 +148,7 @@ struct RateLimit {
   uint16_t task = 0, device = 0;
   std::vector<uint16_t> commands;  // profile command indexes
   uint32_t count = 0;
+  std::optional<int64_t> index;  // only this channel counts
   Response response;
   std::string text;
   Span span;

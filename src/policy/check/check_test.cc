@@ -83,5 +83,77 @@ TEST(Check, ExpectMaskIsTheExpectedGroups) {
   EXPECT_EQ(c.policy.invariants[0].commands.size(), 1u);  // only set_left_speed is in its group
 }
 
+constexpr const char* kPca = R"(
+device esc : pca9685 at i2c-1 0x40
+task t { period 100ms; wcet 1ms; actuations 2 }
+allow t -> esc
+)";
+
+TEST(Check, LastWithoutDefaultAndANonWritingResponseNeverStarts) {
+  const Checked c = run(std::string(kPca) +
+                        "invariant S on esc.led: require abs(off - last(off)) <= 20 "
+                        "else failsafe off = last(off)\n");
+  EXPECT_EQ(c.ids(), (std::vector<std::string>{"W0709"}));
+  const Checked ignore =
+      run(std::string(kPca) + "invariant S on esc.led: require since_last() > 5ms else ignore\n");
+  EXPECT_EQ(ignore.ids(), (std::vector<std::string>{"W0709"}));
+}
+
+TEST(Check, LastWithADefaultOrAConstantFailsafeStarts) {
+  for (const char* rule : {
+           "require abs(off - last(off, 307)) <= 20 else failsafe off = last(off, 307)",
+           "require since_last(1s) > 5ms else ignore",
+           "require abs(off - last(off)) <= 20 else failsafe off = 307",
+       }) {
+    const Checked c = run(std::string(kPca) + "invariant S on esc.led: " + rule + "\n");
+    EXPECT_TRUE(c.diags.empty()) << rule << ": " << c.diags[0].rendered;
+    ASSERT_EQ(c.policy.invariants.size(), 1u) << rule;
+  }
+}
+
+TEST(Check, LastDefaultMustHaveTheFieldsKind) {
+  const Checked c =
+      run(std::string(kPca) + "invariant S on esc.led: require last(off, 1ms) > 0 else ignore\n");
+  EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0401"}));
+}
+
+TEST(Check, FailsafeNamingAPulseClearsTheFullOnAndFullOffBits) {
+  const Checked c = run(std::string(kPca) +
+                        "invariant P on esc.led: require off in 205..410 "
+                        "else failsafe off = 307\n");
+  ASSERT_EQ(c.policy.invariants.size(), 1u) << (c.diags.empty() ? "" : c.diags[0].rendered);
+  const auto& fields = c.policy.invariants[0].response.command->fields;
+  std::vector<std::string> named;
+  const auto& led = c.policy.devices[0].profile.commands[c.policy.invariants[0].commands[0]];
+  for (const FieldValue& f : fields) {
+    named.push_back(led.fields[f.slot].name + "=" + std::to_string(f.value->value));
+  }
+  EXPECT_EQ(named, (std::vector<std::string>{"off=307", "full_on=0", "full_off=0"}));
+}
+
+TEST(Check, RateLimitOnOneChannel) {
+  const Checked c = run(std::string(kPca) + "limit t -> esc.led(1) 1 per job else ignore\n");
+  EXPECT_TRUE(c.diags.empty()) << c.diags[0].rendered;
+  ASSERT_EQ(c.policy.rates.size(), 1u);
+  EXPECT_EQ(c.policy.rates[0].index, 1);
+  const Checked bad = run(std::string(kPca) + "limit t -> esc.led(16) 1 per job else ignore\n");
+  EXPECT_EQ(bad.ids(), (std::vector<std::string>{"E0501"}));
+}
+
+TEST(Check, ChannelRangeIsJudgedAsAWhole) {
+  // `index >= 0` alone always holds; `index in 0..1` refuses channels 2..15.
+  EXPECT_TRUE(run(std::string(kPca) + "invariant C on esc.led: require index in 0..1 else ignore\n")
+                  .diags.empty());
+  EXPECT_TRUE(run(std::string(kPca) + "invariant C on esc.led: require off in 0..300 else ignore\n")
+                  .diags.empty());
+  // Every channel of a 16-channel group is in 0..15: that one is always true.
+  const Checked all =
+      run(std::string(kPca) + "invariant C on esc.led: require index in 0..15 else ignore\n");
+  EXPECT_EQ(all.ids(), (std::vector<std::string>{"W0704", "W0703"}));
+  const Checked none =
+      run(std::string(kPca) + "invariant C on esc.led: require index in 16..20 else ignore\n");
+  EXPECT_EQ(none.ids(), (std::vector<std::string>{"W0704", "W0703"}));
+}
+
 }  // namespace
 }  // namespace contego::policy

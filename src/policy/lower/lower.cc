@@ -247,6 +247,17 @@ class Lowerer {
         return p.emit(Op::kIndex);
       case IOp::kJobCount:
         return p.emit(Op::kJobCount);
+      case IOp::kLastOr: {
+        const int use_default = p.new_label(), done = p.new_label();
+        p.emit(Op::kHasLast);
+        p.jump(Op::kJumpIfZero, use_default);
+        expr(p, *e.kids[0]);
+        p.jump(Op::kJump, done);
+        p.bind(use_default);
+        expr(p, *e.kids[1]);
+        p.bind(done);
+        return;
+      }
       default:
         break;
     }
@@ -336,7 +347,8 @@ class Lowerer {
     rec.name = rl.name;
     rec.record.task = rl.task;
     rec.record.device = rl.device;
-    rec.record.max_per_job = rl.count;
+    rec.record.max_per_job = static_cast<uint16_t>(rl.count);
+    rec.record.only_channel = rl.index ? static_cast<uint8_t>(*rl.index + 1) : 0;
     rec.record.commands = mask_of(globals(rl.device, rl.commands));
     static_response(rl.device, rl.response, rec.record.response, rec.record.reply_errno,
                     rec.record.template_id);

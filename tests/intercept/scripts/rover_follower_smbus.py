@@ -10,7 +10,7 @@ bus.write_i2c_block_data(ADDR, 1, [70, 150, 0, 0])  # set_left_speed(150)
 bus.write_i2c_block_data(ADDR, 1, [71, 150, 0, 0])  # set_right_speed(150)
 bus.write_i2c_block_data(ADDR, 1, [105, 0, 0, 0])   # fwd
 print("job 1 sent", flush=True)
-time.sleep(0.05)  # the job boundary
+time.sleep(0.21)  # one period (200 ms): the next job on the task's grid
 try:
     bus.write_i2c_block_data(ADDR, 1, [12, 9, 1, 0])  # digital_write
     print("digital_write accepted", flush=True)

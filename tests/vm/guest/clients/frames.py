@@ -5,8 +5,8 @@
 #   periphery  python3-periphery I2C.transfer       (ioctl I2C_RDWR, one write message)
 # Each FRAME is REG:B1,B2,... (the GoPiGo frame 01 cmd v1 v2 v3 is 1:cmd,v1,v2,v3).
 # With --sync DIR it hands over to the test after each frame (creates
-# DIR/sent-K, waits for DIR/ack-K); the waits are sleeps, so each frame is
-# its own job. Prints "frame K ok" or "frame K refused ERRNO".
+# DIR/sent-K, waits for DIR/ack-K, then more than a period), so each frame is in
+# a job of its own. Prints "frame K ok" or "frame K refused ERRNO".
 # Usage: frames.py LIB [--sync DIR] ADDR FRAME...
 import os
 import sys
@@ -45,12 +45,10 @@ def handshake(name):
     open(os.path.join(sync, "sent-" + name), "w").close()
     while not os.path.exists(os.path.join(sync, "ack-" + name)):
         time.sleep(0.02)
-    # The monitor starts a new job when the task goes to sleep at least half
-    # a period (the rover's: 100 ms) after its job began: two sleeps longer
-    # than that make sure the next frame is in a job of its own, however
-    # quickly the test answered.
-    time.sleep(0.11)
-    time.sleep(0.11)
+    # The monitor releases the task's jobs on its period grid (the rover's:
+    # 200 ms): a frame sent more than a period after the previous one is in a
+    # job of its own, however quickly the test answered.
+    time.sleep(0.21)
 
 
 for k, (reg, data) in enumerate(frames):

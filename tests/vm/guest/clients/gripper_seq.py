@@ -31,17 +31,14 @@ if sync:
     with open(os.path.join(sync, "pid"), "w") as f:
         f.write(str(os.getpid()))
 handshake("start")
-HALF_PERIOD = 0.55  # arm.policy: the gripper's period is 1 s, one pulse per job
+PERIOD = 1.0  # arm.policy: the gripper's period is 1 s, one pulse per job
 with SMBus(1) as bus:
     for k, pulse in enumerate(int(a) for a in args):
-        # Each pulse in its own job. The monitor starts a new job when the task
-        # goes to sleep at least half a period after its job began; two sleeps
-        # of more than half a period make sure the second one does, however
-        # long the handshake with the test took (a single sleep entered early
-        # in a job would not end it, and the next pulse would be a burst).
+        # Each pulse in its own job: the monitor releases the task's jobs on
+        # its 1 s period grid, so a pulse sent more than a period after the
+        # previous one is in a later job, however the handshake went.
         if k > 0:
-            time.sleep(HALF_PERIOD)
-            time.sleep(HALF_PERIOD)
+            time.sleep(PERIOD + 0.05)
         for reg, value in ((0x1A, 0), (0x1B, 0), (0x1C, pulse & 0xFF), (0x1D, pulse >> 8)):
             bus.write_byte_data(0x40, reg, value)
         print("pulse", pulse, "sent", flush=True)

@@ -1,0 +1,54 @@
+#include "gate/operator.h"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <sys/socket.h>
+#include <sys/un.h>
+
+#include "gate/socket.h"
+#include "gate/wire.h"
+
+namespace contego::gate {
+
+Result<bool> request_reset(const std::string& socket_path, const std::string& device) {
+  if (device.empty() || device.size() > wire::kMaxTaskName) {
+    return make_error("a device name of 1..64 characters expected");
+  }
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (socket_path.size() >= sizeof addr.sun_path) {
+    return make_error("socket path too long: " + socket_path);
+  }
+  std::memcpy(addr.sun_path, socket_path.c_str(), socket_path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return make_error(std::string("socket: ") + std::strerror(errno));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    return make_error("cannot reach the monitor at " + socket_path + ": " + std::strerror(errno));
+  }
+  if (!send_frame(fd, wire::Type::kReset, 1, wire::encode_hello(device))) {
+    return make_error("the monitor at " + socket_path + " closed the connection");
+  }
+  FrameReader reader(fd);
+  wire::Header h;
+  std::span<const uint8_t> answer;
+  if (const std::string why = reader.next(&h, &answer); !why.empty()) {
+    return make_error("no answer from the monitor at " + socket_path + ": " + why);
+  }
+  if (h.type == static_cast<uint8_t>(wire::Type::kError)) {
+    wire::ErrorMsg e;
+    (void)wire::decode_error(answer, &e);
+    return make_error("the monitor refused: " + e.reason);
+  }
+  if (h.type != static_cast<uint8_t>(wire::Type::kResetOk) || answer.size() != 1) {
+    return make_error("unexpected answer from the monitor at " + socket_path);
+  }
+  return answer[0] != 0;
+}
+
+}  // namespace contego::gate
