@@ -63,11 +63,20 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     t->tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
     names.push_back(out.model.tasks[i].name);
   }
+  for (const auto& task : out.summary.tasks) {
+    auto b = resolve_binding(
+        task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
+    if (!b.ok()) return make_error(fmt::format("policy {}: {}", o.policy, b.error()));
+    t->bindings[task.name] = *b;
+  }
   if (!o.task.empty() && !t->tasks.contains(o.task)) {
     return make_error(fmt::format("policy {} declares no task '{}'", o.policy, o.task));
   }
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
   t->monitor->set_task_names(names);
+  std::vector<uint32_t> actuates;
+  for (const auto& a : out.model.access) actuates.push_back(a.actuate_devices);
+  t->monitor->set_task_devices(std::move(actuates));
   t->monitor->set_budget_factor(o.budget_factor);
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;

@@ -27,6 +27,7 @@
 #include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
+#include "monitor/peer_identity.h"
 
 namespace contego::monitor {
 
@@ -49,8 +50,11 @@ struct Trusted {
   std::vector<std::unique_ptr<bus::Bus>> buses;
   std::unique_ptr<Monitor> monitor;
   std::map<std::string, uint16_t> tasks;  // name -> id
-  std::vector<std::string> warnings;      // e.g. an adapter no device uses
-  std::vector<std::string> degraded;      // with allow_degraded: what was wrong at start
+  // Who may run each task (the policy's user/group/exe/unit/cgroup/sessions),
+  // resolved on this host: an unknown user or group, or a missing exe, fails setup.
+  std::map<std::string, TaskBinding> bindings;
+  std::vector<std::string> warnings;  // e.g. an adapter no device uses
+  std::vector<std::string> degraded;  // with allow_degraded: what was wrong at start
   // The models on the virtual buses, for virtual_state().
   struct VirtualDevices {
     int bus = 0;

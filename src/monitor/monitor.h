@@ -46,6 +46,12 @@ class Monitor final : public gate::Endpoint {
 
   void add_bus(uint8_t number, bus::Bus* bus);
   void set_task_names(std::vector<std::string> names) { task_names_ = std::move(names); }
+  // Per task id, bit k: the task may actuate device k (the image's access
+  // matrix). When set, a task's exit drives only its own actuators safe;
+  // unset (or a task beyond the list), every actuator.
+  void set_task_devices(std::vector<uint32_t> actuate_masks) {
+    task_devices_ = std::move(actuate_masks);
+  }
   // Over-budget hold (0 = off): once a task has sent more than `factor` x
   // its declared actuations per job in one job (or one period, for a task
   // that never sleeps), its next transfer waits until that period is over.
@@ -104,13 +110,16 @@ class Monitor final : public gate::Endpoint {
   int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
   int sample_device_locked(uint16_t device);                // 0 or the bus's errno
   void hold_if_over_budget(uint16_t task);
-  std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why);
+  // The actuators whose bit is set in `devices` (all by default).
+  std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why,
+                                                     uint32_t devices = UINT32_MAX);
 
   Decider& decider_;
   AuditLog& audit_;
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
   std::vector<std::string> task_names_;
+  std::vector<uint32_t> task_devices_;
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   std::map<uint16_t, Sample> samples_;
   std::map<uint16_t, JobState> jobs_;

@@ -35,7 +35,13 @@ Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t
       allowed_(std::move(allowed_uids)),
       spin_(spin),
       realtime_(realtime),
-      limits_(limits) {}
+      limits_(limits) {
+  own_exe_known_ = own_exe(&own_dev_, &own_ino_);
+}
+
+void Server::set_bindings(std::map<std::string, TaskBinding> bindings) {
+  bindings_ = std::move(bindings);
+}
 
 Server::~Server() {
   stop();
@@ -212,6 +218,8 @@ void Server::serve() {
     auto c = std::make_unique<Conn>();
     c->fd = fd;
     c->uid = cred.uid;
+    c->pid = cred.pid;
+    c->pidfd = peer_pidfd(fd, cred.pid);  // -1: a hello for a bound task is refused
     c->hello_deadline_us =
         limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
     Conn* raw = c.get();
@@ -220,6 +228,7 @@ void Server::serve() {
     } catch (const std::system_error&) {
       --live;
       lock.unlock();
+      if (c->pidfd >= 0) close(c->pidfd);
       client_event(cred.uid, "peer-refused",
                    fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
       close(fd);
@@ -242,16 +251,6 @@ void Server::stop() {
   }
 }
 
-// One connection's state and its answers, the same whether a message came
-// over the socket or through the shared-memory channel.
-struct Server::Session {
-  Conn* conn = nullptr;
-  bool bound = false;
-  uint16_t task = 0;
-  gate::Transfer transfer;  // reused: no allocation per exchange once grown
-  std::vector<uint8_t> out;
-};
-
 // Answers one well-framed message into *out; returns the answer's type, or
 // nullopt for a message that has none (job-end over the socket).
 std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
@@ -264,14 +263,22 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
   switch (static_cast<wire::Type>(type)) {
     case wire::Type::kHello: {
       std::string name;
-      if (std::string e = wire::decode_hello(payload, &name); !e.empty()) return refuse(EPROTO, e);
+      wire::Vouch vouch;
+      if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty()) {
+        return refuse(EPROTO, e);
+      }
       auto it = tasks_.find(name);
       if (s.bound || it == tasks_.end()) {
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
-      s.bound = true;
+      if (std::string why = admit(s, name, it->second, vouch); !why.empty()) {
+        hellos_refused_.fetch_add(1);
+        client_event(s.conn->uid, "hello-refused",
+                     fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, why));
+        s.out = wire::encode_error({EACCES, why});
+        return wire::Type::kError;
+      }
       s.conn->hello.store(true);
-      s.task = it->second;
       const uint16_t priority = monitor_.task_priority(s.task);
       if (realtime_ && priority > 0) {
         // This thread checks the task's commands: it runs at the task's priority.
@@ -358,9 +365,10 @@ void Server::connection(Conn* conn) {
     }
   }
   if (channel) serve_channel(s, *channel);
-  if (s.bound) monitor_.task_exited(s.task);
+  end_session(s);
   std::lock_guard lock(mu_);
   close(fd);
+  if (c->pidfd >= 0) close(c->pidfd);
   if (auto it = per_uid_.find(c->uid); it != per_uid_.end() && --it->second == 0) {
     per_uid_.erase(it);
   }

@@ -27,6 +27,7 @@
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
 #include <sys/uio.h>
 #include <sys/wait.h>
@@ -591,6 +592,55 @@ struct ChildStatus {
   }
 };
 
+// The absolute path execvp would execute for `name` ("" if none): what the
+// child executes and what a supervisor names to the monitor.
+std::string resolve_program(const std::string& name) {
+  auto absolute = [](const std::string& path) {
+    if (path.empty() || path[0] == '/') return path;
+    char cwd[PATH_MAX];
+    return getcwd(cwd, sizeof cwd) != nullptr ? std::string(cwd) + "/" + path : std::string();
+  };
+  if (name.find('/') != std::string::npos) return absolute(name);
+  const char* env = getenv("PATH");
+  const std::string path = env != nullptr ? env : "/usr/local/bin:/bin:/usr/bin";
+  size_t i = 0;
+  while (i <= path.size()) {
+    size_t j = path.find(':', i);
+    if (j == std::string::npos) j = path.size();
+    const std::string dir = j == i ? "." : path.substr(i, j - i);
+    const std::string candidate = dir + "/" + name;
+    struct stat st {};
+    if (stat(candidate.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
+        access(candidate.c_str(), X_OK) == 0) {
+      return absolute(candidate);
+    }
+    i = j + 1;
+  }
+  return {};
+}
+
+// The supervisor is not dumpable while any run() has a program that may run
+// (concurrent run()s share the process); the first sets it, the last restores it.
+std::mutex dumpable_mu;
+int dumpable_users = 0;
+int dumpable_before = 1;
+void enter_undumpable() {
+  std::lock_guard lock(dumpable_mu);
+  if (dumpable_users++ == 0) {
+    dumpable_before = prctl(PR_GET_DUMPABLE, 0, 0, 0, 0);
+    prctl(PR_SET_DUMPABLE, 0, 0, 0, 0);
+  }
+}
+void leave_undumpable() {
+  std::lock_guard lock(dumpable_mu);
+  if (--dumpable_users == 0 && dumpable_before > 0) {
+    prctl(PR_SET_DUMPABLE, dumpable_before, 0, 0, 0);
+  }
+}
+
+// A credential failure in the child, told to the parent through the pipe.
+constexpr int kCredentialsFailed = 1 << 16;
+
 }  // namespace
 
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
@@ -602,6 +652,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   std::vector<char*> argv;
   for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);
+  const std::string program = resolve_program(options.argv[0]);
 
   int to_parent[2], to_child[2];
   if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
@@ -618,6 +669,20 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
     // Only async-signal-safe calls from here to execvp.
+    // Dumpable whatever a concurrent run() set: the supervisor takes the
+    // listener from it (pidfd_getfd) before it runs the program.
+    prctl(PR_SET_DUMPABLE, 1, 0, 0, 0);
+    // The program's credentials first: a change of credentials clears the
+    // parent-death signal. Raw system calls: this thread only, no C library
+    // broadcast to threads that do not exist in the child.
+    if (options.set_credentials &&
+        (syscall(SYS_setgroups, options.groups.size(), options.groups.data()) != 0 ||
+         syscall(SYS_setresgid, options.gid, options.gid, options.gid) != 0 ||
+         syscall(SYS_setresuid, options.uid, options.uid, options.uid) != 0)) {
+      const int failed = -(kCredentialsFailed + errno);
+      (void)!write(to_parent[1], &failed, sizeof failed);
+      _exit(126);
+    }
     // Dies with the thread that forked it; if that happened already (the
     // parent is no longer the supervisor), give up before running anything.
     if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != supervisor) _exit(126);
@@ -638,7 +703,11 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     char ack;
     if (read(to_child[0], &ack, 1) != 1) _exit(126);
     close(fd);
-    execvp(argv[0], argv.data());
+    if (!program.empty()) {
+      execv(program.c_str(), argv.data());
+    } else {
+      execvp(argv[0], argv.data());
+    }
     const int e = errno;
     (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
     _exit(e == ENOENT ? 127 : 126);
@@ -660,6 +729,10 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
         "SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV (Linux 5.19 or later is needed, so that a "
         "signal cannot make a checked transfer act twice or act while reporting failure)");
   }
+  if (got == sizeof msg && msg <= -kCredentialsFailed) {
+    return abandon("cannot run the program as uid " + std::to_string(options.uid) + " gid " +
+                   std::to_string(options.gid) + ": " + strerror(-msg - kCredentialsFailed));
+  }
   if (got != sizeof msg || msg < 0) {
     return abandon(std::string("cannot install the seccomp filter: ") +
                    (got == sizeof msg ? strerror(-msg) : "child failed"));
@@ -670,6 +743,16 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     if (pidfd >= 0) close(pidfd);
     return abandon(std::string("cannot take the notification descriptor: ") + strerror(errno));
   }
+  if (options.before_start) {
+    if (std::string why = options.before_start(child, program.empty() ? options.argv[0] : program);
+        !why.empty()) {
+      close(listener);
+      close(pidfd);
+      return abandon(why);
+    }
+  }
+  // From here the program may run: out of its reach.
+  enter_undumpable();
   RunResult result;
   if (options.sync_wakeup &&
       ioctl(listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS, SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
@@ -779,6 +862,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (loop_realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
   close(listener);
   close(pidfd);
+  leave_undumpable();
   endpoint.task_exited(options.task);
   return result;
 }
