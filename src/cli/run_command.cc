@@ -202,13 +202,7 @@ void register_run(CLI::App& app) {
       return set_exit_code(2);
     }
     so.real_buses = *buses;
-    if (!so.real_buses.empty() && geteuid() == 0 && args->user.empty() && !args->same_user) {
-      fmt::print(stderr,
-                 "contego run: the embedded monitor holds real buses and runs as root: give "
-                 "--user USER[:GROUP] so that the program runs under another uid than its "
-                 "supervisor (or --same-user to run it as root anyway)\n");
-      return set_exit_code(2);
-    }
+
     so.virtual_buses = args->virtual_buses;
     so.budget_factor = args->budget_factor;
     so.allow_degraded = args->allow_degraded;
@@ -216,6 +210,14 @@ void register_run(CLI::App& app) {
     auto trusted = monitor::setup(so);
     if (!trusted.ok()) {
       fmt::print(stderr, "contego run: {}\n", trusted.error());
+      return set_exit_code(2);
+    }
+    // After the start checks (their refusals name the bus), before the program runs.
+    if (!so.real_buses.empty() && geteuid() == 0 && args->user.empty() && !args->same_user) {
+      fmt::print(stderr,
+                 "contego run: the embedded monitor holds real buses and runs as root: give "
+                 "--user USER[:GROUP] so that the program runs under another uid than its "
+                 "supervisor (or --same-user to run it as root anyway)\n");
       return set_exit_code(2);
     }
     for (const auto& w : (*trusted)->warnings) fmt::print(stderr, "contego run: warning: {}\n", w);

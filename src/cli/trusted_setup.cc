@@ -67,6 +67,9 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     auto b = resolve_binding(
         task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
     if (!b.ok()) return make_error(fmt::format("policy {}: {}", o.policy, b.error()));
+    if (!b->unresolved.empty()) {
+      t->warnings.push_back(b->unresolved + ": every hello for it is refused");
+    }
     t->bindings[task.name] = *b;
   }
   if (!o.task.empty() && !t->tasks.contains(o.task)) {

@@ -65,9 +65,10 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
     } else {
       const passwd* pw = getpwnam(id.user.c_str());
       if (pw == nullptr) {
-        return make_error(fmt::format("task '{}': no user '{}' on this host", task, id.user));
+        b.unresolved = fmt::format("task '{}': no user '{}' on this host", task, id.user);
+      } else {
+        b.uid = pw->pw_uid;
       }
-      b.uid = pw->pw_uid;
     }
   }
   if (!id.group.empty()) {
@@ -76,9 +77,10 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
     } else {
       const group* gr = getgrnam(id.group.c_str());
       if (gr == nullptr) {
-        return make_error(fmt::format("task '{}': no group '{}' on this host", task, id.group));
+        b.unresolved = fmt::format("task '{}': no group '{}' on this host", task, id.group);
+      } else {
+        b.gid = gr->gr_gid;
       }
-      b.gid = gr->gr_gid;
     }
   }
   if (!id.exe.empty()) {
@@ -87,10 +89,9 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
       return make_error(fmt::format("task '{}': exe \"{}\" is not an absolute path", task, id.exe));
     }
     if (stat(id.exe.c_str(), &st) != 0) {
-      return make_error(fmt::format("task '{}': exe \"{}\": {}", task, id.exe, strerror(errno)));
-    }
-    if (!S_ISREG(st.st_mode)) {
-      return make_error(fmt::format("task '{}': exe \"{}\" is not a regular file", task, id.exe));
+      b.unresolved = fmt::format("task '{}': exe \"{}\": {}", task, id.exe, strerror(errno));
+    } else if (!S_ISREG(st.st_mode)) {
+      b.unresolved = fmt::format("task '{}': exe \"{}\" is not a regular file", task, id.exe);
     }
     b.exe = id.exe;
     b.has_exe = true;
@@ -178,6 +179,7 @@ Result<PeerFacts> process_facts(int pidfd, pid_t pid) {
 }
 
 std::string binding_mismatch(const std::string& task, const TaskBinding& b, const PeerFacts& f) {
+  if (!b.unresolved.empty()) return b.unresolved + " (no peer can run it)";
   if (b.uid && f.uid != *b.uid) {
     return fmt::format("task '{}' is bound to uid {}; the peer runs as uid {}", task, *b.uid,
                        f.uid);

@@ -48,12 +48,19 @@ struct TaskBinding {
   ino_t exe_ino = 0;
   std::string unit, cgroup;
   uint32_t sessions = 1;
-  bool binds() const { return uid || gid || has_exe || !unit.empty() || !cgroup.empty(); }
+  // Why the binding cannot be met on this host (an unknown user or group, an
+  // exe that does not exist): every hello for the task is refused with it.
+  std::string unresolved;
+  bool binds() const {
+    return uid || gid || has_exe || !unit.empty() || !cgroup.empty() || !unresolved.empty();
+  }
 };
 
 // Names resolved with the host's user and group databases; the exe stat'ed.
-// An unknown user or group, or an exe that does not exist, is an error
-// naming the task (the monitor refuses to start: fail closed).
+// A binding that cannot be met on this host (unknown user or group, missing
+// exe) is returned with `unresolved` set (that task is refused: fail closed;
+// the others run); a malformed one (a relative exe or cgroup path) is an
+// error naming the task.
 Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity& identity);
 
 // What the kernel says about a process.
