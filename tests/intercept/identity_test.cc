@@ -7,6 +7,7 @@
 // refused hellos drives nothing safe; the program cannot ptrace, write or
 // copy descriptors of its supervisor; chroot, new namespaces and mknod of a
 // bus node fail. Each refusal is audited; the device is read back.
+#include <grp.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>

@@ -53,7 +53,7 @@ int hello(const char* path, const char* task) {
   close(fd);
   if (got < 12) return -1;
   if (answer[3] == 2) return 1;  // kHelloOk
-  if (got > 20) printf("refused: %.*s\n", static_cast<int>(got - 20), answer + 20);
+  if (got > 18) printf("refused: %.*s\n", static_cast<int>(got - 18), answer + 18);
   return 0;
 }
 
