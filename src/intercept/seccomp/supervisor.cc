@@ -36,6 +36,8 @@
 
 #include "base/realtime.h"
 #include "intercept/i2c_abi/i2c_abi.h"
+#include "intercept/seccomp/bus_path.h"
+#include "intercept/seccomp/reach.h"
 #include "intercept/seccomp/uapi_fallback.h"
 
 namespace contego::intercept::seccomp {
@@ -113,71 +115,6 @@ bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
     out->push_back(c);
   }
   return false;
-}
-
-std::string lexical_normalise(const std::string& path) {
-  std::vector<std::string> parts;
-  size_t i = 0;
-  while (i <= path.size()) {
-    size_t j = path.find('/', i);
-    if (j == std::string::npos) j = path.size();
-    std::string part = path.substr(i, j - i);
-    if (part == "..") {
-      if (!parts.empty()) parts.pop_back();
-    } else if (!part.empty() && part != ".") {
-      parts.push_back(part);
-    }
-    i = j + 1;
-  }
-  std::string out;
-  for (const auto& p : parts) out += "/" + p;
-  return out.empty() ? "/" : out;
-}
-
-int bus_number(const std::string& path) {
-  std::string rest;
-  if (path.rfind("/dev/i2c-", 0) == 0) {
-    rest = path.substr(9);
-  } else if (path.rfind("/dev/i2c/", 0) == 0) {
-    rest = path.substr(9);
-  } else {
-    return -1;
-  }
-  if (rest.empty() || rest.size() > 3) return -1;
-  int n = 0;
-  for (char c : rest) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
-}
-
-std::string read_link(const std::string& link) {
-  char buf[PATH_MAX];
-  const ssize_t n = readlink(link.c_str(), buf, sizeof buf - 1);
-  if (n < 0) return {};
-  return std::string(buf, static_cast<size_t>(n));
-}
-
-// The bus a path names for the program, or -1. Relative paths are resolved
-// against the program's cwd or dirfd; symbolic links are followed, so
-// another name for a bus node still reaches the emulation.
-int resolve_bus(pid_t pid, int dirfd, const std::string& path) {
-  std::string full = path;
-  if (path.empty()) return -1;
-  if (path[0] != '/') {
-    const std::string base =
-        dirfd == AT_FDCWD
-            ? read_link("/proc/" + std::to_string(pid) + "/cwd")
-            : read_link("/proc/" + std::to_string(pid) + "/fd/" + std::to_string(dirfd));
-    if (base.empty()) return -1;
-    full = base + "/" + path;
-  }
-  const std::string lexical = lexical_normalise(full);
-  if (int n = bus_number(lexical); n >= 0) return n;
-  char real[PATH_MAX];
-  if (realpath(full.c_str(), real) != nullptr) return bus_number(real);
-  return -1;
 }
 
 // --- per-process descriptor tables ---------------------------------------------------------
@@ -365,14 +302,17 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   int dirfd = AT_FDCWD;
   uint64_t path_addr = 0;
   uint64_t flags = 0;
+  uint64_t resolve = 0;
   if (n.data.nr == __NR_openat || n.data.nr == __NR_openat2) {
     dirfd = static_cast<int>(a[0]);
     path_addr = a[1];
     flags = a[2];
     if (n.data.nr == __NR_openat2) {
-      uint64_t how_flags = 0;
-      if (!mem.read(a[2], &how_flags, sizeof how_flags)) return reply(n.id, 0, EFAULT);
-      flags = how_flags;
+      uint64_t how[3] = {0, 0, 0};  // struct open_how: flags, mode, resolve
+      if (a[3] < sizeof how) return reply(n.id, 0, EINVAL);
+      if (!mem.read(a[2], how, sizeof how)) return reply(n.id, 0, EFAULT);
+      flags = how[0];
+      resolve = how[2];
     }
 #ifdef __NR_open
   } else if (n.data.nr == __NR_open) {
@@ -388,7 +328,10 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   std::string path;
   if (!read_path(mem, path_addr, &path)) return reply(n.id, 0, EFAULT);
   if (!valid(n.id)) return;
-  const int bus = resolve_bus(static_cast<pid_t>(n.pid), dirfd, path);
+  const BusPath named =
+      resolve_bus_path(static_cast<pid_t>(n.pid), dirfd, path, resolve, (flags & O_NOFOLLOW) != 0);
+  if (named.refuse != 0) return reply(n.id, 0, named.refuse);
+  const int bus = named.bus;
   if (bus < 0) return continue_call(n.id);  // not a bus: the kernel opens it
   if (!endpoint_.has_bus(static_cast<uint8_t>(bus))) return reply(n.id, 0, ENOENT);
   const int slot = free_slot(p, 0);
@@ -591,52 +534,6 @@ struct ChildStatus {
     }
   }
 };
-
-// The absolute path execvp would execute for `name` ("" if none): what the
-// child executes and what a supervisor names to the monitor.
-std::string resolve_program(const std::string& name) {
-  auto absolute = [](const std::string& path) {
-    if (path.empty() || path[0] == '/') return path;
-    char cwd[PATH_MAX];
-    return getcwd(cwd, sizeof cwd) != nullptr ? std::string(cwd) + "/" + path : std::string();
-  };
-  if (name.find('/') != std::string::npos) return absolute(name);
-  const char* env = getenv("PATH");
-  const std::string path = env != nullptr ? env : "/usr/local/bin:/bin:/usr/bin";
-  size_t i = 0;
-  while (i <= path.size()) {
-    size_t j = path.find(':', i);
-    if (j == std::string::npos) j = path.size();
-    const std::string dir = j == i ? "." : path.substr(i, j - i);
-    const std::string candidate = dir + "/" + name;
-    struct stat st {};
-    if (stat(candidate.c_str(), &st) == 0 && S_ISREG(st.st_mode) &&
-        access(candidate.c_str(), X_OK) == 0) {
-      return absolute(candidate);
-    }
-    i = j + 1;
-  }
-  return {};
-}
-
-// The supervisor is not dumpable while any run() has a program that may run
-// (concurrent run()s share the process); the first sets it, the last restores it.
-std::mutex dumpable_mu;
-int dumpable_users = 0;
-int dumpable_before = 1;
-void enter_undumpable() {
-  std::lock_guard lock(dumpable_mu);
-  if (dumpable_users++ == 0) {
-    dumpable_before = prctl(PR_GET_DUMPABLE, 0, 0, 0, 0);
-    prctl(PR_SET_DUMPABLE, 0, 0, 0, 0);
-  }
-}
-void leave_undumpable() {
-  std::lock_guard lock(dumpable_mu);
-  if (--dumpable_users == 0 && dumpable_before > 0) {
-    prctl(PR_SET_DUMPABLE, dumpable_before, 0, 0, 0);
-  }
-}
 
 // A credential failure in the child, told to the parent through the pipe.
 constexpr int kCredentialsFailed = 1 << 16;

@@ -9,13 +9,28 @@
 //  escape                   unshare(CLONE_NEWUSER), unshare(CLONE_NEWNS),
 //                           chroot("/dev"), mknod of an i2c char node
 //                           (major 89); exit 0 if every one failed
+//  open HOW DIR             DIR holds the bus node `i2c-1`; open it by another
+//                           name (HOW: proc-self, thread-self, openat2-in-root,
+//                           symlink, dotdot), then select 0x40 and write
+//                           MODE1 = 0x31 (sleep, every servo off). Exit 0 if
+//                           the open was emulated and the write refused by the
+//                           policy (EPERM), 1 if the write acted, 2 if the open
+//                           failed (it went to the kernel), 3 otherwise
 // Speaks the wire protocol by hand (an attacker needs no library).
 #include <errno.h>
+#include <fcntl.h>
+#include <pthread.h>
 #include <sched.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include <linux/i2c-dev.h>
+#include <linux/openat2.h>
+#include <string>
+#include <sys/ioctl.h>
 #include <sys/ptrace.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -23,7 +38,6 @@
 #include <sys/sysmacros.h>
 #include <sys/uio.h>
 #include <sys/un.h>
-#include <unistd.h>
 
 namespace {
 
@@ -107,6 +121,50 @@ int escape() {
   return acted == 0 ? 0 : 1;
 }
 
+int open_other_name(const char* how, const char* dir) {
+  int fd = -1;
+  const std::string d = dir;
+  if (strcmp(how, "proc-self") == 0) {
+    if (chdir(dir) != 0) return 3;
+    fd = open("/proc/self/cwd/i2c-1", O_RDWR);
+  } else if (strcmp(how, "thread-self") == 0) {
+    if (chdir(dir) != 0) return 3;
+    fd = open("/proc/thread-self/cwd/i2c-1", O_RDWR);
+  } else if (strcmp(how, "openat2-in-root") == 0) {
+    const int dirfd = open(dir, O_PATH | O_DIRECTORY);
+    open_how h{};
+    h.flags = O_RDWR;
+    h.resolve = RESOLVE_IN_ROOT;
+    fd = static_cast<int>(syscall(SYS_openat2, dirfd, "/i2c-1", &h, sizeof h));
+  } else if (strcmp(how, "symlink") == 0) {
+    const std::string link = d + "-link";
+    unlink(link.c_str());
+    if (symlink((d + "/i2c-1").c_str(), link.c_str()) != 0) return 3;
+    fd = open(link.c_str(), O_RDWR);
+    unlink(link.c_str());
+  } else if (strcmp(how, "dotdot") == 0) {
+    const std::string base = d.substr(d.rfind('/') + 1);
+    fd = open((d + "/../" + base + "/./i2c-1").c_str(), O_RDWR);
+  } else {
+    return 3;
+  }
+  if (fd < 0) {
+    printf("open (%s): %s: reached the kernel\n", how, strerror(errno));
+    return 2;
+  }
+  if (ioctl(fd, I2C_SLAVE, 0x40) != 0) {
+    printf("I2C_SLAVE: %s\n", strerror(errno));
+    return 3;
+  }
+  const unsigned char sleep_all[2] = {0x00, 0x31};
+  if (write(fd, sleep_all, 2) == 2) {
+    printf("MODE1 = 0x31 written through %s\n", how);
+    return 1;
+  }
+  printf("write (%s): %s\n", how, strerror(errno));
+  return errno == EPERM ? 0 : 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -124,6 +182,9 @@ int main(int argc, char** argv) {
   }
   if (argc == 2 && strcmp(argv[1], "supervisor") == 0) return supervisor();
   if (argc == 2 && strcmp(argv[1], "escape") == 0) return escape();
-  fprintf(stderr, "usage: attack_identity hello|loop SOCKET TASK [N] | supervisor | escape\n");
+  if (argc == 4 && strcmp(argv[1], "open") == 0) return open_other_name(argv[2], argv[3]);
+  fprintf(stderr,
+          "usage: attack_identity hello|loop SOCKET TASK [N] | supervisor | escape | open HOW "
+          "DIR\n");
   return 2;
 }
