@@ -3,7 +3,9 @@
 // The supervised program runs under a seccomp filter (filter.h: architecture
 // checked, inherited by every thread and child, irremovable) that turns its
 // bus system calls into notifications for this supervisor:
-//  - open/openat/openat2/creat: a /dev/i2c-N path gets a placeholder
+//  - open/openat/openat2/creat: a path that names a bus for the program
+//    (bus_path.h: resolved in the program's context, by name or by device
+//    number) gets a placeholder
 //    descriptor (/dev/null) installed by the supervisor at a number in a
 //    reserved range; no real bus node is ever opened by the program;
 //  - ioctl/read/write on reserved descriptors: emulated: arguments copied
