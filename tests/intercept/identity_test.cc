@@ -211,6 +211,11 @@ TEST_F(Identity, ChrootNamespacesAndBusNodesOfItsOwnAreRefusedEvenToRoot) {
   EXPECT_EQ(supervised("arm_init", {kAttack, "escape"}, 0), 0);
 }
 
+TEST_F(Identity, ADescriptorACloneFilesSiblingClosedActsNoMore) {
+  EXPECT_EQ(supervised("arm_init", {kAttack, "clone-files"}, 0), 0);
+  EXPECT_EQ(pca->reg(0x00), mode1_before);
+}
+
 // The bus node by other names (a character node of the i2c-dev major,
 // 89:1, stands for /dev/i2c-1: this host has no adapter). Each is emulated
 // and checked by the policy: the gripper may not write MODE1.

@@ -1,6 +1,7 @@
 #include "intercept/seccomp/filter.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <sched.h>
 #include <seccomp.h>
 #include <unistd.h>
@@ -138,6 +139,15 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
                                   SCMP_A0_32(SCMP_CMP_MASKED_EQ, mask, first));
         rc != 0) {
       return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
+    }
+  }
+  // F_DUPFD / F_DUPFD_CLOEXEC of any descriptor at or above the range's
+  // start: an ordinary descriptor may not be placed in the range.
+  for (scmp_datum_t cmd : {scmp_datum_t{F_DUPFD}, scmp_datum_t{F_DUPFD_CLOEXEC}}) {
+    if (int rc = seccomp_rule_add(ctx.get(), SCMP_ACT_NOTIFY, SCMP_SYS(fcntl), 2,
+                                  SCMP_A1_32(SCMP_CMP_EQ, cmd), SCMP_A2_32(SCMP_CMP_GE, first));
+        rc != 0) {
+      return make_error(why("fcntl", rc));
     }
   }
   for (int nr : kOnEitherDescriptor) {

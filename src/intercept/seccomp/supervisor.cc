@@ -119,9 +119,28 @@ bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
 
 // --- per-process descriptor tables ---------------------------------------------------------
 
+// One opened bus: its state and its own stand-in file (a /dev/null opened
+// for it alone), so that kcmp can tell whether a program's descriptor is
+// still this bus's (a CLONE_FILES sibling may have closed it, or put
+// something else at its number) before anything acts.
 struct Handle {
   i2c_abi::FdState state;
+  int standin = -1;
+  Handle() : standin(open("/dev/null", O_RDWR | O_CLOEXEC)) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() {
+    if (standin >= 0) close(standin);
+  }
 };
+
+// True if descriptor `fd` of thread `tid` is the very file `own` is here.
+// (A kernel without kcmp, CONFIG_KCMP unset: the descriptor tables are trusted.)
+bool same_open_file(pid_t tid, int fd, int own) {
+  constexpr int kKcmpFile = 0;  // KCMP_FILE
+  const long r = syscall(SYS_kcmp, getpid(), tid, kKcmpFile, own, fd);
+  return r == 0 || (r < 0 && errno == ENOSYS);
+}
 
 struct Process {
   std::map<int, std::shared_ptr<Handle>> fds;
@@ -152,12 +171,7 @@ class Loop {
         range_(range),
         options_(options),
         endpoint_(endpoint),
-        result_(result) {
-    placeholder_ = open("/dev/null", O_RDWR | O_CLOEXEC);
-  }
-  ~Loop() {
-    if (placeholder_ >= 0) close(placeholder_);
-  }
+        result_(result) {}
 
   void handle(const seccomp_notif& n);
   // Fail-close: SIGKILLs every supervised process known; every later call
@@ -183,19 +197,27 @@ class Loop {
     r.flags = SECCOMP_USER_NOTIF_FLAG_CONTINUE;
     ioctl(listener_, SECCOMP_IOCTL_NOTIF_SEND, &r);
   }
-  // Installs the placeholder at `slot` and answers the call with the slot.
-  int install(uint64_t id, int slot, bool cloexec) {
+  // Installs the handle's stand-in at `slot` and answers the call with the slot.
+  int install(uint64_t id, int slot, bool cloexec, const Handle& h) {
+    if (h.standin < 0) {
+      reply(id, 0, EMFILE);
+      return -1;
+    }
     seccomp_notif_addfd a{};
     a.id = id;
     a.flags = SECCOMP_ADDFD_FLAG_SETFD | SECCOMP_ADDFD_FLAG_SEND;
-    a.srcfd = static_cast<uint32_t>(placeholder_);
+    a.srcfd = static_cast<uint32_t>(h.standin);
     a.newfd = static_cast<uint32_t>(slot);
     a.newfd_flags = cloexec ? O_CLOEXEC : 0;
     return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ADDFD, &a);
   }
-  int free_slot(const Process& p, int minimum) const {
+  // A reserved number free in the program: none of its bus descriptors,
+  // and no ordinary descriptor that landed there (a full table) is replaced.
+  int free_slot(const Process& p, int minimum, pid_t tid) const {
     for (int fd = std::max(minimum, range_.first); fd < range_.first + range_.count; ++fd) {
-      if (p.fds.count(fd) == 0) return fd;
+      if (p.fds.count(fd) != 0) continue;
+      const std::string link = "/proc/" + std::to_string(tid) + "/fd/" + std::to_string(fd);
+      if (faccessat(AT_FDCWD, link.c_str(), F_OK, AT_SYMLINK_NOFOLLOW) != 0) return fd;
     }
     return -1;
   }
@@ -212,7 +234,6 @@ class Loop {
   const Options& options_;
   gate::Endpoint& endpoint_;
   RunResult& result_;
-  int placeholder_;
   std::map<pid_t, Process> processes_;  // by thread-group id
   std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
   size_t sweep_at_ = 256;               // tgid_ size that triggers forget_the_dead()
@@ -334,10 +355,10 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   const int bus = named.bus;
   if (bus < 0) return continue_call(n.id);  // not a bus: the kernel opens it
   if (!endpoint_.has_bus(static_cast<uint8_t>(bus))) return reply(n.id, 0, ENOENT);
-  const int slot = free_slot(p, 0);
+  const int slot = free_slot(p, 0, static_cast<pid_t>(n.pid));
   if (slot < 0) return reply(n.id, 0, EMFILE);
-  if (install(n.id, slot, (flags & O_CLOEXEC) != 0) < 0) return;
   auto h = std::make_shared<Handle>();
+  if (install(n.id, slot, (flags & O_CLOEXEC) != 0, *h) < 0) return;
   h->state.bus = static_cast<uint8_t>(bus);
   p.fds[slot] = h;
   if ((flags & O_CLOEXEC) != 0) p.cloexec.insert(slot);
@@ -381,8 +402,21 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   const long nr = n.data.nr;
   const int oldfd = static_cast<int>(a[0]);
   auto old = p.fds.find(oldfd);
+  if (old != p.fds.end() &&
+      !same_open_file(static_cast<pid_t>(n.pid), oldfd, old->second->standin)) {
+    p.cloexec.erase(oldfd);  // closed or replaced by a CLONE_FILES sibling
+    p.fds.erase(old);
+    return reply(n.id, 0, EBADF);
+  }
   if (nr == __NR_dup || nr == __NR_fcntl) {
-    if (old == p.fds.end()) return continue_call(n.id);  // not a bus descriptor
+    if (old == p.fds.end()) {
+      // An ordinary descriptor: F_DUPFD may not place it in the reserved
+      // range (the filter notifies only that case).
+      const bool dupfd = nr == __NR_fcntl && (static_cast<int>(a[1]) == F_DUPFD ||
+                                              static_cast<int>(a[1]) == F_DUPFD_CLOEXEC);
+      if (dupfd && !in_range(static_cast<uint32_t>(oldfd))) return reply(n.id, 0, EINVAL);
+      return continue_call(n.id);  // not a bus descriptor
+    }
     int minimum = 0;
     bool cloexec = false;
     if (nr == __NR_fcntl) {
@@ -398,10 +432,10 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
       minimum = static_cast<int>(a[2]);
       cloexec = cmd == F_DUPFD_CLOEXEC;
     }
-    const int slot = free_slot(p, minimum);
+    const int slot = free_slot(p, minimum, static_cast<pid_t>(n.pid));
     if (slot < 0) return reply(n.id, 0, EMFILE);
     auto handle = old->second;
-    if (install(n.id, slot, cloexec) >= 0) {
+    if (install(n.id, slot, cloexec, *handle) >= 0) {
       p.fds[slot] = handle;
       if (cloexec) p.cloexec.insert(slot);
     }
@@ -423,7 +457,7 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   }
   const bool cloexec = nr == __NR_dup3 && (a[2] & O_CLOEXEC) != 0;
   auto handle = old->second;
-  if (install(n.id, newfd, cloexec) >= 0) {
+  if (install(n.id, newfd, cloexec, *handle) >= 0) {
     p.fds[newfd] = handle;
     if (cloexec) {
       p.cloexec.insert(newfd);
@@ -496,6 +530,13 @@ void Loop::handle(const seccomp_notif& n) {
   if (is_dup) return dup_call(n, p);
   auto it = p.fds.find(static_cast<int>(a[0]));
   if (it == p.fds.end()) return continue_call(n.id);  // an inert descriptor that is not a bus
+  if (!same_open_file(static_cast<pid_t>(n.pid), it->first, it->second->standin)) {
+    // Closed or replaced behind this process's back (a CLONE_FILES sibling):
+    // no longer this bus.
+    p.cloexec.erase(it->first);
+    p.fds.erase(it);
+    return reply(n.id, 0, EBADF);
+  }
   auto handle = it->second;
   bus_call(n, p, handle);
 }

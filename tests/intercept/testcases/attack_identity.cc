@@ -9,6 +9,10 @@
 //  escape                   unshare(CLONE_NEWUSER), unshare(CLONE_NEWNS),
 //                           chroot("/dev"), mknod of an i2c char node
 //                           (major 89); exit 0 if every one failed
+//  clone-files              open /dev/i2c-1, select 0x40, let a CLONE_FILES
+//                           sibling close the descriptor, then write MODE1 =
+//                           0x31 on it: exit 0 if that fails with EBADF, 1 if
+//                           it acted
 //  open HOW DIR             DIR holds the bus node `i2c-1`; open it by another
 //                           name (HOW: proc-self, thread-self, openat2-in-root,
 //                           symlink, dotdot), then select 0x40 and write
@@ -21,6 +25,7 @@
 #include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,6 +43,7 @@
 #include <sys/sysmacros.h>
 #include <sys/uio.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 
 namespace {
 
@@ -165,6 +171,29 @@ int open_other_name(const char* how, const char* dir) {
   return errno == EPERM ? 0 : 3;
 }
 
+int clone_files() {
+  const int fd = open("/dev/i2c-1", O_RDWR);
+  if (fd < 0 || ioctl(fd, I2C_SLAVE, 0x40) != 0) {
+    printf("open/I2C_SLAVE: %s\n", strerror(errno));
+    return 3;
+  }
+  const long child = syscall(SYS_clone, CLONE_FILES | SIGCHLD, 0, 0, 0, 0);
+  if (child == 0) {
+    close(fd);
+    syscall(SYS_exit, 0);
+  }
+  if (child < 0) return 3;
+  int status = 0;
+  waitpid(static_cast<pid_t>(child), &status, 0);
+  const unsigned char sleep_all[2] = {0x00, 0x31};
+  if (write(fd, sleep_all, 2) == 2) {
+    printf("MODE1 = 0x31 written on a descriptor the sibling closed\n");
+    return 1;
+  }
+  printf("write after the sibling's close: %s\n", strerror(errno));
+  return errno == EBADF ? 0 : 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -182,6 +211,7 @@ int main(int argc, char** argv) {
   }
   if (argc == 2 && strcmp(argv[1], "supervisor") == 0) return supervisor();
   if (argc == 2 && strcmp(argv[1], "escape") == 0) return escape();
+  if (argc == 2 && strcmp(argv[1], "clone-files") == 0) return clone_files();
   if (argc == 4 && strcmp(argv[1], "open") == 0) return open_other_name(argv[2], argv[3]);
   fprintf(stderr,
           "usage: attack_identity hello|loop SOCKET TASK [N] | supervisor | escape | open HOW "
