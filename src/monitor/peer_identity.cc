@@ -191,8 +191,11 @@ std::string binding_mismatch(const std::string& task, const TaskBinding& b, cons
   }
   if (b.has_exe) {
     if (!f.exe_known) {
-      return fmt::format("task '{}' is bound to exe \"{}\"; the peer's executable cannot be read",
-                         task, b.exe);
+      return fmt::format(
+          "task '{}' is bound to exe \"{}\"; the peer's executable cannot be read (a monitor "
+          "checking `exe` must be able to read /proc/PID/exe of its peers: root or "
+          "CAP_SYS_PTRACE)",
+          task, b.exe);
     }
     if (f.exe_dev != b.exe_dev || f.exe_ino != b.exe_ino) {
       return fmt::format("task '{}' is bound to exe \"{}\"; the peer runs \"{}\"", task, b.exe,

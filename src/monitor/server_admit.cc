@@ -39,14 +39,10 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
   PeerFacts facts = *peer;
   facts.uid = c.uid;  // SO_PEERCRED: the credentials the peer connected with
   if (vouch.pid != 0) {
-    // A supervisor speaking for its program: it must be this very contego
-    // binary, the program its child, and a non-root supervisor can only
-    // have started a program of its own uid.
-    if (!own_exe_known_ || !peer->exe_known || peer->exe_dev != own_dev_ ||
-        peer->exe_ino != own_ino_) {
-      return "the peer vouches for a program but is not a contego supervisor (its executable "
-             "is not the monitor's own)";
-    }
+    // A supervisor speaking for its program: the program must be its child,
+    // and a non-root supervisor can only have started a program of its own
+    // uid. The binding is then checked against the program (what a parent
+    // can claim for its child it could claim by letting the child connect).
     const pid_t child = static_cast<pid_t>(vouch.pid);
     const int child_fd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
     if (child_fd < 0) return fmt::format("the supervised program (pid {}) is gone", child);
@@ -61,13 +57,25 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
                          program->uid);
     }
     facts = *program;
-    // The program has not executed yet: the supervisor names the path it
-    // executes (it resolved it, and it is this contego binary).
-    struct stat st {};
-    facts.exe_known = stat(vouch.exe.c_str(), &st) == 0;
-    facts.exe_dev = st.st_dev;
-    facts.exe_ino = st.st_ino;
-    facts.exe_path = vouch.exe;
+    facts.exe_known = false;
+    if (binds && binding->second.has_exe) {
+      // The program has not executed yet: the path it will execute is the
+      // supervisor's word, taken only from this very contego binary.
+      if (!own_exe_known_ || !peer->exe_known) {
+        return "the peer's executable cannot be read, so its word on the program's executable "
+               "cannot be taken (a monitor checking `exe` must be able to read /proc/PID/exe of "
+               "its peers: root or CAP_SYS_PTRACE)";
+      }
+      if (peer->exe_dev != own_dev_ || peer->exe_ino != own_ino_) {
+        return "the peer vouches for a program but is not a contego supervisor (its executable "
+               "is not the monitor's own)";
+      }
+      struct stat st {};
+      facts.exe_known = stat(vouch.exe.c_str(), &st) == 0;
+      facts.exe_dev = st.st_dev;
+      facts.exe_ino = st.st_ino;
+      facts.exe_path = vouch.exe;
+    }
   }
   return binds ? binding_mismatch(name, binding->second, facts) : std::string();
 }
