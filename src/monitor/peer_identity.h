@@ -13,12 +13,12 @@
 // the files belonged to that process, not to a later one with its number).
 //
 // A supervised program (`contego run --socket`) is vouched for by its
-// supervisor: the peer is then a contego supervisor (its exe is the
-// monitor's own binary, same device and inode), it names the child it
-// supervises and the path that child will execute, the child must be a
-// child of the peer (PPid) and the peer's uid must be root or the child's;
-// the binding is checked against the child's uid, gid, groups and cgroup and
-// against the named path.
+// supervisor: the hello names the child it supervises and the path that
+// child will execute; the child must be a child of the peer (PPid) and the
+// peer's uid must be root or the child's; the binding is checked against the
+// child's uid, gid, groups and cgroup, and against the named path only if the
+// peer is a contego supervisor (its exe is the monitor's own binary, same
+// device and inode) — see Server::identity_refusal.
 #ifndef CONTEGO_MONITOR_PEER_IDENTITY_H_
 #define CONTEGO_MONITOR_PEER_IDENTITY_H_
 
