@@ -201,6 +201,25 @@ void Server::serve() {
       close(fd);
       continue;
     }
+    if (limits_.connects_per_second > 0) {
+      if (connects_.size() > 4096) connects_.clear();  // bounded; a fresh window for all
+      auto& [window_us, opened] = connects_[cred.uid];
+      const uint64_t now = now_us();
+      if (now >= window_us + 1000000) {
+        window_us = now;
+        opened = 0;
+      }
+      if (++opened > limits_.connects_per_second) {
+        over_rate_.fetch_add(1);
+        client_event(cred.uid, "peer-refused",
+                     fmt::format("pid {} uid {}: over {} new connections per second", cred.pid,
+                                 cred.uid, limits_.connects_per_second));
+        const auto e = wire::encode_error({EAGAIN, "reconnecting too fast for this uid"});
+        gate::send_frame(fd, wire::Type::kError, 0, e);
+        close(fd);
+        continue;
+      }
+    }
     std::unique_lock lock(mu_);
     uint32_t& live = per_uid_[cred.uid];
     if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {

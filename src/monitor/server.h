@@ -10,7 +10,8 @@
 // connection runs under SCHED_FIFO at its task's policy priority.
 //
 // The server keeps serving whatever clients do: at most
-// `max_per_uid` live connections per peer uid (more are refused), a
+// `max_per_uid` live connections per peer uid and `connects_per_second` new
+// ones per uid and second (more are refused: a reconnect loop), a
 // connection that has not said hello within `hello_timeout_ms` is closed, a
 // failed accept() (EMFILE, ENFILE, ENOMEM...) backs off and retries (the
 // connections already open go on), finished connection threads are joined.
@@ -57,9 +58,10 @@
 namespace contego::monitor {
 
 struct ServerLimits {
-  uint32_t max_per_uid = 32;         // live connections per peer uid (0 = no cap)
-  uint32_t hello_timeout_ms = 2000;  // a connection must say hello within this (0 = never)
-  uint32_t events_per_second = 20;   // client-error events written per uid and second
+  uint32_t max_per_uid = 32;           // live connections per peer uid (0 = no cap)
+  uint32_t hello_timeout_ms = 2000;    // a connection must say hello within this (0 = never)
+  uint32_t events_per_second = 20;     // client-error events written per uid and second
+  uint32_t connects_per_second = 100;  // new connections per uid and second (0 = no limit)
 };
 
 class Server {
@@ -82,6 +84,7 @@ class Server {
   uint64_t accept_failures() const { return accept_failures_.load(); }
   uint64_t events_suppressed() const { return suppressed_total_.load(); }
   uint64_t hellos_refused() const { return hellos_refused_.load(); }
+  uint64_t refused_over_rate() const { return over_rate_.load(); }
   size_t live_connections();
 
  private:
@@ -140,6 +143,8 @@ class Server {
   std::mutex mu_;
   std::vector<std::unique_ptr<Conn>> conns_;  // mu_
   std::map<uid_t, uint32_t> per_uid_;         // live connections; mu_
+  // New connections per uid in the current second (the accept loop's only).
+  std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
   std::map<std::string, TaskBinding> bindings_;
   std::map<uint16_t, uint32_t> live_sessions_;  // per task; mu_
   std::multiset<pid_t> supervised_;             // live supervisors and their programs; mu_
@@ -149,7 +154,7 @@ class Server {
   std::mutex events_mu_;
   std::map<uid_t, EventBudget> budgets_;  // events_mu_
   std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0},
-      hellos_refused_{0};
+      hellos_refused_{0}, over_rate_{0};
 };
 
 }  // namespace contego::monitor

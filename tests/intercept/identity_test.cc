@@ -216,6 +216,21 @@ TEST_F(Identity, ADescriptorACloneFilesSiblingClosedActsNoMore) {
   EXPECT_EQ(pca->reg(0x00), mode1_before);
 }
 
+// A reconnect loop is held to the per-uid rate; the live session goes on
+// and a connection after the window is served again.
+TEST_F(Identity, AReconnectLoopIsRateLimitedPerUid) {
+  auto live = gate::SocketClient::connect(socket_path, "arm_init", std::nullopt);
+  ASSERT_TRUE(live.ok()) << live.error();
+  EXPECT_EQ(direct({kAttack, "loop", socket_path, "arm_init", "400"}, kNobody), 0);
+  EXPECT_GE(server->refused_over_rate(), 1u);
+  // (Its events share the uid's event budget with the refused hellos: counted, summarised.)
+  EXPECT_TRUE((*live)->has_bus(1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  auto again = gate::SocketClient::connect(socket_path, "gripper", std::nullopt);
+  EXPECT_FALSE(again.ok());  // root is not gripper's user: refused for that, not the rate
+  EXPECT_EQ(again.error().find("too fast"), std::string::npos) << again.error();
+}
+
 // The bus node by other names (a character node of the i2c-dev major,
 // 89:1, stands for /dev/i2c-1: this host has no adapter). Each is emulated
 // and checked by the policy: the gripper may not write MODE1.
