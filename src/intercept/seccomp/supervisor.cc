@@ -38,6 +38,7 @@
 #include "intercept/i2c_abi/i2c_abi.h"
 #include "intercept/seccomp/bus_path.h"
 #include "intercept/seccomp/reach.h"
+#include "intercept/seccomp/remote_memory.h"
 #include "intercept/seccomp/uapi_fallback.h"
 
 namespace contego::intercept::seccomp {
@@ -50,72 +51,6 @@ constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
 #else
 #error "unsupported architecture"
 #endif
-
-// --- the program's memory --------------------------------------------------------------
-
-class RemoteMemory final : public i2c_abi::Memory {
- public:
-  explicit RemoteMemory(pid_t pid) : pid_(pid) {}
-  bool read(uint64_t addr, void* dst, size_t len) override {
-    if (len == 0) return true;
-    iovec local{dst, len};
-    iovec remote{reinterpret_cast<void*>(addr), len};
-    return process_vm_readv(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
-  }
-  bool write(uint64_t addr, const void* src, size_t len) override {
-    if (len == 0) return true;
-    iovec local{const_cast<void*>(src), len};
-    iovec remote{reinterpret_cast<void*>(addr), len};
-    return process_vm_writev(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
-  }
-
- private:
-  pid_t pid_;
-};
-
-// Writes into the program only after `still_valid` said yes (asked once).
-class ValidatedWrites final : public i2c_abi::Memory {
- public:
-  template <typename F>
-  ValidatedWrites(i2c_abi::Memory& inner, F still_valid)
-      : inner_(inner), still_valid_(std::move(still_valid)) {}
-  bool read(uint64_t addr, void* dst, size_t len) override { return inner_.read(addr, dst, len); }
-  bool write(uint64_t addr, const void* src, size_t len) override {
-    if (!checked_) {
-      if (!still_valid_()) return false;
-      checked_ = true;
-    }
-    return inner_.write(addr, src, len);
-  }
-
- private:
-  i2c_abi::Memory& inner_;
-  std::function<bool()> still_valid_;
-  bool checked_ = false;
-};
-
-bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
-  out->clear();
-  char chunk[256];
-  while (out->size() < PATH_MAX) {
-    // Read byte-wise near page ends would be slow; read a chunk and fall back
-    // to single bytes when the chunk crosses into an unmapped page.
-    if (mem.read(addr + out->size(), chunk, sizeof chunk)) {
-      const void* nul = memchr(chunk, 0, sizeof chunk);
-      if (nul != nullptr) {
-        out->append(chunk, static_cast<const char*>(nul) - chunk);
-        return true;
-      }
-      out->append(chunk, sizeof chunk);
-      continue;
-    }
-    char c;
-    if (!mem.read(addr + out->size(), &c, 1)) return false;
-    if (c == 0) return true;
-    out->push_back(c);
-  }
-  return false;
-}
 
 // --- per-process descriptor tables ---------------------------------------------------------
 
@@ -579,6 +514,65 @@ struct ChildStatus {
 // A credential failure in the child, told to the parent through the pipe.
 constexpr int kCredentialsFailed = 1 << 16;
 
+// What the child of run() needs between fork and exec.
+struct ChildStart {
+  const Options& options;
+  const std::string& program;  // resolved path, or "" (execvp reports the failure)
+  char* const* argv;
+  int to_parent, to_child;  // pipe ends
+  const sigset_t& child_mask;
+  pid_t supervisor;
+  const sock_fprog* prog;
+};
+
+// The child: credentials, parent-death signal, the filter, the listener to
+// the parent, its go-ahead, exec. Only async-signal-safe calls.
+[[noreturn]] void start_program(const ChildStart& c) {
+  // Only async-signal-safe calls from here to execvp.
+  // Dumpable whatever a concurrent run() set: the supervisor takes the
+  // listener from it (pidfd_getfd) before it runs the program.
+  prctl(PR_SET_DUMPABLE, 1, 0, 0, 0);
+  // The program's credentials first: a change of credentials clears the
+  // parent-death signal. Raw system calls: this thread only, no C library
+  // broadcast to threads that do not exist in the child.
+  if (c.options.set_credentials &&
+      (syscall(SYS_setgroups, c.options.groups.size(), c.options.groups.data()) != 0 ||
+       syscall(SYS_setresgid, c.options.gid, c.options.gid, c.options.gid) != 0 ||
+       syscall(SYS_setresuid, c.options.uid, c.options.uid, c.options.uid) != 0)) {
+    const int failed = -(kCredentialsFailed + errno);
+    (void)!write(c.to_parent, &failed, sizeof failed);
+    _exit(126);
+  }
+  // Dies with the thread that forked it; if that happened already (the
+  // parent is no longer the supervisor), give up before running anything.
+  if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != c.supervisor) _exit(126);
+  sigprocmask(SIG_SETMASK, &c.child_mask, nullptr);
+  int fd = -1;
+  if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
+    // WAIT_KILLABLE_RECV: once the supervisor has taken a call, only a
+    // fatal signal interrupts the program's wait for the answer. Without
+    // it a signal cancels a call the supervisor may already have
+    // performed: the program sees EINTR for a transfer that acted, or
+    // (SA_RESTART) issues it again and it acts twice.
+    fd = static_cast<int>(
+        syscall(SYS_seccomp, SECCOMP_SET_MODE_FILTER,
+                SECCOMP_FILTER_FLAG_NEW_LISTENER | SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV, c.prog));
+  }
+  int msg = fd >= 0 ? fd : -errno;
+  if (write(c.to_parent, &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
+  char ack;
+  if (read(c.to_child, &ack, 1) != 1) _exit(126);
+  close(fd);
+  if (!c.program.empty()) {
+    execv(c.program.c_str(), c.argv);
+  } else {
+    execvp(c.argv[0], c.argv);
+  }
+  const int e = errno;
+  (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
+  _exit(e == ENOENT ? 127 : 126);
+}
+
 }  // namespace
 
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
@@ -606,49 +600,8 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   const pid_t child = fork();
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
-    // Only async-signal-safe calls from here to execvp.
-    // Dumpable whatever a concurrent run() set: the supervisor takes the
-    // listener from it (pidfd_getfd) before it runs the program.
-    prctl(PR_SET_DUMPABLE, 1, 0, 0, 0);
-    // The program's credentials first: a change of credentials clears the
-    // parent-death signal. Raw system calls: this thread only, no C library
-    // broadcast to threads that do not exist in the child.
-    if (options.set_credentials &&
-        (syscall(SYS_setgroups, options.groups.size(), options.groups.data()) != 0 ||
-         syscall(SYS_setresgid, options.gid, options.gid, options.gid) != 0 ||
-         syscall(SYS_setresuid, options.uid, options.uid, options.uid) != 0)) {
-      const int failed = -(kCredentialsFailed + errno);
-      (void)!write(to_parent[1], &failed, sizeof failed);
-      _exit(126);
-    }
-    // Dies with the thread that forked it; if that happened already (the
-    // parent is no longer the supervisor), give up before running anything.
-    if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != supervisor) _exit(126);
-    sigprocmask(SIG_SETMASK, &child_mask, nullptr);
-    int fd = -1;
-    if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
-      // WAIT_KILLABLE_RECV: once the supervisor has taken a call, only a
-      // fatal signal interrupts the program's wait for the answer. Without
-      // it a signal cancels a call the supervisor may already have
-      // performed: the program sees EINTR for a transfer that acted, or
-      // (SA_RESTART) issues it again and it acts twice.
-      fd = static_cast<int>(syscall(
-          SYS_seccomp, SECCOMP_SET_MODE_FILTER,
-          SECCOMP_FILTER_FLAG_NEW_LISTENER | SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV, &prog));
-    }
-    int msg = fd >= 0 ? fd : -errno;
-    if (write(to_parent[1], &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
-    char ack;
-    if (read(to_child[0], &ack, 1) != 1) _exit(126);
-    close(fd);
-    if (!program.empty()) {
-      execv(program.c_str(), argv.data());
-    } else {
-      execvp(argv[0], argv.data());
-    }
-    const int e = errno;
-    (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
-    _exit(e == ENOENT ? 127 : 126);
+    start_program(
+        {options, program, argv.data(), to_parent[1], to_child[0], child_mask, supervisor, &prog});
   }
   close(to_parent[1]);
   close(to_child[0]);
