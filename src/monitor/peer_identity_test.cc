@@ -105,6 +105,35 @@ TEST(PeerIdentity, ExeComparedByDeviceAndInodeOfThePinnedProcess) {
   EXPECT_NE(why.find("/bin/sh"), std::string::npos) << why;
 }
 
+TEST(PeerIdentity, AProcessOfAnotherUidIsAliveToANonRootMonitor) {
+  if (geteuid() != 0) GTEST_SKIP() << "needs root to play two uids";
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t other = fork();
+  if (other == 0) {
+    close(ready[1]);
+    if (setgid(65534) != 0 || setuid(65534) != 0) _exit(1);
+    char c;
+    (void)!read(ready[0], &c, 1);  // lives until the pipe closes
+    _exit(0);
+  }
+  const pid_t monitor = fork();
+  if (monitor == 0) {
+    // A monitor of uid 1 (not root, not the peer's uid) reads the peer's facts.
+    if (setgid(1) != 0 || setuid(1) != 0) _exit(2);
+    const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, other, 0));
+    auto f = process_facts(pidfd, other);
+    _exit(f.ok() && f->uid == 65534 && !f->exe_known ? 0 : 3);
+  }
+  int status = 0;
+  waitpid(monitor, &status, 0);
+  close(ready[1]);
+  close(ready[0]);
+  waitpid(other, nullptr, 0);
+  EXPECT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
 TEST(PeerIdentity, AProcessThatExitedGivesNoFacts) {
   const pid_t child = fork();
   if (child == 0) _exit(0);
