@@ -107,16 +107,22 @@ TEST(PeerIdentity, ExeComparedByDeviceAndInodeOfThePinnedProcess) {
 
 TEST(PeerIdentity, AProcessOfAnotherUidIsAliveToANonRootMonitor) {
   if (geteuid() != 0) GTEST_SKIP() << "needs root to play two uids";
-  int ready[2];
+  int ready[2], started[2];
   ASSERT_EQ(pipe(ready), 0);
+  ASSERT_EQ(pipe(started), 0);
   const pid_t other = fork();
   if (other == 0) {
     close(ready[1]);
     if (setgid(65534) != 0 || setuid(65534) != 0) _exit(1);
+    (void)!write(started[1], "x", 1);  // its uid is set
     char c;
     (void)!read(ready[0], &c, 1);  // lives until the pipe closes
     _exit(0);
   }
+  char c;
+  ASSERT_EQ(read(started[0], &c, 1), 1);
+  close(started[0]);
+  close(started[1]);
   const pid_t monitor = fork();
   if (monitor == 0) {
     // A monitor of uid 1 (not root, not the peer's uid) reads the peer's facts.
