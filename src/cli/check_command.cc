@@ -35,6 +35,17 @@ std::string pad(const std::string& s, size_t width) {
   return s.size() >= width ? s + " " : s + std::string(width - s.size(), ' ');
 }
 
+// Who may run a task, as `contego monitor` checks it ("" when anyone allowed to connect may).
+std::string identity_text(const policy::PolicySummary::Task& t) {
+  std::string out;
+  if (!t.user.empty()) out += " user " + t.user;
+  if (!t.group.empty()) out += " group " + t.group;
+  if (!t.unit.empty()) out += " unit " + t.unit;
+  if (!t.cgroup.empty()) out += " cgroup " + t.cgroup;
+  if (t.sessions != 1) out += fmt::format(" sessions {}", t.sessions);
+  return out;
+}
+
 void print_summary(const std::string& path, const policy::CompileOutput& out) {
   const auto& m = out.model;
   const auto& s = out.summary;
@@ -49,6 +60,9 @@ void print_summary(const std::string& path, const policy::CompileOutput& out) {
                pad(format_us(t.deadline_us), 9), pad(format_us(t.wcet_us), 9),
                pad(std::to_string(t.priority), 5), pad(std::to_string(t.actuations_per_job), 4),
                pad(format_ns(t.overhead_ns), 9), i < s.tasks.size() ? s.tasks[i].exe : "");
+    if (i < s.tasks.size() && !identity_text(s.tasks[i]).empty()) {
+      fmt::print("  {}may run it:{}\n", pad("", 14), identity_text(s.tasks[i]));
+    }
   }
 
   fmt::print("\ndevices ({}):\n", s.devices.size());
@@ -112,6 +126,11 @@ nlohmann::json summary_json(const policy::CompileOutput& out) {
     }
     j["tasks"].push_back({{"name", m.tasks[i].name},
                           {"exe", i < s.tasks.size() ? s.tasks[i].exe : ""},
+                          {"user", i < s.tasks.size() ? s.tasks[i].user : ""},
+                          {"group", i < s.tasks.size() ? s.tasks[i].group : ""},
+                          {"unit", i < s.tasks.size() ? s.tasks[i].unit : ""},
+                          {"cgroup", i < s.tasks.size() ? s.tasks[i].cgroup : ""},
+                          {"sessions", i < s.tasks.size() ? s.tasks[i].sessions : 1},
                           {"period_us", t.period_us},
                           {"deadline_us", t.deadline_us},
                           {"wcet_us", t.wcet_us},

@@ -46,6 +46,10 @@ void register_monitor(CLI::App& app) {
   cmd->add_option("--hello-timeout-ms", args->limits.hello_timeout_ms,
                   "close a connection that has not said hello within this many ms (0 = never)")
       ->capture_default_str();
+  cmd->add_option("--max-connects-per-second", args->limits.connects_per_second,
+                  "new connections one peer uid may open per second; more are refused (0 = no "
+                  "limit)")
+      ->capture_default_str();
   cmd->add_option("--client-events-per-second", args->limits.events_per_second,
                   "client-error events (malformed requests, refused peers...) written per peer uid "
                   "and second; the rest are counted in a `suppressed` summary (0 = no limit)")
@@ -129,6 +133,7 @@ void register_monitor(CLI::App& app) {
     spin.spin_us = args->spin_us;
     monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
                            args->realtime, args->limits);
+    server.set_bindings((*trusted)->bindings);
     if (Status s = server.listen(args->socket); !s.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);

@@ -11,6 +11,7 @@
 #include "cli/command.h"
 #include "cli/guardian.h"
 #include "cli/trusted_setup.h"
+#include "cli/user_spec.h"
 #include "gate/socket.h"
 #include "intercept/seccomp/supervisor.h"
 
@@ -46,6 +47,23 @@ struct StopSignals {
   }
 };
 
+// The monitor connection of `contego run --socket`, made once the program's
+// process exists (its supervisor vouches for it in the hello) and before it
+// runs: until then there is nothing to forward to, and nothing calls.
+class VouchedClient final : public gate::Endpoint {
+ public:
+  std::unique_ptr<gate::SocketClient> client;
+  gate::TransferReply transfer(uint16_t task, const gate::Transfer& t) override {
+    return client->transfer(task, t);
+  }
+  void job_boundary(uint16_t task) override { client->job_boundary(task); }
+  void task_exited(uint16_t task) override {
+    if (client) client->task_exited(task);
+  }
+  bool has_bus(uint8_t bus) override { return client->has_bus(bus); }
+  uint64_t funcs(uint8_t bus) override { return client->funcs(bus); }
+};
+
 }  // namespace
 
 void register_run(CLI::App& app) {
@@ -60,6 +78,8 @@ void register_run(CLI::App& app) {
     bool no_channel = false;
     bool realtime = false;
     bool allow_degraded = false;
+    std::string user;
+    bool same_user = false;
     std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
     monitor::AuditOptions audit_options;
@@ -99,6 +119,12 @@ void register_run(CLI::App& app) {
   cmd->add_flag(
       "--rt", args->realtime,
       "run the program and its supervisor under SCHED_FIFO at the task's policy priority");
+  cmd->add_option("--user", args->user,
+                  "USER[:GROUP]: run the program under this user (and group): the supervisor "
+                  "then runs under another uid than the program (needs root)");
+  cmd->add_flag("--same-user", args->same_user,
+                "run the program as root although the embedded monitor holds real buses (by "
+                "default refused: give --user)");
   cmd->add_option("program", args->program, "program and its arguments (after --)")->required();
   cmd->callback([args] {
     // SIGINT, SIGTERM and SIGHUP end the program, not the supervisor: they are
@@ -109,24 +135,42 @@ void register_run(CLI::App& app) {
     opt.argv = args->program;
     opt.stop_fd = stop.fd;
     opt.child_sigmask = &stop.original;
+    if (!args->user.empty()) {
+      auto user = parse_user_spec(args->user);
+      if (!user.ok()) {
+        fmt::print(stderr, "contego run: {}\n", user.error());
+        return set_exit_code(2);
+      }
+      opt.set_credentials = true;
+      opt.uid = user->uid;
+      opt.gid = user->gid;
+      opt.groups = user->groups;
+    }
     if (!args->socket.empty()) {
       std::optional<gate::SpinPolicy> channel;
       if (!args->no_channel) {
         channel = gate::SpinPolicy{};
         channel->spin_us = args->spin_us;
       }
-      auto client = gate::SocketClient::connect(args->socket, args->task, channel);
-      if (!client.ok()) {
-        fmt::print(stderr, "contego run: {}\n", client.error());
-        return set_exit_code(2);
-      }
-      opt.task = (*client)->task_id();
-      if (args->realtime) opt.realtime_priority = (*client)->task_priority();
-      if (args->realtime && opt.realtime_priority == 0) {
-        fmt::print(stderr, "contego run: --rt: task '{}' has no priority in the policy\n",
-                   args->task);
-      }
-      auto r = intercept::seccomp::run(opt, **client);
+      // The hello names the program (pid, path) this supervisor speaks for;
+      // the monitor checks the task's binding against it before it runs.
+      VouchedClient endpoint;
+      opt.before_start = [&](pid_t child, const std::string& exe) -> std::string {
+        gate::wire::Vouch vouch;
+        if (!exe.empty() && exe[0] == '/') vouch = {static_cast<uint32_t>(child), exe};
+        auto client = gate::SocketClient::connect(args->socket, args->task, channel, vouch);
+        if (!client.ok()) return client.error();
+        endpoint.client = std::move(*client);
+        // Read by run() after this call (the options are this very object).
+        opt.task = endpoint.client->task_id();
+        if (args->realtime) opt.realtime_priority = endpoint.client->task_priority();
+        if (args->realtime && opt.realtime_priority == 0) {
+          fmt::print(stderr, "contego run: --rt: task '{}' has no priority in the policy\n",
+                     args->task);
+        }
+        return {};
+      };
+      auto r = intercept::seccomp::run(opt, endpoint);
       if (!r.ok()) {
         fmt::print(stderr, "contego run: {}\n", r.error());
         return set_exit_code(2);
@@ -159,6 +203,7 @@ void register_run(CLI::App& app) {
       return set_exit_code(2);
     }
     so.real_buses = *buses;
+
     so.virtual_buses = args->virtual_buses;
     so.budget_factor = args->budget_factor;
     so.allow_degraded = args->allow_degraded;
@@ -195,6 +240,14 @@ void register_run(CLI::App& app) {
     auto trusted = monitor::setup(so);
     if (!trusted.ok()) {
       fmt::print(stderr, "contego run: {}\n", trusted.error());
+      return set_exit_code(2);
+    }
+    // After the start checks (their refusals name the bus), before the program runs.
+    if (!so.real_buses.empty() && geteuid() == 0 && args->user.empty() && !args->same_user) {
+      fmt::print(stderr,
+                 "contego run: the embedded monitor holds real buses and runs as root: give "
+                 "--user USER[:GROUP] so that the program runs under another uid than its "
+                 "supervisor (or --same-user to run it as root anyway)\n");
       return set_exit_code(2);
     }
     for (const auto& w : (*trusted)->warnings) fmt::print(stderr, "contego run: warning: {}\n", w);

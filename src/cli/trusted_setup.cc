@@ -111,6 +111,7 @@ Result<LoadedPolicy> load_policy(const SetupOptions& o) {
       for (const auto& d : compiled->diagnostics) msg += "\n" + d.rendered;
       return make_error(msg);
     }
+    p.bindings = compiled->summary.tasks;
   }
   if (o.image.empty()) {
     if (!compiled) return make_error("no policy: give a policy file or an image");
@@ -181,11 +182,28 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   for (size_t i = 0; i < out.model.tasks.size(); ++i) {
     t->tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
   }
+  if (out.bindings.empty() && !out.model.tasks.empty()) {
+    t->warnings.push_back(
+        "the image names no task bindings (user, group, exe, unit, cgroup): give --policy too "
+        "to enforce them; any peer --client-uid allows can claim any task");
+  }
+  for (const auto& task : out.bindings) {
+    auto b = resolve_binding(
+        task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
+    if (!b.ok()) return make_error(fmt::format("policy {}: {}", out.source, b.error()));
+    if (!b->unresolved.empty()) {
+      t->warnings.push_back(b->unresolved + ": every hello for it is refused");
+    }
+    t->bindings[task.name] = *b;
+  }
   if (!o.task.empty() && !t->tasks.contains(o.task)) {
     return make_error(fmt::format("policy {} declares no task '{}'", out.source, o.task));
   }
   t->monitor = std::make_unique<Monitor>(*t->decider, t->audit);
   t->monitor->set_names(name_table(out.model));
+  std::vector<uint32_t> actuates;
+  for (const auto& a : out.model.access) actuates.push_back(a.actuate_devices);
+  t->monitor->set_task_devices(std::move(actuates));
   t->monitor->set_budget_factor(o.budget_factor);
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;

@@ -28,6 +28,8 @@
 #include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
+#include "monitor/peer_identity.h"
+#include "policy/compile.h"
 
 namespace contego::monitor {
 
@@ -53,8 +55,11 @@ struct Trusted {
   std::vector<std::unique_ptr<bus::Bus>> buses;
   std::unique_ptr<Monitor> monitor;
   std::map<std::string, uint16_t> tasks;  // name -> id
-  std::vector<std::string> warnings;      // e.g. an adapter no device uses
-  std::vector<std::string> degraded;      // with allow_degraded: what was wrong at start
+  // Who may run each task (the policy's user/group/exe/unit/cgroup/sessions),
+  // resolved on this host: an unknown user or group, or a missing exe, fails setup.
+  std::map<std::string, TaskBinding> bindings;
+  std::vector<std::string> warnings;  // e.g. an adapter no device uses
+  std::vector<std::string> degraded;  // with allow_degraded: what was wrong at start
   // The models on the virtual buses, for virtual_state().
   struct VirtualDevices {
     int bus = 0;
@@ -75,6 +80,9 @@ struct LoadedPolicy {
   std::string source;  // what the start event and errors name
   std::vector<uint8_t> image;
   image::ImageModel model;
+  // Who may run each task (user, exe, ...): from the policy source, which the
+  // image does not carry; empty for an image given without its policy.
+  std::vector<policy::PolicySummary::Task> bindings;
 };
 // The image to enforce: compiled from `policy`, or read from `image` and
 // accepted only if its SHA-256 matches `image_sha256` or the compiled policy.

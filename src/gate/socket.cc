@@ -111,7 +111,8 @@ std::string recv_frame(int fd, wire::Header* header, std::vector<uint8_t>* paylo
 
 Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& path,
                                                             const std::string& task,
-                                                            std::optional<SpinPolicy> channel) {
+                                                            std::optional<SpinPolicy> channel,
+                                                            const wire::Vouch& vouch) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
@@ -126,7 +127,7 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
   std::unique_ptr<SocketClient> c(new SocketClient(fd));
   wire::Header h;
   std::span<const uint8_t> answer;
-  if (!c->exchange(wire::Type::kHello, wire::encode_hello(task), &h, &answer)) {
+  if (!c->exchange(wire::Type::kHello, wire::encode_hello(task, vouch), &h, &answer)) {
     return make_error("the monitor at " + path + " closed the connection during hello");
   }
   if (h.type == static_cast<uint8_t>(wire::Type::kError)) {

@@ -50,10 +50,11 @@ class SocketClient final : public Endpoint {
   // Connects to the monitor at `path` and announces `task` (its name in the
   // policy). With `channel`, it then asks for a shared-memory channel and
   // uses it for every later exchange (the socket otherwise, e.g. if the
-  // monitor refuses).
+  // monitor refuses). A contego supervisor passes `vouch`: the program it
+  // speaks for (wire::Vouch).
   static Result<std::unique_ptr<SocketClient>> connect(
       const std::string& path, const std::string& task,
-      std::optional<SpinPolicy> channel = SpinPolicy{});
+      std::optional<SpinPolicy> channel = SpinPolicy{}, const wire::Vouch& vouch = {});
   ~SocketClient() override;
   uint16_t task_id() const { return task_id_; }
   uint16_t task_priority() const { return task_priority_; }  // from the policy; 0 = none

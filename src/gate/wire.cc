@@ -123,21 +123,39 @@ std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> pay
   return out;
 }
 
-std::vector<uint8_t> encode_hello(const std::string& task) {
+std::vector<uint8_t> encode_hello(const std::string& task, const Vouch& vouch) {
   Writer w;
   w.u16(static_cast<uint16_t>(task.size()));
   w.bytes({reinterpret_cast<const uint8_t*>(task.data()), task.size()});
+  if (vouch.pid != 0) {
+    w.u32(vouch.pid);
+    w.u16(static_cast<uint16_t>(vouch.exe.size()));
+    w.bytes({reinterpret_cast<const uint8_t*>(vouch.exe.data()), vouch.exe.size()});
+  }
   return std::move(w.out);
 }
 
-std::string decode_hello(std::span<const uint8_t> p, std::string* task) {
+std::string decode_hello(std::span<const uint8_t> p, std::string* task, Vouch* vouch) {
   Reader r(p);
   uint16_t n = 0;
   std::vector<uint8_t> b;
-  if (!r.u16(&n) || n == 0 || n > kMaxTaskName || !r.bytes(n, &b) || !r.done()) {
+  if (!r.u16(&n) || n == 0 || n > kMaxTaskName || !r.bytes(n, &b)) {
     return "malformed hello (task name of 1..64 bytes expected)";
   }
   task->assign(b.begin(), b.end());
+  Vouch v;
+  if (!r.done()) {
+    uint16_t len = 0;
+    std::vector<uint8_t> exe;
+    if (!r.u32(&v.pid) || v.pid == 0 || !r.u16(&len) || len == 0 || len > 4095 ||
+        !r.bytes(len, &exe) || !r.done() || exe[0] != '/' ||
+        std::find(exe.begin(), exe.end(), 0) != exe.end()) {
+      return "malformed hello (a supervisor's pid and absolute program path expected after the "
+             "task name)";
+    }
+    v.exe.assign(exe.begin(), exe.end());
+  }
+  if (vouch != nullptr) *vouch = v;
   return {};
 }
 

@@ -25,7 +25,7 @@ inline constexpr uint32_t kMaxPayload = 512 * 1024;  // 42 messages of 8192 byte
 inline constexpr uint32_t kMaxTaskName = 64;
 
 enum class Type : uint8_t {
-  kHello = 1,      // client: task name                 -> kHelloOk | kError
+  kHello = 1,      // client: task name [+ Vouch]       -> kHelloOk | kError
   kHelloOk = 2,    // server: task id and priority
   kTransfer = 3,   // client: a Transfer                -> kReply | kError
   kReply = 4,      // server: a TransferReply
@@ -46,6 +46,14 @@ struct Header {
   uint8_t type = 0;
   uint32_t seq = 0;
   uint32_t length = 0;  // payload bytes
+};
+
+// A contego supervisor's hello names the program it speaks for: the child's
+// pid and the path that child executes (the monitor checks the task's
+// binding against them; monitor/peer_identity.h).
+struct Vouch {
+  uint32_t pid = 0;  // 0 = no vouch: the peer speaks for itself
+  std::string exe;   // absolute path, 1..4095 bytes
 };
 
 struct HelloOk {
@@ -69,8 +77,9 @@ std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> pay
 // The 12 header bytes of a frame with `length` payload bytes.
 void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeaderSize]);
 
-std::vector<uint8_t> encode_hello(const std::string& task);
-std::string decode_hello(std::span<const uint8_t> payload, std::string* task);
+std::vector<uint8_t> encode_hello(const std::string& task, const Vouch& vouch = {});
+std::string decode_hello(std::span<const uint8_t> payload, std::string* task,
+                         Vouch* vouch = nullptr);
 std::vector<uint8_t> encode_hello_ok(const HelloOk& h);
 std::string decode_hello_ok(std::span<const uint8_t> payload, HelloOk* h);
 std::vector<uint8_t> encode_transfer(const Transfer& t);

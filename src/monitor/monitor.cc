@@ -377,8 +377,11 @@ uint32_t Monitor::job(uint16_t task) const {
 }
 
 void Monitor::task_exited(uint16_t task) {
-  drive_safe_state(fmt::format("task {} exited", task));
   std::lock_guard lock(mu_);
+  // Only the actuators this task may command: the end of one task's session
+  // must not override what the others are doing.
+  const uint32_t devices = task < task_devices_.size() ? task_devices_[task] : UINT32_MAX;
+  drive_safe_state_locked(fmt::format("task {} exited", task), devices);
   // The job grid stays: a program that reconnects or restarts under the same
   // task joins it, so leaving cannot open a fresh job (and budget).
   readings_.forget_task(task);
@@ -389,12 +392,14 @@ std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
   return drive_safe_state_locked(why);
 }
 
-std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& why) {
+std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& why,
+                                                            uint32_t devices) {
   audit_.event("safe-state", why);
   checking_task_ = core::kNoTask;  // a computed safe state reads the newest readings
   checking_now_us_ = monotonic_us();
   std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    if (d < 32 && (devices & (1u << d)) == 0) continue;
     const core::DeviceRecord& rec = decider_.device(d);
     if ((rec.role & core::kRoleActuator) == 0) continue;
     core::Verdict v{};

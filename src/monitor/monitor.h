@@ -52,6 +52,12 @@ class Monitor final : public gate::Endpoint {
   void set_task_names(std::vector<std::string> names) { names_.tasks = std::move(names); }
   // The image's names, written beside the numbers of every audit record.
   void set_names(NameTable names) { names_ = std::move(names); }
+  // Per task id, bit k: the task may actuate device k (the image's access
+  // matrix). When set, a task's exit drives only its own actuators safe;
+  // unset (or a task beyond the list), every actuator.
+  void set_task_devices(std::vector<uint32_t> actuate_masks) {
+    task_devices_ = std::move(actuate_masks);
+  }
   // Over-budget hold (0 = off): once a task has sent more than `factor` x
   // its declared actuations per job in one job, its next transfer waits
   // until the next release of the task.
@@ -121,13 +127,16 @@ class Monitor final : public gate::Endpoint {
   uint32_t job_at_locked(uint16_t task, uint64_t now_us);
   // When job `job` + 1 of the task is released (0: never).
   uint64_t next_release_locked(uint16_t task, uint32_t job) const;
-  std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why);
+  // The actuators whose bit is set in `devices` (all by default).
+  std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why,
+                                                     uint32_t devices = UINT32_MAX);
 
   Decider& decider_;
   AuditLog& audit_;
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
   NameTable names_;
+  std::vector<uint32_t> task_devices_;
   std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
   readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging

@@ -35,7 +35,13 @@ Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t
       allowed_(std::move(allowed_uids)),
       spin_(spin),
       realtime_(realtime),
-      limits_(limits) {}
+      limits_(limits) {
+  own_exe_known_ = own_exe(&own_dev_, &own_ino_);
+}
+
+void Server::set_bindings(std::map<std::string, TaskBinding> bindings) {
+  bindings_ = std::move(bindings);
+}
 
 Server::~Server() {
   stop();
@@ -195,6 +201,25 @@ void Server::serve() {
       close(fd);
       continue;
     }
+    if (limits_.connects_per_second > 0) {
+      if (connects_.size() > 4096) connects_.clear();  // bounded; a fresh window for all
+      auto& [window_us, opened] = connects_[cred.uid];
+      const uint64_t now = now_us();
+      if (now >= window_us + 1000000) {
+        window_us = now;
+        opened = 0;
+      }
+      if (++opened > limits_.connects_per_second) {
+        over_rate_.fetch_add(1);
+        client_event(cred.uid, "peer-refused",
+                     fmt::format("pid {} uid {}: over {} new connections per second", cred.pid,
+                                 cred.uid, limits_.connects_per_second));
+        const auto e = wire::encode_error({EAGAIN, "reconnecting too fast for this uid"});
+        gate::send_frame(fd, wire::Type::kError, 0, e);
+        close(fd);
+        continue;
+      }
+    }
     std::unique_lock lock(mu_);
     uint32_t& live = per_uid_[cred.uid];
     if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
@@ -212,6 +237,8 @@ void Server::serve() {
     auto c = std::make_unique<Conn>();
     c->fd = fd;
     c->uid = cred.uid;
+    c->pid = cred.pid;
+    c->pidfd = peer_pidfd(fd, cred.pid);  // -1: a hello for a bound task is refused
     c->hello_deadline_us =
         limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
     Conn* raw = c.get();
@@ -220,6 +247,7 @@ void Server::serve() {
     } catch (const std::system_error&) {
       --live;
       lock.unlock();
+      if (c->pidfd >= 0) close(c->pidfd);
       client_event(cred.uid, "peer-refused",
                    fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
       close(fd);
@@ -242,16 +270,6 @@ void Server::stop() {
   }
 }
 
-// One connection's state and its answers, the same whether a message came
-// over the socket or through the shared-memory channel.
-struct Server::Session {
-  Conn* conn = nullptr;
-  bool bound = false;
-  uint16_t task = 0;
-  gate::Transfer transfer;  // reused: no allocation per exchange once grown
-  std::vector<uint8_t> out;
-};
-
 // Answers one well-framed message into *out; returns the answer's type, or
 // nullopt for a message that has none (job-end over the socket).
 std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
@@ -264,14 +282,22 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
   switch (static_cast<wire::Type>(type)) {
     case wire::Type::kHello: {
       std::string name;
-      if (std::string e = wire::decode_hello(payload, &name); !e.empty()) return refuse(EPROTO, e);
+      wire::Vouch vouch;
+      if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty()) {
+        return refuse(EPROTO, e);
+      }
       auto it = tasks_.find(name);
       if (s.bound || it == tasks_.end()) {
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
-      s.bound = true;
+      if (std::string why = admit(s, name, it->second, vouch); !why.empty()) {
+        hellos_refused_.fetch_add(1);
+        client_event(s.conn->uid, "hello-refused",
+                     fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, why));
+        s.out = wire::encode_error({EACCES, why});
+        return wire::Type::kError;
+      }
       s.conn->hello.store(true);
-      s.task = it->second;
       const uint16_t priority = monitor_.task_priority(s.task);
       if (realtime_ && priority > 0) {
         // This thread checks the task's commands: it runs at the task's priority.
@@ -384,9 +410,10 @@ void Server::connection(Conn* conn) {
     }
   }
   if (channel) serve_channel(s, *channel);
-  if (s.bound) monitor_.task_exited(s.task);
+  end_session(s);
   std::lock_guard lock(mu_);
   close(fd);
+  if (c->pidfd >= 0) close(c->pidfd);
   if (auto it = per_uid_.find(c->uid); it != per_uid_.end() && --it->second == 0) {
     per_uid_.erase(it);
   }

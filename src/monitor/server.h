@@ -10,7 +10,8 @@
 // connection runs under SCHED_FIFO at its task's policy priority.
 //
 // The server keeps serving whatever clients do: at most
-// `max_per_uid` live connections per peer uid (more are refused), a
+// `max_per_uid` live connections per peer uid and `connects_per_second` new
+// ones per uid and second (more are refused: a reconnect loop), a
 // connection that has not said hello within `hello_timeout_ms` is closed, a
 // failed accept() (EMFILE, ENFILE, ENOMEM...) backs off and retries (the
 // connections already open go on), finished connection threads are joined.
@@ -18,6 +19,18 @@
 // accept-failed) are rate-limited per peer uid: at most `events_per_second`
 // are written each second, the rest counted into one `suppressed` summary
 // per uid and second. Decisions are never suppressed.
+//
+// Who may run a task (set_bindings, from the policy's `user`, `group`,
+// `exe`, `unit`, `cgroup`) is checked on hello against kernel facts about
+// the peer (monitor/peer_identity.h), or about the program a contego
+// supervisor vouches for; a mismatch is refused (EACCES) and audited
+// (`hello-refused`). A task takes at most its `sessions` (default 1) live
+// sessions; a further hello is refused and audited. A peer that is, or
+// descends from, a program supervised for a live session of this monitor
+// (or its supervisor) is refused whatever task it names: a supervised
+// program has no channel of its own. A refused hello binds nothing, so its
+// connection's end drives nothing safe; the end of a bound session drives
+// the safe state of that task's actuators only (Monitor::task_exited).
 //
 // Thread-safety: one thread per connection; stop() may be called from any thread.
 #ifndef CONTEGO_MONITOR_SERVER_H_
@@ -40,13 +53,15 @@
 #include "gate/wire.h"
 #include "monitor/audit_log.h"
 #include "monitor/monitor.h"
+#include "monitor/peer_identity.h"
 
 namespace contego::monitor {
 
 struct ServerLimits {
-  uint32_t max_per_uid = 32;         // live connections per peer uid (0 = no cap)
-  uint32_t hello_timeout_ms = 2000;  // a connection must say hello within this (0 = never)
-  uint32_t events_per_second = 20;   // client-error events written per uid and second
+  uint32_t max_per_uid = 32;           // live connections per peer uid (0 = no cap)
+  uint32_t hello_timeout_ms = 2000;    // a connection must say hello within this (0 = never)
+  uint32_t events_per_second = 20;     // client-error events written per uid and second
+  uint32_t connects_per_second = 100;  // new connections per uid and second (0 = no limit)
 };
 
 class Server {
@@ -56,6 +71,9 @@ class Server {
          std::set<uid_t> allowed_uids, gate::SpinPolicy spin = {}, bool realtime = false,
          ServerLimits limits = {});
   ~Server();
+  // Who may run each task, by name (a task not named: anyone allowed to
+  // connect, one session). Call before serve().
+  void set_bindings(std::map<std::string, TaskBinding> bindings);
   Status listen(const std::string& path);  // replaces a stale socket file; mode 0660
   void serve();                            // accept loop; returns after stop()
   void stop();
@@ -65,13 +83,27 @@ class Server {
   uint64_t hello_timeouts() const { return hello_timeouts_.load(); }
   uint64_t accept_failures() const { return accept_failures_.load(); }
   uint64_t events_suppressed() const { return suppressed_total_.load(); }
+  uint64_t hellos_refused() const { return hellos_refused_.load(); }
+  uint64_t refused_over_rate() const { return over_rate_.load(); }
   size_t live_connections();
 
  private:
-  struct Session;
+  // One connection's state and its answers, the same whether a message came
+  // over the socket or through the shared-memory channel.
+  struct Conn;
+  struct Session {
+    Conn* conn = nullptr;
+    bool bound = false;
+    uint16_t task = 0;
+    pid_t vouched = 0;        // the supervised program's pid (a supervisor's session)
+    gate::Transfer transfer;  // reused: no allocation per exchange once grown
+    std::vector<uint8_t> out;
+  };
   struct Conn {
     int fd = -1;
     uid_t uid = 0;
+    pid_t pid = 0;
+    int pidfd = -1;                  // pins the peer (SO_PEERPIDFD or pidfd_open)
     uint64_t hello_deadline_us = 0;  // 0: said hello (or no timeout)
     std::atomic<bool> hello{false};
     std::atomic<bool> done{false};
@@ -92,6 +124,13 @@ class Server {
                                            std::span<const uint8_t> payload, bool channel);
   gate::wire::Type reset(Session& s, std::span<const uint8_t> payload);  // `contego reset`
   void serve_channel(Session& s, gate::Channel& channel);
+  // Binds the session to `task` if the peer may run it; else the reason.
+  std::string admit(Session& s, const std::string& name, uint16_t task,
+                    const gate::wire::Vouch& vouch);
+  std::string identity_refusal(const Conn& c, const std::string& name,
+                               const gate::wire::Vouch& vouch);
+  bool descends_from_supervised(pid_t pid);  // mu_ held
+  void end_session(Session& s);
   Monitor& monitor_;
   AuditLog& audit_;
   std::map<std::string, uint16_t> tasks_;
@@ -105,9 +144,18 @@ class Server {
   std::mutex mu_;
   std::vector<std::unique_ptr<Conn>> conns_;  // mu_
   std::map<uid_t, uint32_t> per_uid_;         // live connections; mu_
+  // New connections per uid in the current second (the accept loop's only).
+  std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
+  std::map<std::string, TaskBinding> bindings_;
+  std::map<uint16_t, uint32_t> live_sessions_;  // per task; mu_
+  std::multiset<pid_t> supervised_;             // live supervisors and their programs; mu_
+  bool own_exe_known_ = false;
+  dev_t own_dev_ = 0;
+  ino_t own_ino_ = 0;
   std::mutex events_mu_;
   std::map<uid_t, EventBudget> budgets_;  // events_mu_
-  std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0};
+  std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0},
+      hellos_refused_{0}, over_rate_{0};
 };
 
 }  // namespace contego::monitor

@@ -89,7 +89,9 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
     }
     s.devices.push_back(std::move(out));
   }
-  for (const Task& t : p.tasks) s.tasks.push_back({t.name, t.exe});
+  for (const Task& t : p.tasks) {
+    s.tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions});
+  }
   for (size_t i = 0; i < p.signals.size(); ++i) {
     const Signal& sig = p.signals[i];
     if (sig.raw) {

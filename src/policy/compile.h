@@ -42,6 +42,8 @@ struct PolicySummary {
   };
   struct Task {
     std::string name, exe;
+    std::string user, group, unit, cgroup;  // who may run it (the monitor checks)
+    uint32_t sessions = 1;
   };
   std::vector<Device> devices;
   std::vector<Task> tasks;

@@ -254,8 +254,11 @@ TEST_P(PolicyE2e, ArmAttackCombinedTransferGeneralCallAndReservedAddressesActNot
   const uint8_t led3_off_l = pca->reg(0x06 + 4 * 3 + 2);
   ASSERT_NE(led3_off_l, 0x2C);
   EXPECT_EQ(run("gripper", {CONTEGO_TESTCASES_DIR "/attack_rdwr_atomic"}), 0) << output;
-  EXPECT_NE(output.find("rdwr-led3-prescale -1 1\n"), std::string::npos) << output;  // EPERM
-  EXPECT_NE(output.find("rdwr-grip-prescale -1 1\n"), std::string::npos) << output;
+  // arm.policy ignores the gripper's configuration writes (a vendor
+  // constructor must run), so each transfer is ignored as a whole: the call
+  // reports success and nothing of it acts (checked below).
+  EXPECT_NE(output.find("rdwr-led3-prescale 2 0\n"), std::string::npos) << output;
+  EXPECT_NE(output.find("rdwr-grip-prescale 2 0\n"), std::string::npos) << output;
   EXPECT_NE(output.find("general-call 1 0\n"), std::string::npos) << output;  // ignored
   EXPECT_NE(output.find("reserved -1 6\n"), std::string::npos) << output;     // ENXIO
   EXPECT_NE(output.find("ten-bit -1 "), std::string::npos) << output;

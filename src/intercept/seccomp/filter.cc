@@ -1,6 +1,8 @@
 #include "intercept/seccomp/filter.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <sched.h>
 #include <seccomp.h>
 #include <unistd.h>
 
@@ -9,6 +11,7 @@
 #include <string>
 #include <sys/mman.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
 
 namespace contego::intercept::seccomp {
@@ -49,6 +52,52 @@ std::string why(const char* what, int rc) {
   return std::string("cannot build the seccomp filter: ") + what + ": " + std::strerror(-rc);
 }
 
+// Other ways to the bus node than a path the supervisor resolves: a root
+// or namespace of the program's own (chroot, a new user or mount
+// namespace, mount, pivot_root, setns), a node of its own (mknod of a
+// character or block device) or a file handle (open_by_handle_at). They
+// fail with EPERM; clone3 (whose flags the filter cannot read) with ENOSYS,
+// so that the C library falls back to clone, whose flags it can.
+Status add_refusals(void* ctx) {
+  const int eperm = SCMP_ACT_ERRNO(EPERM);
+  constexpr int kRefused[] = {SCMP_SYS(chroot), SCMP_SYS(pivot_root),        SCMP_SYS(mount),
+                              SCMP_SYS(setns),  SCMP_SYS(open_by_handle_at), SCMP_SYS(move_mount),
+                              SCMP_SYS(fsopen), SCMP_SYS(open_tree)};
+  for (int nr : kRefused) {
+    if (int rc = seccomp_rule_add(ctx, static_cast<uint32_t>(eperm), nr, 0); rc != 0) {
+      return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
+    }
+  }
+  if (int rc = seccomp_rule_add(ctx, SCMP_ACT_ERRNO(ENOSYS), SCMP_SYS(clone3), 0); rc != 0) {
+    return make_error(why("clone3", rc));
+  }
+  constexpr scmp_datum_t kNamespaces[] = {CLONE_NEWUSER, CLONE_NEWNS};
+  for (scmp_datum_t flag : kNamespaces) {
+    for (int nr : {SCMP_SYS(unshare), SCMP_SYS(clone)}) {
+      if (int rc = seccomp_rule_add(ctx, static_cast<uint32_t>(eperm), nr, 1,
+                                    SCMP_A0_64(SCMP_CMP_MASKED_EQ, flag, flag));
+          rc != 0) {
+        return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
+      }
+    }
+  }
+  for (scmp_datum_t type : {scmp_datum_t{S_IFCHR}, scmp_datum_t{S_IFBLK}}) {
+#ifdef __NR_mknod
+    if (int rc = seccomp_rule_add(ctx, static_cast<uint32_t>(eperm), SCMP_SYS(mknod), 1,
+                                  SCMP_A1_32(SCMP_CMP_MASKED_EQ, S_IFMT, type));
+        rc != 0) {
+      return make_error(why("mknod", rc));
+    }
+#endif
+    if (int rc = seccomp_rule_add(ctx, static_cast<uint32_t>(eperm), SCMP_SYS(mknodat), 1,
+                                  SCMP_A2_32(SCMP_CMP_MASKED_EQ, S_IFMT, type));
+        rc != 0) {
+      return make_error(why("mknodat", rc));
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 FdRange reserved_range() {
@@ -80,6 +129,7 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
       rc != 0) {
     return make_error(why("io_uring_setup", rc));
   }
+  if (Status s = add_refusals(ctx.get()); !s.ok()) return make_error(s.error());
   // An int descriptor, compared on its low 32 bits: in the range iff its
   // bits above the range's alignment equal the range's first descriptor.
   const auto mask = static_cast<scmp_datum_t>(~static_cast<uint32_t>(kReservedFds - 1));
@@ -89,6 +139,15 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
                                   SCMP_A0_32(SCMP_CMP_MASKED_EQ, mask, first));
         rc != 0) {
       return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
+    }
+  }
+  // F_DUPFD / F_DUPFD_CLOEXEC of any descriptor at or above the range's
+  // start: an ordinary descriptor may not be placed in the range.
+  for (scmp_datum_t cmd : {scmp_datum_t{F_DUPFD}, scmp_datum_t{F_DUPFD_CLOEXEC}}) {
+    if (int rc = seccomp_rule_add(ctx.get(), SCMP_ACT_NOTIFY, SCMP_SYS(fcntl), 2,
+                                  SCMP_A1_32(SCMP_CMP_EQ, cmd), SCMP_A2_32(SCMP_CMP_GE, first));
+        rc != 0) {
+      return make_error(why("fcntl", rc));
     }
   }
   for (int nr : kOnEitherDescriptor) {

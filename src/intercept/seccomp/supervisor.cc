@@ -27,6 +27,7 @@
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/syscall.h>
 #include <sys/uio.h>
 #include <sys/wait.h>
@@ -35,6 +36,9 @@
 
 #include "base/realtime.h"
 #include "intercept/i2c_abi/i2c_abi.h"
+#include "intercept/seccomp/bus_path.h"
+#include "intercept/seccomp/reach.h"
+#include "intercept/seccomp/remote_memory.h"
 #include "intercept/seccomp/uapi_fallback.h"
 
 namespace contego::intercept::seccomp {
@@ -48,142 +52,30 @@ constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
 #error "unsupported architecture"
 #endif
 
-// --- the program's memory --------------------------------------------------------------
-
-class RemoteMemory final : public i2c_abi::Memory {
- public:
-  explicit RemoteMemory(pid_t pid) : pid_(pid) {}
-  bool read(uint64_t addr, void* dst, size_t len) override {
-    if (len == 0) return true;
-    iovec local{dst, len};
-    iovec remote{reinterpret_cast<void*>(addr), len};
-    return process_vm_readv(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
-  }
-  bool write(uint64_t addr, const void* src, size_t len) override {
-    if (len == 0) return true;
-    iovec local{const_cast<void*>(src), len};
-    iovec remote{reinterpret_cast<void*>(addr), len};
-    return process_vm_writev(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
-  }
-
- private:
-  pid_t pid_;
-};
-
-// Writes into the program only after `still_valid` said yes (asked once).
-class ValidatedWrites final : public i2c_abi::Memory {
- public:
-  template <typename F>
-  ValidatedWrites(i2c_abi::Memory& inner, F still_valid)
-      : inner_(inner), still_valid_(std::move(still_valid)) {}
-  bool read(uint64_t addr, void* dst, size_t len) override { return inner_.read(addr, dst, len); }
-  bool write(uint64_t addr, const void* src, size_t len) override {
-    if (!checked_) {
-      if (!still_valid_()) return false;
-      checked_ = true;
-    }
-    return inner_.write(addr, src, len);
-  }
-
- private:
-  i2c_abi::Memory& inner_;
-  std::function<bool()> still_valid_;
-  bool checked_ = false;
-};
-
-bool read_path(i2c_abi::Memory& mem, uint64_t addr, std::string* out) {
-  out->clear();
-  char chunk[256];
-  while (out->size() < PATH_MAX) {
-    // Read byte-wise near page ends would be slow; read a chunk and fall back
-    // to single bytes when the chunk crosses into an unmapped page.
-    if (mem.read(addr + out->size(), chunk, sizeof chunk)) {
-      const void* nul = memchr(chunk, 0, sizeof chunk);
-      if (nul != nullptr) {
-        out->append(chunk, static_cast<const char*>(nul) - chunk);
-        return true;
-      }
-      out->append(chunk, sizeof chunk);
-      continue;
-    }
-    char c;
-    if (!mem.read(addr + out->size(), &c, 1)) return false;
-    if (c == 0) return true;
-    out->push_back(c);
-  }
-  return false;
-}
-
-std::string lexical_normalise(const std::string& path) {
-  std::vector<std::string> parts;
-  size_t i = 0;
-  while (i <= path.size()) {
-    size_t j = path.find('/', i);
-    if (j == std::string::npos) j = path.size();
-    std::string part = path.substr(i, j - i);
-    if (part == "..") {
-      if (!parts.empty()) parts.pop_back();
-    } else if (!part.empty() && part != ".") {
-      parts.push_back(part);
-    }
-    i = j + 1;
-  }
-  std::string out;
-  for (const auto& p : parts) out += "/" + p;
-  return out.empty() ? "/" : out;
-}
-
-int bus_number(const std::string& path) {
-  std::string rest;
-  if (path.rfind("/dev/i2c-", 0) == 0) {
-    rest = path.substr(9);
-  } else if (path.rfind("/dev/i2c/", 0) == 0) {
-    rest = path.substr(9);
-  } else {
-    return -1;
-  }
-  if (rest.empty() || rest.size() > 3) return -1;
-  int n = 0;
-  for (char c : rest) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
-}
-
-std::string read_link(const std::string& link) {
-  char buf[PATH_MAX];
-  const ssize_t n = readlink(link.c_str(), buf, sizeof buf - 1);
-  if (n < 0) return {};
-  return std::string(buf, static_cast<size_t>(n));
-}
-
-// The bus a path names for the program, or -1. Relative paths are resolved
-// against the program's cwd or dirfd; symbolic links are followed, so
-// another name for a bus node still reaches the emulation.
-int resolve_bus(pid_t pid, int dirfd, const std::string& path) {
-  std::string full = path;
-  if (path.empty()) return -1;
-  if (path[0] != '/') {
-    const std::string base =
-        dirfd == AT_FDCWD
-            ? read_link("/proc/" + std::to_string(pid) + "/cwd")
-            : read_link("/proc/" + std::to_string(pid) + "/fd/" + std::to_string(dirfd));
-    if (base.empty()) return -1;
-    full = base + "/" + path;
-  }
-  const std::string lexical = lexical_normalise(full);
-  if (int n = bus_number(lexical); n >= 0) return n;
-  char real[PATH_MAX];
-  if (realpath(full.c_str(), real) != nullptr) return bus_number(real);
-  return -1;
-}
-
 // --- per-process descriptor tables ---------------------------------------------------------
 
+// One opened bus: its state and its own stand-in file (a /dev/null opened
+// for it alone), so that kcmp can tell whether a program's descriptor is
+// still this bus's (a CLONE_FILES sibling may have closed it, or put
+// something else at its number) before anything acts.
 struct Handle {
   i2c_abi::FdState state;
+  int standin = -1;
+  Handle() : standin(open("/dev/null", O_RDWR | O_CLOEXEC)) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() {
+    if (standin >= 0) close(standin);
+  }
 };
+
+// True if descriptor `fd` of thread `tid` is the very file `own` is here.
+// (A kernel without kcmp, CONFIG_KCMP unset: the descriptor tables are trusted.)
+bool same_open_file(pid_t tid, int fd, int own) {
+  constexpr int kKcmpFile = 0;  // KCMP_FILE
+  const long r = syscall(SYS_kcmp, getpid(), tid, kKcmpFile, own, fd);
+  return r == 0 || (r < 0 && errno == ENOSYS);
+}
 
 struct Process {
   std::map<int, std::shared_ptr<Handle>> fds;
@@ -214,12 +106,7 @@ class Loop {
         range_(range),
         options_(options),
         endpoint_(endpoint),
-        result_(result) {
-    placeholder_ = open("/dev/null", O_RDWR | O_CLOEXEC);
-  }
-  ~Loop() {
-    if (placeholder_ >= 0) close(placeholder_);
-  }
+        result_(result) {}
 
   void handle(const seccomp_notif& n);
   // Fail-close: SIGKILLs every supervised process known; every later call
@@ -245,19 +132,27 @@ class Loop {
     r.flags = SECCOMP_USER_NOTIF_FLAG_CONTINUE;
     ioctl(listener_, SECCOMP_IOCTL_NOTIF_SEND, &r);
   }
-  // Installs the placeholder at `slot` and answers the call with the slot.
-  int install(uint64_t id, int slot, bool cloexec) {
+  // Installs the handle's stand-in at `slot` and answers the call with the slot.
+  int install(uint64_t id, int slot, bool cloexec, const Handle& h) {
+    if (h.standin < 0) {
+      reply(id, 0, EMFILE);
+      return -1;
+    }
     seccomp_notif_addfd a{};
     a.id = id;
     a.flags = SECCOMP_ADDFD_FLAG_SETFD | SECCOMP_ADDFD_FLAG_SEND;
-    a.srcfd = static_cast<uint32_t>(placeholder_);
+    a.srcfd = static_cast<uint32_t>(h.standin);
     a.newfd = static_cast<uint32_t>(slot);
     a.newfd_flags = cloexec ? O_CLOEXEC : 0;
     return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ADDFD, &a);
   }
-  int free_slot(const Process& p, int minimum) const {
+  // A reserved number free in the program: none of its bus descriptors,
+  // and no ordinary descriptor that landed there (a full table) is replaced.
+  int free_slot(const Process& p, int minimum, pid_t tid) const {
     for (int fd = std::max(minimum, range_.first); fd < range_.first + range_.count; ++fd) {
-      if (p.fds.count(fd) == 0) return fd;
+      if (p.fds.count(fd) != 0) continue;
+      const std::string link = "/proc/" + std::to_string(tid) + "/fd/" + std::to_string(fd);
+      if (faccessat(AT_FDCWD, link.c_str(), F_OK, AT_SYMLINK_NOFOLLOW) != 0) return fd;
     }
     return -1;
   }
@@ -274,7 +169,6 @@ class Loop {
   const Options& options_;
   gate::Endpoint& endpoint_;
   RunResult& result_;
-  int placeholder_;
   std::map<pid_t, Process> processes_;  // by thread-group id
   std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
   size_t sweep_at_ = 256;               // tgid_ size that triggers forget_the_dead()
@@ -364,14 +258,17 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   int dirfd = AT_FDCWD;
   uint64_t path_addr = 0;
   uint64_t flags = 0;
+  uint64_t resolve = 0;
   if (n.data.nr == __NR_openat || n.data.nr == __NR_openat2) {
     dirfd = static_cast<int>(a[0]);
     path_addr = a[1];
     flags = a[2];
     if (n.data.nr == __NR_openat2) {
-      uint64_t how_flags = 0;
-      if (!mem.read(a[2], &how_flags, sizeof how_flags)) return reply(n.id, 0, EFAULT);
-      flags = how_flags;
+      uint64_t how[3] = {0, 0, 0};  // struct open_how: flags, mode, resolve
+      if (a[3] < sizeof how) return reply(n.id, 0, EINVAL);
+      if (!mem.read(a[2], how, sizeof how)) return reply(n.id, 0, EFAULT);
+      flags = how[0];
+      resolve = how[2];
     }
 #ifdef __NR_open
   } else if (n.data.nr == __NR_open) {
@@ -387,13 +284,16 @@ void Loop::open_call(const seccomp_notif& n, Process& p) {
   std::string path;
   if (!read_path(mem, path_addr, &path)) return reply(n.id, 0, EFAULT);
   if (!valid(n.id)) return;
-  const int bus = resolve_bus(static_cast<pid_t>(n.pid), dirfd, path);
+  const BusPath named =
+      resolve_bus_path(static_cast<pid_t>(n.pid), dirfd, path, resolve, (flags & O_NOFOLLOW) != 0);
+  if (named.refuse != 0) return reply(n.id, 0, named.refuse);
+  const int bus = named.bus;
   if (bus < 0) return continue_call(n.id);  // not a bus: the kernel opens it
   if (!endpoint_.has_bus(static_cast<uint8_t>(bus))) return reply(n.id, 0, ENOENT);
-  const int slot = free_slot(p, 0);
+  const int slot = free_slot(p, 0, static_cast<pid_t>(n.pid));
   if (slot < 0) return reply(n.id, 0, EMFILE);
-  if (install(n.id, slot, (flags & O_CLOEXEC) != 0) < 0) return;
   auto h = std::make_shared<Handle>();
+  if (install(n.id, slot, (flags & O_CLOEXEC) != 0, *h) < 0) return;
   h->state.bus = static_cast<uint8_t>(bus);
   p.fds[slot] = h;
   if ((flags & O_CLOEXEC) != 0) p.cloexec.insert(slot);
@@ -437,8 +337,21 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   const long nr = n.data.nr;
   const int oldfd = static_cast<int>(a[0]);
   auto old = p.fds.find(oldfd);
+  if (old != p.fds.end() &&
+      !same_open_file(static_cast<pid_t>(n.pid), oldfd, old->second->standin)) {
+    p.cloexec.erase(oldfd);  // closed or replaced by a CLONE_FILES sibling
+    p.fds.erase(old);
+    return reply(n.id, 0, EBADF);
+  }
   if (nr == __NR_dup || nr == __NR_fcntl) {
-    if (old == p.fds.end()) return continue_call(n.id);  // not a bus descriptor
+    if (old == p.fds.end()) {
+      // An ordinary descriptor: F_DUPFD may not place it in the reserved
+      // range (the filter notifies only that case).
+      const bool dupfd = nr == __NR_fcntl && (static_cast<int>(a[1]) == F_DUPFD ||
+                                              static_cast<int>(a[1]) == F_DUPFD_CLOEXEC);
+      if (dupfd && !in_range(static_cast<uint32_t>(oldfd))) return reply(n.id, 0, EINVAL);
+      return continue_call(n.id);  // not a bus descriptor
+    }
     int minimum = 0;
     bool cloexec = false;
     if (nr == __NR_fcntl) {
@@ -454,10 +367,10 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
       minimum = static_cast<int>(a[2]);
       cloexec = cmd == F_DUPFD_CLOEXEC;
     }
-    const int slot = free_slot(p, minimum);
+    const int slot = free_slot(p, minimum, static_cast<pid_t>(n.pid));
     if (slot < 0) return reply(n.id, 0, EMFILE);
     auto handle = old->second;
-    if (install(n.id, slot, cloexec) >= 0) {
+    if (install(n.id, slot, cloexec, *handle) >= 0) {
       p.fds[slot] = handle;
       if (cloexec) p.cloexec.insert(slot);
     }
@@ -479,7 +392,7 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   }
   const bool cloexec = nr == __NR_dup3 && (a[2] & O_CLOEXEC) != 0;
   auto handle = old->second;
-  if (install(n.id, newfd, cloexec) >= 0) {
+  if (install(n.id, newfd, cloexec, *handle) >= 0) {
     p.fds[newfd] = handle;
     if (cloexec) {
       p.cloexec.insert(newfd);
@@ -552,6 +465,13 @@ void Loop::handle(const seccomp_notif& n) {
   if (is_dup) return dup_call(n, p);
   auto it = p.fds.find(static_cast<int>(a[0]));
   if (it == p.fds.end()) return continue_call(n.id);  // an inert descriptor that is not a bus
+  if (!same_open_file(static_cast<pid_t>(n.pid), it->first, it->second->standin)) {
+    // Closed or replaced behind this process's back (a CLONE_FILES sibling):
+    // no longer this bus.
+    p.cloexec.erase(it->first);
+    p.fds.erase(it);
+    return reply(n.id, 0, EBADF);
+  }
   auto handle = it->second;
   bus_call(n, p, handle);
 }
@@ -591,6 +511,68 @@ struct ChildStatus {
   }
 };
 
+// A credential failure in the child, told to the parent through the pipe.
+constexpr int kCredentialsFailed = 1 << 16;
+
+// What the child of run() needs between fork and exec.
+struct ChildStart {
+  const Options& options;
+  const std::string& program;  // resolved path, or "" (execvp reports the failure)
+  char* const* argv;
+  int to_parent, to_child;  // pipe ends
+  const sigset_t& child_mask;
+  pid_t supervisor;
+  const sock_fprog* prog;
+};
+
+// The child: credentials, parent-death signal, the filter, the listener to
+// the parent, its go-ahead, exec. Only async-signal-safe calls.
+[[noreturn]] void start_program(const ChildStart& c) {
+  // Only async-signal-safe calls from here to execvp.
+  // Dumpable whatever a concurrent run() set: the supervisor takes the
+  // listener from it (pidfd_getfd) before it runs the program.
+  prctl(PR_SET_DUMPABLE, 1, 0, 0, 0);
+  // The program's credentials first: a change of credentials clears the
+  // parent-death signal. Raw system calls: this thread only, no C library
+  // broadcast to threads that do not exist in the child.
+  if (c.options.set_credentials &&
+      (syscall(SYS_setgroups, c.options.groups.size(), c.options.groups.data()) != 0 ||
+       syscall(SYS_setresgid, c.options.gid, c.options.gid, c.options.gid) != 0 ||
+       syscall(SYS_setresuid, c.options.uid, c.options.uid, c.options.uid) != 0)) {
+    const int failed = -(kCredentialsFailed + errno);
+    (void)!write(c.to_parent, &failed, sizeof failed);
+    _exit(126);
+  }
+  // Dies with the thread that forked it; if that happened already (the
+  // parent is no longer the supervisor), give up before running anything.
+  if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != c.supervisor) _exit(126);
+  sigprocmask(SIG_SETMASK, &c.child_mask, nullptr);
+  int fd = -1;
+  if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
+    // WAIT_KILLABLE_RECV: once the supervisor has taken a call, only a
+    // fatal signal interrupts the program's wait for the answer. Without
+    // it a signal cancels a call the supervisor may already have
+    // performed: the program sees EINTR for a transfer that acted, or
+    // (SA_RESTART) issues it again and it acts twice.
+    fd = static_cast<int>(
+        syscall(SYS_seccomp, SECCOMP_SET_MODE_FILTER,
+                SECCOMP_FILTER_FLAG_NEW_LISTENER | SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV, c.prog));
+  }
+  int msg = fd >= 0 ? fd : -errno;
+  if (write(c.to_parent, &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
+  char ack;
+  if (read(c.to_child, &ack, 1) != 1) _exit(126);
+  close(fd);
+  if (!c.program.empty()) {
+    execv(c.program.c_str(), c.argv);
+  } else {
+    execvp(c.argv[0], c.argv);
+  }
+  const int e = errno;
+  (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
+  _exit(e == ENOENT ? 127 : 126);
+}
+
 }  // namespace
 
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
@@ -602,6 +584,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   std::vector<char*> argv;
   for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);
+  const std::string program = resolve_program(options.argv[0]);
 
   int to_parent[2], to_child[2];
   if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
@@ -617,31 +600,8 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   const pid_t child = fork();
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
-    // Only async-signal-safe calls from here to execvp.
-    // Dies with the thread that forked it; if that happened already (the
-    // parent is no longer the supervisor), give up before running anything.
-    if (prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0 || getppid() != supervisor) _exit(126);
-    sigprocmask(SIG_SETMASK, &child_mask, nullptr);
-    int fd = -1;
-    if (prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0) {
-      // WAIT_KILLABLE_RECV: once the supervisor has taken a call, only a
-      // fatal signal interrupts the program's wait for the answer. Without
-      // it a signal cancels a call the supervisor may already have
-      // performed: the program sees EINTR for a transfer that acted, or
-      // (SA_RESTART) issues it again and it acts twice.
-      fd = static_cast<int>(syscall(
-          SYS_seccomp, SECCOMP_SET_MODE_FILTER,
-          SECCOMP_FILTER_FLAG_NEW_LISTENER | SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV, &prog));
-    }
-    int msg = fd >= 0 ? fd : -errno;
-    if (write(to_parent[1], &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
-    char ack;
-    if (read(to_child[0], &ack, 1) != 1) _exit(126);
-    close(fd);
-    execvp(argv[0], argv.data());
-    const int e = errno;
-    (void)!write(STDERR_FILENO, "contego run: cannot execute the program\n", 40);
-    _exit(e == ENOENT ? 127 : 126);
+    start_program(
+        {options, program, argv.data(), to_parent[1], to_child[0], child_mask, supervisor, &prog});
   }
   close(to_parent[1]);
   close(to_child[0]);
@@ -660,6 +620,10 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
         "SECCOMP_FILTER_FLAG_WAIT_KILLABLE_RECV (Linux 5.19 or later is needed, so that a "
         "signal cannot make a checked transfer act twice or act while reporting failure)");
   }
+  if (got == sizeof msg && msg <= -kCredentialsFailed) {
+    return abandon("cannot run the program as uid " + std::to_string(options.uid) + " gid " +
+                   std::to_string(options.gid) + ": " + strerror(-msg - kCredentialsFailed));
+  }
   if (got != sizeof msg || msg < 0) {
     return abandon(std::string("cannot install the seccomp filter: ") +
                    (got == sizeof msg ? strerror(-msg) : "child failed"));
@@ -670,6 +634,16 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
     if (pidfd >= 0) close(pidfd);
     return abandon(std::string("cannot take the notification descriptor: ") + strerror(errno));
   }
+  if (options.before_start) {
+    if (std::string why = options.before_start(child, program.empty() ? options.argv[0] : program);
+        !why.empty()) {
+      close(listener);
+      close(pidfd);
+      return abandon(why);
+    }
+  }
+  // From here the program may run: out of its reach.
+  enter_undumpable();
   RunResult result;
   if (options.sync_wakeup &&
       ioctl(listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS, SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
@@ -779,6 +753,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (loop_realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
   close(listener);
   close(pidfd);
+  leave_undumpable();
   endpoint.task_exited(options.task);
   return result;
 }

@@ -3,7 +3,9 @@
 // The supervised program runs under a seccomp filter (filter.h: architecture
 // checked, inherited by every thread and child, irremovable) that turns its
 // bus system calls into notifications for this supervisor:
-//  - open/openat/openat2/creat: a /dev/i2c-N path gets a placeholder
+//  - open/openat/openat2/creat: a path that names a bus for the program
+//    (bus_path.h: resolved in the program's context, by name or by device
+//    number) gets a placeholder
 //    descriptor (/dev/null) installed by the supervisor at a number in a
 //    reserved range; no real bus node is ever opened by the program;
 //  - ioctl/read/write on reserved descriptors: emulated: arguments copied
@@ -31,6 +33,14 @@
 // killed with SIGKILL leaves them running, and their bus calls then fail
 // with ENOSYS; stop_fd ends them too.)
 //
+// Out of the program's reach: from the moment the program may run, the
+// supervisor is not dumpable (PR_SET_DUMPABLE 0, restored when run()
+// returns), so a program of the same uid cannot ptrace it, read or write its
+// memory (process_vm_writev, /proc/PID/mem) or copy its descriptors
+// (pidfd_getfd); `contego run --user` runs the program under another uid
+// altogether. The program executes the path resolved before the fork
+// (PATH searched here), the one named to before_start.
+//
 // Thread-safety: run() calls the endpoint from the calling thread only;
 // concurrent run()s are fine; the endpoint may be shared.
 #ifndef CONTEGO_INTERCEPT_SECCOMP_SUPERVISOR_H_
@@ -39,7 +49,9 @@
 #include <signal.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <sys/types.h>
 #include <vector>
 
 #include "base/result.h"
@@ -64,6 +76,18 @@ struct Options {
   // The signal mask the program starts with (the caller's own mask when null:
   // a caller that blocks signals to wait for them passes its original mask).
   const sigset_t* child_sigmask = nullptr;
+  // The program's credentials (`contego run --user`): set in the child
+  // before the filter and before it runs anything of the program;
+  // any failure ends it before exec (fail closed).
+  bool set_credentials = false;
+  uid_t uid = 0;
+  gid_t gid = 0;
+  std::vector<gid_t> groups;  // supplementary groups
+  // Called once the program's process exists (its pid and the absolute path
+  // it will execute) and before it runs anything: a `--socket` supervisor
+  // says hello to the monitor here, vouching for it. A non-empty answer is
+  // the reason not to start it; run() then fails with it.
+  std::function<std::string(pid_t child, const std::string& exe)> before_start;
 };
 
 struct RunResult {

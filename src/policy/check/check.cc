@@ -1599,6 +1599,16 @@ class Sema {
       const std::string what = "`" + p.key.name + "`";
       if (p.key.name == "exe") {
         t.exe = p.text;
+      } else if (p.key.name == "user") {
+        t.user = p.text;
+      } else if (p.key.name == "group") {
+        t.group = p.text;
+      } else if (p.key.name == "unit") {
+        t.unit = p.text;
+      } else if (p.key.name == "cgroup") {
+        t.cgroup = p.text;
+      } else if (p.key.name == "sessions") {
+        if (auto v = int_in(*p.value, "`sessions`", 1, 64)) t.sessions = static_cast<uint32_t>(*v);
       } else if (p.key.name == "period") {
         auto v = const_value(*p.value, Type::kDuration, what);
         have_period = true;

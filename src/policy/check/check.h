@@ -119,6 +119,10 @@ struct Task {
   std::string name;
   Span span;
   std::string exe;
+  // Who may run it (checked by the monitor on hello; empty = anyone allowed
+  // to connect): a user / group name or numeric id, a systemd unit, a cgroup.
+  std::string user, group, unit, cgroup;
+  uint32_t sessions = 1;  // live sessions the monitor accepts at once
   uint32_t period_us = 0, deadline_us = 0, wcet_us = 0;
   uint16_t priority = 0;
   uint16_t actuations = 1;

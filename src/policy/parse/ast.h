@@ -134,8 +134,8 @@ struct SignalDecl {
 
 struct TaskProperty {
   Ident key;
-  ExprPtr value;     // null for `exe`
-  std::string text;  // `exe "..."`
+  ExprPtr value;     // null for `exe`, `user`, `group`, `unit`, `cgroup`
+  std::string text;  // their text (a numeric user or group id as digits)
 };
 
 struct TaskDecl {

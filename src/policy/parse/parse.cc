@@ -347,17 +347,27 @@ class Parser {
   void task_item(ast::TaskDecl& d) {
     ast::TaskProperty p;
     if (!ident(p.key, "a task property")) return;
-    static constexpr std::string_view kKeys[] = {"period",   "deadline",   "wcet",
-                                                 "priority", "actuations", "overhead"};
-    if (p.key.name == "exe") {
-      if (!at(Tok::kString)) {
-        fail("a string such as `\"/usr/bin/python3\"`");
+    static constexpr std::string_view kKeys[] = {"period",     "deadline", "wcet",    "priority",
+                                                 "actuations", "overhead", "sessions"};
+    // Who may run the task (the monitor checks it; not in the image): a
+    // string, or for `user` and `group` also a numeric id.
+    const std::string& k = p.key.name;
+    const bool id_key = k == "user" || k == "group";
+    if (k == "exe" || k == "unit" || k == "cgroup" || id_key) {
+      if (id_key && at(Tok::kInt)) {
+        p.text = std::to_string(advance().value);
+      } else if (!at(Tok::kString)) {
+        fail(k == "exe"      ? "a string such as `\"/usr/bin/python3\"`"
+             : k == "unit"   ? "a string such as `\"gripper.service\"`"
+             : k == "cgroup" ? "a string such as `\"/system.slice/gripper.service\"`"
+                             : "a name such as `\"robot\"` or a numeric id");
         return;
+      } else {
+        p.text = advance().text;
       }
-      p.text = advance().text;
     } else {
       bool known = false;
-      for (auto k : kKeys) known = known || p.key.name == k;
+      for (auto key : kKeys) known = known || p.key.name == key;
       if (!known) {
         diags_.emit(DiagKind::kUnknownTaskProperty, p.key.span, p.key.name);
         failed_ = true;

@@ -133,7 +133,7 @@ under() {
   mode=$1 policy=$2 task=$3; shift 3
   case $mode in
     embedded)
-      contego run --policy "$POLICIES/$policy" $BUS_ARGS --task "$task" \
+      contego run --policy "$POLICIES/$policy" $BUS_ARGS --same-user --task "$task" \
         --audit "$LOGDIR/embedded-audit.jsonl" -- "$@" ;;
     monitor)
       as_task contego run --socket $SOCK --task "$task" -- "$@" ;;

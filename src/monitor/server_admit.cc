@@ -1,0 +1,126 @@
+// The server's hello admission: who the peer is (kernel facts), whether it
+// may run the task it names, and how many sessions the task already has.
+#include <errno.h>
+#include <unistd.h>
+
+#include <fmt/core.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+
+#include "monitor/server.h"
+
+namespace contego::monitor {
+
+namespace wire = gate::wire;
+
+bool Server::descends_from_supervised(pid_t pid) {
+  // The peer itself, then its ancestors (64 at most: deeper chains are not
+  // built by a program's own forks within a hello's time).
+  for (int depth = 0; depth < 64 && pid > 1; ++depth) {
+    if (supervised_.contains(pid)) return true;
+    const int fd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
+    if (fd < 0) return false;
+    auto facts = process_facts(fd, pid);
+    close(fd);
+    if (!facts.ok()) return false;
+    pid = facts->ppid;
+  }
+  return false;
+}
+
+std::string Server::identity_refusal(const Conn& c, const std::string& name,
+                                     const wire::Vouch& vouch) {
+  auto binding = bindings_.find(name);
+  const bool binds = binding != bindings_.end() && binding->second.binds();
+  if (vouch.pid == 0 && !binds) return {};
+  if (c.pidfd < 0) return "the peer process cannot be pinned (pidfd)";
+  auto peer = process_facts(c.pidfd, c.pid);
+  if (!peer.ok()) return "the peer: " + peer.error();
+  PeerFacts facts = *peer;
+  facts.uid = c.uid;  // SO_PEERCRED: the credentials the peer connected with
+  if (vouch.pid != 0) {
+    // A supervisor speaking for its program: the program must be its child,
+    // and a non-root supervisor can only have started a program of its own
+    // uid. The binding is then checked against the program (what a parent
+    // can claim for its child it could claim by letting the child connect).
+    const pid_t child = static_cast<pid_t>(vouch.pid);
+    const int child_fd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
+    if (child_fd < 0) return fmt::format("the supervised program (pid {}) is gone", child);
+    auto program = process_facts(child_fd, child);
+    close(child_fd);
+    if (!program.ok()) return "the supervised program: " + program.error();
+    if (program->ppid != c.pid) {
+      return fmt::format("pid {} is not a child of the supervisor (pid {})", child, c.pid);
+    }
+    if (c.uid != 0 && c.uid != program->uid) {
+      return fmt::format("a supervisor of uid {} speaks for a program of uid {}", c.uid,
+                         program->uid);
+    }
+    facts = *program;
+    facts.exe_known = false;
+    if (binds && binding->second.has_exe) {
+      // The program has not executed yet: the path it will execute is the
+      // supervisor's word, taken only from this very contego binary.
+      if (!own_exe_known_ || !peer->exe_known) {
+        return "the peer's executable cannot be read, so its word on the program's executable "
+               "cannot be taken (a monitor checking `exe` must be able to read /proc/PID/exe of "
+               "its peers: root or CAP_SYS_PTRACE)";
+      }
+      if (peer->exe_dev != own_dev_ || peer->exe_ino != own_ino_) {
+        return "the peer vouches for a program but is not a contego supervisor (its executable "
+               "is not the monitor's own)";
+      }
+      struct stat st {};
+      facts.exe_known = stat(vouch.exe.c_str(), &st) == 0;
+      facts.exe_dev = st.st_dev;
+      facts.exe_ino = st.st_ino;
+      facts.exe_path = vouch.exe;
+    }
+  }
+  return binds ? binding_mismatch(name, binding->second, facts) : std::string();
+}
+
+std::string Server::admit(Session& s, const std::string& name, uint16_t task,
+                          const wire::Vouch& vouch) {
+  const Conn& c = *s.conn;
+  {
+    std::lock_guard lock(mu_);
+    if (descends_from_supervised(c.pid)) {
+      return "the peer is a program supervised by contego (or its child): its supervisor "
+             "speaks for it; it may not open a connection of its own";
+    }
+  }
+  if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
+  auto binding = bindings_.find(name);
+  const uint32_t allowed = binding == bindings_.end() ? 1 : binding->second.sessions;
+  std::lock_guard lock(mu_);
+  uint32_t& live = live_sessions_[task];
+  if (live >= allowed) {
+    return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
+                       live, allowed);
+  }
+  ++live;
+  s.bound = true;
+  s.task = task;
+  if (vouch.pid != 0) {
+    s.vouched = static_cast<pid_t>(vouch.pid);
+    supervised_.insert(c.pid);
+    supervised_.insert(s.vouched);
+  }
+  return {};
+}
+
+void Server::end_session(Session& s) {
+  if (!s.bound) return;  // a refused or missing hello drives nothing
+  monitor_.task_exited(s.task);
+  std::lock_guard lock(mu_);
+  if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
+    live_sessions_.erase(it);
+  }
+  if (s.vouched != 0) {
+    supervised_.erase(supervised_.find(s.conn->pid));
+    supervised_.erase(supervised_.find(s.vouched));
+  }
+}
+
+}  // namespace contego::monitor
