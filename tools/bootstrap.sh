@@ -11,6 +11,7 @@ packages=(
   # libraries (see docs/libraries.md for why each one)
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libseccomp-dev libi2c-dev libssl-dev
+  libsystemd-dev
   # cross-build of the trusted core for the paper's Cortex-A53, run under qemu
   g++-aarch64-linux-gnu qemu-user
   # plots and measurements

@@ -10,6 +10,7 @@
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
+#include "cli/systemd_notify.h"
 #include "cli/trusted_setup.h"
 #include "monitor/server.h"
 
@@ -119,6 +120,8 @@ void register_monitor(CLI::App& app) {
       return set_exit_code(2);
     }
     fmt::print(stderr, "contego monitor: serving {} on {}\n", args->policy, args->socket);
+    SystemdNotifier systemd;
+    systemd.ready(fmt::format("serving {} on {}", args->policy, args->socket));
     std::atomic<bool> served{false};
     std::string why = "monitor stopping";
     std::thread waiter([&] {
@@ -145,6 +148,7 @@ void register_monitor(CLI::App& app) {
     served.store(true);
     pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
     waiter.join();
+    systemd.stopping(why);
     (*trusted)->monitor->drive_safe_state(why);
     (*trusted)->monitor->stop_sampling();
     if (!args->virtual_state.empty()) {
