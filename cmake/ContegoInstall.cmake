@@ -12,10 +12,17 @@ set(CONTEGO_SYSTEM_DIR ${PROJECT_SOURCE_DIR}/packaging/system)
 # systemd's, udev's and logrotate's directories. Under /usr they are the
 # distribution's (/usr/lib/systemd/system ..., /etc/logrotate.d); under any
 # other prefix they stay inside it.
-set(CONTEGO_UNIT_DIR ${CMAKE_INSTALL_PREFIX}/lib/systemd/system)
-set(CONTEGO_SYSUSERS_DIR ${CMAKE_INSTALL_PREFIX}/lib/sysusers.d)
-set(CONTEGO_TMPFILES_DIR ${CMAKE_INSTALL_PREFIX}/lib/tmpfiles.d)
-set(CONTEGO_UDEV_DIR ${CMAKE_INSTALL_PREFIX}/lib/udev/rules.d)
+# Relative destinations, so that `cmake --install --prefix DIR` moves them
+# too; /etc is absolute only for the /usr prefix (GNUInstallDirs' rule).
+set(CONTEGO_UNIT_DIR lib/systemd/system)
+set(CONTEGO_SYSUSERS_DIR lib/sysusers.d)
+set(CONTEGO_TMPFILES_DIR lib/tmpfiles.d)
+set(CONTEGO_UDEV_DIR lib/udev/rules.d)
+if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
+  set(CONTEGO_ETC_DIR ${CMAKE_INSTALL_FULL_SYSCONFDIR})
+else()
+  set(CONTEGO_ETC_DIR ${CMAKE_INSTALL_SYSCONFDIR})
+endif()
 
 # --- runtime ---------------------------------------------------------------
 install(TARGETS contego RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
@@ -36,11 +43,11 @@ install(FILES ${CONTEGO_SYSTEM_DIR}/contego.tmpfiles DESTINATION ${CONTEGO_TMPFI
         RENAME contego.conf COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/99-contego-i2c.rules DESTINATION ${CONTEGO_UDEV_DIR}
         COMPONENT runtime)
-install(FILES ${CONTEGO_SYSTEM_DIR}/contego.logrotate DESTINATION ${CMAKE_INSTALL_FULL_SYSCONFDIR}/logrotate.d
+install(FILES ${CONTEGO_SYSTEM_DIR}/contego.logrotate DESTINATION ${CONTEGO_ETC_DIR}/logrotate.d
         RENAME contego COMPONENT runtime)
-install(FILES ${CONTEGO_SYSTEM_DIR}/contego.default DESTINATION ${CMAKE_INSTALL_FULL_SYSCONFDIR}/default
+install(FILES ${CONTEGO_SYSTEM_DIR}/contego.default DESTINATION ${CONTEGO_ETC_DIR}/default
         RENAME contego COMPONENT runtime)
-install(DIRECTORY DESTINATION ${CMAKE_INSTALL_FULL_SYSCONFDIR}/contego/run COMPONENT runtime)
+install(DIRECTORY DESTINATION ${CONTEGO_ETC_DIR}/contego/run COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/contego-run.conf.example ${PROJECT_SOURCE_DIR}/README.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT runtime)
 
@@ -74,6 +81,7 @@ write_basic_package_version_file(${PROJECT_BINARY_DIR}/contegoConfigVersion.cmak
   COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/contegoConfig.cmake ${PROJECT_BINARY_DIR}/contegoConfigVersion.cmake
         DESTINATION ${CONTEGO_CMAKE_DIR} COMPONENT dev)
+file(RELATIVE_PATH CONTEGO_PC_TO_PREFIX ${CMAKE_INSTALL_FULL_LIBDIR}/pkgconfig ${CMAKE_INSTALL_PREFIX})
 configure_file(${PROJECT_SOURCE_DIR}/cmake/contego.pc.in ${PROJECT_BINARY_DIR}/contego.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/contego.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig
         COMPONENT dev)
