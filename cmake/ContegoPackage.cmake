@@ -14,7 +14,13 @@ set(CPACK_PACKAGE_DESCRIPTION
     "enforces an access matrix, per-job rate limits and state invariants, and answers a violation\n"
     "by dropping the command or substituting a safe one. Programs run unmodified.")
 string(JOIN "" CPACK_PACKAGE_DESCRIPTION ${CPACK_PACKAGE_DESCRIPTION})
-set(CPACK_STRIP_FILES ON)
+# Stripping is the DEB generator's: it copies the debug info of every
+# unstripped ELF file into the -dbgsym package (by build id), then strips it
+# (objcopy --strip-unneeded). Stripped at install time there would be
+# nothing left to split off. A cross build uses the target's binutils.
+set(CPACK_STRIP_FILES OFF)
+set(CPACK_OBJCOPY_EXECUTABLE ${CMAKE_OBJCOPY})
+set(CPACK_READELF_EXECUTABLE ${CMAKE_READELF})
 set(CPACK_GENERATOR DEB)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_COMPONENTS_ALL runtime dev)
