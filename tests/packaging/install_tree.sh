@@ -4,9 +4,10 @@
 # where they belong, `contego demo` finds its scenarios through the prefix,
 # and a CMake project (find_package(contego)) and a pkg-config build link
 # the installed core.
-# Usage: install_tree.sh BUILD_DIR SOURCE_DIR
+# Usage: install_tree.sh BUILD_DIR SOURCE_DIR [LINKER_FLAGS]
+#   LINKER_FLAGS: the build's (e.g. -fsanitize=...), for the consumers of the core
 set -euo pipefail
-build=$1 src=$2
+build=$1 src=$2 ldflags=${3:-}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "install_tree: FAIL: $*"; exit 1; }
@@ -40,12 +41,14 @@ grep -q "Fig. 4(a)" "$tmp/demo.log" || fail "contego demo printed no summary"
 # The core as a library: CMake package config and pkg-config.
 [[ -n $(find "$prefix" -path '*/cmake/contego/contegoConfig.cmake') ]] || fail "no cmake/contego package config"
 cmake -S "$src/tests/packaging/consumer" -B "$tmp/consumer" -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_EXE_LINKER_FLAGS="$ldflags" \
   >"$tmp/consumer.log" 2>&1 && cmake --build "$tmp/consumer" >>"$tmp/consumer.log" 2>&1 ||
   { cat "$tmp/consumer.log"; fail "find_package(contego) consumer"; }
 "$tmp/consumer/consumer" | grep -q "checker" || fail "the consumer does not run"
 pcdir=$(dirname "$(find "$prefix" -name contego.pc | head -1)")
 # shellcheck disable=SC2046
-cc -o "$tmp/consumer_pc" "$src/tests/packaging/consumer/consumer.c" \
+# shellcheck disable=SC2086
+cc $ldflags -o "$tmp/consumer_pc" "$src/tests/packaging/consumer/consumer.c" \
   $(PKG_CONFIG_PATH=$pcdir pkg-config --cflags --libs contego) || fail "pkg-config consumer"
 "$tmp/consumer_pc" | grep -q "checker" || fail "the pkg-config consumer does not run"
 echo "install_tree: ok"
