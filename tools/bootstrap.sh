@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package that contego's build, tests, fuzzers,
-# cross-build and plots need. Idempotent and non-interactive: packages that
+# cross-build and plots need (--cross-arm64: the arm64 libraries of the
+# cross-built package instead). Idempotent and non-interactive: packages that
 # are already present are skipped, so a second run does no network I/O.
 set -euo pipefail
 
@@ -11,6 +12,7 @@ packages=(
   # libraries (see docs/libraries.md for why each one)
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libseccomp-dev libi2c-dev libssl-dev
+  libsystemd-dev
   # cross-build of the trusted core for the paper's Cortex-A53, run under qemu
   g++-aarch64-linux-gnu qemu-user
   # plots and measurements
@@ -21,6 +23,18 @@ packages=(
   # busybox initramfs; seabios boots it without KVM, cpio packs the initramfs
   qemu-system-x86 seabios busybox-static cpio xz-utils
 )
+
+# --cross-arm64 (tools/package.sh --arch arm64): the arm64 libraries the
+# cross-built package links against, from Debian's archive as multiarch
+# packages, instead of the list above.
+if [[ "${1:-}" == --cross-arm64 ]]; then
+  packages=(g++-aarch64-linux-gnu qemu-user
+    libfmt-dev:arm64 libssl-dev:arm64 libseccomp-dev:arm64 libsystemd-dev:arm64)
+  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+    echo "bootstrap: dpkg --add-architecture arm64"
+    if [[ $(id -u) -ne 0 ]]; then sudo dpkg --add-architecture arm64; else dpkg --add-architecture arm64; fi
+  fi
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite: installs dependencies, then builds and tests every
 # mode (debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
-# runs). Exits non-zero on any failure.
+# runs, the amd64 Debian package). Exits non-zero on any failure.
 # Usage: tools/test.sh [--quick]   (--quick: debug build and CTest only)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -42,5 +42,10 @@ if [[ -f fuzz/CMakeLists.txt ]]; then
   cmake --build --preset fuzz
   bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-10}"
 fi
+
+# The amd64 Debian package, built and checked (docs/packaging.md); the arm64
+# one is `tools/package.sh --arch arm64`, as long again, not run here.
+step "amd64 Debian package"
+bash tools/package.sh --arch amd64
 
 step "all tests passed"

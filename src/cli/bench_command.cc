@@ -21,6 +21,7 @@
 #include "base/json_text.h"
 #include "base/read_file.h"
 #include "cli/command.h"
+#include "cli/install_paths.h"
 #include "gate/channel.h"
 #include "perf/overhead.h"
 #ifdef CONTEGO_HAVE_POLICY
@@ -36,13 +37,10 @@ struct BenchArgs {
   bool no_dos = false;
   bool no_chart = false;
   uint32_t spin_us = perf::Options{}.spin_us;
-  std::string task_exe = CONTEGO_BENCH_TASK_PATH;
-  std::string preload = CONTEGO_PRELOAD_PATH;
-#ifdef CONTEGO_SOURCE_DIR
-  std::string policy_dir = CONTEGO_SOURCE_DIR "/policies";
-#else
-  std::string policy_dir;
-#endif
+  // Beside the executable: in its build tree or its install prefix.
+  std::string task_exe = install_paths().bench_task;
+  std::string preload = install_paths().preload;
+  std::string policy_dir = install_paths().data_dir + "/policies";
   bool no_pass_through = false;
   bool quiet = false;
 };

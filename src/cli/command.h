@@ -29,6 +29,9 @@ void register_demo(CLI::App& app);
 void register_check(CLI::App& app);
 void register_image(CLI::App& app);
 
+// "contego X.Y.Z (policy image format M.N)": `contego version`, `contego --version`.
+std::string version_line();
+
 void set_exit_code(int code);
 int exit_code();
 

@@ -6,6 +6,7 @@
 #include <fmt/core.h>
 
 #include "cli/command.h"
+#include "cli/install_paths.h"
 #include "cli/sim_common.h"
 
 namespace contego::cli {
@@ -31,7 +32,7 @@ void register_demo(CLI::App& app) {
     std::vector<std::string> figures;
     for (const auto& item : items) {
       SimRequest req;
-      req.scenario_path = find_in_tree(item.scenario);
+      req.scenario_path = find_data_file(item.scenario);
       req.out_dir = *out;
       req.stem = item.figure;
       req.figure = item.figure;

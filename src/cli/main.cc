@@ -45,6 +45,7 @@ void make_parse_only(CLI::App& app, const std::string& path) {
 int main(int argc, char** argv) {
   CLI::App app{"contego: every actuation command checked against a policy"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", contego::cli::version_line());
   contego::cli::register_version(app);
   contego::cli::register_sched(app);
   contego::cli::register_bench(app);

@@ -10,6 +10,7 @@
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
+#include "cli/systemd_notify.h"
 #include "cli/trusted_setup.h"
 #include "monitor/server.h"
 
@@ -138,8 +139,10 @@ void register_monitor(CLI::App& app) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);
     }
-    fmt::print(stderr, "contego monitor: serving {} on {}\n",
-               args->image.empty() ? args->policy : args->image, args->socket);
+    const std::string serving = args->image.empty() ? args->policy : args->image;
+    fmt::print(stderr, "contego monitor: serving {} on {}\n", serving, args->socket);
+    SystemdNotifier systemd;
+    systemd.ready(fmt::format("serving {} on {}", serving, args->socket));
     std::atomic<bool> served{false};
     std::string why = "monitor stopping";
     std::thread waiter([&] {
@@ -166,6 +169,7 @@ void register_monitor(CLI::App& app) {
     served.store(true);
     pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
     waiter.join();
+    systemd.stopping(why);
     (*trusted)->monitor->drive_safe_state(why);
     (*trusted)->monitor->stop_sampling();
     if (!args->virtual_state.empty()) {

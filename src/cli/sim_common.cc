@@ -1,22 +1,10 @@
 #include "cli/sim_common.h"
 
-#include <filesystem>
-
 #include "policy/compile.h"
 #include "sim/checker_guard.h"
 #include "sim/report.h"
 
 namespace contego::cli {
-
-std::string find_in_tree(const std::string& relative) {
-  namespace fs = std::filesystem;
-  if (fs::exists(relative)) return relative;
-#ifdef CONTEGO_SOURCE_DIR
-  const fs::path in_tree = fs::path(CONTEGO_SOURCE_DIR) / relative;
-  if (fs::exists(in_tree)) return in_tree.string();
-#endif
-  return relative;
-}
 
 Result<ScenarioOutcome> run_scenario_files(const SimRequest& req) {
   auto sc = sim::load_scenario(req.scenario_path);

@@ -34,10 +34,6 @@ struct SimRequest {
 
 Result<ScenarioOutcome> run_scenario_files(const SimRequest& request);
 
-// Finds `relative` (e.g. "scenarios/rover_spoof.scn") in the working
-// directory or in the source tree this binary was built from.
-std::string find_in_tree(const std::string& relative);
-
 }  // namespace contego::cli
 
 #endif  // CONTEGO_CLI_SIM_COMMON_H_

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Every `contego` command line the documentation shows must parse.
 
-Extracts the command lines of README.md, docs/*.md and packaging/*: lines of
+Extracts the command lines of README.md, docs/*.md and every file under packaging/: lines of
 fenced code blocks that run contego (after an optional `$ ` prompt or a path
 such as build/release/src/cli/contego), inline code spans that start with
 `contego `, and systemd ExecStart= lines. Each is run through
@@ -66,9 +66,16 @@ def from_unit(path, text):
 
 
 def normalise(command):
-    """The command's arguments after the contego executable (comments dropped)."""
-    words = shlex.split(command, comments=True)
-    return words[1:]
+    """The command's arguments after the contego executable (comments dropped).
+
+    In a unit, systemd expands `$VAR` from its EnvironmentFile: such a word
+    is dropped (it stands for options the administrator adds), except after
+    `--`, where it stands for the program and stays as a word."""
+    words = shlex.split(command, comments=True)[1:]
+    if "--" in words:
+        cut = words.index("--")
+        return [w for w in words[:cut] if not w.startswith("$")] + words[cut:]
+    return [w for w in words if not w.startswith("$")]
 
 
 def main():
@@ -79,7 +86,9 @@ def main():
     for path in docs:
         with open(path, encoding="utf-8") as f:
             commands += from_markdown(os.path.relpath(path, source), f.read())
-    for path in sorted(glob.glob(os.path.join(source, "packaging", "*"))):
+    for path in sorted(glob.glob(os.path.join(source, "packaging", "**", "*"), recursive=True)):
+        if not os.path.isfile(path):
+            continue
         with open(path, encoding="utf-8") as f:
             commands += from_unit(os.path.relpath(path, source), f.read())
     with open(os.path.join(os.path.dirname(__file__), "fragments.txt"), encoding="utf-8") as f:

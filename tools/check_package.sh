@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Checks built Debian packages: the architecture, the files the runtime
+# package must hold, no build-tree path in any file list (dpkg-deb -c), and
+# no source- or build-tree path in the installed binaries (strings).
+# Usage: tools/check_package.sh --arch ARCH --forbid DIR [--forbid DIR]... DEB...
+#   DIR: a path that must not appear (the source tree the packages were built from)
+set -euo pipefail
+arch=""
+forbid=()
+while [[ ${1:-} == --* ]]; do
+  case $1 in
+    --arch) arch=$2; shift 2 ;;
+    --forbid) forbid+=("$2"); shift 2 ;;
+    *) echo "check_package.sh: unknown option $1" >&2; exit 2 ;;
+  esac
+done
+(($#)) || { echo "usage: tools/check_package.sh --arch ARCH --forbid DIR... DEB..." >&2; exit 2; }
+fail=0
+bad() { echo "check_package: FAIL: $*" >&2; fail=1; }
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+runtime=""
+for deb in "$@"; do
+  name=$(dpkg-deb -f "$deb" Package)
+  [[ -z $arch || $(dpkg-deb -f "$deb" Architecture) == "$arch" ]] ||
+    bad "$deb: architecture $(dpkg-deb -f "$deb" Architecture), expected $arch"
+  dpkg-deb -c "$deb" > "$tmp/$name.list"
+  for dir in "${forbid[@]}"; do
+    if grep -F -e "$dir" "$tmp/$name.list"; then bad "$deb lists a path under $dir"; fi
+  done
+  if grep -E '(^|/)(build|CMakeFiles|_CPack_Packages)/' "$tmp/$name.list"; then bad "$deb lists a build-tree path"; fi
+  [[ $name == contego ]] && runtime=$deb
+  echo "check_package: $deb: $(wc -l < "$tmp/$name.list") entries, $(dpkg-deb -f "$deb" Architecture)"
+done
+[[ -n $runtime ]] || bad "no contego runtime package among $*"
+if [[ -n $runtime ]]; then
+  dpkg-deb -x "$runtime" "$tmp/root"
+  for f in usr/bin/contego usr/share/man/man1/contego.1 usr/share/man/man1/contego-monitor.1 \
+    usr/share/bash-completion/completions/contego usr/lib/systemd/system/contego-monitor.service \
+    usr/lib/systemd/system/contego-run@.service usr/lib/sysusers.d/contego.conf \
+    usr/lib/tmpfiles.d/contego.conf usr/lib/udev/rules.d/99-contego-i2c.rules \
+    etc/logrotate.d/contego etc/default/contego usr/share/contego/policies/rover.policy \
+    usr/share/contego/scenarios/rover_spoof.scn usr/libexec/contego/contego-bench-task; do
+    [[ -e $tmp/root/$f ]] || bad "$runtime has no /$f"
+  done
+  ls "$tmp"/root/usr/lib/*/libcontego_preload.so >/dev/null 2>&1 || bad "$runtime has no preload library"
+  # Every ELF file: stripped, and no path of the tree it was built from.
+  while IFS= read -r -d '' f; do
+    head -c 4 "$f" | grep -q $'\x7fELF' || continue
+    rel=${f#"$tmp/root"}
+    if file "$f" | grep -q 'not stripped'; then bad "$rel is not stripped"; fi
+    for dir in "${forbid[@]}"; do
+      if strings -a "$f" | grep -F -e "$dir"; then bad "$rel names $dir"; fi
+    done
+  done < <(find "$tmp/root" -type f -print0)
+  grep -q "ExecStart=/usr/bin/contego monitor" "$tmp/root/usr/lib/systemd/system/contego-monitor.service" ||
+    bad "the monitor unit does not run /usr/bin/contego"
+fi
+((fail == 0)) || exit 1
+echo "check_package: ok"
