@@ -244,7 +244,12 @@ TEST_F(Identity, TheBusNodeByAnyNameIsEmulatedAndChecked) {
     GTEST_SKIP() << "cannot make a character node here";
   }
   for (const char* how : {"proc-self", "thread-self", "openat2-in-root", "symlink", "dotdot"}) {
-    EXPECT_EQ(supervised("gripper", {kAttack, "open", how, dir}, kNobody), 0) << how;
+    // 0: refused, 1: reported written. arm.policy ignores the gripper's
+    // configuration writes (a vendor constructor must run), so the program
+    // may be told it wrote; the device read back says nothing acted. 2 (the
+    // open reached the kernel) or 3 fail.
+    const int result = supervised("gripper", {kAttack, "open", how, dir}, kNobody);
+    EXPECT_TRUE(result == 0 || result == 1) << how << ": " << result;
     EXPECT_EQ(pca->reg(0x00), mode1_before) << how;
   }
   unlink((dir + "/i2c-1").c_str());

@@ -18,7 +18,9 @@
 //                           symlink, dotdot), then select 0x40 and write
 //                           MODE1 = 0x31 (sleep, every servo off). Exit 0 if
 //                           the open was emulated and the write refused by the
-//                           policy (EPERM), 1 if the write acted, 2 if the open
+//                           policy (EPERM), 1 if the write reported success
+//                           (acted, or ignored by the policy: read the device
+//                           back), 2 if the open
 //                           failed (it went to the kernel), 3 otherwise
 // Speaks the wire protocol by hand (an attacker needs no library).
 #include <errno.h>
