@@ -19,6 +19,10 @@ cleanup() {
   rm -rf "$dir"
 }
 trap cleanup EXIT
+# The program runs as nobody, who may not reach into the build tree (a fresh
+# clone under a private directory): run it from a copy in $dir.
+cp "$attack" "$dir/attack_identity" && chmod 0755 "$dir/attack_identity"
+attack="$dir/attack_identity"
 fail() { echo "FAIL: $*"; for f in "$dir"/*.{err,out,jsonl}; do [[ -f "$f" ]] && { echo "--- $f"; tail -c 2000 "$f" | tr -d '\0'; }; done; exit 1; }
 
 sed -e '/^task arm_init {/a\  user "root"' -e '/^task gripper {/a\  user "nobody"' \

@@ -11,6 +11,8 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <sstream>
@@ -31,7 +33,26 @@ namespace contego {
 namespace {
 
 constexpr uid_t kNobody = 65534;
-const std::string kAttack = std::string(CONTEGO_TESTCASES_DIR) + "/attack_identity";
+// The attack program runs as nobody, who may not reach into the build tree
+// (a fresh clone under a private directory): it runs from a copy in a
+// directory everyone may enter, removed when the tests end.
+std::string attack_copy() {
+  namespace fs = std::filesystem;
+  char dir[] = "/tmp/contego-identity-bin-XXXXXX";
+  if (mkdtemp(dir) == nullptr) return std::string(CONTEGO_TESTCASES_DIR) + "/attack_identity";
+  const fs::path copy = fs::path(dir) / "attack_identity";
+  std::error_code ec;
+  fs::copy_file(fs::path(CONTEGO_TESTCASES_DIR) / "attack_identity", copy, ec);
+  fs::permissions(dir, fs::perms(0755), ec);
+  fs::permissions(copy, fs::perms(0755), ec);
+  static const std::string kept = dir;
+  std::atexit([] {
+    std::error_code ignored;
+    fs::remove_all(kept, ignored);
+  });
+  return copy.string();
+}
+const std::string kAttack = attack_copy();
 
 class Identity : public ::testing::Test {
  protected:
