@@ -33,7 +33,7 @@ ctest --preset asan-ubsan
 step "tsan build + monitor, supervisor and gate tests"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test gate_test \
-  seccomp_filter_test
+  seccomp_filter_test identity_test monitor_reading_test readings_test
 ctest --preset tsan -L 'monitor|supervisor|gate'
 
 if [[ -f fuzz/CMakeLists.txt ]]; then

@@ -80,7 +80,8 @@ class Identity : public ::testing::Test {
     mon->add_bus(1, &bus);
     mon->set_task_devices(actuates);
     socket_path = "/tmp/contego-identity-" + std::to_string(getpid()) + ".sock";
-    server = std::make_unique<monitor::Server>(*mon, audit, tasks, std::set<uid_t>{0, kNobody});
+    server = std::make_unique<monitor::Server>(*mon, audit, tasks, std::set<uid_t>{0, kNobody},
+                                               gate::SpinPolicy{}, false, limits);
     std::map<std::string, monitor::TaskBinding> bindings;
     monitor::TaskIdentity gripper, init;
     gripper.user = "nobody";
@@ -175,6 +176,7 @@ class Identity : public ::testing::Test {
   std::shared_ptr<bus::Pca9685> pca = std::make_shared<bus::Pca9685>(0x40);
   std::map<std::string, uint16_t> tasks;
   std::unique_ptr<monitor::Monitor> mon;
+  monitor::ServerLimits limits;
   std::unique_ptr<monitor::Server> server;
   std::thread server_thread;
   uint8_t mode1_before = 0;
@@ -238,8 +240,14 @@ TEST_F(Identity, ADescriptorACloneFilesSiblingClosedActsNoMore) {
 }
 
 // A reconnect loop is held to the per-uid rate; the live session goes on
-// and a connection after the window is served again.
-TEST_F(Identity, AReconnectLoopIsRateLimitedPerUid) {
+// and a connection after the window is served again. The rate is set low
+// so that a loop slowed by a sanitizer still exceeds it.
+class IdentityRate : public Identity {
+ protected:
+  IdentityRate() { limits.connects_per_second = 10; }
+};
+
+TEST_F(IdentityRate, AReconnectLoopIsRateLimitedPerUid) {
   auto live = gate::SocketClient::connect(socket_path, "arm_init", std::nullopt);
   ASSERT_TRUE(live.ok()) << live.error();
   EXPECT_EQ(direct({kAttack, "loop", socket_path, "arm_init", "400"}, kNobody), 0);
