@@ -21,25 +21,25 @@ struct contego_kmod_bind {
 };
 
 struct contego_kmod_load {
-  __u64 image;     /* in: user pointer to the image */
-  __u32 size;      /* in: its size in bytes */
-  __u32 nbinds;    /* in: entries at `binds` */
-  __u64 binds;     /* in: user pointer to struct contego_kmod_bind[nbinds] */
-  __u32 status;    /* out: the core verifier's LoadStatus (0 = loaded) */
-  __u32 section;   /* out: where the verifier stopped */
-  __u32 index;     /* out */
-  __u32 devices;   /* out: devices driven to their safe state at load */
+  __u64 image;   /* in: user pointer to the image */
+  __u32 size;    /* in: its size in bytes */
+  __u32 nbinds;  /* in: entries at `binds` */
+  __u64 binds;   /* in: user pointer to struct contego_kmod_bind[nbinds] */
+  __u32 status;  /* out: the core verifier's LoadStatus (0 = loaded) */
+  __u32 section; /* out: where the verifier stopped */
+  __u32 index;   /* out */
+  __u32 devices; /* out: devices driven to their safe state at load */
 };
 
 struct contego_kmod_stats {
-  __u64 loads;     /* images accepted */
+  __u64 loads;         /* images accepted */
   __u64 refused_loads; /* images the verifier refused (the previous one stayed) */
-  __u64 checks;    /* transactions checked */
-  __u64 performed; /* calls that acted on a bus */
-  __u64 refused;   /* calls refused (errno to the program) */
-  __u64 ignored;   /* calls ignored (success, nothing acted) */
-  __u64 failsafe;  /* calls replaced by a substitute or the safe state */
-  __u32 loaded;    /* 1: an image is in force */
+  __u64 checks;        /* transactions checked */
+  __u64 performed;     /* calls that acted on a bus */
+  __u64 refused;       /* calls refused (errno to the program) */
+  __u64 ignored;       /* calls ignored (success, nothing acted) */
+  __u64 failsafe;      /* calls replaced by a substitute or the safe state */
+  __u32 loaded;        /* 1: an image is in force */
   __u32 pad;
 };
 

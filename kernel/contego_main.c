@@ -373,11 +373,12 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 			ret = i2c_transfer(cf->adap, &m, 1);
 			ret = ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
 		} else {
-			ret = i2c_smbus_read_byte(&(struct i2c_client){ .adapter = cf->adap,
-									 .addr = cf->addr,
-									 .flags = cf->flags & I2C_CLIENT_PEC });
+			union i2c_smbus_data d;
+
+			ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags & I2C_CLIENT_PEC,
+					     I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, &d);
 			if (ret >= 0) {
-				tmp[0] = ret;
+				tmp[0] = d.byte;
 				ret = 0;
 			}
 		}

@@ -14,6 +14,8 @@
 #
 # Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
+# Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
+#                    beside the two i2c modules; unset or empty: none.
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
@@ -71,6 +73,10 @@ done
 
 cp "$kdir/modules/i2c-stub.ko" "$kdir/modules/i2c-dev.ko" "$root/lib/modules/"
 cp "$kdir/version" "$root/etc/kernel-version"
+if [[ -n "${CONTEGO_KMOD:-}" ]]; then
+  [[ -f "$CONTEGO_KMOD" ]] || die "no contego.ko at $CONTEGO_KMOD"
+  cp "$CONTEGO_KMOD" "$root/lib/modules/contego.ko"
+fi
 
 # contego, stripped (the debug build is tens of MB with its symbols).
 strip -o "$root/usr/bin/contego" "$contego"
