@@ -59,7 +59,7 @@ int load(const std::string& device, const std::string& policy, const std::string
     for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
       ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
     }
-    auto add = [&](const std::string& task, const std::string& user) {
+    auto add = [&](const std::string& task, const std::string& user) -> Result<uint32_t> {
       auto it = ids.find(task);
       if (it == ids.end()) return make_error("the policy has no task '" + task + "'");
       auto uid = uid_of(user);
@@ -68,7 +68,7 @@ int load(const std::string& device, const std::string& policy, const std::string
         if (b.uid == *uid) return make_error(fmt::format("uid {} bound twice", *uid));
       }
       table.push_back({*uid, it->second, 0});
-      return Result<uint32_t>(*uid);
+      return *uid;
     };
     for (const auto& t : loaded->bindings) {
       if (t.user.empty()) continue;

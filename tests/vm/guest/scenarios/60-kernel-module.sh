@@ -79,12 +79,16 @@ run_logged root i2cset -y 0 $A 0x01 0x00
   bad "root's unbound i2cset succeeded"
 
 cat >/tmp/kmod_grip.py <<'PY'
+import time
 from smbus2 import SMBus
+# GRIP: LED5 off must follow 420 (open), 577 (close), ...; one pulse per job (1 s).
 with SMBus(0) as bus:
-    bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])  # LED5 off = 577: close
-    print("pulse sent", flush=True)
+    bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 420 & 0xFF, 420 >> 8])
     bus.write_byte_data(0x40, 0xFE, 0x03)
     print("prescale written", flush=True)
+    time.sleep(1.2)
+    bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])
+    print("pulse sent", flush=True)
 PY
 run_logged grip su contego -s /bin/sh -c "cd /tmp && exec python3 /tmp/kmod_grip.py"
 grep -q "pulse sent" "$OUT" && grep -q "prescale written" "$OUT" &&
@@ -133,5 +137,5 @@ back_to_i2c_dev
 expect_reg $A 0xfe 101 "PRE_SCALE=101 landed; PRE_SCALE=3 (arm_init, gripper) did not"
 expect_reg $A 0x01 0x04 "MODE2=0x04 landed; root's MODE2=0 did not"
 expect_reg 0x48 0x01 0x22 "nothing reached chip 0x48"
-expect_word $A 0x1c 577 "the gripper's LED5 off = 577 landed"
+expect_word $A 0x1c 577 "the gripper's LED5 off = 420, then 577 next job, landed"
 finish
