@@ -26,6 +26,7 @@
 #include <linux/i2c.h>
 #include <linux/init.h>
 #include <linux/ktime.h>
+#include <linux/math64.h>
 #include <linux/miscdevice.h>
 #include <linux/mm.h>
 #include <linux/module.h>
@@ -57,6 +58,10 @@ struct ct_policy {
 	u8 *image; /* the verified image, kept for the checker's lifetime */
 	u32 nbinds;
 	struct contego_kmod_bind binds[CONTEGO_KMOD_MAX_BINDS];
+	/* The job grid of each task (as the monitor's job_at_locked): phase =
+	 * its first transaction; job k spans [phase + (k-1)*period, phase + k*period). */
+	u64 phase_us[32];
+	u32 phase_set; /* bit per task */
 };
 
 /* One decision at a time (the core is not thread-safe): the lock covers the
@@ -107,6 +112,21 @@ static struct ct_node *ct_node_for_bus(u8 bus)
 		if (ct_nodes[i].bus == bus)
 			return &ct_nodes[i];
 	return NULL;
+}
+
+static u32 ct_job(struct ct_policy *p, u16 task, u64 now)
+{
+	u32 period = task < 32 ? contego_task_period_us(p->checker, task) : 0;
+
+	if (period == 0)
+		return 0; /* no task: the core's own windows */
+	if (!(p->phase_set & (1u << task))) {
+		p->phase_set |= 1u << task;
+		p->phase_us[task] = now;
+	}
+	if (now <= p->phase_us[task])
+		return 1;
+	return (u32)div64_u64(now - p->phase_us[task], period) + 1;
 }
 
 static u16 ct_task_of_current(const struct ct_policy *p)
@@ -228,7 +248,7 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 {
 	struct ct_policy *p = ct_policy;
 	contego_transaction tx;
-	u32 checked = 0, i;
+	u32 checked = 0, i, job;
 	u8 action;
 	u16 task;
 	u64 now = div_u64(ktime_get_ns(), 1000);
@@ -242,6 +262,7 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		return CT_REFUSE;
 	}
 	task = ct_task_of_current(p);
+	job = ct_job(p, task, now);
 	contego_begin_transfer(p->checker);
 	for (i = 0; i < n; i++) {
 		contego_verdict *v = &ct_verdicts[i];
@@ -252,7 +273,7 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		tx.kind = ct_txs[i].kind;
 		tx.addr = ct_txs[i].addr;
 		tx.ten_bit = ct_txs[i].ten;
-		tx.job = 0; /* the core windows by the task's period */
+		tx.job = job;
 		tx.len = ct_txs[i].len;
 		tx.bytes = ct_txs[i].bytes;
 		tx.now_us = now;
