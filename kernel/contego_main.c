@@ -50,6 +50,10 @@ static int n_buses;
 module_param_array(buses, int, &n_buses, 0444);
 MODULE_PARM_DESC(buses, "the policy's bus number of each protected adapter (`at i2c-B`); default: the adapter's number");
 
+static bool trace;
+module_param(trace, bool, 0644);
+MODULE_PARM_DESC(trace, "log every decision to the kernel log (debugging; not the audit log)");
+
 /* ---- the checker in force ---------------------------------------------- */
 
 struct ct_policy {
@@ -283,6 +287,11 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		contego_check(p->checker, &tx, v);
 		ct_stats.checks++;
 		checked = i + 1;
+		if (trace)
+			pr_info("contego: task %u job %u bus %u addr 0x%02x kind %u len %u: %s (%s) emits %u\n",
+				task, job, tx.bus, tx.addr, tx.kind, tx.len,
+				contego_decision_name(v->decision), contego_reason_name(v->reason),
+				v->emit_count);
 		if (v->decision == CONTEGO_REJECT)
 			break;
 	}

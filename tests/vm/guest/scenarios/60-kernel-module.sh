@@ -78,6 +78,12 @@ run_logged root i2cset -y 0 $A 0x01 0x00
 [ $RC != 0 ] && ok "root, bound to no task: i2cset is refused (exit $RC)" ||
   bad "root's unbound i2cset succeeded"
 
+# MODE1 = AI | ALLCALL, as Adafruit's init: with auto-increment the core
+# decodes the gripper's 4-byte block write as the whole LED5 group (without,
+# the PCA9685 would write the bytes to one register and the core stages them).
+run_logged mode1 as_task i2cset -y 0 $A 0x00 0x21
+[ $RC = 0 ] && ok "arm_init: i2cset MODE1=0x21 (auto-increment) exits 0" || bad "arm_init: MODE1 exit $RC"
+
 cat >/tmp/kmod_grip.py <<'PY'
 import time
 from smbus2 import SMBus
@@ -90,10 +96,13 @@ with SMBus(0) as bus:
     bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])
     print("pulse sent", flush=True)
 PY
+echo 1 >/sys/module/contego/parameters/trace  # the gripper's decisions in the kernel log
 run_logged grip su contego -s /bin/sh -c "cd /tmp && exec python3 /tmp/kmod_grip.py"
 grep -q "pulse sent" "$OUT" && grep -q "prescale written" "$OUT" &&
   ok "gripper: python3-smbus2 pulse sent, PRE_SCALE reported written (ignored)" ||
   bad "gripper python3-smbus2 output"
+echo 0 >/sys/module/contego/parameters/trace
+dmesg | grep 'contego: task' >"$LOGDIR/grip-trace"
 
 # A bad image is refused by the module's verifier; the policy in force stays.
 head -c 600 $POLICIES/arm.policy >/tmp/bad.img
@@ -137,5 +146,7 @@ back_to_i2c_dev
 expect_reg $A 0xfe 101 "PRE_SCALE=101 landed; PRE_SCALE=3 (arm_init, gripper) did not"
 expect_reg $A 0x01 0x04 "MODE2=0x04 landed; root's MODE2=0 did not"
 expect_reg 0x48 0x01 0x22 "nothing reached chip 0x48"
+expect_reg $A 0x00 0x21 "MODE1=0x21 landed"
 expect_word $A 0x1c 577 "the gripper's LED5 off = 420, then 577 next job, landed"
+[ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
