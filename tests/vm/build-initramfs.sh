@@ -16,6 +16,8 @@
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
 # Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
 #                    beside the two i2c modules; unset or empty: none.
+#      CONTEGO_STATIC_CLIENT  a static build of the bench client, as
+#                    /usr/bin/i2c-write-loop-static; unset or empty: none.
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
@@ -82,6 +84,9 @@ fi
 strip -o "$root/usr/bin/contego" "$contego"
 put_libs "$contego"
 cp "$bench_client" "$root/usr/bin/i2c-write-loop"
+if [[ -n "${CONTEGO_STATIC_CLIENT:-}" ]]; then
+  cp "$CONTEGO_STATIC_CLIENT" "$root/usr/bin/i2c-write-loop-static"
+fi
 put_libs "$bench_client"
 # Tests whose subject is the kernel (seccomp filter, IA-32 entry): run again
 # on Debian's kernel, which may offer what the host's kernel lacks.

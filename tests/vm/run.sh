@@ -57,8 +57,13 @@ case $kmod_rc in
   77) echo "run.sh: contego.ko not built (no headers for $(cat "$kdir/version")): its scenario skips" >&2 ;;
   *) fail "building contego.ko failed (kernel/build.sh exit $kmod_rc)" ;;
 esac
+# A statically linked copy of the bench client: no dynamic loader, so no
+# preload can reach it; only the kernel client checks it (scenario 60).
+static_client=$workdir/i2c-write-loop-static
+cc -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
+  fail "cannot link the static bench client (libc6-dev's libc.a)"
 t_kmod=$(date +%s.%N)
-CONTEGO_KMOD=$kmod bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" \
+CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" \
   "${test_binaries[@]}" ||
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)

@@ -119,6 +119,17 @@ grep -q "loaded=1 loads=1 refused_loads=1" "$OUT" && ok "module counters: one lo
 run_logged loop i2c-write-loop 0 $A 0x01 0x00 5
 grep -q "errors=5" "$OUT" && ok "unbound C program: all 5 writes refused" || bad "i2c-write-loop as root"
 
+# A statically linked program (no loader: no preload could reach it) is
+# checked all the same: allowed as arm_init, refused as root.
+if [ -x /usr/bin/i2c-write-loop-static ]; then
+  run_logged static_task as_task i2c-write-loop-static 0 $A 0xfd 0 3
+  grep -q "errors=0" "$OUT" && ok "static C program as arm_init: 3 allowed writes" ||
+    bad "static C program as arm_init"
+  run_logged static_root i2c-write-loop-static 0 $A 0xfd 0 3
+  grep -q "errors=3" "$OUT" && ok "static C program as root (unbound): 3 writes refused" ||
+    bad "static C program as root"
+fi
+
 # The bench's second row: the same program and writes, as arm_init, checked in the kernel.
 run_logged kbench as_task i2c-write-loop 0 $A 0xfd 0 $N
 kmod=$(grep '^loop' "$OUT")
