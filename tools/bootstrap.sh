@@ -24,6 +24,15 @@ packages=(
   qemu-system-x86 seabios busybox-static cpio xz-utils
 )
 
+# contego.ko (kernel/build.sh, docs/kernel-client.md) builds against the
+# headers of the test bed's kernel: the ABI package linux-image-amd64 points
+# at today (resolved as tests/vm/fetch-kernel.sh does, never hard-coded).
+if [[ "${1:-}" != --cross-arm64 && $(dpkg --print-architecture) == amd64 ]]; then
+  kpkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
+    awk '/Depends: linux-image-[0-9]/ { print $2; exit }')
+  if [[ -n "$kpkg" ]]; then packages+=("linux-headers-${kpkg#linux-image-}"); fi
+fi
+
 # --cross-arm64 (tools/package.sh --arch arm64): the arm64 libraries the
 # cross-built package links against, from Debian's archive as multiarch
 # packages, instead of the list above.

@@ -113,6 +113,10 @@ uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count
 void contego_reset_latch(contego_checker* c, uint16_t device);
 int contego_latched(const contego_checker* c, uint16_t device);
 uint32_t contego_worst_case_cost(const contego_checker* c);
+/* The period of `task` in microseconds (0: no such task). A host that keeps
+ * the job grid (job k spans [phase + (k-1)*period, phase + k*period)) numbers
+ * each transaction's job from it, as the user-space monitor does. */
+uint32_t contego_task_period_us(const contego_checker* c, uint16_t task);
 const char* contego_load_status_name(uint8_t status);
 const char* contego_reason_name(uint8_t reason);
 const char* contego_decision_name(uint8_t decision);

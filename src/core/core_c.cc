@@ -115,6 +115,11 @@ int contego_latched(const contego_checker* c, uint16_t device) {
 
 uint32_t contego_worst_case_cost(const contego_checker* c) { return checker(c)->worst_case_cost(); }
 
+uint32_t contego_task_period_us(const contego_checker* c, uint16_t task) {
+  const Checker* k = checker(c);
+  return task < k->task_count() ? k->task(task).period_us : 0;
+}
+
 const char* contego_load_status_name(uint8_t status) {
   return contego::core::load_status_name(static_cast<contego::core::LoadStatus>(status));
 }

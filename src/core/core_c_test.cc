@@ -51,6 +51,9 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   img[img.size() - 1] ^= 1;
   ASSERT_EQ(contego_load(c, img.data(), static_cast<uint32_t>(img.size())).status, 0);
   EXPECT_GT(contego_worst_case_cost(c), 0u);
+  EXPECT_EQ(contego_task_period_us(c, 0), 200000u);  // follower
+  EXPECT_EQ(contego_task_period_us(c, 1), 100000u);  // logger
+  EXPECT_EQ(contego_task_period_us(c, CONTEGO_NONE), 0u);
 
   CHost host;
   host.sample = rover::sample(rover::kLineLeft);

@@ -14,6 +14,10 @@
 #
 # Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
+# Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
+#                    beside the two i2c modules; unset or empty: none.
+#      CONTEGO_STATIC_CLIENT  a static build of the bench client, as
+#                    /usr/bin/i2c-write-loop-static; unset or empty: none.
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
@@ -71,11 +75,18 @@ done
 
 cp "$kdir/modules/i2c-stub.ko" "$kdir/modules/i2c-dev.ko" "$root/lib/modules/"
 cp "$kdir/version" "$root/etc/kernel-version"
+if [[ -n "${CONTEGO_KMOD:-}" ]]; then
+  [[ -f "$CONTEGO_KMOD" ]] || die "no contego.ko at $CONTEGO_KMOD"
+  cp "$CONTEGO_KMOD" "$root/lib/modules/contego.ko"
+fi
 
 # contego, stripped (the debug build is tens of MB with its symbols).
 strip -o "$root/usr/bin/contego" "$contego"
 put_libs "$contego"
 cp "$bench_client" "$root/usr/bin/i2c-write-loop"
+if [[ -n "${CONTEGO_STATIC_CLIENT:-}" ]]; then
+  cp "$CONTEGO_STATIC_CLIENT" "$root/usr/bin/i2c-write-loop-static"
+fi
 put_libs "$bench_client"
 # Tests whose subject is the kernel (seccomp filter, IA-32 entry): run again
 # on Debian's kernel, which may offer what the host's kernel lacks.

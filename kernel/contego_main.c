@@ -1,0 +1,976 @@
+// SPDX-License-Identifier: GPL-2.0
+/*
+ * contego.ko: the checked i2c-dev (docs/kernel-client.md).
+ *
+ * It takes i2c-dev's place (character major 89, class "i2c-dev", nodes
+ * /dev/i2c-N) for the adapters it is told to protect, so unmodified programs
+ * opening /dev/i2c-N are checked with no help from them: every write, read,
+ * I2C_RDWR and I2C_SMBUS is copied from user memory once, turned into the
+ * trusted core's transactions (the same normalisation as contego's gate,
+ * docs/gate-protocol.md "Normalisation"), decided by the core -- the same
+ * sources as user space, compiled with the kernel's flags -- and only what the
+ * core allowed or substituted reaches the adapter.
+ *
+ * Policy: /dev/contego (root only) takes a compiled image with the
+ * CONTEGO_KMOD_LOAD ioctl; the core's verifier checks it in a fresh checker
+ * before it replaces the one in force, so a bad image is refused and the old
+ * one stays. Until an image is loaded, and for a process no binding names,
+ * the core answers its default: deny.
+ */
+#include <linux/cdev.h>
+#include <linux/compat.h>
+#include <linux/cred.h>
+#include <linux/device.h>
+#include <linux/fs.h>
+#include <linux/i2c-dev.h>
+#include <linux/i2c.h>
+#include <linux/init.h>
+#include <linux/ktime.h>
+#include <linux/math64.h>
+#include <linux/miscdevice.h>
+#include <linux/mm.h>
+#include <linux/module.h>
+#include <linux/mutex.h>
+#include <linux/slab.h>
+#include <linux/uaccess.h>
+
+#include "contego/core_c.h"
+#include "contego_kmod.h"
+
+#define CT_MAX_ADAPTERS 8
+#define CT_MAX_MSGS I2C_RDWR_IOCTL_MAX_MSGS /* 42 */
+#define CT_MAX_LEN 8192
+
+static int adapters[CT_MAX_ADAPTERS];
+static int n_adapters;
+module_param_array(adapters, int, &n_adapters, 0444);
+MODULE_PARM_DESC(adapters, "adapter numbers to protect (/dev/i2c-N); default 0");
+static int buses[CT_MAX_ADAPTERS];
+static int n_buses;
+module_param_array(buses, int, &n_buses, 0444);
+MODULE_PARM_DESC(buses, "the policy's bus number of each protected adapter (`at i2c-B`); default: the adapter's number");
+
+static bool trace;
+module_param(trace, bool, 0644);
+MODULE_PARM_DESC(trace, "log every decision to the kernel log (debugging; not the audit log)");
+
+/* ---- the checker in force ---------------------------------------------- */
+
+struct ct_policy {
+	void *mem; /* checker storage, contego_checker_size() bytes */
+	contego_checker *checker;
+	u8 *image; /* the verified image, kept for the checker's lifetime */
+	u32 nbinds;
+	struct contego_kmod_bind binds[CONTEGO_KMOD_MAX_BINDS];
+	/* The job grid of each task (as the monitor's job_at_locked): phase =
+	 * its first transaction; job k spans [phase + (k-1)*period, phase + k*period). */
+	u64 phase_us[32];
+	u32 phase_set; /* bit per task */
+};
+
+/* One decision at a time (the core is not thread-safe): the lock covers the
+ * checks of a call and its bus operations, as the user-space monitor's does. */
+static DEFINE_MUTEX(ct_lock);
+static struct ct_policy *ct_policy;
+static struct contego_kmod_stats ct_stats;
+/* Scratch for one call, under ct_lock (kept off the 16 KiB kernel stack). */
+static contego_verdict ct_verdicts[CT_MAX_MSGS];
+static contego_verdict ct_safe_verdict;
+
+struct ct_tx {
+	u8 kind;
+	u16 addr;
+	bool ten;
+	u32 len;
+	const u8 *bytes;
+	u32 first_msg, msg_count; /* messages covered (RDWR) */
+};
+
+static struct ct_tx ct_txs[CT_MAX_MSGS];
+
+/* ---- protected adapters -------------------------------------------------- */
+
+struct ct_node {
+	int nr;  /* adapter number */
+	u8 bus;  /* policy bus */
+	struct cdev cdev;
+	struct device *dev;
+	bool registered;
+};
+static struct ct_node ct_nodes[CT_MAX_ADAPTERS];
+static int ct_node_count;
+static struct class *ct_class;
+
+struct ct_file {
+	struct i2c_adapter *adap;
+	u8 bus;
+	u16 addr;
+	u16 flags; /* I2C_M_TEN, I2C_CLIENT_PEC */
+};
+
+static struct ct_node *ct_node_for_bus(u8 bus)
+{
+	int i;
+
+	for (i = 0; i < ct_node_count; i++)
+		if (ct_nodes[i].bus == bus)
+			return &ct_nodes[i];
+	return NULL;
+}
+
+static u32 ct_job(struct ct_policy *p, u16 task, u64 now)
+{
+	u32 period = task < 32 ? contego_task_period_us(p->checker, task) : 0;
+
+	if (period == 0)
+		return 0; /* no task: the core's own windows */
+	if (!(p->phase_set & (1u << task))) {
+		p->phase_set |= 1u << task;
+		p->phase_us[task] = now;
+	}
+	if (now <= p->phase_us[task])
+		return 1;
+	return (u32)div64_u64(now - p->phase_us[task], period) + 1;
+}
+
+static u16 ct_task_of_current(const struct ct_policy *p)
+{
+	kuid_t euid = current_euid();
+	u32 uid = from_kuid(&init_user_ns, euid);
+	u32 i;
+
+	for (i = 0; i < p->nbinds; i++)
+		if (p->binds[i].uid == uid)
+			return p->binds[i].task;
+	return CONTEGO_NONE;
+}
+
+/* ---- bus operations ------------------------------------------------------ */
+
+/* One write of `len` bytes at `addr`: a plain I2C message when the adapter
+ * has I2C_FUNC_I2C, else the SMBus transaction with the same wire bytes
+ * (src/bus/smbus_plan.h's forms). */
+static int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len)
+{
+	u32 funcs = i2c_get_functionality(adap);
+	union i2c_smbus_data data;
+	int ret;
+
+	if (funcs & I2C_FUNC_I2C) {
+		struct i2c_msg m = { .addr = addr, .flags = flags & I2C_M_TEN, .len = len,
+				     .buf = (u8 *)b };
+
+		ret = i2c_transfer(adap, &m, 1);
+		return ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
+	}
+	if (flags & I2C_M_TEN)
+		return -EOPNOTSUPP;
+	flags &= I2C_CLIENT_PEC;
+	switch (len) {
+	case 0:
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, 0, I2C_SMBUS_QUICK, NULL);
+	case 1:
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0], I2C_SMBUS_BYTE, NULL);
+	case 2:
+		data.byte = b[1];
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_BYTE_DATA, &data);
+	case 3:
+		data.word = b[1] | (b[2] << 8);
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_WORD_DATA, &data);
+	default:
+		if (len > 1 + I2C_SMBUS_BLOCK_MAX || !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))
+			return -EOPNOTSUPP;
+		data.block[0] = len - 1;
+		memcpy(&data.block[1], b + 1, len - 1);
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_I2C_BLOCK_DATA, &data);
+	}
+}
+
+/* The writes a verdict allows or substitutes, in order, at the verdict's address. */
+static int ct_perform_emits(struct i2c_adapter *adap, const contego_verdict *v, u16 flags)
+{
+	u32 off = 0, i;
+	int ret;
+
+	for (i = 0; i < v->emit_count && i < CONTEGO_MAX_EMITS; i++) {
+		u32 len = v->emit_len[i];
+
+		if (off + len > CONTEGO_MAX_EMIT_BYTES)
+			return -EIO; /* malformed verdict: fail closed */
+		ret = ct_write_bytes(adap, v->addr, flags, v->emit_bytes + off, len);
+		if (ret < 0)
+			return ret;
+		off += len;
+	}
+	return 0;
+}
+
+/* Whether the verdict writes exactly the requested bytes, once. */
+static bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr)
+{
+	return v->emit_count == 1 && v->emit_len[0] == len && v->addr == addr &&
+	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
+}
+
+/* Every device's safe state (at load). Under ct_lock. Returns how many. */
+static u32 ct_drive_safe_states(struct ct_policy *p)
+{
+	u32 n = 0;
+	u16 d;
+
+	for (d = 0; d < 32; d++) {
+		struct ct_node *node;
+		struct i2c_adapter *adap;
+
+		if (!contego_safe_state(p->checker, d, &ct_safe_verdict))
+			continue;
+		node = ct_node_for_bus(ct_safe_verdict.bus);
+		if (!node)
+			continue;
+		adap = i2c_get_adapter(node->nr);
+		if (!adap)
+			continue;
+		if (ct_perform_emits(adap, &ct_safe_verdict, 0) == 0)
+			n++;
+		else
+			pr_warn("contego: safe state of device %u failed\n", d);
+		i2c_put_adapter(adap);
+	}
+	return n;
+}
+
+/* ---- the decision of one call ------------------------------------------- */
+
+/* Checks transactions ct_txs[0..n) as one transfer. Under ct_lock. Returns
+ * the core's transfer action (CT_* below) and the deciding verdict's index. */
+enum { CT_PERFORM = 0, CT_REFUSE = 1, CT_IGNORE = 2, CT_SUBSTITUTE = 3, CT_SAFE_STATE = 4 };
+
+static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
+{
+	struct ct_policy *p = ct_policy;
+	contego_transaction tx;
+	u32 checked = 0, i, job;
+	u8 action;
+	u16 task;
+	u64 now = div_u64(ktime_get_ns(), 1000);
+
+	*decider = 0;
+	if (!p) {
+		/* No verified image: deny, as the core's kNotLoaded would. */
+		ct_verdicts[0].decision = CONTEGO_REJECT;
+		ct_verdicts[0].reply_errno = EPERM;
+		ct_stats.refused++;
+		return CT_REFUSE;
+	}
+	task = ct_task_of_current(p);
+	job = ct_job(p, task, now);
+	contego_begin_transfer(p->checker);
+	for (i = 0; i < n; i++) {
+		contego_verdict *v = &ct_verdicts[i];
+
+		memset(&tx, 0, sizeof(tx));
+		tx.task = task;
+		tx.bus = cf->bus;
+		tx.kind = ct_txs[i].kind;
+		tx.addr = ct_txs[i].addr;
+		tx.ten_bit = ct_txs[i].ten;
+		tx.job = job;
+		tx.len = ct_txs[i].len;
+		tx.bytes = ct_txs[i].bytes;
+		tx.now_us = now;
+		v->decision = CONTEGO_REJECT; /* fail closed if the core leaves it */
+		v->reply_errno = EPERM;
+		v->emit_count = 0;
+		contego_check(p->checker, &tx, v);
+		ct_stats.checks++;
+		checked = i + 1;
+		if (trace)
+			pr_info("contego: task %u job %u bus %u addr 0x%02x kind %u len %u: %s (%s) emits %u\n",
+				task, job, tx.bus, tx.addr, tx.kind, tx.len,
+				contego_decision_name(v->decision), contego_reason_name(v->reason),
+				v->emit_count);
+		if (v->decision == CONTEGO_REJECT)
+			break;
+	}
+	action = contego_combine_transfer(ct_verdicts, checked, decider);
+	if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
+		contego_commit_transfer(p->checker);
+	} else {
+		contego_abort_transfer(p->checker, action == CT_IGNORE ? CONTEGO_IGNORE :
+						   action == CT_REFUSE ? CONTEGO_REJECT :
+									 CONTEGO_FAILSAFE);
+	}
+	switch (action) {
+	case CT_PERFORM:
+		ct_stats.performed++;
+		break;
+	case CT_IGNORE:
+		ct_stats.ignored++;
+		break;
+	case CT_SUBSTITUTE:
+	case CT_SAFE_STATE:
+		ct_stats.failsafe++;
+		break;
+	default:
+		ct_stats.refused++;
+		break;
+	}
+	if (action == CT_SAFE_STATE) {
+		/* Several messages, one fail-safe: the device's declared safe state
+		 * instead of any of them (as the monitor's drive_transfer_safe_states). */
+		for (i = 0; i < checked; i++) {
+			struct ct_node *node;
+			struct i2c_adapter *adap;
+
+			if (ct_verdicts[i].decision != CONTEGO_FAILSAFE)
+				continue;
+			if (!contego_safe_state(p->checker, ct_verdicts[i].device, &ct_safe_verdict))
+				continue;
+			node = ct_node_for_bus(ct_safe_verdict.bus);
+			adap = node ? i2c_get_adapter(node->nr) : NULL;
+			if (!adap)
+				continue;
+			ct_perform_emits(adap, &ct_safe_verdict, 0);
+			i2c_put_adapter(adap);
+		}
+	}
+	return action;
+}
+
+static int ct_refusal(u32 decider)
+{
+	u8 e = ct_verdicts[decider].reply_errno;
+
+	return -(e ? e : EPERM);
+}
+
+/* ---- write() and read() -------------------------------------------------- */
+
+static ssize_t ct_write(struct file *file, const char __user *buf, size_t count, loff_t *off)
+{
+	struct ct_file *cf = file->private_data;
+	u32 decider;
+	u8 *tmp, action;
+	int ret;
+
+	if (count > CT_MAX_LEN)
+		count = CT_MAX_LEN;
+	tmp = memdup_user(buf, count);
+	if (IS_ERR(tmp))
+		return PTR_ERR(tmp);
+	mutex_lock(&ct_lock);
+	ct_txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
+				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
+	action = ct_decide(cf, 1, &decider);
+	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
+		ret = ct_perform_emits(cf->adap, &ct_verdicts[0], cf->flags);
+	else if (action == CT_REFUSE)
+		ret = ct_refusal(decider);
+	else
+		ret = 0;
+	mutex_unlock(&ct_lock);
+	kfree(tmp);
+	return ret < 0 ? ret : count;
+}
+
+static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t *off)
+{
+	struct ct_file *cf = file->private_data;
+	u32 funcs = i2c_get_functionality(cf->adap);
+	u32 decider;
+	u8 *tmp, action;
+	int ret;
+
+	if (count > CT_MAX_LEN)
+		count = CT_MAX_LEN;
+	if (!(funcs & I2C_FUNC_I2C) && !(count == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE)))
+		return -EOPNOTSUPP;
+	tmp = kzalloc(count ? count : 1, GFP_KERNEL);
+	if (!tmp)
+		return -ENOMEM;
+	mutex_lock(&ct_lock);
+	ct_txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
+				   .ten = !!(cf->flags & I2C_M_TEN) };
+	action = ct_decide(cf, 1, &decider);
+	if (action == CT_PERFORM) {
+		if (funcs & I2C_FUNC_I2C) {
+			struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
+					     .len = count, .buf = tmp };
+
+			ret = i2c_transfer(cf->adap, &m, 1);
+			ret = ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
+		} else {
+			union i2c_smbus_data d;
+
+			ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags & I2C_CLIENT_PEC,
+					     I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, &d);
+			if (ret >= 0) {
+				tmp[0] = d.byte;
+				ret = 0;
+			}
+		}
+	} else if (action == CT_REFUSE) {
+		ret = ct_refusal(decider);
+	} else {
+		ret = 0; /* ignored: it succeeds and reads nothing (zeros) */
+	}
+	mutex_unlock(&ct_lock);
+	if (ret == 0 && copy_to_user(buf, tmp, count))
+		ret = -EFAULT;
+	kfree(tmp);
+	return ret < 0 ? ret : count;
+}
+
+/* ---- I2C_RDWR ------------------------------------------------------------ */
+
+/* The gate's normalisation (src/gate/transfer.cc, to_transactions): a
+ * one-byte write followed by a read of the same address is that read's
+ * register pointer (except at the general-call address 0). */
+static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
+{
+	u32 i, t = 0;
+
+	for (i = 0; i < n; i++, t++) {
+		struct ct_tx *tx = &ct_txs[t];
+
+		*tx = (struct ct_tx){ .addr = m[i].addr, .ten = !!(m[i].flags & I2C_M_TEN),
+				      .first_msg = i, .msg_count = 1 };
+		if (m[i].flags & I2C_M_RD) {
+			tx->kind = CONTEGO_TX_READ;
+		} else if (m[i].len == 1 && i + 1 < n && (m[i + 1].flags & I2C_M_RD) &&
+			   m[i + 1].addr == m[i].addr &&
+			   (m[i + 1].flags & I2C_M_TEN) == (m[i].flags & I2C_M_TEN) && m[i].addr != 0) {
+			tx->kind = CONTEGO_TX_READ;
+			tx->bytes = m[i].buf;
+			tx->len = 1;
+			tx->msg_count = 2;
+			i++;
+		} else {
+			tx->kind = CONTEGO_TX_WRITE;
+			tx->bytes = m[i].buf;
+			tx->len = m[i].len;
+		}
+	}
+	return t;
+}
+
+static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
+			  u8 __user **user_bufs)
+{
+	u32 ntx, decider, i;
+	u8 action;
+	long ret = 0;
+
+	if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C))
+		return -EOPNOTSUPP; /* as i2c_transfer on an SMBus-only adapter */
+	mutex_lock(&ct_lock);
+	ntx = ct_plan_msgs(msgs, nmsgs);
+	action = ct_decide(cf, ntx, &decider);
+	if (action == CT_REFUSE) {
+		ret = ct_refusal(decider);
+	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
+		/* In message order, only what the core allowed or substituted. */
+		for (i = 0; i < ntx && ret == 0; i++) {
+			struct ct_tx *tx = &ct_txs[i];
+
+			if (tx->kind == CONTEGO_TX_WRITE) {
+				ret = ct_perform_emits(cf->adap, &ct_verdicts[i],
+						       tx->ten ? I2C_M_TEN : 0);
+			} else {
+				int r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
+
+				ret = r == tx->msg_count ? 0 : (r < 0 ? r : -EIO);
+			}
+		}
+	} else {
+		for (i = 0; i < nmsgs; i++) /* ignored: reads read zeros */
+			if (msgs[i].flags & I2C_M_RD)
+				memset(msgs[i].buf, 0, msgs[i].len);
+	}
+	mutex_unlock(&ct_lock);
+	if (ret < 0)
+		return ret;
+	for (i = 0; i < nmsgs; i++) {
+		if ((msgs[i].flags & I2C_M_RD) &&
+		    copy_to_user(user_bufs[i], msgs[i].buf, msgs[i].len))
+			return -EFAULT;
+	}
+	return nmsgs;
+}
+
+static long ct_rdwr(struct ct_file *cf, unsigned long arg)
+{
+	struct i2c_rdwr_ioctl_data rd;
+	struct i2c_msg *msgs;
+	u8 __user **user_bufs;
+	long ret;
+	u32 i;
+
+	if (copy_from_user(&rd, (void __user *)arg, sizeof(rd)))
+		return -EFAULT;
+	if (!rd.msgs || rd.nmsgs == 0 || rd.nmsgs > CT_MAX_MSGS)
+		return -EINVAL;
+	msgs = memdup_user(rd.msgs, rd.nmsgs * sizeof(*msgs));
+	if (IS_ERR(msgs))
+		return PTR_ERR(msgs);
+	user_bufs = kcalloc(rd.nmsgs, sizeof(*user_bufs), GFP_KERNEL);
+	if (!user_bufs) {
+		kfree(msgs);
+		return -ENOMEM;
+	}
+	ret = 0;
+	for (i = 0; i < rd.nmsgs; i++) {
+		if (msgs[i].len > CT_MAX_LEN) {
+			ret = -EINVAL;
+			break;
+		}
+		user_bufs[i] = (u8 __user *)msgs[i].buf;
+		/* The one copy everything below checks and sends. */
+		msgs[i].buf = memdup_user(user_bufs[i], msgs[i].len);
+		if (IS_ERR(msgs[i].buf)) {
+			ret = PTR_ERR(msgs[i].buf);
+			break;
+		}
+		if ((msgs[i].flags & I2C_M_RECV_LEN) &&
+		    (!(msgs[i].flags & I2C_M_RD) || msgs[i].len < 1 || msgs[i].buf[0] < 1 ||
+		     msgs[i].len < msgs[i].buf[0] + I2C_SMBUS_BLOCK_MAX)) {
+			i++;
+			ret = -EINVAL;
+			break;
+		}
+		if (msgs[i].flags & I2C_M_RECV_LEN)
+			msgs[i].len = msgs[i].buf[0];
+	}
+	if (ret == 0)
+		ret = ct_ioctl_rdwr(cf, msgs, rd.nmsgs, user_bufs);
+	while (i-- > 0)
+		if (!IS_ERR_OR_NULL(msgs[i].buf))
+			kfree(msgs[i].buf);
+	kfree(user_bufs);
+	kfree(msgs);
+	return ret;
+}
+
+/* ---- I2C_SMBUS ----------------------------------------------------------- */
+
+static long ct_smbus(struct ct_file *cf, unsigned long arg)
+{
+	struct i2c_smbus_ioctl_data a;
+	union i2c_smbus_data data;
+	u8 wire[2 + I2C_SMBUS_BLOCK_MAX + 1]; /* command, count, data: the write's bytes */
+	u8 pointer;
+	u32 datasize = 0, n, decider;
+	bool read, proc;
+	u8 action;
+	long ret;
+
+	if (copy_from_user(&a, (void __user *)arg, sizeof(a)))
+		return -EFAULT;
+	if (a.size != I2C_SMBUS_BYTE && a.size != I2C_SMBUS_QUICK && a.size != I2C_SMBUS_BYTE_DATA &&
+	    a.size != I2C_SMBUS_WORD_DATA && a.size != I2C_SMBUS_PROC_CALL &&
+	    a.size != I2C_SMBUS_BLOCK_DATA && a.size != I2C_SMBUS_I2C_BLOCK_BROKEN &&
+	    a.size != I2C_SMBUS_I2C_BLOCK_DATA && a.size != I2C_SMBUS_BLOCK_PROC_CALL)
+		return -EINVAL;
+	if (a.read_write != I2C_SMBUS_READ && a.read_write != I2C_SMBUS_WRITE)
+		return -EINVAL;
+	memset(&data, 0, sizeof(data));
+	if (!(a.size == I2C_SMBUS_QUICK || (a.size == I2C_SMBUS_BYTE && a.read_write == I2C_SMBUS_WRITE))) {
+		if (!a.data)
+			return -EINVAL;
+		if (a.size == I2C_SMBUS_BYTE_DATA || a.size == I2C_SMBUS_BYTE)
+			datasize = sizeof(data.byte);
+		else if (a.size == I2C_SMBUS_WORD_DATA || a.size == I2C_SMBUS_PROC_CALL)
+			datasize = sizeof(data.word);
+		else
+			datasize = sizeof(data.block);
+		if ((a.size == I2C_SMBUS_PROC_CALL || a.size == I2C_SMBUS_BLOCK_PROC_CALL ||
+		     a.size == I2C_SMBUS_I2C_BLOCK_DATA || a.read_write == I2C_SMBUS_WRITE) &&
+		    copy_from_user(&data, a.data, datasize))
+			return -EFAULT;
+		if (a.size == I2C_SMBUS_I2C_BLOCK_BROKEN) {
+			a.size = I2C_SMBUS_I2C_BLOCK_DATA;
+			if (a.read_write == I2C_SMBUS_READ)
+				data.block[0] = I2C_SMBUS_BLOCK_MAX;
+		}
+	}
+	proc = a.size == I2C_SMBUS_PROC_CALL || a.size == I2C_SMBUS_BLOCK_PROC_CALL;
+	read = a.read_write == I2C_SMBUS_READ && !proc;
+
+	if ((a.size == I2C_SMBUS_BLOCK_DATA || a.size == I2C_SMBUS_BLOCK_PROC_CALL ||
+	     a.size == I2C_SMBUS_I2C_BLOCK_DATA) && !read &&
+	    (data.block[0] < 1 || data.block[0] > I2C_SMBUS_BLOCK_MAX))
+		return -EINVAL;
+
+	mutex_lock(&ct_lock);
+	/* ct_txs is shared scratch, used under ct_lock only. The transactions
+	 * this call puts on the wire (smbus_plan.h's table, backwards): */
+	n = 0;
+	pointer = a.command;
+	if (a.size == I2C_SMBUS_QUICK) {
+		ct_txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr };
+	} else if (read) {
+		ct_txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
+					     .len = a.size == I2C_SMBUS_BYTE ? 0 : 1,
+					     .bytes = &pointer };
+	} else {
+		u32 len = 1;
+
+		wire[0] = a.command;
+		switch (a.size) {
+		case I2C_SMBUS_BYTE:
+			break;
+		case I2C_SMBUS_BYTE_DATA:
+			wire[len++] = data.byte;
+			break;
+		case I2C_SMBUS_WORD_DATA:
+		case I2C_SMBUS_PROC_CALL:
+			wire[len++] = data.word & 0xff;
+			wire[len++] = data.word >> 8;
+			break;
+		case I2C_SMBUS_BLOCK_DATA:
+		case I2C_SMBUS_BLOCK_PROC_CALL:
+			memcpy(&wire[len], data.block, 1 + data.block[0]);
+			len += 1 + data.block[0];
+			break;
+		case I2C_SMBUS_I2C_BLOCK_DATA:
+			memcpy(&wire[len], &data.block[1], data.block[0]);
+			len += data.block[0];
+			break;
+		}
+		ct_txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
+					     .len = len, .bytes = wire };
+		if (proc) /* then a read without pointer (the write is longer than one byte) */
+			ct_txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
+	}
+
+	action = ct_decide(cf, n, &decider);
+	if (action == CT_REFUSE) {
+		ret = ct_refusal(decider);
+	} else if (action == CT_IGNORE || action == CT_SAFE_STATE) {
+		ret = 0;
+		memset(&data, 0, sizeof(data));
+	} else if (a.size == I2C_SMBUS_QUICK || read ||
+		   ct_emits_are(&ct_verdicts[0], wire, ct_txs[0].len, cf->addr)) {
+		/* Exactly what was asked: the call itself, from our copy. */
+		ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags, a.read_write, a.command,
+				     a.size, (a.size == I2C_SMBUS_QUICK ||
+					      (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
+	} else if (proc) {
+		ret = -EOPNOTSUPP; /* a substituted process call has no SMBus form */
+	} else {
+		ret = ct_perform_emits(cf->adap, &ct_verdicts[0], cf->flags);
+	}
+	mutex_unlock(&ct_lock);
+	if (ret < 0)
+		return ret;
+	if ((read || proc) && datasize && copy_to_user(a.data, &data, datasize))
+		return -EFAULT;
+	return 0;
+}
+
+/* ---- the node ------------------------------------------------------------ */
+
+static int ct_check_addr_busy(struct device *dev, void *addrp)
+{
+	struct i2c_client *client = i2c_verify_client(dev);
+
+	if (!client || client->addr != *(unsigned int *)addrp)
+		return 0;
+	return dev->driver ? -EBUSY : 0;
+}
+
+static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
+{
+	struct ct_file *cf = file->private_data;
+	unsigned int addr;
+
+	switch (cmd) {
+	case I2C_SLAVE:
+	case I2C_SLAVE_FORCE:
+		if (arg > 0x3ff || ((cf->flags & I2C_M_TEN) == 0 && arg > 0x7f))
+			return -EINVAL;
+		addr = arg;
+		if (cmd == I2C_SLAVE &&
+		    device_for_each_child(&cf->adap->dev, &addr, ct_check_addr_busy))
+			return -EBUSY;
+		/* No check here: the address is checked with each transaction. */
+		cf->addr = arg;
+		return 0;
+	case I2C_TENBIT:
+		if (arg)
+			cf->flags |= I2C_M_TEN;
+		else
+			cf->flags &= ~I2C_M_TEN;
+		return 0;
+	case I2C_PEC:
+		if (arg)
+			cf->flags |= I2C_CLIENT_PEC;
+		else
+			cf->flags &= ~I2C_CLIENT_PEC;
+		return 0;
+	case I2C_FUNCS:
+		return put_user(i2c_get_functionality(cf->adap), (unsigned long __user *)arg);
+	case I2C_RDWR:
+		return ct_rdwr(cf, arg);
+	case I2C_SMBUS:
+		return ct_smbus(cf, arg);
+	case I2C_RETRIES:
+		if (arg > INT_MAX)
+			return -EINVAL;
+		cf->adap->retries = arg;
+		return 0;
+	case I2C_TIMEOUT:
+		if (arg > INT_MAX)
+			return -EINVAL;
+		cf->adap->timeout = msecs_to_jiffies(arg * 10);
+		return 0;
+	default:
+		return -ENOTTY;
+	}
+}
+
+static int ct_open(struct inode *inode, struct file *file)
+{
+	struct ct_node *node = container_of(inode->i_cdev, struct ct_node, cdev);
+	struct ct_file *cf;
+	struct i2c_adapter *adap;
+
+	adap = i2c_get_adapter(node->nr);
+	if (!adap)
+		return -ENODEV;
+	cf = kzalloc(sizeof(*cf), GFP_KERNEL);
+	if (!cf) {
+		i2c_put_adapter(adap);
+		return -ENOMEM;
+	}
+	cf->adap = adap;
+	cf->bus = node->bus;
+	file->private_data = cf;
+	return 0;
+}
+
+static int ct_release(struct inode *inode, struct file *file)
+{
+	struct ct_file *cf = file->private_data;
+
+	i2c_put_adapter(cf->adap);
+	kfree(cf);
+	file->private_data = NULL;
+	return 0;
+}
+
+static const struct file_operations ct_node_fops = {
+	.owner = THIS_MODULE,
+	.llseek = no_llseek,
+	.read = ct_read,
+	.write = ct_write,
+	.unlocked_ioctl = ct_ioctl,
+	.open = ct_open,
+	.release = ct_release,
+};
+
+/* ---- /dev/contego: policy load ------------------------------------------ */
+
+static void ct_policy_free(struct ct_policy *p)
+{
+	if (!p)
+		return;
+	kvfree(p->mem);
+	kvfree(p->image);
+	kfree(p);
+}
+
+static long ct_load(unsigned long arg)
+{
+	struct contego_kmod_load req;
+	struct ct_policy *p, *old;
+	contego_load_result r;
+	size_t size = contego_checker_size();
+	long ret = 0;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS)
+		return -EINVAL;
+	p = kzalloc(sizeof(*p), GFP_KERNEL);
+	if (!p)
+		return -ENOMEM;
+	p->mem = kvzalloc(size + contego_checker_align(), GFP_KERNEL);
+	p->image = kvmalloc(req.size, GFP_KERNEL);
+	if (!p->mem || !p->image) {
+		ret = -ENOMEM;
+		goto fail;
+	}
+	if (copy_from_user(p->image, u64_to_user_ptr(req.image), req.size) ||
+	    copy_from_user(p->binds, u64_to_user_ptr(req.binds), req.nbinds * sizeof(p->binds[0]))) {
+		ret = -EFAULT;
+		goto fail;
+	}
+	p->nbinds = req.nbinds;
+	/* kvzalloc is page- or slab-aligned: enough for the checker (checked). */
+	p->checker = contego_checker_init(p->mem, size);
+	if (!p->checker) {
+		ret = -EINVAL;
+		goto fail;
+	}
+	/* The core's verifier, on our copy, before anything uses it. */
+	r = contego_load(p->checker, p->image, req.size);
+	req.status = r.status;
+	req.section = r.section;
+	req.index = r.index;
+	if (r.status != 0) {
+		mutex_lock(&ct_lock);
+		ct_stats.refused_loads++;
+		mutex_unlock(&ct_lock);
+		pr_warn("contego: image refused by the verifier: %s (section %u, index %u); the previous policy stays\n",
+			contego_load_status_name(r.status), r.section, r.index);
+		ret = -EINVAL;
+		goto fail;
+	}
+	mutex_lock(&ct_lock);
+	old = ct_policy;
+	ct_policy = p;
+	ct_stats.loads++;
+	ct_stats.loaded = 1;
+	req.devices = ct_drive_safe_states(p);
+	mutex_unlock(&ct_lock);
+	ct_policy_free(old);
+	pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state)\n",
+		req.size, req.nbinds, req.devices);
+	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return 0;
+fail:
+	ct_policy_free(p);
+	if (req.status != 0 && copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return ret;
+}
+
+static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
+{
+	struct contego_kmod_stats s;
+
+	if (!capable(CAP_SYS_ADMIN))
+		return -EPERM;
+	switch (cmd) {
+	case CONTEGO_KMOD_LOAD:
+		return ct_load(arg);
+	case CONTEGO_KMOD_STATS:
+		mutex_lock(&ct_lock);
+		s = ct_stats;
+		mutex_unlock(&ct_lock);
+		return copy_to_user((void __user *)arg, &s, sizeof(s)) ? -EFAULT : 0;
+	default:
+		return -ENOTTY;
+	}
+}
+
+static const struct file_operations ct_ctl_fops = {
+	.owner = THIS_MODULE,
+	.unlocked_ioctl = ct_ctl_ioctl,
+};
+
+static struct miscdevice ct_ctl = {
+	.minor = MISC_DYNAMIC_MINOR,
+	.name = "contego",
+	.fops = &ct_ctl_fops,
+	.mode = 0600,
+};
+
+/* ---- module -------------------------------------------------------------- */
+
+static void ct_remove_nodes(void)
+{
+	int i;
+
+	for (i = 0; i < ct_node_count; i++) {
+		if (ct_nodes[i].dev)
+			device_destroy(ct_class, MKDEV(I2C_MAJOR, ct_nodes[i].nr));
+		if (ct_nodes[i].registered) {
+			cdev_del(&ct_nodes[i].cdev);
+			unregister_chrdev_region(MKDEV(I2C_MAJOR, ct_nodes[i].nr), 1);
+		}
+	}
+	ct_node_count = 0;
+}
+
+static int __init ct_init(void)
+{
+	int i, ret;
+
+	if (n_adapters == 0) {
+		adapters[0] = 0;
+		n_adapters = 1;
+	}
+	ct_class = class_create(THIS_MODULE, "i2c-dev");
+	if (IS_ERR(ct_class)) {
+		pr_err("contego: cannot create class i2c-dev (is i2c-dev loaded? contego.ko replaces it)\n");
+		return PTR_ERR(ct_class);
+	}
+	for (i = 0; i < n_adapters; i++) {
+		struct ct_node *node = &ct_nodes[ct_node_count];
+		struct i2c_adapter *adap;
+		dev_t devt = MKDEV(I2C_MAJOR, adapters[i]);
+
+		node->nr = adapters[i];
+		node->bus = i < n_buses ? buses[i] : adapters[i];
+		ct_node_count++;
+		adap = i2c_get_adapter(node->nr);
+		if (!adap) {
+			pr_err("contego: no adapter i2c-%d\n", node->nr);
+			ret = -ENODEV;
+			goto fail;
+		}
+		ret = register_chrdev_region(devt, 1, "i2c");
+		if (ret) {
+			i2c_put_adapter(adap);
+			pr_err("contego: char device %d:%d taken (unload i2c-dev first)\n", I2C_MAJOR,
+			       node->nr);
+			goto fail;
+		}
+		node->registered = true;
+		cdev_init(&node->cdev, &ct_node_fops);
+		node->cdev.owner = THIS_MODULE;
+		ret = cdev_add(&node->cdev, devt, 1);
+		if (ret) {
+			i2c_put_adapter(adap);
+			unregister_chrdev_region(devt, 1);
+			node->registered = false;
+			goto fail;
+		}
+		node->dev = device_create(ct_class, &adap->dev, devt, NULL, "i2c-%d", node->nr);
+		i2c_put_adapter(adap);
+		if (IS_ERR(node->dev)) {
+			ret = PTR_ERR(node->dev);
+			node->dev = NULL;
+			goto fail;
+		}
+		pr_info("contego: /dev/i2c-%d checked as the policy's bus %u\n", node->nr, node->bus);
+	}
+	ret = misc_register(&ct_ctl);
+	if (ret)
+		goto fail;
+	return 0;
+fail:
+	ct_remove_nodes();
+	class_destroy(ct_class);
+	return ret;
+}
+
+static void __exit ct_exit(void)
+{
+	misc_deregister(&ct_ctl);
+	ct_remove_nodes();
+	class_destroy(ct_class);
+	ct_policy_free(ct_policy);
+	ct_policy = NULL;
+}
+
+module_init(ct_init);
+module_exit(ct_exit);
+MODULE_DESCRIPTION("contego: i2c-dev with the trusted core's checks in the kernel");
+MODULE_LICENSE("GPL");

@@ -1,0 +1,174 @@
+// `contego kmod load --policy FILE [--bind TASK=USER]...`: hands the compiled
+// image and the task bindings to contego.ko (docs/kernel-client.md) through
+// its control device. The module verifies the image with the core's own
+// verifier before it replaces the policy in force; a refused image leaves the
+// old one. Bindings: from --bind, and from each task's `user` in the policy
+// (a process whose effective uid is that user's acts as the task); a process
+// no binding names is no task and gets the policy's default (deny).
+// `contego kmod stats` prints the module's counters.
+#include <fcntl.h>
+#include <pwd.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cerrno>
+#include <cstring>
+#include <fmt/core.h>
+#include <map>
+#include <sys/ioctl.h>
+
+#include "base/read_file.h"
+#include "cli/command.h"
+#include "cli/trusted_setup.h"
+#include "contego_kmod.h"
+
+namespace contego::cli {
+namespace {
+
+Result<uint32_t> uid_of(const std::string& user) {
+  char* end = nullptr;
+  const unsigned long n = std::strtoul(user.c_str(), &end, 10);
+  if (!user.empty() && *end == '\0') return static_cast<uint32_t>(n);
+  const passwd* pw = getpwnam(user.c_str());
+  if (pw == nullptr) return make_error("no user '" + user + "'");
+  return static_cast<uint32_t>(pw->pw_uid);
+}
+
+int load(const std::string& device, const std::string& policy, const std::string& raw_image,
+         const std::vector<std::string>& binds) {
+  std::vector<uint8_t> image;
+  std::vector<contego_kmod_bind> table;
+  if (!raw_image.empty()) {
+    // The bytes as they are: the module's verifier is the judge (tests).
+    auto bytes = read_input_file(raw_image);
+    if (!bytes.ok()) {
+      fmt::print(stderr, "contego kmod: {}\n", bytes.error());
+      return 2;
+    }
+    image.assign(bytes->begin(), bytes->end());
+  } else {
+    monitor::SetupOptions o;
+    o.policy = policy;
+    auto loaded = monitor::load_policy(o);
+    if (!loaded.ok()) {
+      fmt::print(stderr, "contego kmod: {}\n", loaded.error());
+      return 2;
+    }
+    image = loaded->image;
+    std::map<std::string, uint16_t> ids;
+    for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
+      ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
+    }
+    auto add = [&](const std::string& task, const std::string& user) -> Result<uint32_t> {
+      auto it = ids.find(task);
+      if (it == ids.end()) return make_error("the policy has no task '" + task + "'");
+      auto uid = uid_of(user);
+      if (!uid.ok()) return make_error(uid.error());
+      for (const auto& b : table) {
+        if (b.uid == *uid) return make_error(fmt::format("uid {} bound twice", *uid));
+      }
+      table.push_back({*uid, it->second, 0});
+      return *uid;
+    };
+    for (const auto& t : loaded->bindings) {
+      if (t.user.empty()) continue;
+      if (auto r = add(t.name, t.user); !r.ok()) {
+        fmt::print(stderr, "contego kmod: task {}: {}\n", t.name, r.error());
+        return 2;
+      }
+    }
+    for (const std::string& b : binds) {
+      const auto eq = b.find('=');
+      if (eq == std::string::npos) {
+        fmt::print(stderr, "contego kmod: --bind {}: expected TASK=USER\n", b);
+        return 2;
+      }
+      if (auto r = add(b.substr(0, eq), b.substr(eq + 1)); !r.ok()) {
+        fmt::print(stderr, "contego kmod: --bind {}: {}\n", b, r.error());
+        return 2;
+      }
+    }
+  }
+  if (table.size() > CONTEGO_KMOD_MAX_BINDS) {
+    fmt::print(stderr, "contego kmod: more than {} bindings\n", CONTEGO_KMOD_MAX_BINDS);
+    return 2;
+  }
+  const int fd = ::open(device.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) {
+    fmt::print(stderr, "contego kmod: {}: {} (is contego.ko loaded?)\n", device,
+               std::strerror(errno));
+    return 2;
+  }
+  contego_kmod_load req{};
+  req.image = reinterpret_cast<uintptr_t>(image.data());
+  req.size = static_cast<uint32_t>(image.size());
+  req.nbinds = static_cast<uint32_t>(table.size());
+  req.binds = reinterpret_cast<uintptr_t>(table.data());
+  const int rc = ::ioctl(fd, CONTEGO_KMOD_LOAD, &req);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) {
+    if (req.status != 0) {
+      fmt::print(stderr,
+                 "contego kmod: the module's verifier refused the image: status {} (section "
+                 "{}, index {}); the policy in force stays\n",
+                 req.status, req.section, req.index);
+    } else {
+      fmt::print(stderr, "contego kmod: load failed: {}\n", std::strerror(err));
+    }
+    return 1;
+  }
+  fmt::print("contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state\n",
+             image.size(), table.size(), req.devices);
+  return 0;
+}
+
+int stats(const std::string& device) {
+  const int fd = ::open(device.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    fmt::print(stderr, "contego kmod: {}: {}\n", device, std::strerror(errno));
+    return 2;
+  }
+  contego_kmod_stats s{};
+  const int rc = ::ioctl(fd, CONTEGO_KMOD_STATS, &s);
+  ::close(fd);
+  if (rc != 0) {
+    fmt::print(stderr, "contego kmod: stats: {}\n", std::strerror(errno));
+    return 2;
+  }
+  fmt::print(
+      "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
+      "failsafe={}\n",
+      s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe);
+  return 0;
+}
+
+}  // namespace
+
+void register_kmod(CLI::App& app) {
+  struct Args {
+    std::string device = "/dev/contego", policy, raw_image;
+    std::vector<std::string> binds;
+  };
+  auto args = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand("kmod", "Drive contego.ko, the in-kernel checked i2c-dev");
+  cmd->require_subcommand(1);
+  auto* ld = cmd->add_subcommand("load", "Load a policy into contego.ko (verified there)");
+  ld->add_option("--policy", args->policy, "policy file");
+  ld->add_option("--unverified-image", args->raw_image,
+                 "send this file's bytes as the image unchecked here (the module verifies)");
+  ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
+  ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
+  ld->callback([args] {
+    if (args->policy.empty() == args->raw_image.empty()) {
+      fmt::print(stderr, "contego kmod load: give --policy or --unverified-image\n");
+      return set_exit_code(2);
+    }
+    set_exit_code(load(args->device, args->policy, args->raw_image, args->binds));
+  });
+  auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
+  st->add_option("--device", args->device, "the module's control device")->capture_default_str();
+  st->callback([args] { set_exit_code(stats(args->device)); });
+}
+
+}  // namespace contego::cli
