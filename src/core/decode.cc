@@ -1,17 +1,16 @@
 // Device profiles inside the core: decoding a write into commands (frame and
 // register-map, with staging of partial register groups) and encoding
 // substitutes (templates, FAIL_SUBST, safe states) back into bus writes.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 namespace {
 
 constexpr uint8_t kEperm = 1;
 constexpr uint8_t kEinval = 22;
 
-template <typename O>  // O = Checker::Outcome (private; deduced, not named)
+template <typename O>  // O = Outcome (private; deduced, not named)
 void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
   if (o == nullptr) return;
   o->command = command;
@@ -24,7 +23,7 @@ void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
 
 }  // namespace
 
-void Checker::check_frame(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   if (tx.len == 1 && dr.short_queries != 0 && tx.len != dr.frame_len) {
     return check_short_query(tx, dev);
@@ -68,7 +67,7 @@ void Checker::check_frame(const Transaction& tx, uint16_t dev) {
 
 // A one-byte write naming a query: decoded as that query with no fields (it
 // needs read access); any other single byte is malformed.
-void Checker::check_short_query(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   const uint8_t k = state_[dev].lookup[tx.bytes[0]];
   if (k == 0xFF ||
@@ -95,7 +94,7 @@ void Checker::check_short_query(const Transaction& tx, uint16_t dev) {
   }
 }
 
-void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   DeviceState& st = state_[dev];
   if (tx.len == 0) return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
@@ -265,9 +264,9 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
 // Encodes a substitute command: the base bytes (the checked frame for the
 // checked command, else the opcode and zeros; for register maps the shadow
 // group), with the selected fields replaced. False if a value does not fit.
-bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
-                               uint8_t* bytes, uint32_t* len, uint16_t* command, uint8_t* index,
-                               int32_t* fields) {
+bool CheckerState::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
+                                    uint8_t* bytes, uint32_t* len, uint16_t* command,
+                                    uint8_t* index, int32_t* fields) {
   const uint16_t cid = subst.command != kNone ? subst.command
                        : request != nullptr   ? request->command
                                               : kNone;
@@ -308,8 +307,8 @@ bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint1
   return true;
 }
 
-bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
-                           uint16_t command, uint8_t index) {
+bool CheckerState::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes,
+                                uint32_t len, uint16_t command, uint8_t index) {
   const DeviceRecord& dr = devices_[dev];
   if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
     uint8_t framed[kMaxWriteBytes + 1];
@@ -329,7 +328,7 @@ bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* 
   return true;
 }
 
-bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
+bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
   uint8_t bytes[kMaxRegisters];
   uint32_t len = 0;
   uint16_t command = kNone;
@@ -353,4 +352,4 @@ bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
   return true;
 }
 
-}  // namespace contego::core
+}  // namespace contego::core::internal
