@@ -670,34 +670,14 @@ void CheckerState::finish(const Transaction& tx, Verdict* out) {
       o.emit_len = out->emit_bytes_used;
     }
   } else {
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.decision == Decision::kReject) {
-        decision = Decision::kReject;
-        decider = &o;
-        break;
+    // Reject over ignore over fail-safe over allow.
+    constexpr Decision kOrder[] = {Decision::kReject, Decision::kIgnore, Decision::kFailsafe};
+    for (uint32_t k = 0; k < 3 && decider == nullptr; ++k) {
+      for (uint32_t i = 0; i < tx_.outcome_count && decider == nullptr; ++i) {
+        if (tx_.outcomes[i].decision == kOrder[k]) decider = &tx_.outcomes[i];
       }
     }
-    if (decider == nullptr) {
-      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-        const Outcome& o = tx_.outcomes[i];
-        if (o.decision == Decision::kIgnore) {
-          decision = Decision::kIgnore;
-          decider = &o;
-          break;
-        }
-      }
-    }
-    if (decider == nullptr) {
-      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-        const Outcome& o = tx_.outcomes[i];
-        if (o.decision == Decision::kFailsafe) {
-          decision = Decision::kFailsafe;
-          decider = &o;
-          break;
-        }
-      }
-    }
+    if (decider != nullptr) decision = decider->decision;
     if (decider == nullptr && tx_.outcome_count != 0) decider = &tx_.outcomes[0];
   }
 

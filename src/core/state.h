@@ -184,6 +184,7 @@ class CheckerState {
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 
+  bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
   bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
                       uint16_t device, LoadResult* result);
   LoadResult verify(const uint8_t* image, uint32_t size);
@@ -206,6 +207,13 @@ class CheckerState {
   void check_frame(const Transaction& tx, uint16_t dev);
   void check_short_query(const Transaction& tx, uint16_t dev);
   void check_register_map(const Transaction& tx, uint16_t dev);
+  void check_general_call_command(const Transaction& tx, uint16_t dev);
+  void drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                            uint32_t index);
+  void commit_group(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                    uint32_t index, uint32_t j, uint8_t val);
+  Decoded& decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len);
+  void decode_fields(Decoded& d);
   void evaluate(const Transaction& tx, Outcome& o);
   void finish(const Transaction& tx, Verdict* out);
   void settle_model(const Transaction& tx, Decision decision);

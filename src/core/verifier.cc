@@ -558,15 +558,90 @@ LoadResult CheckerState::verify_programs(const LoadInput&) {
   return result;
 }
 
+namespace {
+
+// What the verifier knows of each opcode: stack effect, operands, flow.
+enum OpFlags : uint8_t {
+  kValid = 1,
+  kUsesB = 2,
+  kUsesImm = 4,
+  kJumps = 8,
+  kEnds = 16,           // no fall-through to the next instruction
+  kInvariantOnly = 32,  // reads the checked command or its history, or decides
+  kDerivedOnly = 64,
+};
+struct OpInfo {
+  uint8_t pops;
+  uint8_t pushes;
+  uint8_t flags;
+};
+struct OpTable {
+  OpInfo at[static_cast<uint32_t>(Op::kReturn) + 1];
+};
+constexpr OpTable make_op_table() {
+  OpTable t{};
+  auto set = [&t](Op op, uint8_t pops, uint8_t pushes, uint32_t flags) {
+    t.at[static_cast<uint8_t>(op)] = OpInfo{pops, pushes, static_cast<uint8_t>(flags | kValid)};
+  };
+  constexpr Op kContext[] = {Op::kCommand,   Op::kIndex,   Op::kJobCount,
+                             Op::kSinceLast, Op::kHasLast, Op::kState};
+  constexpr Op kBinary[] = {Op::kAdd, Op::kSub, Op::kMul, Op::kDiv, Op::kMod,
+                            Op::kMin, Op::kMax, Op::kEq,  Op::kNe,  Op::kLt,
+                            Op::kLe,  Op::kGt,  Op::kGe,  Op::kAnd, Op::kOr};
+  for (const Op op : kContext) set(op, 0, 1, kInvariantOnly);
+  for (const Op op : kBinary) set(op, 2, 1, 0);
+  set(Op::kNop, 0, 0, 0);
+  set(Op::kPush, 0, 1, kUsesImm);
+  set(Op::kPushConst, 0, 1, kUsesB);
+  set(Op::kSignal, 0, 1, kUsesB);
+  set(Op::kField, 0, 1, kUsesB | kInvariantOnly);
+  set(Op::kLastField, 0, 1, kUsesB | kInvariantOnly);
+  set(Op::kSetState, 1, 0, kInvariantOnly);
+  set(Op::kNeg, 1, 1, 0);
+  set(Op::kAbs, 1, 1, 0);
+  set(Op::kNot, 1, 1, 0);
+  set(Op::kDup, 1, 2, 0);
+  set(Op::kDrop, 1, 0, 0);
+  set(Op::kJumpIfZero, 1, 0, kUsesImm | kJumps);
+  set(Op::kJump, 0, 0, kUsesImm | kJumps | kEnds);
+  set(Op::kSubstBegin, 0, 0, kUsesB | kInvariantOnly);
+  set(Op::kSubstField, 1, 0, kUsesB | kInvariantOnly);
+  set(Op::kPass, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kFail, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kFailSubst, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kReturn, 1, 0, kEnds | kDerivedOnly);
+  return t;
+}
+constexpr OpTable kOps = make_op_table();
+
+}  // namespace
+
+// The operand b of one instruction names something that exists.
+bool CheckerState::operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const {
+  switch (static_cast<Op>(in.op)) {
+    case Op::kPushConst:
+      return in.b < constant_count_;
+    case Op::kSignal:
+      return in.b < signal_count_ && !(derived && in.b >= self);
+    case Op::kField:
+    case Op::kLastField:
+    case Op::kSubstField:
+      return in.b < kMaxFieldsPerCommand;
+    case Op::kSubstBegin:
+      return in.b == kNone || (in.b < command_count_ && commands_[in.b].device == device);
+    default:
+      return true;
+  }
+}
+
 // One program: opcodes and operands, forward jumps inside the program, the
 // stack depth along every path (all jumps go forward, so one pass in order
 // sees every predecessor of an instruction before the instruction itself).
 bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool derived,
                                   uint16_t self, uint16_t device, LoadResult* result) {
   using S = LoadStatus;
-  const uint32_t kCodeSec = sec(SectionKind::kCode);
   auto fail_at = [&](S status, uint32_t pc) {
-    *result = LoadResult{status, kCodeSec, code_first + pc};
+    *result = LoadResult{status, sec(SectionKind::kCode), code_first + pc};
     return false;
   };
   if (code_len > kMaxProgramLength) return fail_at(S::kProgramTooLong, 0);
@@ -577,150 +652,38 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
   uint64_t deps = 0;
   for (uint32_t pc = 0; pc < code_len; ++pc) {
     const Insn& in = code_[code_first + pc];
-    if (in.a != 0) return fail_at(S::kBadProgram, pc);
-    const int32_t depth = depth_at[pc];
-    if (depth < 0) {
-      // Unreachable (only jumps lead past a terminator): still must decode.
-      if (in.op > static_cast<uint8_t>(Op::kReturn)) return fail_at(S::kBadProgram, pc);
+    const OpInfo op = in.op <= static_cast<uint8_t>(Op::kReturn) ? kOps.at[in.op] : OpInfo{};
+    const uint32_t wrong_kind = derived ? kInvariantOnly : kDerivedOnly;
+    if (in.a != 0 || (op.flags & kValid) == 0 || (op.flags & wrong_kind) != 0 ||
+        ((op.flags & kUsesB) == 0 && in.b != 0) || ((op.flags & kUsesImm) == 0 && in.imm != 0) ||
+        !operand_ok(in, derived, self, device)) {
+      return fail_at(S::kBadProgram, pc);
     }
-    int32_t pops = 0, pushes = 0;
-    bool uses_b = false, uses_imm = false, terminator = false, jump = false, falls = true;
-    const Op op = static_cast<Op>(in.op);
-    switch (op) {
-      case Op::kNop:
-        break;
-      case Op::kPush:
-        pushes = 1;
-        uses_imm = true;
-        break;
-      case Op::kPushConst:
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= constant_count_) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kSignal:
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= signal_count_ || (derived && in.b >= self)) return fail_at(S::kBadProgram, pc);
-        if (derived) {
-          deps |= signal_deps_[in.b];
-          if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
-        }
-        break;
-      case Op::kField:
-      case Op::kLastField:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= kMaxFieldsPerCommand) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kCommand:
-      case Op::kIndex:
-      case Op::kJobCount:
-      case Op::kSinceLast:
-      case Op::kHasLast:
-      case Op::kState:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pushes = 1;
-        break;
-      case Op::kSetState:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        break;
-      case Op::kAdd:
-      case Op::kSub:
-      case Op::kMul:
-      case Op::kDiv:
-      case Op::kMod:
-      case Op::kMin:
-      case Op::kMax:
-      case Op::kEq:
-      case Op::kNe:
-      case Op::kLt:
-      case Op::kLe:
-      case Op::kGt:
-      case Op::kGe:
-      case Op::kAnd:
-      case Op::kOr:
-        pops = 2;
-        pushes = 1;
-        break;
-      case Op::kNeg:
-      case Op::kAbs:
-      case Op::kNot:
-        pops = 1;
-        pushes = 1;
-        break;
-      case Op::kDup:
-        pops = 1;
-        pushes = 2;
-        break;
-      case Op::kDrop:
-        pops = 1;
-        break;
-      case Op::kJumpIfZero:
-        pops = 1;
-        uses_imm = true;
-        jump = true;
-        break;
-      case Op::kJump:
-        uses_imm = true;
-        jump = true;
-        falls = false;
-        break;
-      case Op::kSubstBegin:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        uses_b = true;
-        if (in.b != kNone && (in.b >= command_count_ || commands_[in.b].device != device)) {
-          return fail_at(S::kBadProgram, pc);
-        }
-        break;
-      case Op::kSubstField:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        uses_b = true;
-        if (in.b >= kMaxFieldsPerCommand) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kPass:
-      case Op::kFail:
-      case Op::kFailSubst:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        terminator = true;
-        falls = false;
-        break;
-      case Op::kReturn:
-        if (!derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        terminator = true;
-        falls = false;
-        break;
-      default:
-        return fail_at(S::kBadProgram, pc);
+    if (derived && in.op == static_cast<uint8_t>(Op::kSignal)) {
+      deps |= signal_deps_[in.b];
+      if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
     }
-    if ((!uses_b && in.b != 0) || (!uses_imm && in.imm != 0)) return fail_at(S::kBadProgram, pc);
-    if (jump) {
+    const uint32_t target = pc + static_cast<uint32_t>(in.imm);
+    if ((op.flags & kJumps) != 0) {
       if (in.imm < 1) return fail_at(S::kJumpBackward, pc);
       if (static_cast<uint64_t>(pc) + static_cast<uint32_t>(in.imm) >= code_len) {
         return fail_at(S::kJumpOutOfRange, pc);
       }
     }
-    if (depth < 0) continue;  // unreachable: no stack to track
-    if (depth < pops) return fail_at(S::kStackUnderflow, pc);
-    const int32_t after = depth - pops + pushes;
+    const int32_t depth = depth_at[pc];
+    if (depth < 0) continue;  // unreachable (only jumps lead past an end): no stack to track
+    if (depth < op.pops) return fail_at(S::kStackUnderflow, pc);
+    const int32_t after = depth - op.pops + op.pushes;
     if (after > static_cast<int32_t>(kMaxStackDepth)) return fail_at(S::kStackOverflow, pc);
-    if (op == Op::kReturn && depth != 1) return fail_at(S::kStackMismatch, pc);
-    (void)terminator;
-    auto flow_to = [&](uint32_t target) {
-      if (depth_at[target] < 0) {
-        depth_at[target] = static_cast<int16_t>(after);
-        return true;
-      }
-      return depth_at[target] == after;
-    };
-    if (jump && !flow_to(pc + static_cast<uint32_t>(in.imm))) {
-      return fail_at(S::kStackMismatch, pc + static_cast<uint32_t>(in.imm));
+    if (in.op == static_cast<uint8_t>(Op::kReturn) && depth != 1) {
+      return fail_at(S::kStackMismatch, pc);
     }
-    if (falls) {
+    auto flow_to = [&](uint32_t to) {
+      if (depth_at[to] < 0) depth_at[to] = static_cast<int16_t>(after);
+      return depth_at[to] == after;
+    };
+    if ((op.flags & kJumps) != 0 && !flow_to(target)) return fail_at(S::kStackMismatch, target);
+    if ((op.flags & kEnds) == 0) {
       if (pc + 1 >= code_len) return fail_at(S::kNoTerminator, pc);
       if (!flow_to(pc + 1)) return fail_at(S::kStackMismatch, pc + 1);
     }
