@@ -185,29 +185,43 @@ static void init_verdict(Verdict* out, const Transaction* tx) {
   out->emit_bytes_used = 0;
 }
 
-void CheckerState::audit(const Transaction& tx, const Outcome& o) {
-  if (host_.audit == nullptr) return;
-  AuditRecord r;
+AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t command,
+                         Decision decision, Reason reason) {
+  AuditRecord r{};
   r.time_us = tx.now_us;
   r.job = tx.job;
   r.task = tx.task;
-  r.device = o.device;
-  r.command = o.command;
-  r.rule = o.rule;
-  r.rule_kind = o.rule_kind;
-  r.decision = o.decision;
-  r.reason = o.reason;
-  r.index = o.index;
-  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) {
-    r.fields[i] = i < o.field_count ? o.fields[i] : 0;
-  }
-  r.field_count = o.field_count;
+  r.device = device;
+  r.command = command;
+  r.rule = kNone;
+  r.rule_kind = RuleKind::kNoRule;
+  r.decision = decision;
+  r.reason = reason;
   r.bus = tx.bus;
   r.addr = tx.addr;
   r.original_len = static_cast<uint16_t>(tx.len);
   r.original = tx.bytes;
-  r.substitute = nullptr;
-  r.substitute_len = 0;
+  return r;
+}
+
+Subst template_subst(const TemplateRecord& t) {
+  Subst s{};
+  s.active = true;
+  s.command = t.command;
+  s.index = t.index;
+  s.set_mask = t.set_mask;
+  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
+  return s;
+}
+
+void CheckerState::audit(const Transaction& tx, const Outcome& o) {
+  if (host_.audit == nullptr) return;
+  AuditRecord r = audit_record(tx, o.device, o.command, o.decision, o.reason);
+  r.rule = o.rule;
+  r.rule_kind = o.rule_kind;
+  r.index = o.index;
+  for (uint32_t i = 0; i < o.field_count; ++i) r.fields[i] = o.fields[i];
+  r.field_count = o.field_count;
   if (o.decision == Decision::kFailsafe && o.emit_len != 0) {
     r.substitute = tx_.out->emit_bytes + o.emit_offset;
     r.substitute_len = o.emit_len;
@@ -439,15 +453,8 @@ void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t t
     return;
   }
   if (response == static_cast<uint8_t>(Response::kFailsafe) && template_id != kNone) {
-    const TemplateRecord& t = templates_[template_id];
-    Subst s{};
-    s.active = true;
-    s.command = t.command;
-    s.index = t.index;
-    s.set_mask = t.set_mask;
-    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
     decide(o, Decision::kFailsafe, reason, kind, rule, 0);
-    if (!emit_substitute(s, o)) {
+    if (!emit_substitute(template_subst(templates_[template_id]), o)) {
       decide(o, Decision::kIgnore, Reason::kEncodeFailed, kind, rule, 0);
     }
     return;
@@ -555,13 +562,7 @@ bool CheckerState::emit_safe_state(uint16_t dev) {
   const DeviceRecord& d = devices_[dev];
   if (d.safe_count == 0) return false;
   for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
-    const TemplateRecord& tr = templates_[t];
-    Subst s{};
-    s.active = true;
-    s.command = tr.command;
-    s.index = tr.index;
-    s.set_mask = tr.set_mask;
-    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = tr.values[i];
+    const Subst s = template_subst(templates_[t]);
     uint8_t bytes[kMaxRegisters];
     uint32_t len = 0;
     uint16_t command = kNone;

@@ -44,13 +44,7 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   d.prefix_byte = prefix ? tx.bytes[0] : 0;
   __builtin_memcpy(d.bytes, frame, dr.frame_len);
   decode_fields(d);
-  Outcome* o = new_outcome(dev);
-  if (o == nullptr) return;
-  evaluate(tx, *o);
-  if (o->decision == Decision::kAllow) {
-    // The checked bytes, exactly as checked (prefix included).
-    emit(tx.bytes, tx.len);
-    o->emit_len = static_cast<uint16_t>(tx.len);
+  if (Outcome* o = check_as_is(tx, dev)) {
     o->bus_command = d.command;
     for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
   }
@@ -68,13 +62,19 @@ void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, 1);
   d.bytes[0] = tx.bytes[0];
   for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) d.fields[f] = 0;
+  check_as_is(tx, dev);
+}
+
+// Checks the decoded command; allowed, the transaction's bytes go on exactly
+// as checked (prefix included). Returns its outcome if allowed.
+Outcome* CheckerState::check_as_is(const Transaction& tx, uint16_t dev) {
   Outcome* o = new_outcome(dev);
-  if (o == nullptr) return;
+  if (o == nullptr) return nullptr;
   evaluate(tx, *o);
-  if (o->decision == Decision::kAllow) {
-    emit(tx.bytes, tx.len);
-    o->emit_len = static_cast<uint16_t>(tx.len);
-  }
+  if (o->decision != Decision::kAllow) return nullptr;
+  emit(tx.bytes, tx.len);
+  o->emit_len = static_cast<uint16_t>(tx.len);
+  return o;
 }
 
 // Starts decoding command `cid` (channel `index`, `len` bytes) of `dev`.
@@ -137,21 +137,9 @@ void CheckerState::drop_foreign_staging(const Transaction& tx, uint16_t dev, uin
     }
   }
   if (!conflict || host_.audit == nullptr) return;
-  AuditRecord a{};
-  a.time_us = tx.now_us;
-  a.job = tx.job;
+  AuditRecord a = audit_record(tx, dev, cid, Decision::kIgnore, Reason::kStagingConflict);
   a.task = victim;
-  a.device = dev;
-  a.command = cid;
-  a.rule = kNone;
-  a.rule_kind = RuleKind::kNoRule;
-  a.decision = Decision::kIgnore;
-  a.reason = Reason::kStagingConflict;
   a.index = static_cast<uint8_t>(index);
-  a.bus = tx.bus;
-  a.addr = tx.addr;
-  a.original_len = static_cast<uint16_t>(tx.len);
-  a.original = tx.bytes;
   host_.audit(host_.context, &a);
 }
 

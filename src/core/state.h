@@ -169,26 +169,19 @@ struct LoadInput {
   SectionEntry init;  // the kRegisterInit section
 };
 
+// An audit record of `tx` with no rule and no fields.
+AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t command,
+                         Decision decision, Reason reason);
+// The substitute a template describes.
+Subst template_subst(const TemplateRecord& t);
+
 class CheckerState {
  public:
-  // The public API (contego/core/checker.h documents each).
+  // verifier.cc: load() verifies the image completely, then derives costs.
   LoadResult load(const uint8_t* image, uint32_t size);
-  void check(const Transaction& tx, Verdict* out);
-  bool safe_state(uint16_t device, Verdict* out);
-  void reset_latch(uint16_t device);
-  bool latched(uint16_t device) const;
-  bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
-  void begin_transfer();
-  void commit_transfer();
-  void abort_transfer(Decision decision);
-  bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
-  uint32_t model_crc() const;
-
-  bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
-  bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
-                      uint16_t device, LoadResult* result);
+  void clear_tables();
   LoadResult verify(const uint8_t* image, uint32_t size);
-  // The steps of verify() after the section table (verifier.cc runs them in order).
+  // The steps of verify() after the section table, run in this order.
   LoadResult verify_devices(const LoadInput& in);
   LoadResult verify_aliases(const LoadInput& in);
   LoadResult verify_commands(const LoadInput& in);
@@ -198,14 +191,43 @@ class CheckerState {
   LoadResult verify_rules(const LoadInput& in);
   LoadResult verify_access(const LoadInput& in);
   LoadResult verify_programs(const LoadInput& in);
-  void clear_tables();
+  bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
+  bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
+                      uint16_t device, LoadResult* result);
   void compute_costs();
-  LastCommand& last(uint16_t command, uint8_t index);
 
-  void check_device(const Transaction& tx, uint16_t dev);
+  // checker.cc: the check path, its combination of outcomes, latches.
+  void check(const Transaction& tx, Verdict* out);
+  uint32_t find_targets(const Transaction& tx, uint16_t* targets) const;
+  bool reserved_address(const Transaction& tx, uint32_t target_count) const;
   bool resolve_general_call(const Transaction& tx, Verdict* out);
+  void check_device(const Transaction& tx, uint16_t dev);
+  void evaluate(const Transaction& tx, Outcome& o);
+  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
+               RuleKind kind, uint16_t rule);
+  void finish(const Transaction& tx, Verdict* out);
+  void settle_model(const Transaction& tx, Decision decision);
+  void audit(const Transaction& tx, const Outcome& o);
+  Outcome* new_outcome(uint16_t dev);
+  bool emit(const uint8_t* bytes, uint32_t len);
+  void update_window(const Transaction& tx);
+  LastCommand& last(uint16_t command, uint8_t index);
+  void undo_save(uint16_t dev, uint8_t reg);
+  // Records that `command` wrote `value` to register `reg` of `dev` (undoable),
+  // with the device's broadcast into other channels.
+  void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
+  void rollback();
+  bool record_violation(uint16_t dev, uint64_t now_us);
+  void reset_latch(uint16_t device);
+  bool latched(uint16_t device) const;
+  bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+  bool safe_state(uint16_t device, Verdict* out);
+  bool emit_safe_state(uint16_t dev);
+
+  // decode.cc: device profiles, decoding writes and encoding substitutes.
   void check_frame(const Transaction& tx, uint16_t dev);
   void check_short_query(const Transaction& tx, uint16_t dev);
+  Outcome* check_as_is(const Transaction& tx, uint16_t dev);
   void check_register_map(const Transaction& tx, uint16_t dev);
   void check_general_call_command(const Transaction& tx, uint16_t dev);
   void drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
@@ -214,33 +236,13 @@ class CheckerState {
                     uint32_t index, uint32_t j, uint8_t val);
   Decoded& decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len);
   void decode_fields(Decoded& d);
-  void evaluate(const Transaction& tx, Outcome& o);
-  void finish(const Transaction& tx, Verdict* out);
-  void settle_model(const Transaction& tx, Decision decision);
-  Outcome* new_outcome(uint16_t dev);
-  bool emit(const uint8_t* bytes, uint32_t len);
-  bool emit_substitute(const Subst& subst, Outcome& o);
-  bool emit_safe_state(uint16_t dev);
-  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
-                    uint16_t command, uint8_t index);
-  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
-               RuleKind kind, uint16_t rule);
   bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, uint8_t* bytes,
                         uint32_t* len, uint16_t* command, uint8_t* index, int32_t* fields);
-  void update_window(const Transaction& tx);
-  bool record_violation(uint16_t dev, uint64_t now_us);
-  void undo_save(uint16_t dev, uint8_t reg);
-  // Records that `command` wrote `value` to register `reg` of `dev` (undoable),
-  // with the device's broadcast into other channels.
-  void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
-  void rollback();
-  uint32_t find_targets(const Transaction& tx, uint16_t* targets) const;
-  bool reserved_address(const Transaction& tx, uint32_t target_count) const;
-  bool journal_device(uint16_t dev);  // false: no room (the check is refused)
-  void journal_history(LastCommand& slot);
-  void journal_state(uint32_t invariant);
-  void audit(const Transaction& tx, const Outcome& o);
-  // Interpreter: how the program ended; *result holds a kReturn's value.
+  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
+                    uint16_t command, uint8_t index);
+  bool emit_substitute(const Subst& subst, Outcome& o);
+
+  // interpreter.cc: how a program ended; *result holds a kReturn's value.
   Exit run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result);
   bool context_value(const Insn& in, const Env& env, int64_t* value);
   bool subst_op(const Insn& in, const Env& env, int64_t value);
@@ -248,22 +250,27 @@ class CheckerState {
   SignalStatus raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
   SampleMemo& sample(uint16_t device, uint64_t now_us);  // sampled at most once per check()
 
+  // transfer.cc: the journal that undoes an aborted transfer; the model.
+  void begin_transfer();
+  void commit_transfer();
+  void abort_transfer(Decision decision);
+  bool journal_device(uint16_t dev);  // false: no room (the check is refused)
+  void journal_history(LastCommand& slot);
+  void journal_state(uint32_t invariant);
+  bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
+  uint32_t model_crc() const;
+
   bool loaded_ = false;
   Host host_{};
   uint32_t worst_case_cost_ = 0;
-  uint32_t task_count_ = 0;
-  uint32_t device_count_ = 0;
+  // The tables copied from the image, and how many records each holds.
+  // clang-format off
+  uint32_t task_count_ = 0, device_count_ = 0, alias_count_ = 0, command_count_ = 0,
+           field_count_ = 0, signal_count_ = 0, rate_count_ = 0, invariant_count_ = 0,
+           template_count_ = 0, code_count_ = 0, constant_count_ = 0;
+  // clang-format on
   TaskRecord tasks_[kMaxTasks]{};
   DeviceRecord devices_[kMaxDevices]{};
-  uint32_t alias_count_ = 0;
-  uint32_t command_count_ = 0;
-  uint32_t field_count_ = 0;
-  uint32_t signal_count_ = 0;
-  uint32_t rate_count_ = 0;
-  uint32_t invariant_count_ = 0;
-  uint32_t template_count_ = 0;
-  uint32_t code_count_ = 0;
-  uint32_t constant_count_ = 0;
   AliasRecord aliases_[kMaxAliases]{};
   CommandRecord commands_[kMaxCommandDefs]{};
   FieldRecord fields_[kMaxFieldDefs]{};

@@ -68,18 +68,8 @@ void CheckerState::abort_transfer(Decision decision) {
   }
   if (journal_.acted == 0 || host_.audit == nullptr) return;
   // Checks already audited as acting did not: say so in the same log.
-  AuditRecord r{};
-  r.time_us = journal_.first.now_us;
-  r.job = journal_.first.job;
-  r.task = journal_.first.task;
-  r.device = kNone;
-  r.command = kNone;
-  r.rule = kNone;
-  r.rule_kind = RuleKind::kNoRule;
-  r.decision = decision;
-  r.reason = Reason::kTransferDropped;
-  r.bus = journal_.first.bus;
-  r.addr = journal_.first.addr;
+  const AuditRecord r =
+      audit_record(journal_.first, kNone, kNone, decision, Reason::kTransferDropped);
   host_.audit(host_.context, &r);
 }
 
