@@ -269,18 +269,14 @@ class CheckerState {
            field_count_ = 0, signal_count_ = 0, rate_count_ = 0, invariant_count_ = 0,
            template_count_ = 0, code_count_ = 0, constant_count_ = 0;
   // clang-format on
-  TaskRecord tasks_[kMaxTasks]{};
-  DeviceRecord devices_[kMaxDevices]{};
-  AliasRecord aliases_[kMaxAliases]{};
-  CommandRecord commands_[kMaxCommandDefs]{};
-  FieldRecord fields_[kMaxFieldDefs]{};
-  SignalRecord signals_[kMaxSignals]{};
-  RateRecord rates_[kMaxRateLimits]{};
-  InvariantRecord invariants_[kMaxInvariants]{};
-  TemplateRecord templates_[kMaxTemplates]{};
-  Insn code_[kMaxCodeWords]{};
-  int64_t constants_[kMaxConstants]{};
-  AccessRecord access_[kMaxTasks]{};
+  // clang-format off
+  TaskRecord tasks_[kMaxTasks]{};                 DeviceRecord devices_[kMaxDevices]{};
+  AliasRecord aliases_[kMaxAliases]{};            CommandRecord commands_[kMaxCommandDefs]{};
+  FieldRecord fields_[kMaxFieldDefs]{};           SignalRecord signals_[kMaxSignals]{};
+  RateRecord rates_[kMaxRateLimits]{};            InvariantRecord invariants_[kMaxInvariants]{};
+  TemplateRecord templates_[kMaxTemplates]{};     Insn code_[kMaxCodeWords]{};
+  int64_t constants_[kMaxConstants]{};            AccessRecord access_[kMaxTasks]{};
+  // clang-format on
   uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
   uint64_t derived_mask_ = 0;
   uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)

@@ -92,13 +92,7 @@ inline void add_invariant(ImageModel& m, const char* name, uint16_t device, cons
 
 inline FieldRecord field_rec(uint8_t offset, uint8_t nbytes, uint8_t width, uint8_t flags = 0,
                              uint8_t shift = 0) {
-  FieldRecord f{};
-  f.offset = offset;
-  f.nbytes = nbytes;
-  f.shift = shift;
-  f.width = width;
-  f.flags = flags;
-  return f;
+  return FieldRecord{offset, nbytes, shift, width, flags, {0, 0, 0}, 0};
 }
 
 // `index`: the channel of a register-map command (a safe state must name
@@ -444,15 +438,9 @@ struct Harness {
 
   Verdict check(uint16_t task, uint16_t addr, std::vector<uint8_t> bytes, uint64_t now_us = 1000,
                 uint32_t job = 0, TxKind kind = TxKind::kWrite, uint8_t bus = 1) {
-    Transaction tx{};
-    tx.task = task;
-    tx.bus = bus;
-    tx.kind = kind;
-    tx.addr = addr;
-    tx.job = job;
-    tx.len = static_cast<uint32_t>(bytes.size());
-    tx.bytes = bytes.data();
-    tx.now_us = now_us;
+    const Transaction tx{
+        task,         bus,   kind, addr, 0, 0, job, static_cast<uint32_t>(bytes.size()),
+        bytes.data(), now_us};
     Verdict v{};
     audits.clear();
     audit_substitutes.clear();
