@@ -3,7 +3,11 @@
  * caller provides the checker's storage (contego_checker_size() bytes, aligned
  * to contego_checker_align()); nothing is allocated. Thread-safety: none (one
  * call at a time per checker). Every function is bounded and makes no OS call
- * except through the callbacks the host installs. */
+ * except through the callbacks the host installs. Every function checks its
+ * pointers: a NULL checker or transaction fails closed (contego_load: status 1
+ * too-small; contego_check: reject not-loaded / malformed, errno 1 / 22;
+ * contego_combine_transfer with NULL verdicts: refuse), a NULL output is left
+ * alone, and the other calls do nothing or answer 0. */
 #ifndef CONTEGO_CORE_C_H_
 #define CONTEGO_CORE_C_H_
 

@@ -1,11 +1,10 @@
 // The check path: transaction → device → command(s) → class, access, latch,
 // rate, invariants → combined verdict + audit. docs/core.md describes the
 // order and the semantics; this file is their implementation.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 namespace {
 
 constexpr uint8_t kEperm = 1;
@@ -16,7 +15,7 @@ bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsa
 
 }  // namespace
 
-Checker::Outcome* Checker::new_outcome(uint16_t dev) {
+Outcome* CheckerState::new_outcome(uint16_t dev) {
   if (tx_.outcome_count >= kMaxCommandsPerTransaction) {
     tx_.overflow = true;
     return nullptr;
@@ -42,8 +41,7 @@ Checker::Outcome* Checker::new_outcome(uint16_t dev) {
 }
 
 namespace {
-template <typename O>
-void decide(O& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t err) {
+void decide(Outcome& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t err) {
   o.decision = d;
   o.reason = r;
   o.rule_kind = kind;
@@ -52,7 +50,7 @@ void decide(O& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t er
 }
 }  // namespace
 
-bool Checker::emit(const uint8_t* bytes, uint32_t len) {
+bool CheckerState::emit(const uint8_t* bytes, uint32_t len) {
   Verdict& v = *tx_.out;
   if (v.emit_count >= kMaxEmits || len > kMaxEmitBytes - v.emit_bytes_used) {
     tx_.emit_failed = true;
@@ -64,7 +62,7 @@ bool Checker::emit(const uint8_t* bytes, uint32_t len) {
   return true;
 }
 
-void Checker::undo_save(uint16_t dev, uint8_t reg) {
+void CheckerState::undo_save(uint16_t dev, uint8_t reg) {
   if (dev != tx_.undo_device) {
     tx_.undo_device = dev;
     __builtin_memset(tx_.saved, 0, sizeof(tx_.saved));
@@ -84,7 +82,7 @@ void Checker::undo_save(uint16_t dev, uint8_t reg) {
                                     internal::bit_test(s.staged_bits, reg)};
 }
 
-void Checker::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
+void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
   DeviceState& s = state_[dev];
   undo_save(dev, reg);
   s.shadow[reg] = value;
@@ -100,7 +98,7 @@ void Checker::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t 
   }
 }
 
-void Checker::rollback() {
+void CheckerState::rollback() {
   for (uint32_t i = tx_.undo_count; i-- > 0;) {
     const Undo& u = tx_.undo[i];
     DeviceState& s = state_[u.device];
@@ -117,7 +115,7 @@ void Checker::rollback() {
   tx_.undo_device = kNone;
 }
 
-void Checker::update_window(const Transaction& tx) {
+void CheckerState::update_window(const Transaction& tx) {
   const uint32_t period = tasks_[tx.task].period_us;
   const uint64_t key =
       tx.job != 0 ? ((uint64_t{1} << 63) | tx.job) : (period != 0 ? tx.now_us / period : 0);
@@ -131,14 +129,14 @@ void Checker::update_window(const Transaction& tx) {
   }
 }
 
-Checker::LastCommand& Checker::last(uint16_t command, uint8_t index) {
+LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
   // The verifier sized the history so that every (command, channel) has a slot.
   const CommandRecord& c = commands_[command];
   const uint32_t channel = index < c.repeat ? index : 0;
   return last_[last_first_[command] + channel];
 }
 
-bool Checker::record_violation(uint16_t dev, uint64_t now_us) {
+bool CheckerState::record_violation(uint16_t dev, uint64_t now_us) {
   const DeviceRecord& d = devices_[dev];
   if (d.latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafe)) return false;
   DeviceState& s = state_[dev];
@@ -153,7 +151,7 @@ bool Checker::record_violation(uint16_t dev, uint64_t now_us) {
   return true;
 }
 
-void Checker::reset_latch(uint16_t device) {
+void CheckerState::reset_latch(uint16_t device) {
   if (device >= device_count_) return;
   DeviceState& s = state_[device];
   s.latched = false;
@@ -161,11 +159,11 @@ void Checker::reset_latch(uint16_t device) {
   s.violation_next = 0;
 }
 
-bool Checker::latched(uint16_t device) const {
+bool CheckerState::latched(uint16_t device) const {
   return device < device_count_ && state_[device].latched;
 }
 
-bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
+bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
   if (!loaded_ || device >= device_count_ ||
       devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
     return false;
@@ -187,29 +185,43 @@ static void init_verdict(Verdict* out, const Transaction* tx) {
   out->emit_bytes_used = 0;
 }
 
-void Checker::audit(const Transaction& tx, const Outcome& o) {
-  if (host_.audit == nullptr) return;
-  AuditRecord r;
+AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t command,
+                         Decision decision, Reason reason) {
+  AuditRecord r{};
   r.time_us = tx.now_us;
   r.job = tx.job;
   r.task = tx.task;
-  r.device = o.device;
-  r.command = o.command;
-  r.rule = o.rule;
-  r.rule_kind = o.rule_kind;
-  r.decision = o.decision;
-  r.reason = o.reason;
-  r.index = o.index;
-  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) {
-    r.fields[i] = i < o.field_count ? o.fields[i] : 0;
-  }
-  r.field_count = o.field_count;
+  r.device = device;
+  r.command = command;
+  r.rule = kNone;
+  r.rule_kind = RuleKind::kNoRule;
+  r.decision = decision;
+  r.reason = reason;
   r.bus = tx.bus;
   r.addr = tx.addr;
   r.original_len = static_cast<uint16_t>(tx.len);
   r.original = tx.bytes;
-  r.substitute = nullptr;
-  r.substitute_len = 0;
+  return r;
+}
+
+Subst template_subst(const TemplateRecord& t) {
+  Subst s{};
+  s.active = true;
+  s.command = t.command;
+  s.index = t.index;
+  s.set_mask = t.set_mask;
+  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
+  return s;
+}
+
+void CheckerState::audit(const Transaction& tx, const Outcome& o) {
+  if (host_.audit == nullptr) return;
+  AuditRecord r = audit_record(tx, o.device, o.command, o.decision, o.reason);
+  r.rule = o.rule;
+  r.rule_kind = o.rule_kind;
+  r.index = o.index;
+  for (uint32_t i = 0; i < o.field_count; ++i) r.fields[i] = o.fields[i];
+  r.field_count = o.field_count;
   if (o.decision == Decision::kFailsafe && o.emit_len != 0) {
     r.substitute = tx_.out->emit_bytes + o.emit_offset;
     r.substitute_len = o.emit_len;
@@ -217,7 +229,7 @@ void Checker::audit(const Transaction& tx, const Outcome& o) {
   host_.audit(host_.context, &r);
 }
 
-void Checker::check(const Transaction& tx, Verdict* out) {
+void CheckerState::check(const Transaction& tx, Verdict* out) {
   init_verdict(out, &tx);
   tx_.out = out;
   tx_.outcome_count = 0;
@@ -286,7 +298,7 @@ void Checker::check(const Transaction& tx, Verdict* out) {
 // first byte of a 10-bit address, device ID): refused unless the policy
 // declares a device there (some do: a line follower at 0x06), and 0x78-0x7B
 // always on a bus with a 10-bit device, whose address they would begin.
-bool Checker::reserved_address(const Transaction& tx, uint32_t target_count) const {
+bool CheckerState::reserved_address(const Transaction& tx, uint32_t target_count) const {
   if (tx.ten_bit != 0 || tx.addr == 0 || (tx.addr > 0x07 && tx.addr < 0x78)) return false;
   if (target_count == 0) return true;
   if (tx.addr > 0x7B) return false;
@@ -298,7 +310,7 @@ bool Checker::reserved_address(const Transaction& tx, uint32_t target_count) con
 
 // The devices a transaction addresses: the device at (bus, addr), an address
 // alias, or every listener of a general call.
-uint32_t Checker::find_targets(const Transaction& tx, uint16_t* targets) const {
+uint32_t CheckerState::find_targets(const Transaction& tx, uint16_t* targets) const {
   uint32_t count = 0;
   if (tx.addr == 0 && tx.ten_bit == 0) {
     for (uint32_t i = 0; i < alias_count_; ++i) {
@@ -339,7 +351,7 @@ uint32_t Checker::find_targets(const Transaction& tx, uint16_t* targets) const {
 //   written, the call is rejected instead (EPERM, nothing written);
 // - otherwise the usual combination (reject over ignore over fail-safe) decides.
 // Returns true if the verdict is the broadcast itself.
-bool Checker::resolve_general_call(const Transaction& tx, Verdict* out) {
+bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
   Verdict& v = *out;
   uint32_t substituting = 0;
   Outcome* sub = nullptr;
@@ -407,7 +419,7 @@ bool Checker::resolve_general_call(const Transaction& tx, Verdict* out) {
   return false;
 }
 
-void Checker::check_device(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_device(const Transaction& tx, uint16_t dev) {
   const bool may_read = (access_[tx.task].read_devices >> dev) & 1u;
   if (tx.kind == TxKind::kRead || tx.kind == TxKind::kQuick) {
     Outcome* o = new_outcome(dev);
@@ -434,22 +446,15 @@ void Checker::check_device(const Transaction& tx, uint16_t dev) {
 
 // Applies a rule's static response to `o`: ignore, reject, or fail-safe with
 // the rule's template (ignore when it has none).
-void Checker::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id,
-                      Reason reason, RuleKind kind, uint16_t rule) {
+void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id,
+                           Reason reason, RuleKind kind, uint16_t rule) {
   if (response == static_cast<uint8_t>(Response::kReject)) {
     decide(o, Decision::kReject, reason, kind, rule, err);
     return;
   }
   if (response == static_cast<uint8_t>(Response::kFailsafe) && template_id != kNone) {
-    const TemplateRecord& t = templates_[template_id];
-    Subst s{};
-    s.active = true;
-    s.command = t.command;
-    s.index = t.index;
-    s.set_mask = t.set_mask;
-    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
     decide(o, Decision::kFailsafe, reason, kind, rule, 0);
-    if (!emit_substitute(s, o)) {
+    if (!emit_substitute(template_subst(templates_[template_id]), o)) {
       decide(o, Decision::kIgnore, Reason::kEncodeFailed, kind, rule, 0);
     }
     return;
@@ -457,7 +462,7 @@ void Checker::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t templa
   decide(o, Decision::kIgnore, reason, kind, rule, 0);
 }
 
-void Checker::evaluate(const Transaction& tx, Outcome& o) {
+void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   const Decoded& d = decoded_;
   const uint16_t dev = d.device;
   o.command = d.command;
@@ -507,21 +512,21 @@ void Checker::evaluate(const Transaction& tx, Outcome& o) {
         subst.active = false;
         env.subst = &subst;
         int64_t unused = 0;
-        uint8_t status = 0;
-        const uint8_t term = run(inv.code_first, inv.code_len, env, &unused, &status);
+        const Exit exit = run(inv.code_first, inv.code_len, env, &unused);
         const uint16_t rule = static_cast<uint16_t>(i);
-        if (term == static_cast<uint8_t>(Op::kPass)) continue;
-        if (term == static_cast<uint8_t>(Op::kFail)) {
+        if (exit == Exit::kPass) continue;
+        if (exit == Exit::kFail) {
           respond(o, inv.response, inv.reply_errno, inv.template_id, Reason::kInvariantViolated,
                   RuleKind::kInvariant, rule);
-        } else if (term == static_cast<uint8_t>(Op::kFailSubst)) {
+        } else if (exit == Exit::kFailSubst) {
           decide(o, Decision::kFailsafe, Reason::kInvariantViolated, RuleKind::kInvariant, rule, 0);
           if (!emit_substitute(subst, o)) {
             decide(o, Decision::kIgnore, Reason::kEncodeFailed, RuleKind::kInvariant, rule, 0);
           }
         } else {
           // A fault is a violation: fail closed with the invariant's template.
-          const Reason why = status == 1 ? Reason::kSignalUnavailable : Reason::kProgramFault;
+          const Reason why =
+              exit == Exit::kUnavailable ? Reason::kSignalUnavailable : Reason::kProgramFault;
           respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
                   RuleKind::kInvariant, rule);
         }
@@ -553,17 +558,11 @@ void Checker::evaluate(const Transaction& tx, Outcome& o) {
   }
 }
 
-bool Checker::emit_safe_state(uint16_t dev) {
+bool CheckerState::emit_safe_state(uint16_t dev) {
   const DeviceRecord& d = devices_[dev];
   if (d.safe_count == 0) return false;
   for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
-    const TemplateRecord& tr = templates_[t];
-    Subst s{};
-    s.active = true;
-    s.command = tr.command;
-    s.index = tr.index;
-    s.set_mask = tr.set_mask;
-    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = tr.values[i];
+    const Subst s = template_subst(templates_[t]);
     uint8_t bytes[kMaxRegisters];
     uint32_t len = 0;
     uint16_t command = kNone;
@@ -575,7 +574,7 @@ bool Checker::emit_safe_state(uint16_t dev) {
   return true;
 }
 
-bool Checker::safe_state(uint16_t device, Verdict* out) {
+bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   init_verdict(out, nullptr);
   if (!loaded_ || device >= device_count_) return false;
   tx_.out = out;
@@ -601,7 +600,7 @@ bool Checker::safe_state(uint16_t device, Verdict* out) {
 
 // After the decision: a verdict that writes commits the transaction's state
 // words and history; one that does not undoes its register changes.
-void Checker::settle_model(const Transaction& tx, Decision decision) {
+void CheckerState::settle_model(const Transaction& tx, Decision decision) {
   if (!writes(decision)) {
     rollback();
     // A group whose commit was checked and refused loses its staged bytes.
@@ -638,7 +637,7 @@ void Checker::settle_model(const Transaction& tx, Decision decision) {
   }
 }
 
-void Checker::finish(const Transaction& tx, Verdict* out) {
+void CheckerState::finish(const Transaction& tx, Verdict* out) {
   Decision decision = Decision::kAllow;
   const Outcome* decider = nullptr;
   if (journal_.active && journal_.history_count + tx_.outcome_count > kMaxTransferHistory) {
@@ -672,34 +671,14 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
       o.emit_len = out->emit_bytes_used;
     }
   } else {
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.decision == Decision::kReject) {
-        decision = Decision::kReject;
-        decider = &o;
-        break;
+    // Reject over ignore over fail-safe over allow.
+    constexpr Decision kOrder[] = {Decision::kReject, Decision::kIgnore, Decision::kFailsafe};
+    for (uint32_t k = 0; k < 3 && decider == nullptr; ++k) {
+      for (uint32_t i = 0; i < tx_.outcome_count && decider == nullptr; ++i) {
+        if (tx_.outcomes[i].decision == kOrder[k]) decider = &tx_.outcomes[i];
       }
     }
-    if (decider == nullptr) {
-      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-        const Outcome& o = tx_.outcomes[i];
-        if (o.decision == Decision::kIgnore) {
-          decision = Decision::kIgnore;
-          decider = &o;
-          break;
-        }
-      }
-    }
-    if (decider == nullptr) {
-      for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-        const Outcome& o = tx_.outcomes[i];
-        if (o.decision == Decision::kFailsafe) {
-          decision = Decision::kFailsafe;
-          decider = &o;
-          break;
-        }
-      }
-    }
+    if (decider != nullptr) decision = decider->decision;
     if (decider == nullptr && tx_.outcome_count != 0) decider = &tx_.outcomes[0];
   }
 
@@ -752,5 +731,42 @@ void Checker::finish(const Transaction& tx, Verdict* out) {
     audit(tx, o);
   }
 }
+
+}  // namespace contego::core::internal
+
+namespace contego::core {
+
+using internal::CheckerState;
+
+static_assert(sizeof(CheckerState) <= kCheckerStateBytes, "raise kCheckerStateBytes (checker.h)");
+static_assert(sizeof(void*) != 8 || kCheckerStateBytes - sizeof(CheckerState) < 64,
+              "lower kCheckerStateBytes (checker.h)");
+static_assert(alignof(CheckerState) <= kCheckerStateAlign, "raise kCheckerStateAlign");
+
+Checker::Checker() { new (storage_, internal::Place{}) CheckerState(); }
+LoadResult Checker::load(const uint8_t* image, uint32_t size) { return state().load(image, size); }
+bool Checker::loaded() const { return state().loaded_; }
+void Checker::set_host(const Host& host) { state().host_ = host; }
+void Checker::check(const Transaction& tx, Verdict* out) { state().check(tx, out); }
+bool Checker::safe_state(uint16_t device, Verdict* out) { return state().safe_state(device, out); }
+void Checker::reset_latch(uint16_t device) { state().reset_latch(device); }
+bool Checker::latched(uint16_t device) const { return state().latched(device); }
+bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
+  return state().seed_register(device, reg, value);
+}
+void Checker::begin_transfer() { state().begin_transfer(); }
+void Checker::commit_transfer() { state().commit_transfer(); }
+void Checker::abort_transfer(Decision decision) { state().abort_transfer(decision); }
+bool Checker::in_transfer() const { return state().journal_.active; }
+bool Checker::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
+  return state().shadow(device, reg, value);
+}
+uint32_t Checker::model_crc() const { return state().model_crc(); }
+uint32_t Checker::worst_case_cost() const { return state().worst_case_cost_; }
+uint64_t Checker::executed_instructions() const { return state().executed_; }
+uint32_t Checker::task_count() const { return state().task_count_; }
+uint32_t Checker::device_count() const { return state().device_count_; }
+const TaskRecord& Checker::task(uint16_t id) const { return state().tasks_[id]; }
+const DeviceRecord& Checker::device(uint16_t id) const { return state().devices_[id]; }
 
 }  // namespace contego::core

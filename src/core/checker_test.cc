@@ -375,15 +375,8 @@ image::ImageModel with_speed_cap(int32_t substitute) {
   const size_t ok = cap.jump(Op::kJumpIfZero);
   cap.op(Op::kSubstBegin, kNone).push(substitute).op(Op::kSubstField, 0).op(Op::kFailSubst);
   cap.land(ok).op(Op::kPass);
-  Named<InvariantRecord> v;
-  v.name = "speed_cap";
-  v.record.device = rover::kGopigo;
-  v.record.code_first = testing::add_code(m, cap);
-  v.record.code_len = static_cast<uint16_t>(cap.size());
-  v.record.response = static_cast<uint8_t>(Response::kIgnore);
-  v.record.template_id = kNone;
-  v.record.commands = testing::mask_of({rover::kSetLeftSpeed});
-  m.invariants.push_back(v);
+  testing::add_invariant(m, "speed_cap", rover::kGopigo, cap,
+                         testing::mask_of({rover::kSetLeftSpeed}), Response::kIgnore, kNone);
   return m;
 }
 
@@ -417,15 +410,8 @@ TEST_F(RoverTest, LastFieldAndSinceLastSeeWhatReachedTheBus) {
   const size_t late = slew.jump(Op::kJumpIfZero);
   slew.op(Op::kFail);
   slew.land(late).op(Op::kPass);
-  Named<InvariantRecord> v;
-  v.name = "slew";
-  v.record.device = rover::kGopigo;
-  v.record.code_first = testing::add_code(m, slew);
-  v.record.code_len = static_cast<uint16_t>(slew.size());
-  v.record.response = static_cast<uint8_t>(Response::kIgnore);
-  v.record.template_id = rover::kTplSpeed80;
-  v.record.commands = testing::mask_of({rover::kSetRightSpeed});
-  m.invariants.push_back(v);
+  testing::add_invariant(m, "slew", rover::kGopigo, slew, testing::mask_of({rover::kSetRightSpeed}),
+                         Response::kIgnore, rover::kTplSpeed80);
   m.rates.clear();
   load(m);
   Verdict first = send({71, 200, 0, 0}, rover::kFollower, 1000);
@@ -450,15 +436,8 @@ TEST_F(RoverTest, HasLastGuardsTheHistoryBeforeTheFirstCommand) {
   const size_t small = slew.jump(Op::kJumpIfZero);
   slew.op(Op::kFail);
   slew.land(small).op(Op::kPass);
-  Named<InvariantRecord> v;
-  v.name = "slew";
-  v.record.device = rover::kGopigo;
-  v.record.code_first = testing::add_code(m, slew);
-  v.record.code_len = static_cast<uint16_t>(slew.size());
-  v.record.response = static_cast<uint8_t>(Response::kIgnore);
-  v.record.template_id = kNone;
-  v.record.commands = testing::mask_of({rover::kSetRightSpeed});
-  m.invariants.push_back(v);
+  testing::add_invariant(m, "slew", rover::kGopigo, slew, testing::mask_of({rover::kSetRightSpeed}),
+                         Response::kIgnore, kNone);
   m.rates.clear();
   load(m);
   EXPECT_EQ(send({71, 200, 0, 0}, rover::kFollower, 1000).decision, Decision::kIgnore);  // 100+100

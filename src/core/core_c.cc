@@ -1,42 +1,68 @@
 // The C ABI facade (include/contego/core_c.h) over Checker. The C structs
 // mirror the C++ ones field for field; static_asserts keep them in step.
+// Every entry point checks its pointers: a NULL checker or transaction
+// fails closed, a NULL output is left alone.
 #include "contego/core_c.h"
 
 #include <stddef.h>
 
 #include "contego/core/checker.h"
 
-using contego::core::AuditRecord;
-using contego::core::Checker;
-using contego::core::Transaction;
-using contego::core::Verdict;
+namespace core = contego::core;
 
-static_assert(sizeof(contego_transaction) == sizeof(Transaction));
-static_assert(offsetof(contego_transaction, bytes) == offsetof(Transaction, bytes));
-static_assert(offsetof(contego_transaction, now_us) == offsetof(Transaction, now_us));
-static_assert(sizeof(contego_verdict) == sizeof(Verdict));
-static_assert(offsetof(contego_verdict, emit_len) == offsetof(Verdict, emit_len));
-static_assert(offsetof(contego_verdict, emit_bytes) == offsetof(Verdict, emit_bytes));
-static_assert(sizeof(contego_audit_record) == sizeof(AuditRecord));
-static_assert(offsetof(contego_audit_record, fields) == offsetof(AuditRecord, fields));
-static_assert(offsetof(contego_audit_record, substitute) == offsetof(AuditRecord, substitute));
-static_assert(CONTEGO_MAX_EMITS == contego::core::kMaxEmits);
-static_assert(CONTEGO_MAX_EMIT_BYTES == contego::core::kMaxEmitBytes);
+// The C structs are the C++ ones, field for field: same offsets and sizes.
+// SAME_FIELDS(C, CPP, f...) asserts each field f in turn (C++20 __VA_OPT__).
+#define SAME_FIELD(C, CPP, f)                                   \
+  static_assert(offsetof(C, f) == offsetof(CPP, f), #C "." #f); \
+  static_assert(sizeof(C::f) == sizeof(CPP::f), #C "." #f " size");
+#define SAME_PARENS ()
+#define SAME_EXPAND(...) SAME_EXPAND2(SAME_EXPAND2(SAME_EXPAND2(SAME_EXPAND2(__VA_ARGS__))))
+#define SAME_EXPAND2(...) SAME_EXPAND1(SAME_EXPAND1(SAME_EXPAND1(SAME_EXPAND1(__VA_ARGS__))))
+#define SAME_EXPAND1(...) __VA_ARGS__
+#define SAME_NEXT() SAME_EACH
+#define SAME_EACH(C, CPP, f, ...) \
+  SAME_FIELD(C, CPP, f) __VA_OPT__(SAME_NEXT SAME_PARENS(C, CPP, __VA_ARGS__))
+#define SAME_FIELDS(C, CPP, ...)                                             \
+  static_assert(sizeof(C) == sizeof(CPP) && alignof(C) == alignof(CPP), #C); \
+  SAME_EXPAND(SAME_EACH(C, CPP, __VA_ARGS__))
+
+SAME_FIELDS(contego_transaction, core::Transaction, task, bus, kind, addr, ten_bit, pad, job, len,
+            bytes, now_us)
+SAME_FIELDS(contego_verdict, core::Verdict, decision, reason, rule_kind, reply_errno, rule, device,
+            addr, bus, emit_count, emit_bytes_used, emit_len, emit_bytes)
+SAME_FIELDS(contego_audit_record, core::AuditRecord, time_us, job, task, device, command, rule,
+            rule_kind, decision, reason, index, fields, field_count, bus, addr, original_len,
+            substitute_len, original, substitute)
+
+static_assert(CONTEGO_MAX_EMITS == core::kMaxEmits);
+static_assert(CONTEGO_MAX_EMIT_BYTES == core::kMaxEmitBytes);
+static_assert(CONTEGO_MAX_FIELDS == core::kMaxFieldsPerCommand);
+static_assert(CONTEGO_NONE == core::kNone);
+static_assert(CONTEGO_ALLOW == static_cast<int>(core::Decision::kAllow) &&
+              CONTEGO_IGNORE == static_cast<int>(core::Decision::kIgnore) &&
+              CONTEGO_FAILSAFE == static_cast<int>(core::Decision::kFailsafe) &&
+              CONTEGO_REJECT == static_cast<int>(core::Decision::kReject));
+static_assert(CONTEGO_TX_WRITE == static_cast<int>(core::TxKind::kWrite) &&
+              CONTEGO_TX_READ == static_cast<int>(core::TxKind::kRead) &&
+              CONTEGO_TX_QUICK == static_cast<int>(core::TxKind::kQuick));
 
 // Placement new without <new>: the freestanding core has no libstdc++ headers.
 inline void* operator new(size_t, void* where, int /*tag*/) noexcept { return where; }
 
 namespace {
 
+constexpr uint8_t kEperm = 1;
+constexpr uint8_t kEinval = 22;
+
 // The caller's storage holds the checker and the C host it installed; the
 // core's Host points at small trampolines that hand the C callbacks C types.
 struct Facade {
-  Checker checker;
+  core::Checker checker;
   contego_host host;
 };
 
-Checker* checker(contego_checker* c) { return &reinterpret_cast<Facade*>(c)->checker; }
-const Checker* checker(const contego_checker* c) {
+core::Checker* checker(contego_checker* c) { return &reinterpret_cast<Facade*>(c)->checker; }
+const core::Checker* checker(const contego_checker* c) {
   return &reinterpret_cast<const Facade*>(c)->checker;
 }
 
@@ -46,7 +72,7 @@ uint32_t read_sample_trampoline(void* context, uint16_t device, uint8_t* buf, ui
   return h->read_sample(h->context, device, buf, capacity, taken_at_us);
 }
 
-void audit_trampoline(void* context, const AuditRecord* record) {
+void audit_trampoline(void* context, const core::AuditRecord* record) {
   const contego_host* h = static_cast<const contego_host*>(context);
   // Layout-identical (asserted above).
   h->audit(h->context, reinterpret_cast<const contego_audit_record*>(record));
@@ -69,13 +95,16 @@ contego_checker* contego_checker_init(void* mem, size_t size) {
 }
 
 contego_load_result contego_load(contego_checker* c, const uint8_t* image, uint32_t size) {
-  const contego::core::LoadResult r = checker(c)->load(image, size);
+  if (c == nullptr)
+    return contego_load_result{static_cast<uint8_t>(core::LoadStatus::kTooSmall), 0, 0};
+  const core::LoadResult r = checker(c)->load(image, size);
   return contego_load_result{static_cast<uint8_t>(r.status), r.section, r.index};
 }
 
 void contego_set_host(contego_checker* c, const contego_host* host) {
+  if (c == nullptr) return;
   Facade* f = reinterpret_cast<Facade*>(c);
-  contego::core::Host h{};
+  core::Host h{};
   if (host != nullptr) {
     f->host = *host;
     h.context = &f->host;
@@ -86,34 +115,63 @@ void contego_set_host(contego_checker* c, const contego_host* host) {
 }
 
 void contego_check(contego_checker* c, const contego_transaction* tx, contego_verdict* out) {
-  checker(c)->check(*reinterpret_cast<const Transaction*>(tx), reinterpret_cast<Verdict*>(out));
+  if (out == nullptr) return;
+  if (c == nullptr || tx == nullptr) {
+    // Fail closed, as the checker does for a transaction it cannot decide.
+    __builtin_memset(out, 0, sizeof(*out));
+    out->decision = CONTEGO_REJECT;
+    out->reason =
+        static_cast<uint8_t>(c == nullptr ? core::Reason::kNotLoaded : core::Reason::kMalformed);
+    out->reply_errno = c == nullptr ? kEperm : kEinval;
+    out->rule = CONTEGO_NONE;
+    out->device = CONTEGO_NONE;
+    return;
+  }
+  checker(c)->check(*reinterpret_cast<const core::Transaction*>(tx),
+                    reinterpret_cast<core::Verdict*>(out));
 }
 
 int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out) {
-  return checker(c)->safe_state(device, reinterpret_cast<Verdict*>(out)) ? 1 : 0;
+  if (c == nullptr || out == nullptr) return 0;
+  return checker(c)->safe_state(device, reinterpret_cast<core::Verdict*>(out)) ? 1 : 0;
 }
 
-void contego_begin_transfer(contego_checker* c) { checker(c)->begin_transfer(); }
-void contego_commit_transfer(contego_checker* c) { checker(c)->commit_transfer(); }
+void contego_begin_transfer(contego_checker* c) {
+  if (c != nullptr) checker(c)->begin_transfer();
+}
+void contego_commit_transfer(contego_checker* c) {
+  if (c != nullptr) checker(c)->commit_transfer();
+}
 void contego_abort_transfer(contego_checker* c, uint8_t decision) {
-  checker(c)->abort_transfer(static_cast<contego::core::Decision>(decision));
+  if (c == nullptr) return;
+  // An unknown decision is recorded as the strictest one.
+  checker(c)->abort_transfer(
+      static_cast<core::Decision>(decision <= CONTEGO_REJECT ? decision : uint8_t{CONTEGO_REJECT}));
 }
 
 uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count,
                                  uint32_t* decider) {
-  const contego::core::TransferVerdict t =
-      contego::core::combine_transfer(reinterpret_cast<const Verdict*>(verdicts), count);
+  if (verdicts == nullptr && count != 0) {  // nothing to read: refuse the transfer
+    if (decider != nullptr) *decider = 0;
+    return static_cast<uint8_t>(core::TransferAction::kRefuse);
+  }
+  const core::TransferVerdict t =
+      core::combine_transfer(reinterpret_cast<const core::Verdict*>(verdicts), count);
   if (decider != nullptr) *decider = t.decider;
   return static_cast<uint8_t>(t.action);
 }
 
-void contego_reset_latch(contego_checker* c, uint16_t device) { checker(c)->reset_latch(device); }
-
-int contego_latched(const contego_checker* c, uint16_t device) {
-  return checker(c)->latched(device) ? 1 : 0;
+void contego_reset_latch(contego_checker* c, uint16_t device) {
+  if (c != nullptr) checker(c)->reset_latch(device);
 }
 
-uint32_t contego_worst_case_cost(const contego_checker* c) { return checker(c)->worst_case_cost(); }
+int contego_latched(const contego_checker* c, uint16_t device) {
+  return c != nullptr && checker(c)->latched(device) ? 1 : 0;
+}
+
+uint32_t contego_worst_case_cost(const contego_checker* c) {
+  return c != nullptr ? checker(c)->worst_case_cost() : 0;
+}
 
 uint32_t contego_task_period_us(const contego_checker* c, uint16_t task) {
   const Checker* k = checker(c);
@@ -121,13 +179,13 @@ uint32_t contego_task_period_us(const contego_checker* c, uint16_t task) {
 }
 
 const char* contego_load_status_name(uint8_t status) {
-  return contego::core::load_status_name(static_cast<contego::core::LoadStatus>(status));
+  return core::load_status_name(static_cast<core::LoadStatus>(status));
 }
 const char* contego_reason_name(uint8_t reason) {
-  return contego::core::reason_name(static_cast<contego::core::Reason>(reason));
+  return core::reason_name(static_cast<core::Reason>(reason));
 }
 const char* contego_decision_name(uint8_t decision) {
-  return contego::core::decision_name(static_cast<contego::core::Decision>(decision));
+  return core::decision_name(static_cast<core::Decision>(decision));
 }
 
 }  // extern "C"

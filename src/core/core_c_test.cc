@@ -98,5 +98,37 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   contego_reset_latch(c, rover::kGopigo);
 }
 
+TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
+  contego_load_result r = contego_load(nullptr, nullptr, 0);
+  EXPECT_EQ(r.status, static_cast<uint8_t>(LoadStatus::kTooSmall));
+  contego_set_host(nullptr, nullptr);
+  contego_verdict v{};
+  v.decision = CONTEGO_ALLOW;
+  contego_check(nullptr, nullptr, &v);
+  EXPECT_EQ(v.decision, CONTEGO_REJECT);
+  EXPECT_STREQ(contego_reason_name(v.reason), "not-loaded");
+  contego_check(nullptr, nullptr, nullptr);  // nowhere to answer: nothing happens
+  EXPECT_EQ(contego_safe_state(nullptr, 0, &v), 0);
+  contego_begin_transfer(nullptr);
+  contego_commit_transfer(nullptr);
+  contego_abort_transfer(nullptr, CONTEGO_REJECT);
+  contego_reset_latch(nullptr, 0);
+  EXPECT_EQ(contego_latched(nullptr, 0), 0);
+  EXPECT_EQ(contego_worst_case_cost(nullptr), 0u);
+  uint32_t decider = 7;
+  EXPECT_EQ(contego_combine_transfer(nullptr, 2, &decider), 1);  // refuse
+  EXPECT_EQ(decider, 0u);
+  EXPECT_STREQ(contego_decision_name(200), "unknown");
+
+  std::vector<uint64_t> storage(contego_checker_size() / 8 + 1);
+  contego_checker* c = contego_checker_init(storage.data(), storage.size() * 8);
+  ASSERT_NE(c, nullptr);
+  v.decision = CONTEGO_ALLOW;
+  contego_check(c, nullptr, &v);  // no transaction: malformed
+  EXPECT_EQ(v.decision, CONTEGO_REJECT);
+  EXPECT_EQ(v.reply_errno, 22);
+  EXPECT_EQ(contego_safe_state(c, 0, nullptr), 0);
+}
+
 }  // namespace
 }  // namespace contego::core

@@ -1,17 +1,16 @@
 // Device profiles inside the core: decoding a write into commands (frame and
 // register-map, with staging of partial register groups) and encoding
 // substitutes (templates, FAIL_SUBST, safe states) back into bus writes.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 namespace {
 
 constexpr uint8_t kEperm = 1;
 constexpr uint8_t kEinval = 22;
 
-template <typename O>  // O = Checker::Outcome (private; deduced, not named)
+template <typename O>  // O = Outcome (private; deduced, not named)
 void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
   if (o == nullptr) return;
   o->command = command;
@@ -24,7 +23,7 @@ void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
 
 }  // namespace
 
-void Checker::check_frame(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   if (tx.len == 1 && dr.short_queries != 0 && tx.len != dr.frame_len) {
     return check_short_query(tx, dev);
@@ -40,27 +39,12 @@ void Checker::check_frame(const Transaction& tx, uint16_t dev) {
   const uint8_t* frame = tx.bytes + prefix;
   const uint8_t k = state_[dev].lookup[frame[0]];
   if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
-  Decoded& d = decoded_;
-  d.device = dev;
-  d.command = static_cast<uint16_t>(dr.command_first + k);
-  d.index = 0;
+  Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, dr.frame_len);
   d.prefix = static_cast<uint8_t>(prefix);
   d.prefix_byte = prefix ? tx.bytes[0] : 0;
-  d.base_reg = 0;
-  d.len = dr.frame_len;
   __builtin_memcpy(d.bytes, frame, dr.frame_len);
-  const CommandRecord& c = commands_[d.command];
-  d.field_count = c.field_count;
-  for (uint32_t f = 0; f < c.field_count; ++f) {
-    d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
-  }
-  Outcome* o = new_outcome(dev);
-  if (o == nullptr) return;
-  evaluate(tx, *o);
-  if (o->decision == Decision::kAllow) {
-    // The checked bytes, exactly as checked (prefix included).
-    emit(tx.bytes, tx.len);
-    o->emit_len = static_cast<uint16_t>(tx.len);
+  decode_fields(d);
+  if (Outcome* o = check_as_is(tx, dev)) {
     o->bus_command = d.command;
     for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
   }
@@ -68,65 +52,144 @@ void Checker::check_frame(const Transaction& tx, uint16_t dev) {
 
 // A one-byte write naming a query: decoded as that query with no fields (it
 // needs read access); any other single byte is malformed.
-void Checker::check_short_query(const Transaction& tx, uint16_t dev) {
+void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   const uint8_t k = state_[dev].lookup[tx.bytes[0]];
   if (k == 0xFF ||
       commands_[dr.command_first + k].command_class != static_cast<uint8_t>(CommandClass::kQuery)) {
     return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
   }
+  Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, 1);
+  d.bytes[0] = tx.bytes[0];
+  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) d.fields[f] = 0;
+  check_as_is(tx, dev);
+}
+
+// Checks the decoded command; allowed, the transaction's bytes go on exactly
+// as checked (prefix included). Returns its outcome if allowed.
+Outcome* CheckerState::check_as_is(const Transaction& tx, uint16_t dev) {
+  Outcome* o = new_outcome(dev);
+  if (o == nullptr) return nullptr;
+  evaluate(tx, *o);
+  if (o->decision != Decision::kAllow) return nullptr;
+  emit(tx.bytes, tx.len);
+  o->emit_len = static_cast<uint16_t>(tx.len);
+  return o;
+}
+
+// Starts decoding command `cid` (channel `index`, `len` bytes) of `dev`.
+Decoded& CheckerState::decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len) {
   Decoded& d = decoded_;
   d.device = dev;
-  d.command = static_cast<uint16_t>(dr.command_first + k);
-  d.index = 0;
+  d.command = cid;
+  d.index = index;
   d.prefix = 0;
   d.prefix_byte = 0;
   d.base_reg = 0;
-  d.len = 1;
-  d.bytes[0] = tx.bytes[0];
+  d.len = len;
   d.field_count = 0;
-  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) d.fields[f] = 0;
-  Outcome* o = new_outcome(dev);
-  if (o == nullptr) return;
-  evaluate(tx, *o);
-  if (o->decision == Decision::kAllow) {
-    emit(tx.bytes, tx.len);
-    o->emit_len = static_cast<uint16_t>(tx.len);
+  return d;
+}
+
+void CheckerState::decode_fields(Decoded& d) {
+  const CommandRecord& c = commands_[d.command];
+  d.field_count = c.field_count;
+  for (uint32_t f = 0; f < c.field_count; ++f) {
+    d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
   }
 }
 
-void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
+// One byte to the general-call address is a command (0x06 = software reset
+// on a PCA9685), not a register pointer: one of the device's general-call
+// commands, or refused.
+void CheckerState::check_general_call_command(const Transaction& tx, uint16_t dev) {
+  const DeviceRecord& dr = devices_[dev];
+  for (uint32_t k = 0; k < dr.command_count; ++k) {
+    const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
+    const CommandRecord& c = commands_[cid];
+    if (c.group_len != 0 || c.match != tx.bytes[0]) continue;
+    decode_start(dev, cid, 0, 0);
+    Outcome* o = new_outcome(dev);
+    if (o == nullptr) return;
+    evaluate(tx, *o);
+    if (o->decision == Decision::kAllow) {
+      o->bus_command = cid;  // check() emits the broadcast
+      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = 0;
+    }
+    return;
+  }
+  refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+}
+
+// Another task's staged bytes of the group at `base` are dropped (audited).
+void CheckerState::drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
+                                        uint32_t base, uint32_t index) {
+  DeviceState& st = state_[dev];
+  bool conflict = false;
+  uint8_t victim = 0;
+  for (uint32_t q = 0; q < commands_[cid].group_len; ++q) {
+    const uint32_t r = base + q;
+    if (internal::bit_test(st.staged_bits, r) && st.staged_task[r] != tx.task) {
+      undo_save(dev, static_cast<uint8_t>(r));
+      internal::bit_clear(st.staged_bits, r);
+      victim = st.staged_task[r];
+      conflict = true;
+    }
+  }
+  if (!conflict || host_.audit == nullptr) return;
+  AuditRecord a = audit_record(tx, dev, cid, Decision::kIgnore, Reason::kStagingConflict);
+  a.task = victim;
+  a.index = static_cast<uint8_t>(index);
+  host_.audit(host_.context, &a);
+}
+
+// The group's last register was written: commit = shadow overlaid with the
+// staged bytes and `val` at offset `j`, checked as one command.
+void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                                uint32_t index, uint32_t j, uint8_t val) {
+  DeviceState& st = state_[dev];
+  const CommandRecord& c = commands_[cid];
+  Decoded& d = decode_start(dev, cid, static_cast<uint8_t>(index), c.group_len);
+  d.base_reg = static_cast<uint8_t>(base);
+  __builtin_memset(d.written, 0, sizeof(d.written));
+  for (uint32_t q = 0; q < c.group_len; ++q) {
+    const uint32_t r = base + q;
+    if (internal::bit_test(st.staged_bits, r)) {
+      d.bytes[q] = st.staged[r];
+      internal::bit_set(d.written, q);
+      undo_save(dev, static_cast<uint8_t>(r));
+      internal::bit_clear(st.staged_bits, r);
+    } else {
+      d.bytes[q] = st.shadow[r];
+    }
+  }
+  d.bytes[j] = val;
+  internal::bit_set(d.written, j);
+  decode_fields(d);
+  Outcome* o = new_outcome(dev);
+  if (o == nullptr) return;
+  o->base_reg = d.base_reg;
+  o->group_len = c.group_len;
+  evaluate(tx, *o);
+  if (o->decision != Decision::kAllow) return;
+  for (uint32_t q = 0; q < c.group_len; ++q) {
+    if (!internal::bit_test(d.written, q)) continue;
+    const uint8_t r = static_cast<uint8_t>(base + q);
+    const uint8_t pair[2] = {r, d.bytes[q]};
+    emit(pair, 2);
+    store_shadow(dev, cid, r, d.bytes[q]);
+  }
+  o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
+  o->bus_command = cid;
+  o->bus_index = d.index;
+  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+}
+
+void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   DeviceState& st = state_[dev];
   if (tx.len == 0) return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
-  if (tx.len == 1 && general_call_) {
-    // One byte to the general-call address is a command (0x06 = software
-    // reset on a PCA9685), not a register pointer: one of the device's
-    // general-call commands, or refused.
-    for (uint32_t k = 0; k < dr.command_count; ++k) {
-      const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
-      const CommandRecord& c = commands_[cid];
-      if (c.group_len != 0 || c.match != tx.bytes[0]) continue;
-      Decoded& d = decoded_;
-      d.device = dev;
-      d.command = cid;
-      d.index = 0;
-      d.prefix = 0;
-      d.prefix_byte = 0;
-      d.base_reg = 0;
-      d.len = 0;
-      d.field_count = 0;
-      Outcome* o = new_outcome(dev);
-      if (o == nullptr) return;
-      evaluate(tx, *o);
-      if (o->decision == Decision::kAllow) {
-        o->bus_command = cid;  // check() emits the broadcast
-        for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = 0;
-      }
-      return;
-    }
-    return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
-  }
+  if (tx.len == 1 && general_call_) return check_general_call_command(tx, dev);
   if (tx.len == 1) {
     // Register pointer only (the first half of a register read): no register
     // changes, so it needs read access like the read that follows.
@@ -160,104 +223,26 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
     const CommandRecord& c = commands_[cid];
     if (c.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
       // Decoded far enough to know it is forbidden: evaluate() records the violation.
-      Decoded& d = decoded_;
-      d.device = dev;
-      d.command = cid;
-      d.index = 0;
-      d.field_count = 0;
+      decode_start(dev, cid, 0, 0);
       Outcome* o = new_outcome(dev);
       if (o != nullptr) evaluate(tx, *o);
       return;
     }
-    const uint32_t off = reg - c.match;
-    const uint32_t index = c.stride != 0 ? off / c.stride : 0;
+    const uint32_t index = c.stride != 0 ? (reg - c.match) / c.stride : 0;
     const uint32_t base = c.match + index * c.stride;
     const uint32_t j = reg - base;
-    // Another task's staged bytes of this group are dropped.
-    bool conflict = false;
-    uint8_t victim = 0;
-    for (uint32_t q = 0; q < c.group_len; ++q) {
-      const uint32_t r = base + q;
-      if (internal::bit_test(st.staged_bits, r) && st.staged_task[r] != tx.task) {
-        undo_save(dev, static_cast<uint8_t>(r));
-        internal::bit_clear(st.staged_bits, r);
-        victim = st.staged_task[r];
-        conflict = true;
-      }
-    }
-    if (conflict && host_.audit != nullptr) {
-      AuditRecord a{};
-      a.time_us = tx.now_us;
-      a.job = tx.job;
-      a.task = victim;
-      a.device = dev;
-      a.command = cid;
-      a.rule = kNone;
-      a.rule_kind = RuleKind::kNoRule;
-      a.decision = Decision::kIgnore;
-      a.reason = Reason::kStagingConflict;
-      a.index = static_cast<uint8_t>(index);
-      a.bus = tx.bus;
-      a.addr = tx.addr;
-      a.original_len = static_cast<uint16_t>(tx.len);
-      a.original = tx.bytes;
-      host_.audit(host_.context, &a);
-    }
-    if (j + 1 < c.group_len) {
-      undo_save(dev, reg);
-      st.staged[reg] = val;
-      st.staged_task[reg] = static_cast<uint8_t>(tx.task);
-      internal::bit_set(st.staged_bits, reg);
-      if (tx_.staged_command == kNone) {
-        tx_.staged_command = cid;
-        tx_.staged_index = static_cast<uint8_t>(index);
-      }
+    drop_foreign_staging(tx, dev, cid, base, index);
+    if (j + 1 == c.group_len) {
+      commit_group(tx, dev, cid, base, index, j, val);
       continue;
     }
-    // The group's last register: commit = shadow overlaid with staged bytes.
-    Decoded& d = decoded_;
-    d.device = dev;
-    d.command = cid;
-    d.index = static_cast<uint8_t>(index);
-    d.prefix = 0;
-    d.prefix_byte = 0;
-    d.base_reg = static_cast<uint8_t>(base);
-    d.len = c.group_len;
-    __builtin_memset(d.written, 0, sizeof(d.written));
-    for (uint32_t q = 0; q < c.group_len; ++q) {
-      const uint32_t r = base + q;
-      if (internal::bit_test(st.staged_bits, r)) {
-        d.bytes[q] = st.staged[r];
-        internal::bit_set(d.written, q);
-        undo_save(dev, static_cast<uint8_t>(r));
-        internal::bit_clear(st.staged_bits, r);
-      } else {
-        d.bytes[q] = st.shadow[r];
-      }
-    }
-    d.bytes[j] = val;
-    internal::bit_set(d.written, j);
-    d.field_count = c.field_count;
-    for (uint32_t f = 0; f < c.field_count; ++f) {
-      d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
-    }
-    Outcome* o = new_outcome(dev);
-    if (o == nullptr) return;
-    o->base_reg = d.base_reg;
-    o->group_len = c.group_len;
-    evaluate(tx, *o);
-    if (o->decision == Decision::kAllow) {
-      for (uint32_t q = 0; q < c.group_len; ++q) {
-        if (!internal::bit_test(d.written, q)) continue;
-        const uint8_t r = static_cast<uint8_t>(base + q);
-        const uint8_t pair[2] = {r, d.bytes[q]};
-        emit(pair, 2);
-        store_shadow(dev, cid, r, d.bytes[q]);
-      }
-      o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
-      o->bus_command = cid;
-      o->bus_index = d.index;
-      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+    undo_save(dev, reg);
+    st.staged[reg] = val;
+    st.staged_task[reg] = static_cast<uint8_t>(tx.task);
+    internal::bit_set(st.staged_bits, reg);
+    if (tx_.staged_command == kNone) {
+      tx_.staged_command = cid;
+      tx_.staged_index = static_cast<uint8_t>(index);
     }
   }
 }
@@ -265,9 +250,9 @@ void Checker::check_register_map(const Transaction& tx, uint16_t dev) {
 // Encodes a substitute command: the base bytes (the checked frame for the
 // checked command, else the opcode and zeros; for register maps the shadow
 // group), with the selected fields replaced. False if a value does not fit.
-bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
-                               uint8_t* bytes, uint32_t* len, uint16_t* command, uint8_t* index,
-                               int32_t* fields) {
+bool CheckerState::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
+                                    uint8_t* bytes, uint32_t* len, uint16_t* command,
+                                    uint8_t* index, int32_t* fields) {
   const uint16_t cid = subst.command != kNone ? subst.command
                        : request != nullptr   ? request->command
                                               : kNone;
@@ -308,8 +293,8 @@ bool Checker::build_substitute(const Subst& subst, const Decoded* request, uint1
   return true;
 }
 
-bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
-                           uint16_t command, uint8_t index) {
+bool CheckerState::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes,
+                                uint32_t len, uint16_t command, uint8_t index) {
   const DeviceRecord& dr = devices_[dev];
   if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
     uint8_t framed[kMaxWriteBytes + 1];
@@ -329,7 +314,7 @@ bool Checker::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* 
   return true;
 }
 
-bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
+bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
   uint8_t bytes[kMaxRegisters];
   uint32_t len = 0;
   uint16_t command = kNone;
@@ -353,4 +338,4 @@ bool Checker::emit_substitute(const Subst& subst, Outcome& o) {
   return true;
 }
 
-}  // namespace contego::core
+}  // namespace contego::core::internal

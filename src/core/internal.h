@@ -23,8 +23,8 @@ inline bool mask_has(const CommandMask& m, uint32_t command) {
   return command < 128 && ((m.bits[command >> 5] >> (command & 31)) & 1u) != 0;
 }
 
-// Reads `f` out of `bytes` (caller guarantees offset + nbytes <= length).
-inline int32_t field_get(const FieldRecord& f, const uint8_t* bytes) {
+// The bytes `f` spans, as one integer in the field's byte order.
+inline uint64_t field_raw(const FieldRecord& f, const uint8_t* bytes) {
   uint64_t raw = 0;
   for (uint32_t i = 0; i < f.nbytes; ++i) {
     const uint64_t b = bytes[f.offset + i];
@@ -34,6 +34,12 @@ inline int32_t field_get(const FieldRecord& f, const uint8_t* bytes) {
       raw |= b << (8 * i);
     }
   }
+  return raw;
+}
+
+// Reads `f` out of `bytes` (caller guarantees offset + nbytes <= length).
+inline int32_t field_get(const FieldRecord& f, const uint8_t* bytes) {
+  const uint64_t raw = field_raw(f, bytes);
   const uint64_t mask = (f.width >= 32) ? 0xFFFFFFFFull : ((1ull << f.width) - 1);
   uint64_t v = (raw >> f.shift) & mask;
   if ((f.flags & kFieldSigned) && f.width < 64 && ((v >> (f.width - 1)) & 1u)) {
@@ -57,15 +63,7 @@ inline bool field_fits(const FieldRecord& f, int64_t value) {
 // Returns false if the value does not fit.
 inline bool field_put(const FieldRecord& f, int64_t value, uint8_t* bytes) {
   if (!field_fits(f, value)) return false;
-  uint64_t raw = 0;
-  for (uint32_t i = 0; i < f.nbytes; ++i) {
-    const uint64_t b = bytes[f.offset + i];
-    if (f.flags & kFieldBigEndian) {
-      raw = (raw << 8) | b;
-    } else {
-      raw |= b << (8 * i);
-    }
-  }
+  uint64_t raw = field_raw(f, bytes);
   const uint64_t mask = ((f.width >= 32) ? 0xFFFFFFFFull : ((1ull << f.width) - 1)) << f.shift;
   raw = (raw & ~mask) | ((static_cast<uint64_t>(value) << f.shift) & mask);
   for (uint32_t i = 0; i < f.nbytes; ++i) {

@@ -3,23 +3,67 @@
 // kMaxStackDepth on every path), so the loop below needs no bounds checks of
 // its own; it checks only what depends on runtime values: arithmetic
 // overflow, division by zero, missing fields, history and signals.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 namespace {
 
-constexpr uint8_t kOk = 0;
-constexpr uint8_t kUnavailable = 1;
-constexpr uint8_t kFault = 2;
+// Binary arithmetic and comparison: false on overflow or division by zero.
+inline bool binary(Op op, int64_t a, int64_t b, int64_t* r) {
+  switch (op) {
+    case Op::kAdd:
+      return !__builtin_add_overflow(a, b, r);
+    case Op::kSub:
+      return !__builtin_sub_overflow(a, b, r);
+    case Op::kMul:
+      return !__builtin_mul_overflow(a, b, r);
+    case Op::kDiv:
+    case Op::kMod:
+      if (b == 0 || (b == -1 && a == INT64_MIN)) return false;
+      *r = op == Op::kDiv ? a / b : a % b;
+      return true;
+    case Op::kMin:
+      *r = b < a ? b : a;
+      return true;
+    case Op::kMax:
+      *r = b > a ? b : a;
+      return true;
+    case Op::kEq:
+      *r = a == b;
+      return true;
+    case Op::kNe:
+      *r = a != b;
+      return true;
+    case Op::kLt:
+      *r = a < b;
+      return true;
+    case Op::kLe:
+      *r = a <= b;
+      return true;
+    case Op::kGt:
+      *r = a > b;
+      return true;
+    case Op::kGe:
+      *r = a >= b;
+      return true;
+    case Op::kAnd:
+      *r = a != 0 && b != 0;
+      return true;
+    case Op::kOr:
+      *r = a != 0 || b != 0;
+      return true;
+    default:
+      return false;
+  }
+}
 
 }  // namespace
 
 // The latest sample of sensor `device`, read from the host once per check().
 // Its generation moves whenever what a signal could make of it changes: the
 // bytes, the length, or whether it is still fresh at `now_us`.
-Checker::SampleMemo& Checker::sample(uint16_t device, uint64_t now_us) {
+SampleMemo& CheckerState::sample(uint16_t device, uint64_t now_us) {
   SampleMemo& m = sample_memo_[device];
   if (m.epoch == epoch_) return m;
   m.epoch = epoch_;
@@ -50,17 +94,17 @@ Checker::SampleMemo& Checker::sample(uint16_t device, uint64_t now_us) {
 
 static_assert(kMaxDevices <= 32, "signal_devices_ holds one bit per device");
 
-uint8_t Checker::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
+SignalStatus CheckerState::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
   const SignalRecord& s = signals_[id];
   const SampleMemo& m = sample(s.device, now_us);
   if (m.len == 0 || static_cast<uint32_t>(s.field.offset) + s.field.nbytes > m.len) {
-    return kUnavailable;
+    return SignalStatus::kUnavailable;
   }
-  if (!m.fresh) return kUnavailable;
+  if (!m.fresh) return SignalStatus::kUnavailable;
   const int32_t v = internal::field_get(s.field, m.bytes);
-  if (v < s.valid_min || v > s.valid_max) return kUnavailable;
+  if (v < s.valid_min || v > s.valid_max) return SignalStatus::kUnavailable;
   *value = v;
-  return kOk;
+  return SignalStatus::kOk;
 }
 
 // Memoised per check(). A derived signal first evaluates, in ascending id
@@ -68,7 +112,7 @@ uint8_t Checker::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
 // A derived program reads nothing but signals and constants, so its result is
 // also kept across checks while every sensor it can reach holds the same
 // sample bytes and the same freshness (docs/core.md, "Signals").
-uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
+SignalStatus CheckerState::signal(uint16_t id, uint64_t now_us, int64_t* value) {
   SignalMemo& memo = signal_memo_[id];
   if (memo.epoch != epoch_) {
     if (signals_[id].kind == static_cast<uint8_t>(SignalKind::kRaw)) {
@@ -91,10 +135,11 @@ uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
         if (m.kept && m.inputs == inputs) continue;
         const SignalRecord& rec = signals_[s];
         int64_t v = 0;
-        uint8_t status = kOk;
         const Env env{nullptr, nullptr, kNone, nullptr};
-        const uint8_t term = run(rec.code_first, rec.code_len, env, &v, &status);
-        m.status = term == static_cast<uint8_t>(Op::kReturn) ? kOk : status;
+        const Exit exit = run(rec.code_first, rec.code_len, env, &v);
+        m.status = exit == Exit::kReturn        ? SignalStatus::kOk
+                   : exit == Exit::kUnavailable ? SignalStatus::kUnavailable
+                                                : SignalStatus::kFault;
         m.value = v;
         m.kept = true;
         m.inputs = inputs;
@@ -105,29 +150,81 @@ uint8_t Checker::signal(uint16_t id, uint64_t now_us, int64_t* value) {
   return memo.status;
 }
 
-uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result,
-                     uint8_t* status) {
+// The values a program reads from the checked command, its history and its
+// invariant's state word. False: a fault (no such field, no history yet).
+bool CheckerState::context_value(const Insn& in, const Env& env, int64_t* v) {
+  switch (static_cast<Op>(in.op)) {
+    case Op::kField:
+      if (env.d == nullptr || in.b >= env.d->field_count) return false;
+      *v = env.d->fields[in.b];
+      return true;
+    case Op::kCommand:
+      *v = env.d->command;
+      return true;
+    case Op::kIndex:
+      *v = env.d->index;
+      return true;
+    case Op::kJobCount:
+      *v = job_count_[env.tx->task][env.d->device];
+      return true;
+    case Op::kLastField: {
+      const LastCommand& l = last(env.d->command, env.d->index);
+      if (!l.valid || in.b >= commands_[env.d->command].field_count) return false;
+      *v = l.fields[in.b];
+      return true;
+    }
+    case Op::kSinceLast: {
+      const LastCommand& l = last(env.d->command, env.d->index);
+      if (!l.valid) return false;
+      const uint64_t dt = now_us_ > l.time_us ? now_us_ - l.time_us : 0;
+      if (dt > 0x7FFFFFFFFFFFFFFFull) return false;
+      *v = static_cast<int64_t>(dt);
+      return true;
+    }
+    case Op::kHasLast:
+      *v = last(env.d->command, env.d->index).valid ? 1 : 0;
+      return true;
+    case Op::kState:
+      *v = internal::bit_test(tx_.pending_state, env.invariant) ? pending_state_[env.invariant]
+                                                                : state_words_[env.invariant];
+      return true;
+    default:
+      return false;
+  }
+}
+
+// SUBST_BEGIN / SUBST_FIELD (`v` is the popped value). False: a fault.
+bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
+  Subst& s = *env.subst;
+  if (static_cast<Op>(in.op) == Op::kSubstBegin) {
+    s.active = true;
+    s.command = in.b == kNone ? env.d->command : in.b;
+    s.index = kSameIndex;
+    s.set_mask = 0;
+    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = 0;
+    return true;
+  }
+  if (!s.active || in.b >= commands_[s.command].field_count || v < INT32_MIN || v > INT32_MAX) {
+    return false;
+  }
+  s.values[in.b] = static_cast<int32_t>(v);
+  s.set_mask = static_cast<uint8_t>(s.set_mask | (1u << in.b));
+  return true;
+}
+
+// The loader verified every program (operands in range, forward jumps, stack
+// depth on every path), so the loop checks only what depends on values.
+Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result) {
   int64_t stack[kMaxStackDepth];
   uint32_t sp = 0;
   const Insn* prog = code_ + code_first;
-  uint32_t pc = 0;
-  uint32_t steps = 0;
-  *status = kFault;
-  // Every exit adds the instructions this run executed to executed_.
-  struct Count {
-    uint64_t& total;
-    const uint32_t& steps;
-    ~Count() { total += steps; }
-  } count{executed_, steps};
-#define FAULT()       \
-  do {                \
-    *status = kFault; \
-    return 0;         \
-  } while (0)
-  while (pc < code_len) {
+  uint32_t steps = 0;  // instructions executed, added to executed_ on every exit
+  Exit exit = Exit::kFault;
+  for (uint32_t pc = 0; pc < code_len; ++pc) {
     const Insn& in = prog[pc];
+    const Op op = static_cast<Op>(in.op);
     ++steps;
-    switch (static_cast<Op>(in.op)) {
+    switch (op) {
       case Op::kNop:
         break;
       case Op::kPush:
@@ -137,122 +234,47 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
         stack[sp++] = constants_[in.b];
         break;
       case Op::kSignal: {
-        int64_t v = 0;
-        const uint8_t st = signal(in.b, now_us_, &v);
-        if (st != kOk) {
-          *status = st;
-          return 0;
-        }
-        stack[sp++] = v;
-        break;
+        const SignalStatus st = signal(in.b, now_us_, &stack[sp++]);
+        if (st == SignalStatus::kOk) break;
+        exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault;
+        goto done;
       }
       case Op::kField:
-        if (env.d == nullptr || in.b >= env.d->field_count) FAULT();
-        stack[sp++] = env.d->fields[in.b];
-        break;
       case Op::kCommand:
-        stack[sp++] = env.d->command;
-        break;
       case Op::kIndex:
-        stack[sp++] = env.d->index;
-        break;
       case Op::kJobCount:
-        stack[sp++] = job_count_[env.tx->task][env.d->device];
-        break;
-      case Op::kLastField: {
-        const LastCommand& l = last(env.d->command, env.d->index);
-        if (!l.valid || in.b >= commands_[env.d->command].field_count) FAULT();
-        stack[sp++] = l.fields[in.b];
-        break;
-      }
-      case Op::kSinceLast: {
-        const LastCommand& l = last(env.d->command, env.d->index);
-        if (!l.valid) FAULT();
-        const uint64_t dt = now_us_ > l.time_us ? now_us_ - l.time_us : 0;
-        if (dt > 0x7FFFFFFFFFFFFFFFull) FAULT();
-        stack[sp++] = static_cast<int64_t>(dt);
-        break;
-      }
+      case Op::kLastField:
+      case Op::kSinceLast:
       case Op::kHasLast:
-        stack[sp++] = last(env.d->command, env.d->index).valid ? 1 : 0;
-        break;
       case Op::kState:
-        stack[sp++] = internal::bit_test(tx_.pending_state, env.invariant)
-                          ? pending_state_[env.invariant]
-                          : state_words_[env.invariant];
+        if (!context_value(in, env, &stack[sp++])) goto done;
         break;
       case Op::kSetState:
         pending_state_[env.invariant] = stack[--sp];
         internal::bit_set(tx_.pending_state, env.invariant);
         break;
       case Op::kAdd:
-        --sp;
-        if (__builtin_add_overflow(stack[sp - 1], stack[sp], &stack[sp - 1])) FAULT();
-        break;
       case Op::kSub:
-        --sp;
-        if (__builtin_sub_overflow(stack[sp - 1], stack[sp], &stack[sp - 1])) FAULT();
-        break;
       case Op::kMul:
-        --sp;
-        if (__builtin_mul_overflow(stack[sp - 1], stack[sp], &stack[sp - 1])) FAULT();
-        break;
       case Op::kDiv:
-      case Op::kMod: {
-        --sp;
-        const int64_t b = stack[sp];
-        const int64_t a = stack[sp - 1];
-        if (b == 0 || (b == -1 && a == INT64_MIN)) FAULT();
-        stack[sp - 1] = static_cast<Op>(in.op) == Op::kDiv ? a / b : a % b;
-        break;
-      }
-      case Op::kNeg:
-        if (stack[sp - 1] == INT64_MIN) FAULT();
-        stack[sp - 1] = -stack[sp - 1];
-        break;
-      case Op::kAbs:
-        if (stack[sp - 1] == INT64_MIN) FAULT();
-        if (stack[sp - 1] < 0) stack[sp - 1] = -stack[sp - 1];
-        break;
+      case Op::kMod:
       case Op::kMin:
-        --sp;
-        if (stack[sp] < stack[sp - 1]) stack[sp - 1] = stack[sp];
-        break;
       case Op::kMax:
-        --sp;
-        if (stack[sp] > stack[sp - 1]) stack[sp - 1] = stack[sp];
-        break;
       case Op::kEq:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] == stack[sp];
-        break;
       case Op::kNe:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] != stack[sp];
-        break;
       case Op::kLt:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] < stack[sp];
-        break;
       case Op::kLe:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] <= stack[sp];
-        break;
       case Op::kGt:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] > stack[sp];
-        break;
       case Op::kGe:
-        --sp;
-        stack[sp - 1] = stack[sp - 1] >= stack[sp];
-        break;
       case Op::kAnd:
-        --sp;
-        stack[sp - 1] = (stack[sp - 1] != 0) && (stack[sp] != 0);
-        break;
       case Op::kOr:
         --sp;
-        stack[sp - 1] = (stack[sp - 1] != 0) || (stack[sp] != 0);
+        if (!binary(op, stack[sp - 1], stack[sp], &stack[sp - 1])) goto done;
+        break;
+      case Op::kNeg:
+      case Op::kAbs:
+        if (stack[sp - 1] == INT64_MIN) goto done;
+        if (op == Op::kNeg || stack[sp - 1] < 0) stack[sp - 1] = -stack[sp - 1];
         break;
       case Op::kNot:
         stack[sp - 1] = stack[sp - 1] == 0;
@@ -265,53 +287,35 @@ uint8_t Checker::run(uint16_t code_first, uint16_t code_len, const Env& env, int
         --sp;
         break;
       case Op::kJumpIfZero:
-        if (stack[--sp] == 0) {
-          pc += static_cast<uint32_t>(in.imm);
-          continue;
-        }
+        if (stack[--sp] == 0) pc += static_cast<uint32_t>(in.imm) - 1;
         break;
       case Op::kJump:
-        pc += static_cast<uint32_t>(in.imm);
-        continue;
-      case Op::kSubstBegin: {
-        Subst& s = *env.subst;
-        s.active = true;
-        s.command = in.b == kNone ? env.d->command : in.b;
-        s.index = kSameIndex;
-        s.set_mask = 0;
-        for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = 0;
+        pc += static_cast<uint32_t>(in.imm) - 1;
         break;
-      }
-      case Op::kSubstField: {
-        Subst& s = *env.subst;
-        const int64_t v = stack[--sp];
-        if (!s.active || in.b >= commands_[s.command].field_count || v < INT32_MIN ||
-            v > INT32_MAX) {
-          FAULT();
-        }
-        s.values[in.b] = static_cast<int32_t>(v);
-        s.set_mask = static_cast<uint8_t>(s.set_mask | (1u << in.b));
+      case Op::kSubstBegin:
+      case Op::kSubstField:
+        if (!subst_op(in, env, op == Op::kSubstField ? stack[--sp] : 0)) goto done;
         break;
-      }
       case Op::kPass:
+        exit = Exit::kPass;
+        goto done;
       case Op::kFail:
-        *status = kOk;
-        return in.op;
+        exit = Exit::kFail;
+        goto done;
       case Op::kFailSubst:
-        if (!env.subst->active) FAULT();
-        *status = kOk;
-        return in.op;
+        if (env.subst->active) exit = Exit::kFailSubst;
+        goto done;
       case Op::kReturn:
         *result = stack[sp - 1];
-        *status = kOk;
-        return in.op;
+        exit = Exit::kReturn;
+        goto done;
       default:
-        FAULT();
+        goto done;
     }
-    ++pc;
   }
-#undef FAULT
-  return 0;
+done:
+  executed_ += steps;
+  return exit;
 }
 
-}  // namespace contego::core
+}  // namespace contego::core::internal

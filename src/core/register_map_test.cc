@@ -8,15 +8,7 @@
 namespace contego::core {
 namespace {
 
-using testing::emits;
-using testing::Harness;
-namespace arm = testing::arm;
-using Bytes = std::vector<uint8_t>;
-using Writes = std::vector<Bytes>;
-
-constexpr uint16_t kAddr = 0x40;
-constexpr uint8_t kLed4 = 0x06 + 4 * 4;  // LED4_ON_L
-constexpr uint8_t kLed5 = 0x06 + 4 * 5;  // LED5_ON_L (the gripper: sequence rule)
+using namespace testing::arm_tests;  // NOLINT(google-build-using-namespace)
 
 class ArmTest : public ::testing::Test {
  protected:

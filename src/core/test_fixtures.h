@@ -65,15 +65,34 @@ inline CommandMask mask_of(std::initializer_list<uint32_t> commands) {
   return m;
 }
 
+using FieldList = std::vector<std::pair<const char*, FieldRecord>>;
+
+// Appends command `c` and its fields (after the fields already there).
+inline void add_command(ImageModel& m, Named<CommandRecord> c, const FieldList& fields) {
+  c.record.field_first = static_cast<uint16_t>(m.fields.size());
+  c.record.field_count = static_cast<uint8_t>(fields.size());
+  for (const auto& [name, f] : fields) m.fields.push_back(Named<FieldRecord>{f, name});
+  m.commands.push_back(c);
+}
+
+// Appends invariant `name` of `device`: program `p` over `commands`.
+inline void add_invariant(ImageModel& m, const char* name, uint16_t device, const Prog& p,
+                          CommandMask commands, Response response, uint16_t tpl, uint8_t err = 0) {
+  Named<InvariantRecord> v;
+  v.name = name;
+  v.record.device = device;
+  v.record.code_first = add_code(m, p);
+  v.record.code_len = static_cast<uint16_t>(p.size());
+  v.record.response = static_cast<uint8_t>(response);
+  v.record.reply_errno = err;
+  v.record.template_id = tpl;
+  v.record.commands = commands;
+  m.invariants.push_back(v);
+}
+
 inline FieldRecord field_rec(uint8_t offset, uint8_t nbytes, uint8_t width, uint8_t flags = 0,
                              uint8_t shift = 0) {
-  FieldRecord f{};
-  f.offset = offset;
-  f.nbytes = nbytes;
-  f.shift = shift;
-  f.width = width;
-  f.flags = flags;
-  return f;
+  return FieldRecord{offset, nbytes, shift, width, flags, {0, 0, 0}, 0};
 }
 
 // `index`: the channel of a register-map command (a safe state must name
@@ -154,32 +173,27 @@ inline ImageModel model() {
   task("logger", 100000, 1);
   task("intruder", 50000, 3);
 
-  Named<DeviceRecord> gopigo;
-  gopigo.name = "gopigo";
-  DeviceRecord& g = gopigo.record;
-  g.role = kRoleActuator;
-  g.profile = static_cast<uint8_t>(Profile::kFrame);
-  g.bus = 1;
-  g.addr = 0x08;
-  g.command_first = 0;
-  g.command_count = 7;
-  g.frame_len = 4;
-  g.prefix_len = 1;
-  g.safe_first = kTplStop;
-  g.safe_count = 1;
+  // Both boards take 4-byte frames behind a 1-byte prefix on i2c-1.
+  auto board = [](const char* name, uint8_t role, uint16_t addr, uint16_t first, uint16_t count) {
+    Named<DeviceRecord> d;
+    d.name = name;
+    d.record.role = role;
+    d.record.profile = static_cast<uint8_t>(Profile::kFrame);
+    d.record.bus = 1;
+    d.record.addr = addr;
+    d.record.command_first = first;
+    d.record.command_count = count;
+    d.record.frame_len = 4;
+    d.record.prefix_len = 1;
+    return d;
+  };
+  Named<DeviceRecord> gopigo = board("gopigo", kRoleActuator, 0x08, 0, 7);
+  gopigo.record.safe_first = kTplStop;
+  gopigo.record.safe_count = 1;
   m.devices.push_back(gopigo);
 
-  Named<DeviceRecord> line;
-  line.name = "line";
+  Named<DeviceRecord> line = board("line", kRoleSensor, 0x06, 7, 1);
   DeviceRecord& l = line.record;
-  l.role = kRoleSensor;
-  l.profile = static_cast<uint8_t>(Profile::kFrame);
-  l.bus = 1;
-  l.addr = 0x06;
-  l.command_first = 7;
-  l.command_count = 1;
-  l.frame_len = 4;
-  l.prefix_len = 1;
   l.sample_request_len = 5;
   l.sample_request[0] = 1;
   l.sample_request[1] = 3;
@@ -190,21 +204,13 @@ inline ImageModel model() {
   m.devices.push_back(line);
 
   auto command = [&](const char* name, uint16_t dev, uint8_t opcode, CommandClass cls,
-                     std::vector<std::pair<const char*, FieldRecord>> fields) {
+                     FieldList fields) {
     Named<CommandRecord> c;
     c.name = name;
     c.record.device = dev;
     c.record.command_class = static_cast<uint8_t>(cls);
     c.record.match = opcode;
-    c.record.field_first = static_cast<uint16_t>(m.fields.size());
-    c.record.field_count = static_cast<uint8_t>(fields.size());
-    for (auto& [fname, f] : fields) {
-      Named<FieldRecord> nf;
-      nf.name = fname;
-      nf.record = f;
-      m.fields.push_back(nf);
-    }
-    m.commands.push_back(c);
+    add_command(m, c, fields);
   };
   command("fwd", kGopigo, 119, CommandClass::kActuate, {});
   command("left", kGopigo, 97, CommandClass::kActuate, {});
@@ -251,15 +257,7 @@ inline ImageModel model() {
   m.rates.push_back(rate);
 
   auto invariant = [&](const char* name, const Prog& p, Response response, uint16_t tpl) {
-    Named<InvariantRecord> v;
-    v.name = name;
-    v.record.device = kGopigo;
-    v.record.code_first = add_code(m, p);
-    v.record.code_len = static_cast<uint16_t>(p.size());
-    v.record.response = static_cast<uint8_t>(response);
-    v.record.template_id = tpl;
-    v.record.commands = mask_of({kFwd, kLeft, kRight});
-    m.invariants.push_back(v);
+    add_invariant(m, name, kGopigo, p, mask_of({kFwd, kLeft, kRight}), response, tpl);
   };
   invariant("INV1", expect_when(Op::kLt, -2500, kRight), Response::kFailsafe, kTplRight);
   invariant("INV2", expect_when(Op::kGt, 2500, kLeft), Response::kFailsafe, kTplLeft);
@@ -335,7 +333,7 @@ inline ImageModel model(bool with_sequence = true) {
   m.aliases.push_back(AliasRecord{1, static_cast<uint8_t>(AliasKind::kGeneralCall), 0x00, kArm, 0});
 
   auto command = [&](const char* name, uint8_t reg, uint8_t len, uint8_t repeat, uint8_t stride,
-                     CommandClass cls, std::vector<std::pair<const char*, FieldRecord>> fields) {
+                     CommandClass cls, FieldList fields) {
     Named<CommandRecord> c;
     c.name = name;
     c.record.device = kArm;
@@ -344,15 +342,7 @@ inline ImageModel model(bool with_sequence = true) {
     c.record.group_len = len;
     c.record.repeat = repeat;
     c.record.stride = stride;
-    c.record.field_first = static_cast<uint16_t>(m.fields.size());
-    c.record.field_count = static_cast<uint8_t>(fields.size());
-    for (auto& [fname, f] : fields) {
-      Named<FieldRecord> nf;
-      nf.name = fname;
-      nf.record = f;
-      m.fields.push_back(nf);
-    }
-    m.commands.push_back(c);
+    add_command(m, c, fields);
   };
   command("mode1", 0x00, 1, 1, 0, CommandClass::kActuate, {{"value", field_rec(0, 1, 8)}});
   command("mode2", 0x01, 1, 1, 0, CommandClass::kActuate, {{"value", field_rec(0, 1, 8)}});
@@ -367,18 +357,8 @@ inline ImageModel model(bool with_sequence = true) {
   m.templates.push_back(template_rec(kNone, {{1, 375}}));       // kTplCentre
 
   auto invariant = [&](const char* name, const Prog& p, CommandMask mask, Response response,
-                       uint8_t err, uint16_t tpl) {
-    Named<InvariantRecord> v;
-    v.name = name;
-    v.record.device = kArm;
-    v.record.code_first = add_code(m, p);
-    v.record.code_len = static_cast<uint16_t>(p.size());
-    v.record.response = static_cast<uint8_t>(response);
-    v.record.reply_errno = err;
-    v.record.template_id = tpl;
-    v.record.commands = mask;
-    m.invariants.push_back(v);
-  };
+                       uint8_t err,
+                       uint16_t tpl) { add_invariant(m, name, kArm, p, mask, response, tpl, err); };
   // Range: every servo pulse is 0 (output off) or inside [150, 600]; else centre it.
   Prog range;
   range.field(1).push(0).op(Op::kEq);
@@ -458,15 +438,9 @@ struct Harness {
 
   Verdict check(uint16_t task, uint16_t addr, std::vector<uint8_t> bytes, uint64_t now_us = 1000,
                 uint32_t job = 0, TxKind kind = TxKind::kWrite, uint8_t bus = 1) {
-    Transaction tx{};
-    tx.task = task;
-    tx.bus = bus;
-    tx.kind = kind;
-    tx.addr = addr;
-    tx.job = job;
-    tx.len = static_cast<uint32_t>(bytes.size());
-    tx.bytes = bytes.data();
-    tx.now_us = now_us;
+    const Transaction tx{
+        task,         bus,   kind, addr, 0, 0, job, static_cast<uint32_t>(bytes.size()),
+        bytes.data(), now_us};
     Verdict v{};
     audits.clear();
     audit_substitutes.clear();
@@ -485,6 +459,18 @@ inline std::vector<std::vector<uint8_t>> emits(const Verdict& v) {
   }
   return out;
 }
+
+// What the arm's test files share (`using namespace testing::arm_tests;`).
+namespace arm_tests {
+using testing::emits;
+using testing::Harness;
+namespace arm = testing::arm;
+using Bytes = std::vector<uint8_t>;
+using Writes = std::vector<Bytes>;
+inline constexpr uint16_t kAddr = 0x40;
+inline constexpr uint8_t kLed4 = 0x06 + 4 * 4;  // LED4_ON_L
+inline constexpr uint8_t kLed5 = 0x06 + 4 * 5;  // LED5_ON_L (the gripper: sequence rule)
+}  // namespace arm_tests
 
 }  // namespace contego::core::testing
 

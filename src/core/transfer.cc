@@ -1,15 +1,14 @@
 // Transfers: several check() calls as one unit. A journal keeps, from the
 // first change of each, the device models, state words and history slots the
 // transfer's checks change, so abort_transfer() puts them back exactly.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 
 static_assert(kMaxDevices <= 32, "Journal::saved_devices is one 32-bit word");
 
-void Checker::begin_transfer() {
+void CheckerState::begin_transfer() {
   journal_.active = true;
   journal_.acted = 0;
   journal_.saved_devices = 0;
@@ -20,9 +19,9 @@ void Checker::begin_transfer() {
   journal_.first.task = kNoTask;
 }
 
-void Checker::commit_transfer() { journal_.active = false; }
+void CheckerState::commit_transfer() { journal_.active = false; }
 
-bool Checker::journal_device(uint16_t dev) {
+bool CheckerState::journal_device(uint16_t dev) {
   if (!journal_.active || ((journal_.saved_devices >> dev) & 1u) != 0) return true;
   if (journal_.device_count >= kMaxTransferDevices) return false;
   ModelCopy& c = journal_.devices[journal_.device_count++];
@@ -37,20 +36,20 @@ bool Checker::journal_device(uint16_t dev) {
 }
 
 // The caller made sure there is room (finish() refuses a check that could overflow).
-void Checker::journal_history(LastCommand& slot) {
+void CheckerState::journal_history(LastCommand& slot) {
   if (!journal_.active || journal_.history_count >= kMaxTransferHistory) return;
   HistoryCopy& h = journal_.history[journal_.history_count++];
   h.slot = static_cast<uint16_t>(&slot - last_);
   h.last = slot;
 }
 
-void Checker::journal_state(uint32_t invariant) {
+void CheckerState::journal_state(uint32_t invariant) {
   if (!journal_.active || internal::bit_test(journal_.saved_state, invariant)) return;
   internal::bit_set(journal_.saved_state, invariant);
   journal_.state_words[invariant] = state_words_[invariant];
 }
 
-void Checker::abort_transfer(Decision decision) {
+void CheckerState::abort_transfer(Decision decision) {
   if (!journal_.active) return;
   journal_.active = false;
   for (uint32_t i = journal_.history_count; i-- > 0;) {
@@ -69,22 +68,12 @@ void Checker::abort_transfer(Decision decision) {
   }
   if (journal_.acted == 0 || host_.audit == nullptr) return;
   // Checks already audited as acting did not: say so in the same log.
-  AuditRecord r{};
-  r.time_us = journal_.first.now_us;
-  r.job = journal_.first.job;
-  r.task = journal_.first.task;
-  r.device = kNone;
-  r.command = kNone;
-  r.rule = kNone;
-  r.rule_kind = RuleKind::kNoRule;
-  r.decision = decision;
-  r.reason = Reason::kTransferDropped;
-  r.bus = journal_.first.bus;
-  r.addr = journal_.first.addr;
+  const AuditRecord r =
+      audit_record(journal_.first, kNone, kNone, decision, Reason::kTransferDropped);
   host_.audit(host_.context, &r);
 }
 
-bool Checker::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
+bool CheckerState::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
   if (!loaded_ || device >= device_count_ ||
       devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
     return false;
@@ -93,7 +82,7 @@ bool Checker::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
   return true;
 }
 
-uint32_t Checker::model_crc() const {
+uint32_t CheckerState::model_crc() const {
   // CRC-32 chained over the pieces (crc32 of a piece seeded by the previous).
   uint8_t buf[4 + kMaxRegisters];
   uint32_t crc = 0;
@@ -123,4 +112,4 @@ uint32_t Checker::model_crc() const {
   return crc;
 }
 
-}  // namespace contego::core
+}  // namespace contego::core::internal

@@ -1,12 +1,11 @@
-// The image verifier: Checker::load(). Checks everything docs/image-format.md
+// The image verifier: CheckerState::load(). Checks everything docs/image-format.md
 // promises before a single table is used, in a fixed order, and stops at the
 // first problem with (status, section, index). Only then are the tables
 // marked loaded: an image is all accepted or all refused.
-#include "contego/core/checker.h"
-
 #include "core/internal.h"
+#include "core/state.h"
 
-namespace contego::core {
+namespace contego::core::internal {
 namespace {
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
@@ -14,54 +13,18 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
 
 constexpr uint32_t kHeaderSize = sizeof(ImageHeader);
 constexpr uint32_t kMaxSections = 32;
-constexpr uint32_t kKindCount = 14;
-constexpr uint32_t kKinds[kKindCount] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 0x100};
-constexpr uint32_t kRecordSizes[kKindCount] = {sizeof(TaskRecord),
-                                               sizeof(DeviceRecord),
-                                               sizeof(AliasRecord),
-                                               sizeof(CommandRecord),
-                                               sizeof(FieldRecord),
-                                               sizeof(SignalRecord),
-                                               sizeof(RateRecord),
-                                               sizeof(InvariantRecord),
-                                               sizeof(TemplateRecord),
-                                               sizeof(Insn),
-                                               sizeof(int64_t),
-                                               sizeof(AccessRecord),
-                                               sizeof(RegisterInitRecord),
-                                               1};
-constexpr uint32_t kMaxCounts[kKindCount] = {kMaxTasks,
-                                             kMaxDevices,
-                                             kMaxAliases,
-                                             kMaxCommandDefs,
-                                             kMaxFieldDefs,
-                                             kMaxSignals,
-                                             kMaxRateLimits,
-                                             kMaxInvariants,
-                                             kMaxTemplates,
-                                             kMaxCodeWords,
-                                             kMaxConstants,
-                                             kMaxTasks,
-                                             kMaxDevices* kMaxRegisters,
-                                             kMaxImageBytes};
-
-int kind_slot(uint32_t kind) {
-  for (uint32_t i = 0; i < kKindCount; ++i) {
-    if (kKinds[i] == kind) return static_cast<int>(i);
-  }
-  return -1;
-}
-
-constexpr int kSlotTasks = 0, kSlotDevices = 1, kSlotAliases = 2, kSlotCommands = 3,
-              kSlotFields = 4, kSlotSignals = 5, kSlotRates = 6, kSlotInvariants = 7,
-              kSlotTemplates = 8, kSlotCode = 9, kSlotConstants = 10, kSlotAccess = 11,
-              kSlotRegisterInit = 12, kSlotNames = 13;
+constexpr uint32_t kNoName = 0xFFFFFFFFu;
 
 LoadResult fail(LoadStatus status, uint32_t section, uint32_t index) {
   return LoadResult{status, section, index};
 }
 
-uint32_t sec(SectionKind k) { return static_cast<uint32_t>(k); }
+constexpr uint32_t sec(SectionKind k) { return static_cast<uint32_t>(k); }
+constexpr uint32_t kDevSec = sec(SectionKind::kDevices);
+constexpr uint32_t kCmdSec = sec(SectionKind::kCommands);
+constexpr uint32_t kSigSec = sec(SectionKind::kSignals);
+constexpr uint32_t kRateSec = sec(SectionKind::kRates);
+constexpr uint32_t kInvSec = sec(SectionKind::kInvariants);
 
 bool name_ok(const uint8_t* names, uint32_t names_size, uint32_t offset) {
   if (offset >= names_size) return false;
@@ -91,7 +54,7 @@ bool response_ok(uint8_t r) {
 
 }  // namespace
 
-void Checker::clear_tables() {
+void CheckerState::clear_tables() {
   loaded_ = false;
   journal_.active = false;  // a transfer open across a load is forgotten, not undone
   worst_case_cost_ = 0;
@@ -114,7 +77,7 @@ void Checker::clear_tables() {
   executed_ = 0;
 }
 
-LoadResult Checker::load(const uint8_t* image, uint32_t size) {
+LoadResult CheckerState::load(const uint8_t* image, uint32_t size) {
   clear_tables();
   LoadResult r = verify(image, size);
   if (r.status != LoadStatus::kOk) {
@@ -126,9 +89,28 @@ LoadResult Checker::load(const uint8_t* image, uint32_t size) {
   return r;
 }
 
-LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
+// One row per section kind, in kind order: the order of every check below.
+struct Section {
+  SectionKind kind;
+  uint32_t record_size;
+  uint32_t max_count;
+  void* table;       // where the records are copied (null: read in place)
+  uint32_t* count;   // the number loaded (null: not kept)
+  uint32_t name_at;  // offset of the records' `name`, kNoName: none
+  int entry;         // its index in the image's section table, -1: not seen yet
+};
+
+// The checks of the tables' contents, in order, after the section table.
+using Step = LoadResult (CheckerState::*)(const LoadInput&);
+constexpr Step kSteps[] = {
+    &CheckerState::verify_devices,  &CheckerState::verify_aliases,   &CheckerState::verify_commands,
+    &CheckerState::verify_decoding, &CheckerState::verify_templates, &CheckerState::verify_signals,
+    &CheckerState::verify_rules,    &CheckerState::verify_access,    &CheckerState::verify_programs,
+};
+
+LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
   using S = LoadStatus;
-  // --- header ---------------------------------------------------------------
+  using K = SectionKind;
   if (image == nullptr || size < kHeaderSize) return fail(S::kTooSmall, 0, 0);
   ImageHeader h;
   __builtin_memcpy(&h, image, sizeof(h));
@@ -141,111 +123,98 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
   const uint32_t table_end = kHeaderSize + 16u * h.section_count;
   if (table_end > size) return fail(S::kSectionBounds, 0, 0);
 
-  // --- section table ----------------------------------------------------------
+  uint32_t access_count = 0;
+  Section sections[] = {
+      {K::kTasks, sizeof(TaskRecord), kMaxTasks, tasks_, &task_count_, offsetof(TaskRecord, name),
+       -1},
+      {K::kDevices, sizeof(DeviceRecord), kMaxDevices, devices_, &device_count_,
+       offsetof(DeviceRecord, name), -1},
+      {K::kAliases, sizeof(AliasRecord), kMaxAliases, aliases_, &alias_count_, kNoName, -1},
+      {K::kCommands, sizeof(CommandRecord), kMaxCommandDefs, commands_, &command_count_,
+       offsetof(CommandRecord, name), -1},
+      {K::kFields, sizeof(FieldRecord), kMaxFieldDefs, fields_, &field_count_,
+       offsetof(FieldRecord, name), -1},
+      {K::kSignals, sizeof(SignalRecord), kMaxSignals, signals_, &signal_count_,
+       offsetof(SignalRecord, name), -1},
+      {K::kRates, sizeof(RateRecord), kMaxRateLimits, rates_, &rate_count_,
+       offsetof(RateRecord, name), -1},
+      {K::kInvariants, sizeof(InvariantRecord), kMaxInvariants, invariants_, &invariant_count_,
+       offsetof(InvariantRecord, name), -1},
+      {K::kTemplates, sizeof(TemplateRecord), kMaxTemplates, templates_, &template_count_, kNoName,
+       -1},
+      {K::kCode, sizeof(Insn), kMaxCodeWords, code_, &code_count_, kNoName, -1},
+      {K::kConstants, sizeof(int64_t), kMaxConstants, constants_, &constant_count_, kNoName, -1},
+      {K::kAccess, sizeof(AccessRecord), kMaxTasks, access_, &access_count, kNoName, -1},
+      {K::kRegisterInit, sizeof(RegisterInitRecord), kMaxDevices * kMaxRegisters, nullptr, nullptr,
+       kNoName, -1},
+      {K::kNames, 1, kMaxImageBytes, nullptr, nullptr, kNoName, -1},
+  };
+  constexpr uint32_t kKindCount = sizeof(sections) / sizeof(sections[0]);
   SectionEntry entries[kMaxSections];
-  int slot_of_entry[kMaxSections];
-  int entry_of_slot[kKindCount];
-  for (uint32_t i = 0; i < kKindCount; ++i) entry_of_slot[i] = -1;
+  Section* section_of[kMaxSections];
+
+  // The section table. Canonical layout: payloads follow the table in table
+  // order, each at the previous end rounded up to 4, zero padding, nothing
+  // after the last one. So every byte of the image is accounted for.
   uint32_t cursor = table_end;
-  for (uint32_t i = 0; i < h.section_count; ++i) {
-    SectionEntry& e = entries[i];
-    __builtin_memcpy(&e, image + kHeaderSize + 16u * i, sizeof(e));
-    const int slot = kind_slot(e.kind);
-    if (slot < 0) return fail(S::kUnknownSection, e.kind, i);
-    if (entry_of_slot[slot] >= 0) return fail(S::kDuplicateSection, e.kind, i);
-    entry_of_slot[slot] = static_cast<int>(i);
-    slot_of_entry[i] = slot;
-    // Canonical layout: payloads follow the table in table order, each at the
-    // previous end rounded up to 4, zero padding, nothing after the last one.
-    // So every byte of the image is accounted for.
+  for (uint32_t i = 0; i <= h.section_count; ++i) {
+    const bool last = i == h.section_count;
+    SectionEntry e{0, size, 0, 0};
+    if (!last) __builtin_memcpy(&e, image + kHeaderSize + 16u * i, sizeof(e));
+    Section* sp = nullptr;
+    for (Section& x : sections) sp = x.kind == static_cast<K>(e.kind) ? &x : sp;
+    if (!last && sp == nullptr) return fail(S::kUnknownSection, e.kind, i);
+    if (!last && sp->entry >= 0) return fail(S::kDuplicateSection, e.kind, i);
     const uint64_t end = static_cast<uint64_t>(e.offset) + e.size;
     const uint32_t expected = (cursor + 3u) & ~3u;
     if (e.offset != expected || end > size) return fail(S::kSectionBounds, e.kind, i);
     for (uint32_t p = cursor; p < expected; ++p) {
       if (image[p] != 0) return fail(S::kSectionBounds, e.kind, i);
     }
+    if (last) break;
+    sp->entry = static_cast<int>(i);
+    section_of[i] = sp;
+    entries[i] = e;
     cursor = static_cast<uint32_t>(end);
   }
-  {
-    const uint32_t expected_end = (cursor + 3u) & ~3u;
-    if (expected_end != size) return fail(S::kSectionBounds, 0, h.section_count);
-    for (uint32_t p = cursor; p < size; ++p) {
-      if (image[p] != 0) return fail(S::kSectionBounds, 0, h.section_count);
-    }
-  }
-  for (uint32_t s = 0; s < kKindCount; ++s) {
-    if (entry_of_slot[s] < 0) return fail(S::kMissingSection, kKinds[s], 0);
+  for (const Section& x : sections) {
+    if (x.entry < 0) return fail(S::kMissingSection, static_cast<uint32_t>(x.kind), 0);
   }
   for (uint32_t i = 0; i < h.section_count; ++i) {
     const SectionEntry& e = entries[i];
-    const uint32_t slot = static_cast<uint32_t>(slot_of_entry[i]);
-    if (static_cast<uint64_t>(e.count) * kRecordSizes[slot] != e.size) {
+    if (static_cast<uint64_t>(e.count) * section_of[i]->record_size != e.size) {
       return fail(S::kRecordSize, e.kind, 0);
     }
-    if (e.count > kMaxCounts[slot]) return fail(S::kTooMany, e.kind, 0);
+    if (e.count > section_of[i]->max_count) return fail(S::kTooMany, e.kind, 0);
   }
-  auto entry = [&](int slot) -> const SectionEntry& { return entries[entry_of_slot[slot]]; };
-  auto copy = [&](int slot, void* dst) {
-    const SectionEntry& e = entry(slot);
-    if (e.size != 0) __builtin_memcpy(dst, image + e.offset, e.size);
-    return e.count;
-  };
-  task_count_ = copy(kSlotTasks, tasks_);
-  device_count_ = copy(kSlotDevices, devices_);
-  alias_count_ = copy(kSlotAliases, aliases_);
-  command_count_ = copy(kSlotCommands, commands_);
-  field_count_ = copy(kSlotFields, fields_);
-  signal_count_ = copy(kSlotSignals, signals_);
-  rate_count_ = copy(kSlotRates, rates_);
-  invariant_count_ = copy(kSlotInvariants, invariants_);
-  template_count_ = copy(kSlotTemplates, templates_);
-  code_count_ = copy(kSlotCode, code_);
-  constant_count_ = copy(kSlotConstants, constants_);
-  const uint32_t access_count = copy(kSlotAccess, access_);
-  if (access_count != task_count_) return fail(S::kRecordSize, sec(SectionKind::kAccess), 0);
-  const SectionEntry& init = entry(kSlotRegisterInit);
-  const SectionEntry& names = entry(kSlotNames);
-  const uint8_t* name_bytes = image + names.offset;
+  // Copy the tables, then check every name.
+  for (const Section& x : sections) {
+    const SectionEntry& e = entries[x.entry];
+    if (x.table != nullptr && e.size != 0) __builtin_memcpy(x.table, image + e.offset, e.size);
+    if (x.count != nullptr) *x.count = e.count;
+  }
+  if (access_count != task_count_) return fail(S::kRecordSize, sec(K::kAccess), 0);
+  const SectionEntry& names = entries[sections[kKindCount - 1].entry];
+  for (const Section& x : sections) {
+    for (uint32_t i = 0; x.name_at != kNoName && i < *x.count; ++i) {
+      const uint32_t name =
+          internal::load_u32(static_cast<const uint8_t*>(x.table) + x.record_size * i + x.name_at);
+      if (!name_ok(image + names.offset, names.size, name)) {
+        return fail(S::kBadName, static_cast<uint32_t>(x.kind), i);
+      }
+    }
+  }
+  const LoadInput in{image, entries[sections[kKindCount - 2].entry]};
+  for (const Step step : kSteps) {
+    const LoadResult r = (this->*step)(in);
+    if (r.status != S::kOk) return r;
+  }
+  return LoadResult{S::kOk, 0, 0};
+}
 
-  // --- names --------------------------------------------------------------------
-  for (uint32_t i = 0; i < task_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, tasks_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kTasks), i);
-    }
-  }
-  for (uint32_t i = 0; i < device_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, devices_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kDevices), i);
-    }
-  }
-  for (uint32_t i = 0; i < command_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, commands_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kCommands), i);
-    }
-  }
-  for (uint32_t i = 0; i < field_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, fields_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kFields), i);
-    }
-  }
-  for (uint32_t i = 0; i < signal_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, signals_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kSignals), i);
-    }
-  }
-  for (uint32_t i = 0; i < rate_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, rates_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kRates), i);
-    }
-  }
-  for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (!name_ok(name_bytes, names.size, invariants_[i].name)) {
-      return fail(S::kBadName, sec(SectionKind::kInvariants), i);
-    }
-  }
-
+LoadResult CheckerState::verify_devices(const LoadInput&) {
+  using S = LoadStatus;
   // --- devices ------------------------------------------------------------------
-  const uint32_t kDevSec = sec(SectionKind::kDevices);
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
     if (d.role == 0 || (d.role & ~(kRoleActuator | kRoleSensor)) != 0) {
@@ -299,6 +268,11 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     }
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_aliases(const LoadInput&) {
+  using S = LoadStatus;
   // --- aliases --------------------------------------------------------------------
   for (uint32_t i = 0; i < alias_count_; ++i) {
     const AliasRecord& a = aliases_[i];
@@ -312,8 +286,12 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     }
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_commands(const LoadInput&) {
+  using S = LoadStatus;
   // --- commands and fields ----------------------------------------------------------
-  const uint32_t kCmdSec = sec(SectionKind::kCommands);
   for (uint32_t i = 0; i < command_count_; ++i) {
     const CommandRecord& c = commands_[i];
     if (c.device >= device_count_) return fail(S::kBadReference, kCmdSec, i);
@@ -364,6 +342,11 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
       if (st != S::kOk) return fail(st, sec(SectionKind::kFields), f);
     }
   }
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_decoding(const LoadInput&) {
+  using S = LoadStatus;
   // Per-device lookup tables: opcode (frame) or register (map) -> command. Two
   // commands claiming one opcode or register make decoding ambiguous.
   for (uint32_t dv = 0; dv < device_count_; ++dv) {
@@ -412,6 +395,11 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     if (slots > kMaxHistorySlots) return fail(S::kTooMany, kCmdSec, i);
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_templates(const LoadInput&) {
+  using S = LoadStatus;
   // --- templates ----------------------------------------------------------------------
   for (uint32_t i = 0; i < template_count_; ++i) {
     const TemplateRecord& t = templates_[i];
@@ -444,27 +432,12 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
       if (templates_[t].index == kSameIndex) return fail(S::kBadField, kDevSec, i);
     }
   }
-  // A rule's template must encode a command of the rule's own device.
-  auto template_ok = [&](uint16_t tid, uint16_t device) {
-    if (tid == kNone) return true;
-    if (tid >= template_count_) return false;
-    const uint16_t c = templates_[tid].command;
-    return c == kNone || commands_[c].device == device;
-  };
-  auto mask_ok = [&](const CommandMask& m, uint16_t device) {
-    for (uint32_t c = 0; c < 128; ++c) {
-      if (internal::mask_has(m, c) && (c >= command_count_ || commands_[c].device != device)) {
-        return false;
-      }
-    }
-    return true;
-  };
-  auto is_actuator = [&](uint16_t device) {
-    return device < device_count_ && (devices_[device].role & kRoleActuator) != 0;
-  };
+  return LoadResult{S::kOk, 0, 0};
+}
 
+LoadResult CheckerState::verify_signals(const LoadInput&) {
+  using S = LoadStatus;
   // --- signals (programs checked below) -------------------------------------------------
-  const uint32_t kSigSec = sec(SectionKind::kSignals);
   for (uint32_t i = 0; i < signal_count_; ++i) {
     const SignalRecord& s = signals_[i];
     if (s.pad0 != 0) return fail(S::kBadTag, kSigSec, i);
@@ -489,8 +462,31 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     }
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_rules(const LoadInput&) {
+  using S = LoadStatus;
+  // A rule's template must encode a command of the rule's own device.
+  auto template_ok = [&](uint16_t tid, uint16_t device) {
+    if (tid == kNone) return true;
+    if (tid >= template_count_) return false;
+    const uint16_t c = templates_[tid].command;
+    return c == kNone || commands_[c].device == device;
+  };
+  auto mask_ok = [&](const CommandMask& m, uint16_t device) {
+    for (uint32_t c = 0; c < 128; ++c) {
+      if (internal::mask_has(m, c) && (c >= command_count_ || commands_[c].device != device)) {
+        return false;
+      }
+    }
+    return true;
+  };
+  auto is_actuator = [&](uint16_t device) {
+    return device < device_count_ && (devices_[device].role & kRoleActuator) != 0;
+  };
+
   // --- rates ----------------------------------------------------------------------------
-  const uint32_t kRateSec = sec(SectionKind::kRates);
   for (uint32_t i = 0; i < rate_count_; ++i) {
     const RateRecord& r = rates_[i];
     if (!response_ok(r.response) || r.reserved != 0) return fail(S::kBadTag, kRateSec, i);
@@ -501,7 +497,6 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
   }
 
   // --- invariants -----------------------------------------------------------------------
-  const uint32_t kInvSec = sec(SectionKind::kInvariants);
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
     if (!response_ok(v.response) || v.pad != 0) return fail(S::kBadTag, kInvSec, i);
@@ -512,6 +507,11 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     }
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_access(const LoadInput& in) {
+  using S = LoadStatus;
   // --- access, register init ----------------------------------------------------------------
   const uint32_t device_bits =
       device_count_ >= 32 ? 0xFFFFFFFFu : ((uint32_t{1} << device_count_) - 1);
@@ -521,9 +521,9 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
       return fail(S::kBadReference, sec(SectionKind::kAccess), i);
     }
   }
-  for (uint32_t i = 0; i < init.count; ++i) {
+  for (uint32_t i = 0; i < in.init.count; ++i) {
     RegisterInitRecord r;
-    __builtin_memcpy(&r, image + init.offset + 4u * i, sizeof(r));
+    __builtin_memcpy(&r, in.image + in.init.offset + 4u * i, sizeof(r));
     if (r.device >= device_count_ ||
         devices_[r.device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
       return fail(S::kBadReference, sec(SectionKind::kRegisterInit), i);
@@ -534,6 +534,11 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
     __builtin_memcpy(state_[dv].power_on, state_[dv].shadow, kMaxRegisters);
   }
 
+  return LoadResult{S::kOk, 0, 0};
+}
+
+LoadResult CheckerState::verify_programs(const LoadInput&) {
+  using S = LoadStatus;
   // --- programs -------------------------------------------------------------------------------
   LoadResult result{S::kOk, 0, 0};
   for (uint32_t i = 0; i < signal_count_; ++i) {
@@ -553,15 +558,90 @@ LoadResult Checker::verify(const uint8_t* image, uint32_t size) {
   return result;
 }
 
+namespace {
+
+// What the verifier knows of each opcode: stack effect, operands, flow.
+enum OpFlags : uint8_t {
+  kValid = 1,
+  kUsesB = 2,
+  kUsesImm = 4,
+  kJumps = 8,
+  kEnds = 16,           // no fall-through to the next instruction
+  kInvariantOnly = 32,  // reads the checked command or its history, or decides
+  kDerivedOnly = 64,
+};
+struct OpInfo {
+  uint8_t pops;
+  uint8_t pushes;
+  uint8_t flags;
+};
+struct OpTable {
+  OpInfo at[static_cast<uint32_t>(Op::kReturn) + 1];
+};
+constexpr OpTable make_op_table() {
+  OpTable t{};
+  auto set = [&t](Op op, uint8_t pops, uint8_t pushes, uint32_t flags) {
+    t.at[static_cast<uint8_t>(op)] = OpInfo{pops, pushes, static_cast<uint8_t>(flags | kValid)};
+  };
+  constexpr Op kContext[] = {Op::kCommand,   Op::kIndex,   Op::kJobCount,
+                             Op::kSinceLast, Op::kHasLast, Op::kState};
+  constexpr Op kBinary[] = {Op::kAdd, Op::kSub, Op::kMul, Op::kDiv, Op::kMod,
+                            Op::kMin, Op::kMax, Op::kEq,  Op::kNe,  Op::kLt,
+                            Op::kLe,  Op::kGt,  Op::kGe,  Op::kAnd, Op::kOr};
+  for (const Op op : kContext) set(op, 0, 1, kInvariantOnly);
+  for (const Op op : kBinary) set(op, 2, 1, 0);
+  set(Op::kNop, 0, 0, 0);
+  set(Op::kPush, 0, 1, kUsesImm);
+  set(Op::kPushConst, 0, 1, kUsesB);
+  set(Op::kSignal, 0, 1, kUsesB);
+  set(Op::kField, 0, 1, kUsesB | kInvariantOnly);
+  set(Op::kLastField, 0, 1, kUsesB | kInvariantOnly);
+  set(Op::kSetState, 1, 0, kInvariantOnly);
+  set(Op::kNeg, 1, 1, 0);
+  set(Op::kAbs, 1, 1, 0);
+  set(Op::kNot, 1, 1, 0);
+  set(Op::kDup, 1, 2, 0);
+  set(Op::kDrop, 1, 0, 0);
+  set(Op::kJumpIfZero, 1, 0, kUsesImm | kJumps);
+  set(Op::kJump, 0, 0, kUsesImm | kJumps | kEnds);
+  set(Op::kSubstBegin, 0, 0, kUsesB | kInvariantOnly);
+  set(Op::kSubstField, 1, 0, kUsesB | kInvariantOnly);
+  set(Op::kPass, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kFail, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kFailSubst, 0, 0, kEnds | kInvariantOnly);
+  set(Op::kReturn, 1, 0, kEnds | kDerivedOnly);
+  return t;
+}
+constexpr OpTable kOps = make_op_table();
+
+}  // namespace
+
+// The operand b of one instruction names something that exists.
+bool CheckerState::operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const {
+  switch (static_cast<Op>(in.op)) {
+    case Op::kPushConst:
+      return in.b < constant_count_;
+    case Op::kSignal:
+      return in.b < signal_count_ && !(derived && in.b >= self);
+    case Op::kField:
+    case Op::kLastField:
+    case Op::kSubstField:
+      return in.b < kMaxFieldsPerCommand;
+    case Op::kSubstBegin:
+      return in.b == kNone || (in.b < command_count_ && commands_[in.b].device == device);
+    default:
+      return true;
+  }
+}
+
 // One program: opcodes and operands, forward jumps inside the program, the
 // stack depth along every path (all jumps go forward, so one pass in order
 // sees every predecessor of an instruction before the instruction itself).
-bool Checker::verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
-                             uint16_t device, LoadResult* result) {
+bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool derived,
+                                  uint16_t self, uint16_t device, LoadResult* result) {
   using S = LoadStatus;
-  const uint32_t kCodeSec = sec(SectionKind::kCode);
   auto fail_at = [&](S status, uint32_t pc) {
-    *result = LoadResult{status, kCodeSec, code_first + pc};
+    *result = LoadResult{status, sec(SectionKind::kCode), code_first + pc};
     return false;
   };
   if (code_len > kMaxProgramLength) return fail_at(S::kProgramTooLong, 0);
@@ -572,150 +652,38 @@ bool Checker::verify_program(uint32_t code_first, uint32_t code_len, bool derive
   uint64_t deps = 0;
   for (uint32_t pc = 0; pc < code_len; ++pc) {
     const Insn& in = code_[code_first + pc];
-    if (in.a != 0) return fail_at(S::kBadProgram, pc);
-    const int32_t depth = depth_at[pc];
-    if (depth < 0) {
-      // Unreachable (only jumps lead past a terminator): still must decode.
-      if (in.op > static_cast<uint8_t>(Op::kReturn)) return fail_at(S::kBadProgram, pc);
+    const OpInfo op = in.op <= static_cast<uint8_t>(Op::kReturn) ? kOps.at[in.op] : OpInfo{};
+    const uint32_t wrong_kind = derived ? kInvariantOnly : kDerivedOnly;
+    if (in.a != 0 || (op.flags & kValid) == 0 || (op.flags & wrong_kind) != 0 ||
+        ((op.flags & kUsesB) == 0 && in.b != 0) || ((op.flags & kUsesImm) == 0 && in.imm != 0) ||
+        !operand_ok(in, derived, self, device)) {
+      return fail_at(S::kBadProgram, pc);
     }
-    int32_t pops = 0, pushes = 0;
-    bool uses_b = false, uses_imm = false, terminator = false, jump = false, falls = true;
-    const Op op = static_cast<Op>(in.op);
-    switch (op) {
-      case Op::kNop:
-        break;
-      case Op::kPush:
-        pushes = 1;
-        uses_imm = true;
-        break;
-      case Op::kPushConst:
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= constant_count_) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kSignal:
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= signal_count_ || (derived && in.b >= self)) return fail_at(S::kBadProgram, pc);
-        if (derived) {
-          deps |= signal_deps_[in.b];
-          if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
-        }
-        break;
-      case Op::kField:
-      case Op::kLastField:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pushes = 1;
-        uses_b = true;
-        if (in.b >= kMaxFieldsPerCommand) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kCommand:
-      case Op::kIndex:
-      case Op::kJobCount:
-      case Op::kSinceLast:
-      case Op::kHasLast:
-      case Op::kState:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pushes = 1;
-        break;
-      case Op::kSetState:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        break;
-      case Op::kAdd:
-      case Op::kSub:
-      case Op::kMul:
-      case Op::kDiv:
-      case Op::kMod:
-      case Op::kMin:
-      case Op::kMax:
-      case Op::kEq:
-      case Op::kNe:
-      case Op::kLt:
-      case Op::kLe:
-      case Op::kGt:
-      case Op::kGe:
-      case Op::kAnd:
-      case Op::kOr:
-        pops = 2;
-        pushes = 1;
-        break;
-      case Op::kNeg:
-      case Op::kAbs:
-      case Op::kNot:
-        pops = 1;
-        pushes = 1;
-        break;
-      case Op::kDup:
-        pops = 1;
-        pushes = 2;
-        break;
-      case Op::kDrop:
-        pops = 1;
-        break;
-      case Op::kJumpIfZero:
-        pops = 1;
-        uses_imm = true;
-        jump = true;
-        break;
-      case Op::kJump:
-        uses_imm = true;
-        jump = true;
-        falls = false;
-        break;
-      case Op::kSubstBegin:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        uses_b = true;
-        if (in.b != kNone && (in.b >= command_count_ || commands_[in.b].device != device)) {
-          return fail_at(S::kBadProgram, pc);
-        }
-        break;
-      case Op::kSubstField:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        uses_b = true;
-        if (in.b >= kMaxFieldsPerCommand) return fail_at(S::kBadProgram, pc);
-        break;
-      case Op::kPass:
-      case Op::kFail:
-      case Op::kFailSubst:
-        if (derived) return fail_at(S::kBadProgram, pc);
-        terminator = true;
-        falls = false;
-        break;
-      case Op::kReturn:
-        if (!derived) return fail_at(S::kBadProgram, pc);
-        pops = 1;
-        terminator = true;
-        falls = false;
-        break;
-      default:
-        return fail_at(S::kBadProgram, pc);
+    if (derived && in.op == static_cast<uint8_t>(Op::kSignal)) {
+      deps |= signal_deps_[in.b];
+      if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
     }
-    if ((!uses_b && in.b != 0) || (!uses_imm && in.imm != 0)) return fail_at(S::kBadProgram, pc);
-    if (jump) {
+    const uint32_t target = pc + static_cast<uint32_t>(in.imm);
+    if ((op.flags & kJumps) != 0) {
       if (in.imm < 1) return fail_at(S::kJumpBackward, pc);
       if (static_cast<uint64_t>(pc) + static_cast<uint32_t>(in.imm) >= code_len) {
         return fail_at(S::kJumpOutOfRange, pc);
       }
     }
-    if (depth < 0) continue;  // unreachable: no stack to track
-    if (depth < pops) return fail_at(S::kStackUnderflow, pc);
-    const int32_t after = depth - pops + pushes;
+    const int32_t depth = depth_at[pc];
+    if (depth < 0) continue;  // unreachable (only jumps lead past an end): no stack to track
+    if (depth < op.pops) return fail_at(S::kStackUnderflow, pc);
+    const int32_t after = depth - op.pops + op.pushes;
     if (after > static_cast<int32_t>(kMaxStackDepth)) return fail_at(S::kStackOverflow, pc);
-    if (op == Op::kReturn && depth != 1) return fail_at(S::kStackMismatch, pc);
-    (void)terminator;
-    auto flow_to = [&](uint32_t target) {
-      if (depth_at[target] < 0) {
-        depth_at[target] = static_cast<int16_t>(after);
-        return true;
-      }
-      return depth_at[target] == after;
-    };
-    if (jump && !flow_to(pc + static_cast<uint32_t>(in.imm))) {
-      return fail_at(S::kStackMismatch, pc + static_cast<uint32_t>(in.imm));
+    if (in.op == static_cast<uint8_t>(Op::kReturn) && depth != 1) {
+      return fail_at(S::kStackMismatch, pc);
     }
-    if (falls) {
+    auto flow_to = [&](uint32_t to) {
+      if (depth_at[to] < 0) depth_at[to] = static_cast<int16_t>(after);
+      return depth_at[to] == after;
+    };
+    if ((op.flags & kJumps) != 0 && !flow_to(target)) return fail_at(S::kStackMismatch, target);
+    if ((op.flags & kEnds) == 0) {
       if (pc + 1 >= code_len) return fail_at(S::kNoTerminator, pc);
       if (!flow_to(pc + 1)) return fail_at(S::kStackMismatch, pc + 1);
     }
@@ -726,7 +694,7 @@ bool Checker::verify_program(uint32_t code_first, uint32_t code_len, bool derive
 
 // Worst case of one command: the invariants whose mask holds it, plus the
 // derived signals those programs can reach (transitively), each counted once.
-void Checker::compute_costs() {
+void CheckerState::compute_costs() {
   // The sensors each signal can read: a derived program's own SIGNAL operands
   // (all of lower id, so already known) and theirs.
   for (uint32_t s = 0; s < signal_count_; ++s) {
@@ -772,4 +740,4 @@ void Checker::compute_costs() {
   worst_case_cost_ = worst;
 }
 
-}  // namespace contego::core
+}  // namespace contego::core::internal

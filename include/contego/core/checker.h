@@ -3,7 +3,8 @@
 //
 // Freestanding: no heap, no exceptions, no RTTI, no floating point, no OS
 // calls; all state lives inside the Checker object (sizeof is fixed by
-// limits.h), so a host can place it in static storage or secure memory.
+// limits.h, its layout private to src/core), so a host can place it in
+// static storage or secure memory.
 // Thread-safety: none. One Checker serves one request at a time, as the
 // paper's secure-world checker does; hosts serialise calls.
 // Cost: check() is bounded by the image's worst-case cost, reported by
@@ -21,6 +22,14 @@
 #include "contego/core/verdict.h"
 
 namespace contego::core {
+
+namespace internal {
+class CheckerState;  // src/core/state.h
+}  // namespace internal
+
+// Bytes and alignment of the checker's state (src/core/state.h asserts them).
+inline constexpr uint32_t kCheckerStateBytes = 212712;
+inline constexpr uint32_t kCheckerStateAlign = 8;
 
 // Why the verifier refused an image. Stable numbers (they appear in tools' output).
 enum class LoadStatus : uint8_t {
@@ -64,7 +73,7 @@ const char* decision_name(Decision decision);     // "allow" / "ignore" / "fails
 
 class Checker {
  public:
-  Checker() = default;
+  Checker();
   Checker(const Checker&) = delete;
   Checker& operator=(const Checker&) = delete;
 
@@ -72,9 +81,9 @@ class Checker {
   // On failure the previously loaded policy is discarded and every check()
   // answers kReject/kNotLoaded (fail closed). The buffer is not kept.
   [[nodiscard]] LoadResult load(const uint8_t* image, uint32_t size);
-  bool loaded() const { return loaded_; }
+  bool loaded() const;
 
-  void set_host(const Host& host) { host_ = host; }
+  void set_host(const Host& host);
 
   // Decides about one transaction and fills `out`. Never fails: every error
   // path yields a fail-closed verdict with its reason.
@@ -105,7 +114,7 @@ class Checker {
   // Audits one `transfer-dropped` record with `decision` when a check of the
   // transfer had been audited as acting (allow / fail-safe).
   void abort_transfer(Decision decision);
-  bool in_transfer() const { return journal_.active; }
+  bool in_transfer() const;
 
   // The device model, for hosts comparing it with a read-back and for tests:
   // a register's shadow (false for a bad device or a non-register-map one),
@@ -115,254 +124,29 @@ class Checker {
 
   // Upper bound of bytecode instructions executed by one check() of a
   // single command, over all commands of the image (computed at load).
-  uint32_t worst_case_cost() const { return worst_case_cost_; }
+  uint32_t worst_case_cost() const;
 
   // Bytecode instructions executed by all check() calls since load()
   // (benchmarks report instructions per check with it).
-  uint64_t executed_instructions() const { return executed_; }
+  uint64_t executed_instructions() const;
 
   // Read access to the loaded tables (for hosts, tools and tests).
-  uint32_t task_count() const { return task_count_; }
-  uint32_t device_count() const { return device_count_; }
-  const TaskRecord& task(uint16_t id) const { return tasks_[id]; }
-  const DeviceRecord& device(uint16_t id) const { return devices_[id]; }
+  uint32_t task_count() const;
+  uint32_t device_count() const;
+  const TaskRecord& task(uint16_t id) const;
+  const DeviceRecord& device(uint16_t id) const;
 
  private:
-  // Fixed-capacity tables and runtime state (shadow registers, staging, rate
-  // windows, latches). Sized by limits.h; no pointers into the image.
-  // Everything below is implementation detail (src/core/*.cc).
-  struct DeviceState {
-    uint8_t shadow[kMaxRegisters];       // register-map: the values the device holds
-    uint8_t staged[kMaxRegisters];       // register-map: written but not yet committed
-    uint8_t staged_task[kMaxRegisters];  // which task staged each register
-    uint32_t staged_bits[kMaxRegisters / 32];
-    uint8_t lookup[kMaxRegisters];        // opcode / register -> offset in the device's commands
-    uint8_t power_on[kMaxRegisters];      // register-map: values after reset (kRegisterInit)
-    uint64_t violations[kMaxLatchCount];  // ring of the last violation times
-    uint8_t violation_count;
-    uint8_t violation_next;
-    bool latched;
-  };
-  struct LastCommand {
-    uint64_t time_us;
-    int32_t fields[kMaxFieldsPerCommand];
-    bool valid;
-  };
-  struct SignalMemo {
-    uint32_t epoch;
-    uint8_t status;  // 0 ok, 1 unavailable, 2 program fault
-    bool kept;       // derived: value/status stay valid while `inputs` is unchanged
-    int64_t value;
-    uint64_t inputs;  // derived: sum of its sensors' SampleMemo::generation when computed
-  };
-  struct SampleMemo {
-    uint32_t epoch;
-    uint32_t len;
-    uint64_t taken_at_us;
-    // Bumped whenever the sample's bytes, its length or its freshness change;
-    // never decreases, so a sum over fixed sensors is unchanged only if each is.
-    uint64_t generation;
-    bool fresh;  // not older than the device's max_sample_age_us
-    uint8_t bytes[kMaxSampleBytes];
-  };
-  struct TaskWindow {
-    uint64_t key;  // job number (top bit set) or now / period
-    bool valid;
-  };
-  // What the checks made of one decoded command (kept for the audit and
-  // for combining the commands of one transaction).
-  struct Outcome {
-    uint16_t device;
-    uint16_t command;  // kNone: undecoded
-    uint8_t index;
-    uint8_t field_count;
-    uint8_t base_reg;   // register map: first register of the group
-    uint8_t group_len;  // register map: 0 for frames
-    int32_t fields[kMaxFieldsPerCommand];
-    Decision decision;
-    Reason reason;
-    RuleKind rule_kind;
-    uint8_t reply_errno;
-    uint16_t rule;
-    uint16_t emit_offset;  // this command's emitted bytes inside the verdict
-    uint16_t emit_len;
-    uint8_t emit_index;    // its first write in the verdict
-    uint16_t bus_command;  // the command whose fields reached the bus (kNone: none)
-    uint8_t bus_index;     // and its channel (register-map group index)
-    int32_t bus_fields[kMaxFieldsPerCommand];
-  };
-  // The command being checked: its bytes (frame after the prefix, or the
-  // register group) and decoded fields.
-  struct Decoded {
-    uint16_t device;
-    uint16_t command;
-    uint8_t index;
-    uint8_t prefix;  // frame: bytes before the frame (0 or 1)
-    uint8_t prefix_byte;
-    uint8_t base_reg;
-    uint8_t field_count;
-    uint32_t len;
-    uint32_t written[kMaxRegisters / 32];  // register map: group offsets this commit writes
-    int32_t fields[kMaxFieldsPerCommand];
-    uint8_t bytes[kMaxRegisters];
-  };
-  struct Subst {
-    bool active;
-    uint16_t command;  // kNone: the checked command
-    uint8_t index;     // channel, kSameIndex: the checked command's
-    uint8_t set_mask;
-    int32_t values[kMaxFieldsPerCommand];
-  };
-  struct Undo {
-    uint16_t device;
-    uint8_t reg;
-    uint8_t shadow;
-    uint8_t staged;
-    uint8_t staged_task;
-    bool staged_bit;
-  };
-  struct TxContext {
-    Verdict* out;
-    uint32_t outcome_count;
-    bool overflow;     // too many commands / undo entries: fail closed
-    bool emit_failed;  // the verdict ran out of emit space
-    uint16_t undo_device;
-    uint32_t undo_count;
-    uint32_t saved[kMaxRegisters / 32];
-    uint32_t pending_state[kMaxInvariants / 32];
-    uint16_t staged_command;  // first command whose group was only staged (kNone: none)
-    uint8_t staged_index;
-    Outcome outcomes[kMaxCommandsPerTransaction];
-    Undo undo[kMaxRegisters];
-  };
-  // What a transfer changed in the device model, to undo it on abort.
-  struct ModelCopy {
-    uint16_t device;
-    uint8_t shadow[kMaxRegisters];
-    uint8_t staged[kMaxRegisters];
-    uint8_t staged_task[kMaxRegisters];
-    uint32_t staged_bits[kMaxRegisters / 32];
-  };
-  struct HistoryCopy {
-    uint16_t slot;
-    LastCommand last;
-  };
-  struct Journal {
-    bool active;
-    uint32_t acted;          // checks audited as acting (allow / fail-safe)
-    uint32_t saved_devices;  // bit d: devices[] holds device d's model
-    uint32_t device_count;
-    uint32_t history_count;
-    uint32_t saved_state[kMaxInvariants / 32];
-    ModelCopy devices[kMaxTransferDevices];
-    HistoryCopy history[kMaxTransferHistory];
-    int64_t state_words[kMaxInvariants];
-    Transaction first;  // the first check's (bytes not kept): for the abort's audit record
-  };
-  struct Env {
-    const Transaction* tx;
-    const Decoded* d;
-    uint16_t invariant;  // kNone for derived signals
-    Subst* subst;
-  };
+  // The checker's tables and runtime state, defined in src/core (state.h):
+  // fixed-size storage here so that a host can still place a Checker in
+  // static storage or secure memory without knowing its layout. src/core
+  // asserts that the state fits.
+  internal::CheckerState& state() { return *reinterpret_cast<internal::CheckerState*>(storage_); }
+  const internal::CheckerState& state() const {
+    return *reinterpret_cast<const internal::CheckerState*>(storage_);
+  }
 
-  bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
-                      uint16_t device, LoadResult* result);
-  LoadResult verify(const uint8_t* image, uint32_t size);
-  void clear_tables();
-  void compute_costs();
-  LastCommand& last(uint16_t command, uint8_t index);
-
-  void check_device(const Transaction& tx, uint16_t dev);
-  bool resolve_general_call(const Transaction& tx, Verdict* out);
-  void check_frame(const Transaction& tx, uint16_t dev);
-  void check_short_query(const Transaction& tx, uint16_t dev);
-  void check_register_map(const Transaction& tx, uint16_t dev);
-  void evaluate(const Transaction& tx, Outcome& o);
-  void finish(const Transaction& tx, Verdict* out);
-  void settle_model(const Transaction& tx, Decision decision);
-  Outcome* new_outcome(uint16_t dev);
-  bool emit(const uint8_t* bytes, uint32_t len);
-  bool emit_substitute(const Subst& subst, Outcome& o);
-  bool emit_safe_state(uint16_t dev);
-  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
-                    uint16_t command, uint8_t index);
-  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
-               RuleKind kind, uint16_t rule);
-  bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, uint8_t* bytes,
-                        uint32_t* len, uint16_t* command, uint8_t* index, int32_t* fields);
-  void update_window(const Transaction& tx);
-  bool record_violation(uint16_t dev, uint64_t now_us);
-  void undo_save(uint16_t dev, uint8_t reg);
-  // Records that `command` wrote `value` to register `reg` of `dev` (undoable),
-  // with the device's broadcast into other channels.
-  void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
-  void rollback();
-  uint32_t find_targets(const Transaction& tx, uint16_t* targets) const;
-  bool reserved_address(const Transaction& tx, uint32_t target_count) const;
-  bool journal_device(uint16_t dev);  // false: no room (the check is refused)
-  void journal_history(LastCommand& slot);
-  void journal_state(uint32_t invariant);
-  void audit(const Transaction& tx, const Outcome& o);
-  // Interpreter: returns the terminator op (kPass/kFail/kFailSubst/kReturn) or
-  // 0 on a fault; *status tells a missing signal (1) from another fault (2).
-  uint8_t run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result,
-              uint8_t* status);
-  uint8_t signal(uint16_t id, uint64_t now_us, int64_t* value);  // 0 ok, 1 unavailable, 2 fault
-  uint8_t raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
-  SampleMemo& sample(uint16_t device, uint64_t now_us);  // sampled at most once per check()
-
-  bool loaded_ = false;
-  Host host_{};
-  uint32_t worst_case_cost_ = 0;
-  uint32_t task_count_ = 0;
-  uint32_t device_count_ = 0;
-  TaskRecord tasks_[kMaxTasks]{};
-  DeviceRecord devices_[kMaxDevices]{};
-  uint32_t alias_count_ = 0;
-  uint32_t command_count_ = 0;
-  uint32_t field_count_ = 0;
-  uint32_t signal_count_ = 0;
-  uint32_t rate_count_ = 0;
-  uint32_t invariant_count_ = 0;
-  uint32_t template_count_ = 0;
-  uint32_t code_count_ = 0;
-  uint32_t constant_count_ = 0;
-  AliasRecord aliases_[kMaxAliases]{};
-  CommandRecord commands_[kMaxCommandDefs]{};
-  FieldRecord fields_[kMaxFieldDefs]{};
-  SignalRecord signals_[kMaxSignals]{};
-  RateRecord rates_[kMaxRateLimits]{};
-  InvariantRecord invariants_[kMaxInvariants]{};
-  TemplateRecord templates_[kMaxTemplates]{};
-  Insn code_[kMaxCodeWords]{};
-  int64_t constants_[kMaxConstants]{};
-  AccessRecord access_[kMaxTasks]{};
-  uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
-  uint64_t derived_mask_ = 0;
-  uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
-  // Runtime state.
-  uint32_t epoch_ = 0;
-  uint64_t executed_ = 0;
-  uint64_t now_us_ = 0;
-  bool general_call_ = false;  // this check() is a general call (no pointer-write reads)
-  bool latch_event_ = false;   // a device latched during this check()
-  uint16_t latch_device_ = kNone;
-  DeviceState state_[kMaxDevices]{};
-  // LAST_FIELD / SINCE_LAST history, kept per (command, channel): command c's
-  // channel i lives in last_[last_first_[c] + i] (frame commands have one).
-  uint16_t last_first_[kMaxCommandDefs]{};
-  LastCommand last_[kMaxHistorySlots]{};
-  SignalMemo signal_memo_[kMaxSignals]{};
-  SampleMemo sample_memo_[kMaxDevices]{};
-  TaskWindow windows_[kMaxTasks]{};
-  uint32_t job_count_[kMaxTasks][kMaxDevices]{};
-  uint32_t rate_used_[kMaxRateLimits]{};
-  int64_t state_words_[kMaxInvariants]{};
-  int64_t pending_state_[kMaxInvariants]{};
-  Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
-  TxContext tx_{};
-  Journal journal_{};
+  alignas(kCheckerStateAlign) unsigned char storage_[kCheckerStateBytes];
 };
 
 }  // namespace contego::core

@@ -1,0 +1,309 @@
+// The checker's state and its implementation (the public Checker in
+// contego/core/checker.h holds it in fixed, aligned storage and forwards to
+// it): fixed-capacity tables copied from the image, and the runtime state
+// (shadow registers, staging, rate windows, latches, history). Sized by
+// limits.h; no pointers into the image, nothing allocated.
+#ifndef CONTEGO_CORE_STATE_H_
+#define CONTEGO_CORE_STATE_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "contego/core/checker.h"
+
+namespace contego::core::internal {
+struct Place {};  // tag of the placement new below (no <new> in the freestanding core)
+}  // namespace contego::core::internal
+
+inline void* operator new(size_t, void* where, contego::core::internal::Place) noexcept {
+  return where;
+}
+
+namespace contego::core::internal {
+
+// What evaluating a signal gave.
+enum class SignalStatus : uint8_t { kOk, kUnavailable, kFault };
+
+// How a program run ended: one of its terminators, or a fault (a missing
+// signal told apart from any other).
+enum class Exit : uint8_t { kPass, kFail, kFailSubst, kReturn, kUnavailable, kFault };
+
+struct DeviceState {
+  uint8_t shadow[kMaxRegisters];       // register-map: the values the device holds
+  uint8_t staged[kMaxRegisters];       // register-map: written but not yet committed
+  uint8_t staged_task[kMaxRegisters];  // which task staged each register
+  uint32_t staged_bits[kMaxRegisters / 32];
+  uint8_t lookup[kMaxRegisters];        // opcode / register -> offset in the device's commands
+  uint8_t power_on[kMaxRegisters];      // register-map: values after reset (kRegisterInit)
+  uint64_t violations[kMaxLatchCount];  // ring of the last violation times
+  uint8_t violation_count;
+  uint8_t violation_next;
+  bool latched;
+};
+struct LastCommand {
+  uint64_t time_us;
+  int32_t fields[kMaxFieldsPerCommand];
+  bool valid;
+};
+struct SignalMemo {
+  uint32_t epoch;
+  SignalStatus status;
+  bool kept;  // derived: value/status stay valid while `inputs` is unchanged
+  int64_t value;
+  uint64_t inputs;  // derived: sum of its sensors' SampleMemo::generation when computed
+};
+struct SampleMemo {
+  uint32_t epoch;
+  uint32_t len;
+  uint64_t taken_at_us;
+  // Bumped whenever the sample's bytes, its length or its freshness change;
+  // never decreases, so a sum over fixed sensors is unchanged only if each is.
+  uint64_t generation;
+  bool fresh;  // not older than the device's max_sample_age_us
+  uint8_t bytes[kMaxSampleBytes];
+};
+struct TaskWindow {
+  uint64_t key;  // job number (top bit set) or now / period
+  bool valid;
+};
+// What the checks made of one decoded command (kept for the audit and
+// for combining the commands of one transaction).
+struct Outcome {
+  uint16_t device;
+  uint16_t command;  // kNone: undecoded
+  uint8_t index;
+  uint8_t field_count;
+  uint8_t base_reg;   // register map: first register of the group
+  uint8_t group_len;  // register map: 0 for frames
+  int32_t fields[kMaxFieldsPerCommand];
+  Decision decision;
+  Reason reason;
+  RuleKind rule_kind;
+  uint8_t reply_errno;
+  uint16_t rule;
+  uint16_t emit_offset;  // this command's emitted bytes inside the verdict
+  uint16_t emit_len;
+  uint8_t emit_index;    // its first write in the verdict
+  uint16_t bus_command;  // the command whose fields reached the bus (kNone: none)
+  uint8_t bus_index;     // and its channel (register-map group index)
+  int32_t bus_fields[kMaxFieldsPerCommand];
+};
+// The command being checked: its bytes (frame after the prefix, or the
+// register group) and decoded fields.
+struct Decoded {
+  uint16_t device;
+  uint16_t command;
+  uint8_t index;
+  uint8_t prefix;  // frame: bytes before the frame (0 or 1)
+  uint8_t prefix_byte;
+  uint8_t base_reg;
+  uint8_t field_count;
+  uint32_t len;
+  uint32_t written[kMaxRegisters / 32];  // register map: group offsets this commit writes
+  int32_t fields[kMaxFieldsPerCommand];
+  uint8_t bytes[kMaxRegisters];
+};
+struct Subst {
+  bool active;
+  uint16_t command;  // kNone: the checked command
+  uint8_t index;     // channel, kSameIndex: the checked command's
+  uint8_t set_mask;
+  int32_t values[kMaxFieldsPerCommand];
+};
+struct Undo {
+  uint16_t device;
+  uint8_t reg;
+  uint8_t shadow;
+  uint8_t staged;
+  uint8_t staged_task;
+  bool staged_bit;
+};
+struct TxContext {
+  Verdict* out;
+  uint32_t outcome_count;
+  bool overflow;     // too many commands / undo entries: fail closed
+  bool emit_failed;  // the verdict ran out of emit space
+  uint16_t undo_device;
+  uint32_t undo_count;
+  uint32_t saved[kMaxRegisters / 32];
+  uint32_t pending_state[kMaxInvariants / 32];
+  uint16_t staged_command;  // first command whose group was only staged (kNone: none)
+  uint8_t staged_index;
+  Outcome outcomes[kMaxCommandsPerTransaction];
+  Undo undo[kMaxRegisters];
+};
+// What a transfer changed in the device model, to undo it on abort.
+struct ModelCopy {
+  uint16_t device;
+  uint8_t shadow[kMaxRegisters];
+  uint8_t staged[kMaxRegisters];
+  uint8_t staged_task[kMaxRegisters];
+  uint32_t staged_bits[kMaxRegisters / 32];
+};
+struct HistoryCopy {
+  uint16_t slot;
+  LastCommand last;
+};
+struct Journal {
+  bool active;
+  uint32_t acted;          // checks audited as acting (allow / fail-safe)
+  uint32_t saved_devices;  // bit d: devices[] holds device d's model
+  uint32_t device_count;
+  uint32_t history_count;
+  uint32_t saved_state[kMaxInvariants / 32];
+  ModelCopy devices[kMaxTransferDevices];
+  HistoryCopy history[kMaxTransferHistory];
+  int64_t state_words[kMaxInvariants];
+  Transaction first;  // the first check's (bytes not kept): for the abort's audit record
+};
+struct Env {
+  const Transaction* tx;
+  const Decoded* d;
+  uint16_t invariant;  // kNone for derived signals
+  Subst* subst;
+};
+
+// What the verifier's steps read from the image itself (not copied).
+struct LoadInput {
+  const uint8_t* image;
+  SectionEntry init;  // the kRegisterInit section
+};
+
+// An audit record of `tx` with no rule and no fields.
+AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t command,
+                         Decision decision, Reason reason);
+// The substitute a template describes.
+Subst template_subst(const TemplateRecord& t);
+
+class CheckerState {
+ public:
+  // verifier.cc: load() verifies the image completely, then derives costs.
+  LoadResult load(const uint8_t* image, uint32_t size);
+  void clear_tables();
+  LoadResult verify(const uint8_t* image, uint32_t size);
+  // The steps of verify() after the section table, run in this order.
+  LoadResult verify_devices(const LoadInput& in);
+  LoadResult verify_aliases(const LoadInput& in);
+  LoadResult verify_commands(const LoadInput& in);
+  LoadResult verify_decoding(const LoadInput& in);
+  LoadResult verify_templates(const LoadInput& in);
+  LoadResult verify_signals(const LoadInput& in);
+  LoadResult verify_rules(const LoadInput& in);
+  LoadResult verify_access(const LoadInput& in);
+  LoadResult verify_programs(const LoadInput& in);
+  bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
+  bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
+                      uint16_t device, LoadResult* result);
+  void compute_costs();
+
+  // checker.cc: the check path, its combination of outcomes, latches.
+  void check(const Transaction& tx, Verdict* out);
+  uint32_t find_targets(const Transaction& tx, uint16_t* targets) const;
+  bool reserved_address(const Transaction& tx, uint32_t target_count) const;
+  bool resolve_general_call(const Transaction& tx, Verdict* out);
+  void check_device(const Transaction& tx, uint16_t dev);
+  void evaluate(const Transaction& tx, Outcome& o);
+  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
+               RuleKind kind, uint16_t rule);
+  void finish(const Transaction& tx, Verdict* out);
+  void settle_model(const Transaction& tx, Decision decision);
+  void audit(const Transaction& tx, const Outcome& o);
+  Outcome* new_outcome(uint16_t dev);
+  bool emit(const uint8_t* bytes, uint32_t len);
+  void update_window(const Transaction& tx);
+  LastCommand& last(uint16_t command, uint8_t index);
+  void undo_save(uint16_t dev, uint8_t reg);
+  // Records that `command` wrote `value` to register `reg` of `dev` (undoable),
+  // with the device's broadcast into other channels.
+  void store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value);
+  void rollback();
+  bool record_violation(uint16_t dev, uint64_t now_us);
+  void reset_latch(uint16_t device);
+  bool latched(uint16_t device) const;
+  bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+  bool safe_state(uint16_t device, Verdict* out);
+  bool emit_safe_state(uint16_t dev);
+
+  // decode.cc: device profiles, decoding writes and encoding substitutes.
+  void check_frame(const Transaction& tx, uint16_t dev);
+  void check_short_query(const Transaction& tx, uint16_t dev);
+  Outcome* check_as_is(const Transaction& tx, uint16_t dev);
+  void check_register_map(const Transaction& tx, uint16_t dev);
+  void check_general_call_command(const Transaction& tx, uint16_t dev);
+  void drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                            uint32_t index);
+  void commit_group(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                    uint32_t index, uint32_t j, uint8_t val);
+  Decoded& decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len);
+  void decode_fields(Decoded& d);
+  bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, uint8_t* bytes,
+                        uint32_t* len, uint16_t* command, uint8_t* index, int32_t* fields);
+  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
+                    uint16_t command, uint8_t index);
+  bool emit_substitute(const Subst& subst, Outcome& o);
+
+  // interpreter.cc: how a program ended; *result holds a kReturn's value.
+  Exit run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result);
+  bool context_value(const Insn& in, const Env& env, int64_t* value);
+  bool subst_op(const Insn& in, const Env& env, int64_t value);
+  SignalStatus signal(uint16_t id, uint64_t now_us, int64_t* value);
+  SignalStatus raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
+  SampleMemo& sample(uint16_t device, uint64_t now_us);  // sampled at most once per check()
+
+  // transfer.cc: the journal that undoes an aborted transfer; the model.
+  void begin_transfer();
+  void commit_transfer();
+  void abort_transfer(Decision decision);
+  bool journal_device(uint16_t dev);  // false: no room (the check is refused)
+  void journal_history(LastCommand& slot);
+  void journal_state(uint32_t invariant);
+  bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
+  uint32_t model_crc() const;
+
+  bool loaded_ = false;
+  Host host_{};
+  uint32_t worst_case_cost_ = 0;
+  // The tables copied from the image, and how many records each holds.
+  // clang-format off
+  uint32_t task_count_ = 0, device_count_ = 0, alias_count_ = 0, command_count_ = 0,
+           field_count_ = 0, signal_count_ = 0, rate_count_ = 0, invariant_count_ = 0,
+           template_count_ = 0, code_count_ = 0, constant_count_ = 0;
+  // clang-format on
+  // clang-format off
+  TaskRecord tasks_[kMaxTasks]{};                 DeviceRecord devices_[kMaxDevices]{};
+  AliasRecord aliases_[kMaxAliases]{};            CommandRecord commands_[kMaxCommandDefs]{};
+  FieldRecord fields_[kMaxFieldDefs]{};           SignalRecord signals_[kMaxSignals]{};
+  RateRecord rates_[kMaxRateLimits]{};            InvariantRecord invariants_[kMaxInvariants]{};
+  TemplateRecord templates_[kMaxTemplates]{};     Insn code_[kMaxCodeWords]{};
+  int64_t constants_[kMaxConstants]{};            AccessRecord access_[kMaxTasks]{};
+  // clang-format on
+  uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
+  uint64_t derived_mask_ = 0;
+  uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
+  // Runtime state.
+  uint32_t epoch_ = 0;
+  uint64_t executed_ = 0;
+  uint64_t now_us_ = 0;
+  bool general_call_ = false;  // this check() is a general call (no pointer-write reads)
+  bool latch_event_ = false;   // a device latched during this check()
+  uint16_t latch_device_ = kNone;
+  DeviceState state_[kMaxDevices]{};
+  // LAST_FIELD / SINCE_LAST history, kept per (command, channel): command c's
+  // channel i lives in last_[last_first_[c] + i] (frame commands have one).
+  uint16_t last_first_[kMaxCommandDefs]{};
+  LastCommand last_[kMaxHistorySlots]{};
+  SignalMemo signal_memo_[kMaxSignals]{};
+  SampleMemo sample_memo_[kMaxDevices]{};
+  TaskWindow windows_[kMaxTasks]{};
+  uint32_t job_count_[kMaxTasks][kMaxDevices]{};
+  uint32_t rate_used_[kMaxRateLimits]{};
+  int64_t state_words_[kMaxInvariants]{};
+  int64_t pending_state_[kMaxInvariants]{};
+  Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
+  TxContext tx_{};
+  Journal journal_{};
+};
+
+}  // namespace contego::core::internal
+
+#endif  // CONTEGO_CORE_STATE_H_
