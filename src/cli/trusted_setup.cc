@@ -205,6 +205,11 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   for (const auto& a : out.model.access) actuates.push_back(a.actuate_devices);
   t->monitor->set_task_devices(std::move(actuates));
   t->monitor->set_budget_factor(o.budget_factor);
+  for (const auto& task : out.bindings) {  // declared job phases (the policy's `phase`)
+    auto id = t->tasks.find(task.name);
+    if (task.phase_us && id != t->tasks.end())
+      t->monitor->set_task_phase(id->second, *task.phase_us);
+  }
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;
   for (const auto& [n, path] : o.real_buses) {

@@ -138,7 +138,7 @@ LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
 
 bool CheckerState::record_violation(uint16_t dev, uint64_t now_us) {
   const DeviceRecord& d = devices_[dev];
-  if (d.latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafe)) return false;
+  if (d.latch_mode == static_cast<uint8_t>(LatchMode::kOff)) return false;
   DeviceState& s = state_[dev];
   s.violations[s.violation_next] = now_us;
   s.violation_next = static_cast<uint8_t>((s.violation_next + 1) % kMaxLatchCount);
@@ -464,6 +464,7 @@ void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t t
 
 void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   const Decoded& d = decoded_;
+  bool unrepaired = false;  // for LatchMode::kHoldSafeUnrepaired
   const uint16_t dev = d.device;
   o.command = d.command;
   o.index = d.index;
@@ -504,6 +505,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
     }
     if (!decided) {
       Env env{&tx, &d, kNone, nullptr};
+      unrepaired = true;  // an invariant decides from here on, unless it repairs
       Subst subst{};
       for (uint32_t i = 0; i < invariant_count_; ++i) {
         const InvariantRecord& inv = invariants_[i];
@@ -522,6 +524,8 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
           decide(o, Decision::kFailsafe, Reason::kInvariantViolated, RuleKind::kInvariant, rule, 0);
           if (!emit_substitute(subst, o)) {
             decide(o, Decision::kIgnore, Reason::kEncodeFailed, RuleKind::kInvariant, rule, 0);
+          } else {
+            unrepaired = false;  // the device got the command the policy expects
           }
         } else {
           // A fault is a violation: fail closed with the invariant's template.
@@ -536,8 +540,14 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   }
   // Commands dropped by a rate limit do not count toward the latch: a burst
   // is already held to its budget, and latching on it would hand the
-  // attacker the stop it is after while the honest commands are fine.
-  if (o.decision != Decision::kAllow && o.reason != Reason::kRateExceeded &&
+  // attacker the stop it is after while the honest commands are fine. A
+  // device latching on unrepaired violations only also lets pass what left
+  // it on the policy's line: an expected substitute, a refused command of a
+  // task that may not drive it, a forbidden command.
+  const bool counts =
+      devices_[dev].latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
+      unrepaired;
+  if (o.decision != Decision::kAllow && o.reason != Reason::kRateExceeded && counts &&
       record_violation(dev, tx.now_us)) {
     // The K-th violation in the window: drive the safe state once, hold it.
     Verdict& v = *tx_.out;

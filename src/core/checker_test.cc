@@ -486,6 +486,50 @@ TEST_F(RoverTest, ViolationsSpreadBeyondTheWindowDoNotLatch) {
   EXPECT_FALSE(h.checker->latched(rover::kGopigo));
 }
 
+TEST_F(RoverTest, AnUnrepairedLatchIgnoresExpectedSubstitutesAndForbiddenCommands) {
+  image::ImageModel m = rover::model();
+  m.devices[rover::kGopigo].record.latch_mode =
+      static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired);
+  m.devices[rover::kGopigo].record.latch_count = 3;
+  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
+  load(m);
+  sense(rover::kCentre, 0);
+  // left() on the line: INV3 substitutes the expected fwd(), five times.
+  for (uint64_t t = 1; t <= 5; ++t) {
+    const Verdict v = send({1, 97, 0, 0, 0}, rover::kFollower, t * 1000);
+    EXPECT_EQ(v.decision, Decision::kFailsafe);
+    EXPECT_EQ(v.reason, Reason::kInvariantViolated);
+  }
+  // A forbidden command is refused and does not count either.
+  for (uint64_t t = 6; t <= 9; ++t) {
+    EXPECT_EQ(send({1, 12, 1, 1, 0}, rover::kFollower, t * 1000).reason, Reason::kForbiddenCommand);
+  }
+  // Nor does a task without access to the device.
+  for (uint64_t t = 10; t <= 13; ++t) {
+    EXPECT_EQ(send({1, 120, 0, 0, 0}, rover::kIntruder, t * 1000).reason, Reason::kAccessDenied);
+  }
+  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+  EXPECT_EQ(send({1, 119, 0, 0, 0}, rover::kFollower, 14000).decision, Decision::kAllow);
+}
+
+TEST_F(RoverTest, AnUnrepairedLatchCountsTemplateResponsesAndFaults) {
+  image::ImageModel m = rover::model();
+  m.devices[rover::kGopigo].record.latch_mode =
+      static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired);
+  m.devices[rover::kGopigo].record.latch_count = 3;
+  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
+  load(m);
+  sense(rover::kLineLeft, 0);
+  // left() with the line on the left: INV1 answers with its template right().
+  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 1000).reason, Reason::kInvariantViolated);
+  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 2000).reason, Reason::kInvariantViolated);
+  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+  const Verdict third = send({1, 97, 0, 0, 0}, rover::kFollower, 3000);
+  EXPECT_EQ(third.reason, Reason::kLatched);
+  EXPECT_EQ(emits(third), (std::vector<Bytes>{{120, 0, 0, 0}}));  // safe state: stop
+  EXPECT_TRUE(h.checker->latched(rover::kGopigo));
+}
+
 TEST_F(RoverTest, SafeStateIsTheEncodedTemplates) {
   Verdict v{};
   ASSERT_TRUE(h.checker->safe_state(rover::kGopigo, &v));

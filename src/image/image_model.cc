@@ -364,7 +364,8 @@ std::string dump(const ImageModel& m) {
                                        : fmt::format("bit {} of 0x{:02x}", d.ai_bit, d.ai_reg));
     }
     if (d.latch_mode != 0) {
-      out += fmt::format(" latch after {} in {}us", d.latch_count, d.latch_window_us);
+      out += fmt::format(" latch after {}{} in {}us", d.latch_count,
+                         d.latch_mode == 2 ? " unrepaired" : "", d.latch_window_us);
     }
     if (d.broadcast != d.broadcast_target) {
       out += fmt::format(" broadcast cmd{} -> cmd{}", d.command_first + d.broadcast,

@@ -84,6 +84,20 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
 
 void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
 
+void Monitor::set_task_phase(uint16_t task, uint64_t phase_us) {
+  std::lock_guard lock(mu_);
+  declared_phase_us_[task] = phase_us;
+}
+
+uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
+                          uint64_t contact_us) {
+  if (!phase_us || period_us == 0 || contact_us < *phase_us) {
+    // Before the declared grid's first release the contact is in job 1 too.
+    return phase_us && period_us != 0 ? *phase_us : contact_us;
+  }
+  return *phase_us + (contact_us - *phase_us) / period_us * period_us;
+}
+
 Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
   std::lock_guard lock(mu_);
   const auto& names = names_.devices;
@@ -352,7 +366,13 @@ uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
 uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   const uint64_t period = decider_.task_period_us(task);
   if (period == 0) return 0;  // no declared task: the core's own windows
-  auto [it, first] = job_phase_us_.try_emplace(task, now_us);
+  auto it = job_phase_us_.find(task);
+  if (it == job_phase_us_.end()) {
+    auto d = declared_phase_us_.find(task);
+    const std::optional<uint64_t> declared =
+        d == declared_phase_us_.end() ? std::nullopt : std::optional<uint64_t>(d->second);
+    it = job_phase_us_.emplace(task, first_release_us(declared, period, now_us)).first;
+  }
   return grid_job(it->second, period, now_us);
 }
 

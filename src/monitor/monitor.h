@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -34,6 +35,14 @@
 namespace contego::monitor {
 
 uint64_t monotonic_us();
+
+// The release of a task's job 1 when its first contact with the monitor is at
+// `contact_us`: the contact itself, or with a declared phase (the policy's
+// `phase`) the latest release phase + k·period (k >= 0) at or before the
+// contact, on the monitor's monotonic clock (CLOCK_MONOTONIC): the grid a
+// task that sleeps with clock_nanosleep(TIMER_ABSTIME) on that clock keeps.
+uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
+                          uint64_t contact_us);
 
 // A device the monitor could not read or drive: its id in the image and the
 // bus's errno (ENODEV: no adapter for its bus).
@@ -64,6 +73,9 @@ class Monitor final : public gate::Endpoint {
   // The schedulability test assumes N_i checked commands per job; this bounds
   // what a runaway or hostile task can make the monitor do for it.
   void set_budget_factor(uint32_t factor);
+  // A declared phase for the task's job grid (see first_release_us). Set
+  // before the task's first contact; a grid already started keeps its phase.
+  void set_task_phase(uint16_t task, uint64_t phase_us);
   static constexpr uint32_t kDefaultBudgetFactor = 4;  // what the CLI sets
   uint64_t holds() const { return holds_.load(); }
 
@@ -141,8 +153,9 @@ class Monitor final : public gate::Endpoint {
   readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
   uint64_t checking_now_us_ = 0;
-  std::map<uint16_t, uint64_t> job_phase_us_;  // the release of each task's job 1
-  std::atomic<uint32_t> budget_factor_{0};     // read without mu_ when off
+  std::map<uint16_t, uint64_t> job_phase_us_;       // the release of each task's job 1
+  std::map<uint16_t, uint64_t> declared_phase_us_;  // the policy's `phase`, per task
+  std::atomic<uint32_t> budget_factor_{0};          // read without mu_ when off
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
   std::atomic<uint64_t> decisions_{0};

@@ -82,7 +82,8 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
     }
     if (d.latch_count) {
       const uint32_t w = d.latch_window_us;
-      out.latch = fmt::format("after {} violations within {}", d.latch_count,
+      out.latch = fmt::format("after {} {}violations within {}", d.latch_count,
+                              d.latch_unrepaired ? "unrepaired " : "",
                               w % 1000000 == 0 ? fmt::format("{}s", w / 1000000)
                               : w % 1000 == 0  ? fmt::format("{}ms", w / 1000)
                                                : fmt::format("{}us", w));
@@ -90,7 +91,7 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
     s.devices.push_back(std::move(out));
   }
   for (const Task& t : p.tasks) {
-    s.tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions});
+    s.tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us});
   }
   for (size_t i = 0; i < p.signals.size(); ++i) {
     const Signal& sig = p.signals[i];

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -44,6 +45,7 @@ struct PolicySummary {
     std::string name, exe;
     std::string user, group, unit, cgroup;  // who may run it (the monitor checks)
     uint32_t sessions = 1;
+    std::optional<uint32_t> phase_us;  // declared job phase (the monitor's grid)
   };
   std::vector<Device> devices;
   std::vector<Task> tasks;

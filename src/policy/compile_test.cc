@@ -6,6 +6,7 @@
 #include <cstring>
 #include <gtest/gtest.h>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "contego/core/checker.h"
@@ -258,6 +259,51 @@ TEST(CompilePolicy, MoreDevicesThanTheImageHoldsIsReported) {
   EXPECT_FALSE(out.ok);
   ASSERT_FALSE(out.diagnostics.empty());
   EXPECT_EQ(out.diagnostics.back().id, "E0508");
+}
+
+TEST(CompilePolicy, AnUnrepairedLatchCompilesToItsOwnMode) {
+  const char* text = R"(
+device gopigo : gopigo2 at i2c-1 0x08 {
+  safe stop()
+  latch after 5 unrepaired violations within 2s
+}
+task t { period 100ms; wcet 1ms }
+allow t -> gopigo
+)";
+  const CompileOutput out = compile_source("l.policy", text);
+  ASSERT_TRUE(out.ok);
+  ASSERT_EQ(out.model.devices.size(), 1u);
+  EXPECT_EQ(out.model.devices[0].record.latch_mode,
+            static_cast<uint8_t>(core::LatchMode::kHoldSafeUnrepaired));
+  EXPECT_EQ(out.model.devices[0].record.latch_count, 5);
+  EXPECT_EQ(out.model.devices[0].record.latch_window_us, 2000000u);
+  EXPECT_EQ(out.summary.devices[0].latch, "after 5 unrepaired violations within 2s");
+}
+
+TEST(CompilePolicy, AMaxAgeDefaultsToTwoSamplesOrTheReadersPeriod) {
+  const char* text = R"(
+device line : line_follower at i2c-1 0x06 sample 10ms
+device other : line_follower at i2c-1 0x07 sample 30ms
+task t { period 200ms; wcet 1ms }
+allow t reads line
+)";
+  const CompileOutput out = compile_source("a.policy", text);
+  ASSERT_TRUE(out.ok);
+  ASSERT_EQ(out.model.devices.size(), 2u);
+  EXPECT_EQ(out.model.devices[0].record.max_sample_age_us, 200000u);  // the reader's period
+  EXPECT_EQ(out.model.devices[1].record.max_sample_age_us, 60000u);   // two samples
+}
+
+TEST(CompilePolicy, ATaskPhaseIsADeploymentFactBelowThePeriod) {
+  const char* ok_text = "task t { period 200ms; phase 50ms; wcet 1ms }\n";
+  const CompileOutput ok = compile_source("p.policy", ok_text);
+  ASSERT_EQ(ok.summary.tasks.size(), 1u);
+  EXPECT_EQ(ok.summary.tasks[0].phase_us, std::optional<uint32_t>(50000u));
+  const CompileOutput bad =
+      compile_source("p.policy", "task t { period 200ms; phase 200ms; wcet 1ms }\n");
+  EXPECT_FALSE(bad.ok);
+  ASSERT_FALSE(bad.diagnostics.empty());
+  EXPECT_EQ(bad.diagnostics.front().id, "E0501");
 }
 
 }  // namespace

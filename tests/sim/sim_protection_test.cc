@@ -197,7 +197,9 @@ TEST_F(ProtectionTest, ExamplePumpPolicyStopsTheMotorOnceTheDoseIsDelivered) {
   EXPECT_LE(metric(r.protected_, "max_rate"), 200.0);
 }
 
-// The example policy as shipped latches the rover into stop() instead.
+// A latch that counts every violation (scenarios/policies/rover-strict.policy)
+// holds the spoofed rover in stop() instead; the example policy's latch counts
+// only unrepaired violations and keeps it on the line (rover_spoof).
 TEST_F(ProtectionTest, ExamplePolicyLatchHoldsTheSpoofedRoverStopped) {
   const Runs r = run("rover_spoof_latch");
   EXPECT_LT(gain(r.protected_, "distance_cm", 11.0, 30.0), 5.0);  // held, even after the attack

@@ -20,7 +20,8 @@ namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
 inline constexpr uint16_t kImageVersionMajor = 2;
-inline constexpr uint16_t kImageVersionMinor = 1;  // 1: HAS_LAST, per-channel rate limits
+inline constexpr uint16_t kImageVersionMinor = 2;  // 1: HAS_LAST, per-channel rate limits;
+                                                   // 2: LatchMode::kHoldSafeUnrepaired
 inline constexpr uint16_t kNone = 0xFFFF;
 inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
@@ -91,6 +92,13 @@ enum class LatchMode : uint8_t {
   kOff = 0,
   kHoldSafe = 1,  // after `latch_count` violations within `latch_window_us`: drive the safe
                   // state once, then ignore every actuation until reset_latch()
+  // (since 2.2) as kHoldSafe, counting only the violations the policy could not
+  // repair: an invariant's violation or fault whose verdict is not the
+  // invariant's computed expected command (`else failsafe expected`). Refused
+  // commands of other tasks, forbidden commands and expected substitutes do not
+  // count: the device stays on the policy's line, and latching would hand the
+  // attacker the stop.
+  kHoldSafeUnrepaired = 2,
 };
 
 struct DeviceRecord {

@@ -89,6 +89,7 @@ class Sema {
     for (const auto& a : file_.allows) apply_allow(a);
     for (const auto& l : file_.limits) check_limit(l);
     for (const auto& i : file_.invariants) check_invariant(i);
+    default_max_ages();
     final_checks();
     return std::move(out_);
   }
@@ -1100,12 +1101,16 @@ class Sema {
     } else if (dev.role & core::kRoleSensor) {
       dev.sample_period_us = 10000;  // documented default: 10ms
     }
-    if (d.max_age) dev.max_age_us = duration_us(*d.max_age, "`max_age`");
+    if (d.max_age) {
+      dev.max_age_us = duration_us(*d.max_age, "`max_age`");
+      dev.max_age_declared = true;
+    }
     if (d.latch_count) {
       if (auto k = int_in(*d.latch_count, "the latch count", 1, core::kMaxLatchCount)) {
         dev.latch_count = static_cast<uint8_t>(*k);
       }
       dev.latch_window_us = duration_us(*d.latch_window, "the latch window");
+      dev.latch_unrepaired = d.latch_unrepaired;
       if (!(dev.role & core::kRoleActuator)) {
         diags_.emit(DiagKind::kNotAnActuator, d.latch_span, dev.name, "`latch`");
       }
@@ -1618,6 +1623,8 @@ class Sema {
         } else if (v) {
           t.period_us = static_cast<uint32_t>(*v);
         }
+      } else if (p.key.name == "phase") {
+        t.phase_us = duration_us(*p.value, what);
       } else if (p.key.name == "deadline") {
         t.deadline_us = duration_us(*p.value, what);
         have_deadline = true;
@@ -1647,6 +1654,16 @@ class Sema {
       }
     }
     if (!have_deadline) t.deadline_us = t.period_us;
+    if (t.phase_us && have_period && t.period_us != 0 && *t.phase_us >= t.period_us) {
+      // A release offset within one period: job k is released at phase + k·period.
+      for (const auto& p : d.properties) {
+        if (p.key.name == "phase") {
+          diags_.emit(DiagKind::kValueOutOfRange, p.value->span, "`phase`",
+                      std::to_string(*t.phase_us) + "us", "phase", "0us",
+                      std::to_string(t.period_us - 1) + "us (below the period)");
+        }
+      }
+    }
     if (have_deadline && have_period && t.deadline_us > t.period_us) {
       // Constrained deadlines only: the analysis assumes D <= T.
       for (const auto& p : d.properties) {
@@ -2153,6 +2170,23 @@ class Sema {
     if (writes) return;
     diags_.emit(DiagKind::kNeverStarts, cond->span.end > cond->span.begin ? cond->span : span,
                 inv.name);
+  }
+
+  // A sensor without `max_age` gets the documented default: twice its sample
+  // period, or the longest period of a task that may read it when that is
+  // longer (a controller reads at the start of its job and commands within
+  // the period, judged against that reading). Never unbounded: a sensor that
+  // stops answering makes its signals unavailable.
+  void default_max_ages() {
+    for (size_t i = 0; i < out_.devices.size(); ++i) {
+      Device& d = out_.devices[i];
+      if (!(d.role & core::kRoleSensor) || d.max_age_declared) continue;
+      uint64_t age = uint64_t{2} * d.sample_period_us;
+      for (const Task& t : out_.tasks) {
+        if (i < t.read.size() && t.read[i]) age = std::max<uint64_t>(age, t.period_us);
+      }
+      d.max_age_us = static_cast<uint32_t>(std::min<uint64_t>(age, UINT32_MAX));
+    }
   }
 
   void final_checks() {

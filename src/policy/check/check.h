@@ -96,10 +96,12 @@ struct Device {
   uint8_t role = 0;
   uint32_t sample_period_us = 0;
   uint32_t max_age_us = 0;
+  bool max_age_declared = false;  // else the default (check.cc, default_max_ages)
   std::vector<CommandValue> safe;
   uint8_t latch_count = 0;
   uint32_t latch_window_us = 0;
-  bool commanded = false;  // some task may actuate it
+  bool latch_unrepaired = false;  // count only violations the policy could not repair
+  bool commanded = false;         // some task may actuate it
 };
 
 struct Signal {
@@ -124,6 +126,7 @@ struct Task {
   std::string user, group, unit, cgroup;
   uint32_t sessions = 1;  // live sessions the monitor accepts at once
   uint32_t period_us = 0, deadline_us = 0, wcet_us = 0;
+  std::optional<uint32_t> phase_us;  // declared release offset on the monitor's clock
   uint16_t priority = 0;
   uint16_t actuations = 1;
   bool actuations_given = false;

@@ -65,7 +65,8 @@ class Lowerer {
       b.sample_period_us = d.sample_period_us;
       b.max_sample_age_us = d.max_age_us;
       if (d.latch_count) {
-        b.latch_mode = core::LatchMode::kHoldSafe;
+        b.latch_mode =
+            d.latch_unrepaired ? core::LatchMode::kHoldSafeUnrepaired : core::LatchMode::kHoldSafe;
         b.latch_count = d.latch_count;
         b.latch_window_us = d.latch_window_us;
       }

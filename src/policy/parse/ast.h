@@ -113,6 +113,7 @@ struct DeviceDecl {
   std::vector<ExprPtr> safe;  // `safe stop(), led(5, off=0)`: kCall each
   Span safe_span;
   ExprPtr latch_count, latch_window;  // `latch after 3 violations within 1s`
+  bool latch_unrepaired = false;      // `latch after 3 unrepaired violations within 1s`
   Span latch_span;
   // generic register maps
   bool auto_increment = false;

@@ -280,9 +280,12 @@ class Parser {
       // may rely on every part of a clause it is given.
       if (!expect_word("after")) return;
       ExprPtr count = additive();
-      if (failed_ || !expect_word("violations") || !expect_word("within")) return;
+      if (failed_) return;
+      const bool unrepaired = accept_word("unrepaired");
+      if (!expect_word("violations") || !expect_word("within")) return;
       ExprPtr window = additive();
       if (failed_) return;
+      d.latch_unrepaired = unrepaired;
       d.latch_count = std::move(count);
       d.latch_window = std::move(window);
       d.latch_span = {begin, prev_end_};
@@ -347,8 +350,8 @@ class Parser {
   void task_item(ast::TaskDecl& d) {
     ast::TaskProperty p;
     if (!ident(p.key, "a task property")) return;
-    static constexpr std::string_view kKeys[] = {"period",     "deadline", "wcet",    "priority",
-                                                 "actuations", "overhead", "sessions"};
+    static constexpr std::string_view kKeys[] = {"period",   "phase",      "deadline", "wcet",
+                                                 "priority", "actuations", "overhead", "sessions"};
     // Who may run the task (the monitor checks it; not in the image): a
     // string, or for `user` and `group` also a numeric id.
     const std::string& k = p.key.name;

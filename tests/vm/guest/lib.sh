@@ -127,13 +127,14 @@ as_task() {
 
 # under MODE POLICY TASK PROGRAM...: PROGRAM supervised by contego, either with
 # the monitor embedded in `contego run` (MODE=embedded, as root: it must open
-# the bus itself) or through the monitor daemon (MODE=monitor, the program and
+# the bus itself; the program runs as uid 1000 with `--user`, as a deployment
+# runs it) or through the monitor daemon (MODE=monitor, the program and
 # its supervisor as uid 1000; start_monitor first).
 under() {
   mode=$1 policy=$2 task=$3; shift 3
   case $mode in
     embedded)
-      contego run --policy "$POLICIES/$policy" $BUS_ARGS --same-user --task "$task" \
+      contego run --policy "$POLICIES/$policy" $BUS_ARGS --user 1000 --task "$task" \
         --audit "$LOGDIR/embedded-audit.jsonl" -- "$@" ;;
     monitor)
       as_task contego run --socket $SOCK --task "$task" -- "$@" ;;

@@ -11,7 +11,7 @@ BUS_ARGS="$BUS_ARGS --budget-factor 0"  # a bench task far over its declared act
 
 run_logged plain $loop 0 $A $REG 0 $N
 plain=$(cat "$OUT")
-run_logged embedded contego run --policy $POLICIES/arm.policy $BUS_ARGS --same-user --task arm_init \
+run_logged embedded contego run --policy $POLICIES/arm.policy $BUS_ARGS --user 1000 --task arm_init \
   --audit $LOGDIR/bench-audit.jsonl -- $loop 1 $A $REG 0 $N
 embedded=$(grep '^loop' "$OUT")
 start_monitor arm.policy || finish
@@ -40,6 +40,6 @@ for row in plain embedded monitor; do
 done
 # Every bench write went to the stub: LED0_ON_L is still 0 and nothing else moved.
 stub_set $A $REG 0x11
-run_logged last contego run --policy $POLICIES/arm.policy $BUS_ARGS --same-user --task arm_init --audit $LOGDIR/last-audit.jsonl -- $loop 1 $A $REG 0 1
+run_logged last contego run --policy $POLICIES/arm.policy $BUS_ARGS --user 1000 --task arm_init --audit $LOGDIR/last-audit.jsonl -- $loop 1 $A $REG 0 1
 expect_reg $A $REG 0 "a bench write lands (ALL_LED_OFF_H = 0)"
 finish
