@@ -110,7 +110,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
   if (job.index != 1) return;
   uint64_t t = job.release_us;
   auto add = [&](uint64_t when, const std::vector<BusOp>& bus_ops) {
-    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({when++, task(), op, false});
   };
   // PCA9685(): all channels off, MODE2 totem-pole, MODE1 all-call, wake up.
   add(t, {write_op(kArmAddr, {0xFA, 0}), write_op(kArmAddr, {0xFB, 0}),
@@ -120,7 +120,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
   // the library then writes what it read with SLEEP cleared).
   BusOp read_mode1 = read_op(kArmAddr, 1);
   read_mode1.bytes = {0x00};
-  auto mode1 = port.read(task_, read_mode1);
+  auto mode1 = port.read(task(), read_mode1);
   const uint8_t old = static_cast<uint8_t>((mode1 && !mode1->empty() ? (*mode1)[0] : 0x01) & ~0x10);
   add(t + 10'000, {write_op(kArmAddr, {0x00, old}),
                    write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & 0x7F) | 0x10)}),
@@ -137,7 +137,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
 void GripperController::release(const Job& job, Port&, std::vector<TimedOp>& ops) {
   auto add = [&](const std::vector<BusOp>& bus_ops) {
     uint64_t when = job.release_us;
-    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({when++, task(), op, false});
   };
   if (job.index == 1) {
     add(pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen));

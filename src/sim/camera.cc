@@ -70,7 +70,7 @@ double camera_angle_deg(double ticks) { return (ticks - 375.0) * 60.0 / 175.0; }
 void PatrolController::release(const Job& job, Port&, std::vector<TimedOp>& ops) {
   uint64_t t = job.release_us;
   auto add = [&](const std::vector<BusOp>& bus_ops) {
-    for (const auto& op : bus_ops) ops.push_back({t++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({t++, task(), op, false});
   };
   if (job.index == 1) {  // wake the controller at 60 Hz (sleep, prescale, wake)
     add({write_op(kServoAddr, {0x00, 0x11}), write_op(kServoAddr, {0xFE, 0x65}),
@@ -83,9 +83,9 @@ void PatrolController::release(const Job& job, Port&, std::vector<TimedOp>& ops)
 void SirenController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
   BusOp read = read_op(kMotionAddr, 1);
   read.bytes = {0x00};
-  auto r = port.read(task_, read);
+  auto r = port.read(task(), read);
   const uint8_t detected = r && !r->empty() && (*r)[0] ? 1 : 0;
-  ops.push_back({job.release_us, task_, write_op(kSirenAddr, {0x01, detected})});
+  ops.push_back({job.release_us, task(), write_op(kSirenAddr, {0x01, detected})});
 }
 
 CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed)

@@ -57,17 +57,24 @@ struct Job {
   uint64_t release_us = 0;  // release time
 };
 
-// A periodic control task.
+// A periodic control task: the policy's task name of its bus operations, its
+// period, and the release time of its first job.
 class Controller {
  public:
+  Controller(std::string task, uint64_t period_us, uint64_t offset_us = 0)
+      : task_(std::move(task)), period_us_(period_us), offset_us_(offset_us) {}
   virtual ~Controller() = default;
-  virtual const std::string& task() const = 0;
-  virtual uint64_t period_us() const = 0;
-  // Release time of the first job.
-  virtual uint64_t offset_us() const { return 0; }
+  const std::string& task() const { return task_; }
+  uint64_t period_us() const { return period_us_; }
+  uint64_t offset_us() const { return offset_us_; }
   // Runs the job's computation at its release: reads go through `port`
   // immediately, writes are appended to `ops` with their times.
   virtual void release(const Job& job, Port& port, std::vector<TimedOp>& ops) = 0;
+
+ private:
+  std::string task_;
+  uint64_t period_us_;
+  uint64_t offset_us_;
 };
 
 // An attack definition from a scenario file.
