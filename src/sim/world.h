@@ -71,6 +71,21 @@ class Controller {
   // immediately, writes are appended to `ops` with their times.
   virtual void release(const Job& job, Port& port, std::vector<TimedOp>& ops) = 0;
 
+ protected:
+  // Reads `len` bytes from register `reg` of the device at `addr` now (the
+  // register pointer, then the read, in one combined transfer).
+  std::optional<std::vector<uint8_t>> read_register(Port& port, uint16_t addr, uint8_t reg,
+                                                    uint32_t len) const {
+    BusOp op = read_op(addr, len);
+    op.bytes = {reg};
+    return port.read(task_, op);
+  }
+  // Schedules a write of this task at `at_us`.
+  void schedule(std::vector<TimedOp>& ops, uint64_t at_us, uint16_t addr,
+                std::vector<uint8_t> bytes) const {
+    ops.push_back({at_us, task_, write_op(addr, std::move(bytes))});
+  }
+
  private:
   std::string task_;
   uint64_t period_us_;
@@ -92,14 +107,23 @@ struct AttackSpec {
 // while the job's release time lies in its window.
 class Attack {
  public:
-  explicit Attack(AttackSpec spec) : spec_(std::move(spec)) {}
+  // `victim`: the task whose jobs the attack rewrites (empty: any task's).
+  explicit Attack(AttackSpec spec, std::string victim = {})
+      : spec_(std::move(spec)), victim_(std::move(victim)) {}
   virtual ~Attack() = default;
   const AttackSpec& spec() const { return spec_; }
   virtual void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
                      Noise& noise) = 0;
 
+ protected:
+  // The window is open at the job's release and `task` is the victim.
+  bool hits(const Job& job, const std::string& task) const {
+    return spec_.active(job.release_us) && (victim_.empty() || task == victim_);
+  }
+
  private:
   AttackSpec spec_;
+  std::string victim_;
 };
 
 // A device-side event worth plotting (e.g. every pulse the gripper channel
