@@ -70,15 +70,23 @@ gate::Transfer write_to_actuator() {
   return t;
 }
 
-TEST(MonitorClockTest, TransactionsCarryTheInjectedClocksTimeAndJob) {
+class MonitorClockTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    bus.attach(sensor);
+    mon.add_bus(1, &bus);
+  }
+
   TimedDecider decider;
   AuditLog audit;
-  ManualClock clock(5'000'000);
-  bus::VirtualBus bus;
-  Monitor mon(decider, audit, clock);
-  mon.add_bus(1, &bus);
-  // Nothing answers at 0x40 here: the write fails on the bus after the check.
+  ManualClock clock{1'000'000};
+  bus::VirtualBus bus;  // nothing answers at 0x40: a write fails on the bus after its check
+  std::shared_ptr<Sensor> sensor = std::make_shared<Sensor>();
+  Monitor mon{decider, audit, clock};
+};
 
+TEST_F(MonitorClockTest, TransactionsCarryTheInjectedClocksTimeAndJob) {
+  clock.set_us(5'000'000);
   mon.job_boundary(0);  // the task's job grid starts at 5 s
   clock.set_us(5'250'000);
   (void)mon.transfer(0, write_to_actuator());
@@ -87,16 +95,7 @@ TEST(MonitorClockTest, TransactionsCarryTheInjectedClocksTimeAndJob) {
   EXPECT_EQ(mon.job(0), 3u);
 }
 
-TEST(MonitorClockTest, SensorsAreSampledOnTheirPeriodInVirtualTime) {
-  TimedDecider decider;
-  AuditLog audit;
-  ManualClock clock(1'000'000);
-  bus::VirtualBus bus;
-  auto sensor = std::make_shared<Sensor>();
-  bus.attach(sensor);
-  Monitor mon(decider, audit, clock);
-  mon.add_bus(1, &bus);
-
+TEST_F(MonitorClockTest, SensorsAreSampledOnTheirPeriodInVirtualTime) {
   EXPECT_EQ(mon.sample_due(), 1'050'000u);  // sampled now; next in 50 ms
   EXPECT_EQ(sensor->reads, 1);
   clock.set_us(1'049'999);
@@ -107,13 +106,8 @@ TEST(MonitorClockTest, SensorsAreSampledOnTheirPeriodInVirtualTime) {
   EXPECT_EQ(sensor->reads, 2);
 }
 
-TEST(MonitorClockTest, AnOverBudgetTransferWaitsOnTheInjectedClock) {
-  TimedDecider decider;
-  AuditLog audit;
-  ManualClock clock(2'000'000);
-  bus::VirtualBus bus;
-  Monitor mon(decider, audit, clock);
-  mon.add_bus(1, &bus);
+TEST_F(MonitorClockTest, AnOverBudgetTransferWaitsOnTheInjectedClock) {
+  clock.set_us(2'000'000);
   mon.set_budget_factor(1);
 
   mon.job_boundary(0);

@@ -31,8 +31,7 @@ std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint
 // the gripper, base to the drop pose, open the gripper.
 class ArmInitController : public Controller {
  public:
-  ArmInitController(std::string task, uint64_t period_us)
-      : Controller(std::move(task), period_us) {}
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 };
 

@@ -19,13 +19,13 @@ double camera_angle_deg(double ticks);
 
 class PatrolController : public Controller {
  public:
-  PatrolController(std::string task, uint64_t period_us) : Controller(std::move(task), period_us) {}
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 };
 
 class SirenController : public Controller {
  public:
-  SirenController(std::string task, uint64_t period_us) : Controller(std::move(task), period_us) {}
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 };
 

@@ -17,7 +17,7 @@ namespace contego::sim {
 
 class TankMonitor : public Controller {
  public:
-  TankMonitor(std::string task, uint64_t period_us) : Controller(std::move(task), period_us) {}
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 };
 
