@@ -2,9 +2,9 @@
 // contego, in one command: rover control spoofing (Fig. 4a), rover DoS burst
 // (Fig. 4b), robotic-arm gripper spoofing (Fig. 1).
 #include <CLI/CLI.hpp>
-#include <chrono>
 #include <fmt/core.h>
 
+#include "base/clock.h"
 #include "cli/command.h"
 #include "cli/install_paths.h"
 #include "cli/sim_common.h"
@@ -28,7 +28,7 @@ void register_demo(CLI::App& app) {
         {"scenarios/rover_dos.scn", "fig4b", "Fig. 4(b): rover under a DoS burst"},
         {"scenarios/arm_high_pulse.scn", "fig1", "Fig. 1: robotic arm gripper spoofing"},
     };
-    const auto start = std::chrono::steady_clock::now();
+    const uint64_t start_us = monotonic_us();
     std::vector<std::string> figures;
     for (const auto& item : items) {
       SimRequest req;
@@ -46,8 +46,7 @@ void register_demo(CLI::App& app) {
       figures.push_back(*out + "/" + item.figure + ".png");
       figures.push_back(*out + "/" + item.figure + ".svg");
     }
-    const double secs =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double secs = static_cast<double>(monotonic_us() - start_us) * 1e-6;
     fmt::print("figures (traces as CSV beside them):\n");
     for (const auto& f : figures) fmt::print("  {}\n", f);
     fmt::print("done in {:.1f} s\n", secs);

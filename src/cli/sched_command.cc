@@ -7,7 +7,6 @@
 // Exit status: 0 schedulable, 1 some task can miss its deadline, 2 bad input
 // (--batch: 2 if any set was bad input, else 1 if any set can miss).
 #include <CLI/CLI.hpp>
-#include <chrono>
 #include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
@@ -17,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "base/clock.h"
 #include "cli/command.h"
 #include "sched/analysis.h"
 #include "sched/assign.h"
@@ -388,10 +388,9 @@ void run_experiment(const ExperimentArgs& args) {
     set_exit_code(kExitBadInput);
     return;
   }
-  const auto start = std::chrono::steady_clock::now();
+  const uint64_t start_us = monotonic_us();
   const sched::ExperimentResult r = sched::run_experiment(o);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = static_cast<double>(monotonic_us() - start_us) * 1e-6;
   const std::string csv = args.out + ".csv";
   const std::string gp = args.out + ".gp";
   const std::string svg = args.out + ".svg";

@@ -1,7 +1,7 @@
 #include "cli/sim_common.h"
 
 #include "policy/compile.h"
-#include "sim/checker_guard.h"
+#include "sim/monitor_guard.h"
 #include "sim/report.h"
 
 namespace contego::cli {
@@ -26,7 +26,7 @@ Result<ScenarioOutcome> run_scenario_files(const SimRequest& req) {
 
   auto guard = [&image](bool observe) -> sim::GuardFactory {
     return [&image, observe](bus::VirtualBus& bus) -> Result<std::unique_ptr<sim::Guard>> {
-      auto g = sim::CheckerGuard::create(image, bus, observe);
+      auto g = sim::MonitorGuard::create(image, bus, observe);
       if (!g) return make_error(g.error());
       return std::unique_ptr<sim::Guard>(std::move(*g));
     };

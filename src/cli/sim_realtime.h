@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "base/result.h"
-#include "sim/checker_guard.h"
 #include "sim/runner.h"
 #include "sim/scenario.h"
+#include "sim/sim_decider.h"
 
 namespace contego::cli {
 

@@ -15,16 +15,12 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "base/clock.h"
+
 namespace contego::gate {
 namespace {
 
 constexpr unsigned kSeals = F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL;
-
-uint64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1000000000u + static_cast<uint64_t>(ts.tv_nsec);
-}
 
 inline void cpu_relax() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -112,13 +108,13 @@ bool Channel::wait_change(std::atomic<uint32_t>& word, uint32_t old,
   if (slept != nullptr) *slept = false;
   if (word.load(std::memory_order_acquire) != old) return true;
   if (spin_us > 0) {
-    const uint64_t deadline = now_ns() + uint64_t{spin_us} * 1000u;
+    const uint64_t deadline = monotonic_ns() + uint64_t{spin_us} * 1000u;
     for (;;) {
       for (int i = 0; i < 64; ++i) {
         if (word.load(std::memory_order_acquire) != old) return true;
         cpu_relax();
       }
-      if (now_ns() >= deadline) break;
+      if (monotonic_ns() >= deadline) break;
       // A spinner gives way to any other thread that is ready on this CPU
       // (a periodic task's wake-up must not queue behind a busy-wait).
       sched_yield();
@@ -191,7 +187,7 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin, nullptr)) {
     return Next::kClosed;
   }
-  bursting_ = now_ns() - answered_at_ns_ <= uint64_t{policy_.spin_us} * 1000u;
+  bursting_ = monotonic_ns() - answered_at_ns_ <= uint64_t{policy_.spin_us} * 1000u;
   last_seq_ = c.request_seq.load(std::memory_order_acquire);
   // Read each field once; the client may be rewriting them as we go.
   const uint32_t t = c.request_type.load(std::memory_order_relaxed);
@@ -212,7 +208,7 @@ void Channel::answer(uint8_t type, std::span<const uint8_t> payload) {
   c.reply_len.store(static_cast<uint32_t>(len), std::memory_order_relaxed);
   c.reply_seq.store(last_seq_, std::memory_order_seq_cst);
   if (c.client_sleeping.load(std::memory_order_seq_cst) != 0) futex_wake(&c.reply_seq);
-  answered_at_ns_ = now_ns();
+  answered_at_ns_ = monotonic_ns();
 }
 
 namespace {

@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 #include <map>
 
+#include "contego/core/checker.h"
+
 namespace contego::image {
 namespace {
 
@@ -270,16 +272,10 @@ const char* op_name(uint8_t op) {
   return nullptr;
 }
 
+// A rule's response (ignore, failsafe, reject: a core::Decision), by the core's name.
 const char* response_name(uint8_t r) {
-  switch (r) {
-    case 1:
-      return "ignore";
-    case 2:
-      return "failsafe";
-    case 3:
-      return "reject";
-  }
-  return "?";
+  if (r == 0 || r > static_cast<uint8_t>(core::Decision::kReject)) return "?";
+  return core::decision_name(static_cast<core::Decision>(r));
 }
 
 std::string mask_list(const core::CommandMask& m) {

@@ -25,6 +25,7 @@
 
 #include "contego/core/checker.h"
 
+#include "base/clock.h"
 #include "base/json_text.h"
 #include "monitor/sha256.h"
 
@@ -264,12 +265,6 @@ bool guarded_copy(char* dst, const char* src, size_t n) {
   std::atomic_signal_fence(std::memory_order_seq_cst);
   t_jump = nullptr;
   return true;
-}
-
-uint64_t mono_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
 }
 
 constexpr uint64_t kCheckEveryUs = 100000;  // the file is checked this often (on the writer)
@@ -532,7 +527,7 @@ Status AuditLog::open_file_locked() {
   dev_ = st.st_dev;
   ino_ = st.st_ino;
   pos_ = end;
-  next_check_us_ = mono_us() + kCheckEveryUs;
+  next_check_us_ = monotonic_us() + kCheckEveryUs;
   install_sigbus_guard();
   // A regular file is mapped with its space allocated ahead of the writer:
   // a record is a memcpy into the page cache (no system call), as durable
@@ -577,7 +572,7 @@ void AuditLog::close_file_locked() {
 // line is a `continues` record. A log that could not be reopened is retried.
 void AuditLog::check_file_locked(bool force) {
   if (mode_ != Mode::kFile) return;
-  const uint64_t now = mono_us();
+  const uint64_t now = monotonic_us();
   if (!force && now < next_check_us_) return;
   next_check_us_ = now + kCheckEveryUs;
   if (fd_ < 0) {  // lost earlier: try again
@@ -679,7 +674,7 @@ Result<std::string> AuditLog::reopen() {
 
 void AuditLog::report_failure_locked(const std::string& why) {
   ++unreported_;
-  const uint64_t now = mono_us();
+  const uint64_t now = monotonic_us();
   if (now < next_report_us_) return;
   next_report_us_ = now + 1000000;
   fmt::print(stderr,

@@ -1,7 +1,6 @@
 #include "monitor/monitor.h"
 
 #include <errno.h>
-#include <time.h>
 
 #include <algorithm>
 #include <fmt/core.h>
@@ -10,13 +9,8 @@
 
 namespace contego::monitor {
 
-uint64_t monotonic_us() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
-}
-
-Monitor::Monitor(Decider& decider, AuditLog& audit) : decider_(decider), audit_(audit) {
+Monitor::Monitor(Decider& decider, AuditLog& audit, Clock& clock)
+    : decider_(decider), audit_(audit), clock_(clock) {
   core::Host host{};
   host.context = this;
   host.read_sample = &Monitor::host_read_sample;
@@ -123,7 +117,7 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t period = decider_.task_period_us(task);
     const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
-    const uint64_t now = monotonic_us();
+    const uint64_t now = clock_.now_us();
     const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
     if (b.job != job) {  // a new release on the task's grid: a fresh budget
@@ -159,10 +153,7 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     b.job = job + 1;
     b.used = 1;
   }
-  const timespec until{static_cast<time_t>(hold_until / 1000000u),
-                       static_cast<long>(hold_until % 1000000u) * 1000};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
-  }
+  clock_.sleep_until_us(hold_until);
 }
 
 gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
@@ -246,7 +237,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
 // aborted and the safe state driven).
 int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
                             const std::vector<gate::PlannedTx>& planned, size_t* checked) {
-  const uint64_t now = monotonic_us();
+  const uint64_t now = clock_.now_us();
   const uint32_t job = job_at_locked(task, now);
   checking_task_ = task;
   checking_now_us_ = now;
@@ -334,7 +325,7 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
       msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
       reply.err = bus.transfer(msgs);
       out.resize(msgs.back().len);
-      if (reply.err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, monotonic_us());
+      if (reply.err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, clock_.now_us());
       reply.reads.push_back(std::move(out));
     }
     if (reply.err != 0) {
@@ -349,7 +340,7 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
 
 void Monitor::job_boundary(uint16_t task) {
   std::lock_guard lock(mu_);
-  (void)job_at_locked(task, monotonic_us());  // at most sets the phase
+  (void)job_at_locked(task, clock_.now_us());  // at most sets the phase
 }
 
 namespace {
@@ -393,7 +384,7 @@ uint32_t Monitor::job(uint16_t task) const {
   auto it = job_phase_us_.find(task);
   const uint64_t period = decider_.task_period_us(task);
   if (it == job_phase_us_.end() || period == 0) return 0;
-  return grid_job(it->second, period, monotonic_us());
+  return grid_job(it->second, period, clock_.now_us());
 }
 
 void Monitor::task_exited(uint16_t task) {
@@ -416,7 +407,7 @@ std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& w
                                                             uint32_t devices) {
   audit_.event("safe-state", why);
   checking_task_ = core::kNoTask;  // a computed safe state reads the newest readings
-  checking_now_us_ = monotonic_us();
+  checking_now_us_ = clock_.now_us();
   std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_.device_count(); ++d) {
     if (d < 32 && (devices & (1u << d)) == 0) continue;
@@ -465,7 +456,7 @@ int Monitor::sample_device_locked(uint16_t d) {
     readings_.on_sample_failed(d);
     return err;
   }
-  readings_.on_sample(d, {sample.data(), rw[1].len}, monotonic_us());
+  readings_.on_sample(d, {sample.data(), rw[1].len}, clock_.now_us());
   return 0;
 }
 
@@ -479,27 +470,36 @@ std::vector<DeviceFailure> Monitor::sample_all() {
   return failed;
 }
 
+uint64_t Monitor::sample_due() {
+  std::lock_guard lock(mu_);
+  return sample_due_locked();
+}
+
+uint64_t Monitor::sample_due_locked() {
+  const uint64_t now = clock_.now_us();
+  uint64_t next = now + 100000;
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    const core::DeviceRecord& rec = decider_.device(d);
+    if (!(rec.role & core::kRoleSensor) || rec.sample_period_us == 0) continue;
+    uint64_t& at = sample_due_us_[d];
+    if (at <= now) {
+      sample_device_locked(d);
+      at = now + rec.sample_period_us;
+    }
+    next = std::min(next, at);
+  }
+  return next;
+}
+
 void Monitor::start_sampling() {
   std::lock_guard lock(mu_);
   if (sampler_.joinable()) return;
   sampler_stop_ = false;
   sampler_ = std::thread([this] {
-    std::map<uint16_t, uint64_t> due;
     std::unique_lock held(mu_);
     while (!sampler_stop_) {
-      const uint64_t now = monotonic_us();
-      uint64_t next = now + 100000;
-      for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-        const core::DeviceRecord& rec = decider_.device(d);
-        if (!(rec.role & core::kRoleSensor) || rec.sample_period_us == 0) continue;
-        uint64_t& at = due[d];
-        if (at <= now) {
-          sample_device_locked(d);
-          at = now + rec.sample_period_us;
-        }
-        next = std::min(next, at);
-      }
-      sampler_cv_.wait_for(held, std::chrono::microseconds(next - std::min(next, monotonic_us())),
+      const uint64_t next = sample_due_locked();
+      sampler_cv_.wait_for(held, std::chrono::microseconds(next - std::min(next, clock_.now_us())),
                            [this] { return sampler_stop_; });
     }
   });

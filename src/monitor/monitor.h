@@ -26,6 +26,7 @@
 
 #include "contego/core/limits.h"
 
+#include "base/clock.h"
 #include "bus/bus.h"
 #include "gate/endpoint.h"
 #include "monitor/audit_log.h"
@@ -33,8 +34,6 @@
 #include "readings/sensor_readings.h"
 
 namespace contego::monitor {
-
-uint64_t monotonic_us();
 
 // The release of a task's job 1 when its first contact with the monitor is at
 // `contact_us`: the contact itself, or with a declared phase (the policy's
@@ -53,8 +52,11 @@ struct DeviceFailure {
 
 class Monitor final : public gate::Endpoint {
  public:
-  // `decider` and the buses must outlive the monitor.
-  Monitor(Decider& decider, AuditLog& audit);
+  // `decider`, `audit`, `clock` and the buses must outlive the monitor. The
+  // monitor reads time only from `clock` (job grids, reading ages, budget
+  // holds, sampling) and touches devices only through its buses, so a
+  // simulator can run it in virtual time on virtual buses.
+  Monitor(Decider& decider, AuditLog& audit, Clock& clock = MonotonicClock::instance());
   ~Monitor() override;
 
   void add_bus(uint8_t number, bus::Bus* bus);
@@ -94,6 +96,10 @@ class Monitor final : public gate::Endpoint {
   // start). Returns the sensors that could not be read (their signals are
   // unavailable until a later sample succeeds).
   std::vector<DeviceFailure> sample_all();
+  // Samples every sensor with a sample period whose next sample is due on the
+  // monitor's clock (what the sampling thread does); returns when the next one
+  // is due. A simulator in virtual time calls this instead of start_sampling().
+  uint64_t sample_due();
 
   gate::TransferReply transfer(uint16_t task, const gate::Transfer& transfer) override;
   // A hint that the task went to sleep. Jobs are released on the task's
@@ -133,6 +139,7 @@ class Monitor final : public gate::Endpoint {
                                        const std::vector<gate::PlannedTx>& planned);
   void drive_transfer_safe_states(uint16_t task, size_t checked);
   int sample_device_locked(uint16_t device);  // 0 or the bus's errno
+  uint64_t sample_due_locked();
   void hold_if_over_budget(uint16_t task);
   // The task's job at `now_us` on its period grid (1 = the first), starting
   // the grid on the first call; 0 for a task without a period.
@@ -145,6 +152,7 @@ class Monitor final : public gate::Endpoint {
 
   Decider& decider_;
   AuditLog& audit_;
+  Clock& clock_;
   mutable std::mutex mu_;
   std::map<uint8_t, bus::Bus*> buses_;
   NameTable names_;
@@ -161,6 +169,7 @@ class Monitor final : public gate::Endpoint {
   std::atomic<uint64_t> decisions_{0};
   std::atomic<uint64_t> audit_refusals_{0};
   bool audit_lost_ = false;  // under mu_: the last check()'s record was not written
+  std::map<uint16_t, uint64_t> sample_due_us_;  // under mu_: each periodic sensor's next sample
   std::thread sampler_;
   std::condition_variable sampler_cv_;
   bool sampler_stop_ = false;

@@ -58,6 +58,17 @@ bool pidfd_alive(int pidfd) {
   return poll(&p, 1, 0) == 0;
 }
 
+// A user or group, by number or by name (`lookup`: the host's database);
+// unset, with `unresolved` saying so, when the host has no such name.
+template <typename Lookup>
+std::optional<uint32_t> resolve_id(const std::string& task, const std::string& name,
+                                   const char* what, std::string* unresolved, Lookup lookup) {
+  if (auto n = numeric_id(name)) return n;
+  std::optional<uint32_t> found = lookup(name.c_str());
+  if (!found) *unresolved = fmt::format("task '{}': no {} '{}' on this host", task, what, name);
+  return found;
+}
+
 }  // namespace
 
 Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity& id) {
@@ -66,28 +77,16 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
   b.unit = id.unit;
   b.cgroup = id.cgroup;
   if (!id.user.empty()) {
-    if (auto n = numeric_id(id.user)) {
-      b.uid = *n;
-    } else {
-      const passwd* pw = getpwnam(id.user.c_str());
-      if (pw == nullptr) {
-        b.unresolved = fmt::format("task '{}': no user '{}' on this host", task, id.user);
-      } else {
-        b.uid = pw->pw_uid;
-      }
-    }
+    b.uid = resolve_id(task, id.user, "user", &b.unresolved, [](const char* name) {
+      const passwd* pw = getpwnam(name);
+      return pw == nullptr ? std::nullopt : std::optional<uint32_t>(pw->pw_uid);
+    });
   }
   if (!id.group.empty()) {
-    if (auto n = numeric_id(id.group)) {
-      b.gid = *n;
-    } else {
-      const group* gr = getgrnam(id.group.c_str());
-      if (gr == nullptr) {
-        b.unresolved = fmt::format("task '{}': no group '{}' on this host", task, id.group);
-      } else {
-        b.gid = gr->gr_gid;
-      }
-    }
+    b.gid = resolve_id(task, id.group, "group", &b.unresolved, [](const char* name) {
+      const group* gr = getgrnam(name);
+      return gr == nullptr ? std::nullopt : std::optional<uint32_t>(gr->gr_gid);
+    });
   }
   if (!id.exe.empty()) {
     struct stat st {};

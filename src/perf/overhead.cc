@@ -19,6 +19,7 @@
 #include <sys/wait.h>
 #include <thread>
 
+#include "base/clock.h"
 #include "bus/virtual_bus.h"
 #include "gate/socket.h"
 #include "intercept/seccomp/supervisor.h"
@@ -29,12 +30,6 @@
 
 namespace contego::perf {
 namespace {
-
-uint64_t now_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1000000000u + static_cast<uint64_t>(ts.tv_nsec);
-}
 
 // Allows every command and emits it unchanged, with its audit line: the
 // cost of a decision without the cost of a particular policy.
@@ -370,9 +365,9 @@ std::vector<uint64_t> time_unprotected(bus::Bus& bus, const Workload& w, uint32_
     if (w.job_period_us > 0 && i % job.size() == 0) next_job(w.job_period_us);
     std::vector<uint8_t>& buf = job[i % job.size()];
     bus::Msg m{w.addr, 0, static_cast<uint16_t>(buf.size()), buf.data()};
-    const uint64_t t0 = now_ns();
+    const uint64_t t0 = monotonic_ns();
     (void)bus.transfer({&m, 1});
-    ns[i] = now_ns() - t0;
+    ns[i] = monotonic_ns() - t0;
   }
   return ns;
 }
@@ -398,9 +393,9 @@ std::vector<uint64_t> time_core(monitor::Monitor& mon, const Workload& w, uint32
       mon.job_boundary(task);  // what the supervisor reports when the task sleeps
     }
     const gate::Transfer& t = job[i % job.size()];
-    const uint64_t t0 = now_ns();
+    const uint64_t t0 = monotonic_ns();
     const gate::TransferReply r = mon.transfer(task, t);
-    ns[i] = now_ns() - t0;
+    ns[i] = monotonic_ns() - t0;
     if (r.err != 0) ++*failures;
   }
   return ns;
@@ -584,7 +579,7 @@ Result<Report> run(const Options& o) {
           w.job_period_us > 0
               ? fmt::format(", {} per job every {} us", w.commands().size(), w.job_period_us)
               : ", back to back"));
-      const uint64_t row_start = now_ns();
+      const uint64_t row_start = monotonic_ns();
       Result<std::vector<uint64_t>> ns = std::vector<uint64_t>{};
       const auto argv = task_argv(o, w, o.trials, out, w.job_period_us);
       const std::string& audit = remote ? proc->audit() : local_audit;
@@ -624,7 +619,7 @@ Result<Report> run(const Options& o) {
       for (const auto& [decision, count] : row.decisions)
         decided += fmt::format(" {} {}", decision, count);
       say(fmt::format("[{}/{}]   done in {:.1f} s: median {:.2f} us, p99 {:.2f} us;{}", row_no,
-                      row_count, static_cast<double>(now_ns() - row_start) / 1e9,
+                      row_count, static_cast<double>(monotonic_ns() - row_start) / 1e9,
                       row.stats.median_us, row.stats.p99_us,
                       decided.empty() ? " (not checked)" : decided));
       report.rows.push_back(row);

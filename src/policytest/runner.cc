@@ -420,19 +420,10 @@ class Runner {
     std::vector<devices::DecodedCommand> substitutes;
     out.rule = rule_name(v);
     out.reason = core::reason_name(v.reason);
-    switch (v.decision) {
-      case core::Decision::kAllow:
-        out.got = "allow";
-        break;
-      case core::Decision::kIgnore:
-        out.got = "ignore";
-        break;
-      case core::Decision::kReject:
-        out.got = "reject " + errno_text(v.reply_errno);
-        break;
-      case core::Decision::kFailsafe:
-        out.got = "failsafe " + describe_emits(v, mirrors, &substitutes);
-        break;
+    out.got = core::decision_name(v.decision);
+    if (v.decision == core::Decision::kReject) out.got += " " + errno_text(v.reply_errno);
+    if (v.decision == core::Decision::kFailsafe) {
+      out.got += " " + describe_emits(v, mirrors, &substitutes);
     }
     const Expect& e = st.expect;
     std::string why;

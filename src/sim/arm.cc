@@ -33,11 +33,10 @@ std::vector<TimedOp> at(uint64_t t, const std::string& task, const std::vector<B
 // Control spoofing (Fig. 1): the gripper gets arbitrary high pulses.
 class HighPulse : public Attack {
  public:
-  HighPulse(AttackSpec spec, std::string victim)
-      : Attack(std::move(spec)), victim_(std::move(victim)) {}
+  HighPulse(AttackSpec spec, std::string victim) : Attack(std::move(spec), std::move(victim)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
              Noise& noise) override {
-    if (!spec().active(job.release_us) || task != victim_) return;
+    if (!hits(job, task)) return;
     const auto lo = spec().param_int("min", 700);
     const auto hi = spec().param_int("max", 1400);
     const auto pulse = static_cast<uint16_t>(noise.uniform_int(lo, hi));
@@ -55,44 +54,38 @@ class HighPulse : public Attack {
       ops.insert(ops.end(), extra.begin(), extra.end());
     }
   }
-
- private:
-  std::string victim_;
 };
 
 // Configuration-register tampering: MODE1 sleep, PRE_SCALE, ALL_LED.
 class ConfigTamper : public Attack {
  public:
   ConfigTamper(AttackSpec spec, std::string victim, std::vector<std::vector<uint8_t>> writes)
-      : Attack(std::move(spec)), victim_(std::move(victim)), writes_(std::move(writes)) {}
+      : Attack(std::move(spec), std::move(victim)), writes_(std::move(writes)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us) || task != victim_) return;
+    if (!hits(job, task)) return;
     uint64_t t = job.release_us + 100'000;
     for (const auto& w : writes_) ops.push_back({t++, task, write_op(kArmAddr, w), true});
   }
 
  private:
-  std::string victim_;
   std::vector<std::vector<uint8_t>> writes_;
 };
 
 // Unauthorised task: another program opens the gripper while the arm moves.
 class ArmIntruder : public Attack {
  public:
-  ArmIntruder(AttackSpec spec, std::string victim)
-      : Attack(std::move(spec)), victim_(std::move(victim)) {
+  ArmIntruder(AttackSpec spec, std::string victim) : Attack(std::move(spec), std::move(victim)) {
     auto it = this->spec().params.find("task");
     intruder_ = it == this->spec().params.end() ? "intruder" : it->second;
   }
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us) || task != victim_) return;
+    if (!hits(job, task)) return;
     auto extra = at(job.release_us + 250'000, intruder_,
                     pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen), true);
     ops.insert(ops.end(), extra.begin(), extra.end());
   }
 
  private:
-  std::string victim_;
   std::string intruder_;
 };
 
@@ -110,7 +103,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
   if (job.index != 1) return;
   uint64_t t = job.release_us;
   auto add = [&](uint64_t when, const std::vector<BusOp>& bus_ops) {
-    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({when++, task(), op, false});
   };
   // PCA9685(): all channels off, MODE2 totem-pole, MODE1 all-call, wake up.
   add(t, {write_op(kArmAddr, {0xFA, 0}), write_op(kArmAddr, {0xFB, 0}),
@@ -118,9 +111,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
           write_op(kArmAddr, {0x01, 0x04}), write_op(kArmAddr, {0x00, 0x01})});
   // set_pwm_freq(60) reads MODE1 first (at release: the chip still sleeps,
   // the library then writes what it read with SLEEP cleared).
-  BusOp read_mode1 = read_op(kArmAddr, 1);
-  read_mode1.bytes = {0x00};
-  auto mode1 = port.read(task_, read_mode1);
+  auto mode1 = read_register(port, kArmAddr, 0x00, 1);
   const uint8_t old = static_cast<uint8_t>((mode1 && !mode1->empty() ? (*mode1)[0] : 0x01) & ~0x10);
   add(t + 10'000, {write_op(kArmAddr, {0x00, old}),
                    write_op(kArmAddr, {0x00, static_cast<uint8_t>((old & 0x7F) | 0x10)}),
@@ -137,7 +128,7 @@ void ArmInitController::release(const Job& job, Port& port, std::vector<TimedOp>
 void GripperController::release(const Job& job, Port&, std::vector<TimedOp>& ops) {
   auto add = [&](const std::vector<BusOp>& bus_ops) {
     uint64_t when = job.release_us;
-    for (const auto& op : bus_ops) ops.push_back({when++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({when++, task(), op, false});
   };
   if (job.index == 1) {
     add(pca9685_set_pwm(kArmAddr, kGripChannel, 0, kGripOpen));

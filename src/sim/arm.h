@@ -31,30 +31,15 @@ std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint
 // the gripper, base to the drop pose, open the gripper.
 class ArmInitController : public Controller {
  public:
-  ArmInitController(std::string task, uint64_t period_us)
-      : task_(std::move(task)), period_us_(period_us) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
-
- private:
-  std::string task_;
-  uint64_t period_us_;
 };
 
 class GripperController : public Controller {
  public:
   GripperController(std::string task, uint64_t period_us, uint64_t offset_us)
-      : task_(std::move(task)), period_us_(period_us), offset_us_(offset_us) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
-  uint64_t offset_us() const override { return offset_us_; }
+      : Controller(std::move(task), period_us, offset_us) {}
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
-
- private:
-  std::string task_;
-  uint64_t period_us_;
-  uint64_t offset_us_;
 };
 
 class ArmWorld : public World {

@@ -27,10 +27,9 @@ uint16_t patrol_pan(uint64_t t_us) {
 // The tracker points the camera past its allowed range (e.g. at a neighbour's window).
 class BeyondRange : public Attack {
  public:
-  BeyondRange(AttackSpec spec, std::string victim)
-      : Attack(std::move(spec)), victim_(std::move(victim)) {}
+  BeyondRange(AttackSpec spec, std::string victim) : Attack(std::move(spec), std::move(victim)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us) || task != victim_) return;
+    if (!hits(job, task)) return;
     const auto pulse = static_cast<uint16_t>(spec().param_int("pulse", 620));
     for (auto& op : ops) {
       if (op.task != task || op.op.addr != kServoAddr || op.op.bytes.size() != 2) continue;
@@ -39,18 +38,14 @@ class BeyondRange : public Attack {
       if (op.op.bytes[0] == 0x08 || op.op.bytes[0] == 0x09) op.injected = true;
     }
   }
-
- private:
-  std::string victim_;
 };
 
 // The alarm task sounds the siren with nothing in view.
 class FalseSiren : public Attack {
  public:
-  FalseSiren(AttackSpec spec, std::string victim)
-      : Attack(std::move(spec)), victim_(std::move(victim)) {}
+  FalseSiren(AttackSpec spec, std::string victim) : Attack(std::move(spec), std::move(victim)) {}
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
-    if (!spec().active(job.release_us) || task != victim_) return;
+    if (!hits(job, task)) return;
     for (auto& op : ops) {
       if (op.task == task && op.op.addr == kSirenAddr && op.op.bytes.size() == 2) {
         op.op.bytes[1] = 1;
@@ -58,9 +53,6 @@ class FalseSiren : public Attack {
       }
     }
   }
-
- private:
-  std::string victim_;
 };
 
 }  // namespace
@@ -70,7 +62,7 @@ double camera_angle_deg(double ticks) { return (ticks - 375.0) * 60.0 / 175.0; }
 void PatrolController::release(const Job& job, Port&, std::vector<TimedOp>& ops) {
   uint64_t t = job.release_us;
   auto add = [&](const std::vector<BusOp>& bus_ops) {
-    for (const auto& op : bus_ops) ops.push_back({t++, task_, op, false});
+    for (const auto& op : bus_ops) ops.push_back({t++, task(), op, false});
   };
   if (job.index == 1) {  // wake the controller at 60 Hz (sleep, prescale, wake)
     add({write_op(kServoAddr, {0x00, 0x11}), write_op(kServoAddr, {0xFE, 0x65}),
@@ -81,11 +73,9 @@ void PatrolController::release(const Job& job, Port&, std::vector<TimedOp>& ops)
 }
 
 void SirenController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
-  BusOp read = read_op(kMotionAddr, 1);
-  read.bytes = {0x00};
-  auto r = port.read(task_, read);
+  auto r = read_register(port, kMotionAddr, 0x00, 1);
   const uint8_t detected = r && !r->empty() && (*r)[0] ? 1 : 0;
-  ops.push_back({job.release_us, task_, write_op(kSirenAddr, {0x01, detected})});
+  schedule(ops, job.release_us, kSirenAddr, {0x01, detected});
 }
 
 CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed)

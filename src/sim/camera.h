@@ -19,28 +19,14 @@ double camera_angle_deg(double ticks);
 
 class PatrolController : public Controller {
  public:
-  PatrolController(std::string task, uint64_t period_us)
-      : task_(std::move(task)), period_us_(period_us) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
-
- private:
-  std::string task_;
-  uint64_t period_us_;
 };
 
 class SirenController : public Controller {
  public:
-  SirenController(std::string task, uint64_t period_us)
-      : task_(std::move(task)), period_us_(period_us) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
-
- private:
-  std::string task_;
-  uint64_t period_us_;
 };
 
 class CameraWorld : public World {

@@ -34,19 +34,17 @@ class Overdose : public Attack {
 }  // namespace
 
 void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
-  BusOp read = read_op(kEncoderAddr, 2);
-  read.bytes = {0x00};
-  auto r = port.read(task_, read);
+  auto r = read_register(port, kEncoderAddr, 0x00, 2);
   if (!r || r->size() < 2) return;
   const int infused = ((*r)[0] << 8) | (*r)[1];
   const uint16_t rate = infused < dose_ ? static_cast<uint16_t>(rate_) : 0;
   const uint64_t t = job.release_us;
-  if (job.index == 1) ops.push_back({t, task_, write_op(kPumpAddr, {0x03, 0})});  // infuse
+  if (job.index == 1) schedule(ops, t, kPumpAddr, {0x03, 0});  // infuse
   // Rate (u16le) and the displayed volume, one register per write.
-  ops.push_back({t, task_, write_op(kPumpAddr, {0x01, static_cast<uint8_t>(rate & 0xFF)})});
-  ops.push_back({t, task_, write_op(kPumpAddr, {0x02, static_cast<uint8_t>(rate >> 8)})});
-  ops.push_back({t, task_, write_op(kScreenAddr, {0x00, static_cast<uint8_t>(infused & 0xFF)})});
-  ops.push_back({t, task_, write_op(kScreenAddr, {0x01, static_cast<uint8_t>(infused >> 8)})});
+  schedule(ops, t, kPumpAddr, {0x01, static_cast<uint8_t>(rate & 0xFF)});
+  schedule(ops, t, kPumpAddr, {0x02, static_cast<uint8_t>(rate >> 8)});
+  schedule(ops, t, kScreenAddr, {0x00, static_cast<uint8_t>(infused & 0xFF)});
+  schedule(ops, t, kScreenAddr, {0x01, static_cast<uint8_t>(infused >> 8)});
 }
 
 PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)

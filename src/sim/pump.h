@@ -22,14 +22,10 @@ namespace contego::sim {
 class InfusionController : public Controller {
  public:
   InfusionController(std::string task, uint64_t period_us, int rate, int dose)
-      : task_(std::move(task)), period_us_(period_us), rate_(rate), dose_(dose) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
+      : Controller(std::move(task), period_us), rate_(rate), dose_(dose) {}
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
 
  private:
-  std::string task_;
-  uint64_t period_us_;
   int rate_;  // uL/h
   int dose_;  // uL
 };

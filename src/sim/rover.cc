@@ -204,40 +204,41 @@ void RoverWorld::attach(bus::VirtualBus& bus) {
   bus.attach(line_);
 }
 
-int RoverWorld::left_command() const {
-  const int s = gopigo_->left_speed();
-  switch (gopigo_->motion()) {
+namespace {
+
+// The sign a GoPiGo motion command gives one wheel's speed: 1 forward, -1
+// backward, 0 stopped.
+int wheel_sign(int motion, bool left) {
+  switch (motion) {
     case 0x69:  // fwd
     case 0x77:  // fwd (PID)
-    case 0x64:  // right: the left wheel drives
-    case 0x6E:  // right_rot
-    case 0x70:  // motor2 (direction not modelled: forward)
-      return s;
+      return 1;
     case 0x6B:
     case 0x73:
+      return -1;
+    case 0x64:  // right: the left wheel drives
+    case 0x70:  // motor2 (direction not modelled: forward)
+      return left ? 1 : 0;
+    case 0x61:  // left: the right wheel drives
+    case 0x6F:  // motor1
+      return left ? 0 : 1;
+    case 0x6E:  // right_rot
+      return left ? 1 : -1;
     case 0x62:  // left_rot
-      return -s;
-    default:  // stop, left, motor1
+      return left ? -1 : 1;
+    default:  // stop
       return 0;
   }
 }
 
+}  // namespace
+
+int RoverWorld::left_command() const {
+  return gopigo_->left_speed() * wheel_sign(gopigo_->motion(), true);
+}
+
 int RoverWorld::right_command() const {
-  const int s = gopigo_->right_speed();
-  switch (gopigo_->motion()) {
-    case 0x69:
-    case 0x77:
-    case 0x61:  // left: the right wheel drives
-    case 0x62:  // left_rot
-    case 0x6F:  // motor1
-      return s;
-    case 0x6B:
-    case 0x73:
-    case 0x6E:  // right_rot
-      return -s;
-    default:  // stop, right, motor2
-      return 0;
-  }
+  return gopigo_->right_speed() * wheel_sign(gopigo_->motion(), false);
 }
 
 std::unique_ptr<Attack> RoverWorld::make_attack(const AttackSpec& spec, std::string* error) {

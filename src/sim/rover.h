@@ -41,9 +41,8 @@ class LineFollowerController : public Controller {
     uint64_t period_us = 200'000;
     uint8_t fwd_opcode = 105;  // Python library fwd(); the C library sends 119
   };
-  explicit LineFollowerController(Options options) : o_(std::move(options)) {}
-  const std::string& task() const override { return o_.task; }
-  uint64_t period_us() const override { return o_.period_us; }
+  explicit LineFollowerController(Options options)
+      : Controller(options.task, options.period_us), o_(std::move(options)) {}
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
   double last_position() const { return last_pos_; }
 

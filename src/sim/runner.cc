@@ -5,89 +5,81 @@
 #include "sim/sim_bus.h"
 
 namespace contego::sim {
+
+void RunStats::count(bool write, core::Decision acted, bool violation, uint64_t t_us) {
+  if (write) {
+    ++writes;
+    uint64_t* const by_decision[] = {&allowed, &ignored, &replaced, &rejected};  // core::Decision
+    ++*by_decision[static_cast<size_t>(acted) & 3];
+  } else {
+    ++reads;
+  }
+  if (!violation) return;
+  ++violations;
+  if (!first_violation_us) first_violation_us = t_us;
+}
+
 namespace {
 
 class GuardedPort : public Port {
  public:
-  GuardedPort(Guard& guard, bus::VirtualBus& bus, World& world, RunResult& result)
-      : guard_(guard), bus_(bus), world_(world), result_(result) {}
+  GuardedPort(Guard& guard, World& world, RunResult& result)
+      : guard_(guard), world_(world), result_(result) {}
 
-  void set_context(uint64_t now_us, uint64_t job, bool injected) {
+  void set_context(uint64_t now_us, bool injected) {
     now_us_ = now_us;
-    job_ = job;
     injected_ = injected;
   }
 
   bool write(const std::string& task, const BusOp& op) override {
-    GuardResult g = guard_.check(task, job_, op, now_us_);
-    auto& st = result_.stats;
-    ++st.writes;
-    if (injected_) ++st.injected;
-    switch (g.decision) {
-      case core::Decision::kAllow:
-        ++st.allowed;
-        break;
-      case core::Decision::kIgnore:
-        ++st.ignored;
-        break;
-      case core::Decision::kFailsafe:
-        ++st.replaced;
-        break;
-      case core::Decision::kReject:
-        ++st.rejected;
-        break;
-    }
-    note_violation(g);
-    for (const auto& e : g.emits) {
-      if (bus_write(bus_, g.addr, e) == 0) {
-        guard_.wrote(g.addr, e);
-        world_.on_write(now_us_, g.addr, e);
-      }
-    }
+    GuardResult g = guard_.perform(task, op, now_us_);
+    result_.stats.count(true, g.decision, g.violation, now_us_);
+    if (injected_) ++result_.stats.injected;
+    for (const auto& e : g.emits) world_.on_write(now_us_, g.addr, e);
     record(task, op, g, false);
     return g.decision != core::Decision::kReject;
   }
 
   std::optional<std::vector<uint8_t>> read(const std::string& task, const BusOp& op) override {
-    GuardResult g = guard_.check(task, job_, op, now_us_);
-    ++result_.stats.reads;
-    note_violation(g);
+    GuardResult g = guard_.perform(task, op, now_us_);
+    result_.stats.count(false, g.decision, g.violation, now_us_);
     record(task, op, g, true);
     if (g.decision != core::Decision::kAllow) return std::nullopt;
-    std::vector<uint8_t> out(op.read_len);
-    // A register pointer goes first in the same combined transfer, as I2C_RDWR does it.
-    if (bus_read(bus_, op.addr, op.bytes, out) != 0) return std::nullopt;
-    guard_.read(task, op, out, now_us_);
-    return out;
+    return std::move(g.data);
   }
 
  private:
-  void note_violation(const GuardResult& g) {
-    if (!g.violation) return;
-    ++result_.stats.violations;
-    if (!result_.stats.first_violation_us) result_.stats.first_violation_us = now_us_;
-  }
   void record(const std::string& task, const BusOp& op, const GuardResult& g, bool read) {
     result_.ops.push_back(OpRecord{now_us_, task, op.addr, read, op.bytes, injected_, g.decision,
                                    g.reason, g.violation, g.emits});
   }
 
   Guard& guard_;
-  bus::VirtualBus& bus_;
   World& world_;
   RunResult& result_;
   uint64_t now_us_ = 0;
-  uint64_t job_ = 0;
   bool injected_ = false;
 };
 
 struct Pending {
   TimedOp op;
-  uint64_t job;
   uint64_t order;  // insertion order breaks ties between equal times
 };
 
 }  // namespace
+
+GuardResult PassThroughGuard::perform(const std::string&, const BusOp& op, uint64_t) {
+  GuardResult r;
+  r.addr = op.addr;
+  if (op.kind == BusOp::Kind::kWrite) {
+    if (bus_write(bus_, op.addr, op.bytes) == 0) r.emits.push_back(op.bytes);
+    return r;
+  }
+  // A register pointer goes first in the same combined transfer, as I2C_RDWR does it.
+  std::vector<uint8_t> out(op.read_len);
+  if (bus_read(bus_, op.addr, op.bytes, out) == 0) r.data = std::move(out);
+  return r;
+}
 
 Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
   const uint64_t seed = options.seed.value_or(sc.seed);
@@ -103,7 +95,7 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
     if (!g) return make_error(g.error());
     guard = std::move(*g);
   } else {
-    guard = std::make_unique<PassThroughGuard>();
+    guard = std::make_unique<PassThroughGuard>(bus);
   }
 
   std::vector<std::unique_ptr<Attack>> attacks;
@@ -122,7 +114,7 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
   result.columns.push_back("time_s");
   for (auto& c : world->columns()) result.columns.push_back(c);
 
-  GuardedPort port(*guard, bus, *world, result);
+  GuardedPort port(*guard, *world, result);
   auto controllers = world->controllers();
   std::vector<uint64_t> next_release;
   for (auto* c : controllers) next_release.push_back(c->offset_us());
@@ -138,10 +130,11 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
         Job job{++job_count[i], next_release[i]};
         next_release[i] += controllers[i]->period_us();
         std::vector<TimedOp> ops;
-        port.set_context(now, job.index, false);
+        guard->released(controllers[i]->task(), now);
+        port.set_context(now, false);
         controllers[i]->release(job, port, ops);
         for (auto& a : attacks) a->apply(job, controllers[i]->task(), ops, attack_noise);
-        for (auto& op : ops) pending.push_back({std::move(op), job.index, order++});
+        for (auto& op : ops) pending.push_back({std::move(op), order++});
       }
     }
     // Perform the scheduled operations that are due, in time order.
@@ -151,7 +144,7 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
     size_t done = 0;
     while (done < pending.size() && pending[done].op.at_us <= now) {
       auto& p = pending[done++];
-      port.set_context(now, p.job, p.op.injected);
+      port.set_context(now, p.op.injected);
       if (p.op.op.kind == BusOp::Kind::kWrite) {
         port.write(p.op.task, p.op.op);
       } else {

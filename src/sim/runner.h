@@ -43,6 +43,10 @@ struct RunStats {
   uint64_t rejected = 0;
   uint64_t violations = 0;  // verdicts that were not "allow" (observed even with protection off)
   std::optional<uint64_t> first_violation_us;
+
+  // One operation at `t_us`: a write with the decision that acted, or a read;
+  // `violation`: the core's verdict on it was not "allow".
+  void count(bool write, core::Decision acted, bool violation, uint64_t t_us);
 };
 
 struct RunResult {
@@ -55,8 +59,7 @@ struct RunResult {
   RunStats stats;
 };
 
-// Makes the guard for one run, given the bus it protects (so the trusted side
-// can sample sensors on it).
+// Makes the guard for one run, given the bus it protects.
 using GuardFactory = std::function<Result<std::unique_ptr<Guard>>(bus::VirtualBus& bus)>;
 
 struct RunOptions {

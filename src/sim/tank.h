@@ -17,15 +17,8 @@ namespace contego::sim {
 
 class TankMonitor : public Controller {
  public:
-  TankMonitor(std::string task, uint64_t period_us)
-      : task_(std::move(task)), period_us_(period_us) {}
-  const std::string& task() const override { return task_; }
-  uint64_t period_us() const override { return period_us_; }
+  using Controller::Controller;
   void release(const Job& job, Port& port, std::vector<TimedOp>& ops) override;
-
- private:
-  std::string task_;
-  uint64_t period_us_;
 };
 
 class TankWorld : public World {

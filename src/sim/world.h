@@ -57,17 +57,39 @@ struct Job {
   uint64_t release_us = 0;  // release time
 };
 
-// A periodic control task.
+// A periodic control task: the policy's task name of its bus operations, its
+// period, and the release time of its first job.
 class Controller {
  public:
+  Controller(std::string task, uint64_t period_us, uint64_t offset_us = 0)
+      : task_(std::move(task)), period_us_(period_us), offset_us_(offset_us) {}
   virtual ~Controller() = default;
-  virtual const std::string& task() const = 0;
-  virtual uint64_t period_us() const = 0;
-  // Release time of the first job.
-  virtual uint64_t offset_us() const { return 0; }
+  const std::string& task() const { return task_; }
+  uint64_t period_us() const { return period_us_; }
+  uint64_t offset_us() const { return offset_us_; }
   // Runs the job's computation at its release: reads go through `port`
   // immediately, writes are appended to `ops` with their times.
   virtual void release(const Job& job, Port& port, std::vector<TimedOp>& ops) = 0;
+
+ protected:
+  // Reads `len` bytes from register `reg` of the device at `addr` now (the
+  // register pointer, then the read, in one combined transfer).
+  std::optional<std::vector<uint8_t>> read_register(Port& port, uint16_t addr, uint8_t reg,
+                                                    uint32_t len) const {
+    BusOp op = read_op(addr, len);
+    op.bytes = {reg};
+    return port.read(task_, op);
+  }
+  // Schedules a write of this task at `at_us`.
+  void schedule(std::vector<TimedOp>& ops, uint64_t at_us, uint16_t addr,
+                std::vector<uint8_t> bytes) const {
+    ops.push_back({at_us, task_, write_op(addr, std::move(bytes))});
+  }
+
+ private:
+  std::string task_;
+  uint64_t period_us_;
+  uint64_t offset_us_;
 };
 
 // An attack definition from a scenario file.
@@ -85,14 +107,23 @@ struct AttackSpec {
 // while the job's release time lies in its window.
 class Attack {
  public:
-  explicit Attack(AttackSpec spec) : spec_(std::move(spec)) {}
+  // `victim`: the task whose jobs the attack rewrites (empty: any task's).
+  explicit Attack(AttackSpec spec, std::string victim = {})
+      : spec_(std::move(spec)), victim_(std::move(victim)) {}
   virtual ~Attack() = default;
   const AttackSpec& spec() const { return spec_; }
   virtual void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops,
                      Noise& noise) = 0;
 
+ protected:
+  // The window is open at the job's release and `task` is the victim.
+  bool hits(const Job& job, const std::string& task) const {
+    return spec_.active(job.release_us) && (victim_.empty() || task == victim_);
+  }
+
  private:
   AttackSpec spec_;
+  std::string victim_;
 };
 
 // A device-side event worth plotting (e.g. every pulse the gripper channel

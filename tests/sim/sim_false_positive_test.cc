@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "policy/compile.h"
-#include "sim/checker_guard.h"
+#include "sim/monitor_guard.h"
 #include "sim/runner.h"
 
 namespace contego::sim {
@@ -48,7 +48,7 @@ class EveryScenario : public ::testing::TestWithParam<std::string> {
 
   RunResult run(bool attacks, uint64_t seed) {
     GuardFactory guard = [this](bus::VirtualBus& bus) -> Result<std::unique_ptr<Guard>> {
-      auto g = CheckerGuard::create(image_, bus, /*observe=*/false);
+      auto g = MonitorGuard::create(image_, bus, /*observe=*/false);
       if (!g) return make_error(g.error());
       return std::unique_ptr<Guard>(std::move(*g));
     };

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "policy/compile.h"
-#include "sim/checker_guard.h"
+#include "sim/monitor_guard.h"
 #include "sim/report.h"
 #include "sim/runner.h"
 
@@ -42,7 +42,7 @@ class ProtectionTest : public ::testing::Test {
 
   static GuardFactory guard(const PolicyImage& img, bool observe) {
     return [&img, observe](bus::VirtualBus& bus) -> Result<std::unique_ptr<Guard>> {
-      auto g = CheckerGuard::create(img, bus, observe);
+      auto g = MonitorGuard::create(img, bus, observe);
       if (!g) return make_error(g.error());
       return std::unique_ptr<Guard>(std::move(*g));
     };
