@@ -174,7 +174,8 @@ uint32_t contego_worst_case_cost(const contego_checker* c) {
 }
 
 uint32_t contego_task_period_us(const contego_checker* c, uint16_t task) {
-  const Checker* k = checker(c);
+  if (c == nullptr) return 0;
+  const core::Checker* k = checker(c);
   return task < k->task_count() ? k->task(task).period_us : 0;
 }
 
