@@ -13,23 +13,18 @@
 
 namespace contego::cli {
 
-Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
+Result<std::unique_ptr<Guardian>> Guardian::start(const std::function<int()>& on_loss) {
   // A socket pair, not a pipe: the release is sent with MSG_NOSIGNAL, so a
   // guardian killed meanwhile (by a program under the same uid) costs no SIGPIPE.
   int fds[2];
   if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0) {
-    *error = std::string("socketpair: ") + strerror(errno);
-    return;
+    return make_error(std::string("socketpair: ") + strerror(errno));
   }
+  base::UniqueFd guardian_end(fds[0]), supervisor_end(fds[1]);
   const pid_t pid = fork();
-  if (pid < 0) {
-    *error = std::string("fork: ") + strerror(errno);
-    close(fds[0]);
-    close(fds[1]);
-    return;
-  }
+  if (pid < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (pid == 0) {
-    close(fds[1]);
+    supervisor_end.reset();
     // Not traceable by the program (which runs under the same uid unless
     // told otherwise); SIGINT/SIGTERM/SIGHUP stay blocked as in the parent.
     (void)prctl(PR_SET_DUMPABLE, 0, 0, 0, 0);
@@ -38,7 +33,7 @@ Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
     char word = 0;
     ssize_t n;
     do {
-      n = read(fds[0], &word, 1);
+      n = read(guardian_end.get(), &word, 1);
     } while (n < 0 && errno == EINTR);
     if (n == 1) _exit(0);  // released: the supervisor ended cleanly
     // Its descriptors close before its exit is complete: wait for that, so
@@ -50,16 +45,13 @@ Guardian::Guardian(const std::function<int()>& on_loss, std::string* error) {
     }
     _exit(on_loss());
   }
-  close(fds[0]);
-  fd_ = fds[1];
-  pid_ = pid;
+  return std::unique_ptr<Guardian>(new Guardian(std::move(supervisor_end), pid));
 }
 
 Guardian::~Guardian() {
-  if (fd_ < 0) return;
   const char word = 1;
-  (void)!send(fd_, &word, 1, MSG_NOSIGNAL);
-  close(fd_);
+  (void)!send(fd_.get(), &word, 1, MSG_NOSIGNAL);
+  fd_.reset();
   while (waitpid(pid_, nullptr, 0) < 0 && errno == EINTR) {
   }
 }

@@ -9,21 +9,25 @@
 #define CONTEGO_CLI_GUARDIAN_H_
 
 #include <functional>
-#include <string>
+#include <memory>
 #include <sys/types.h>
+
+#include "base/result.h"
+#include "base/unique_fd.h"
 
 namespace contego::cli {
 
 class Guardian {
  public:
-  // Forks the guardian. On failure the guardian is absent and *error says why.
-  Guardian(const std::function<int()>& on_loss, std::string* error);
+  // Forks the guardian; on failure, why there is none.
+  static Result<std::unique_ptr<Guardian>> start(const std::function<int()>& on_loss);
   ~Guardian();  // a clean end: the guardian exits without acting
   Guardian(const Guardian&) = delete;
   Guardian& operator=(const Guardian&) = delete;
 
  private:
-  int fd_ = -1;
+  Guardian(base::UniqueFd fd, pid_t pid) : fd_(std::move(fd)), pid_(pid) {}
+  base::UniqueFd fd_;
   pid_t pid_ = -1;
 };
 

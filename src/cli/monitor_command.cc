@@ -10,6 +10,7 @@
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
+#include "cli/setup_args.h"
 #include "cli/systemd_notify.h"
 #include "cli/trusted_setup.h"
 #include "monitor/server.h"
@@ -103,17 +104,10 @@ void register_monitor(CLI::App& app) {
       fmt::print(stderr, "contego monitor: --image-sha256 needs --image FILE\n");
       return set_exit_code(2);
     }
-    so.audit = args->audit;
-    so.audit_options = args->audit_options;
-    auto buses = parse_bus_specs(args->buses, args->virtual_buses);
-    if (!buses.ok()) {
-      fmt::print(stderr, "contego monitor: {}\n", buses.error());
+    if (const Status applied = apply_setup_args(*args, so); !applied.ok()) {
+      fmt::print(stderr, "contego monitor: {}\n", applied.error());
       return set_exit_code(2);
     }
-    so.real_buses = *buses;
-    so.virtual_buses = args->virtual_buses;
-    so.budget_factor = args->budget_factor;
-    so.allow_degraded = args->allow_degraded;
     if (so.real_buses.empty() && so.virtual_buses.empty()) {
       fmt::print(stderr, "contego monitor: give at least one --bus or --virtual-bus\n");
       return set_exit_code(2);

@@ -6,10 +6,12 @@
 #include <fstream>
 #include <sys/signalfd.h>
 
+#include "base/unique_fd.h"
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/guardian.h"
+#include "cli/setup_args.h"
 #include "cli/trusted_setup.h"
 #include "cli/user_spec.h"
 #include "gate/socket.h"
@@ -23,24 +25,21 @@ namespace {
 // program through the supervisor's death (PR_SET_PDEATHSIG) once unblocked).
 struct StopSignals {
   sigset_t set{}, original{};
-  int fd = -1;
+  base::UniqueFd fd;
   StopSignals() {
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &set, &original);
-    fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
-  }
-  ~StopSignals() {
-    if (fd >= 0) close(fd);
+    fd.reset(signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK));
   }
   StopSignals(const StopSignals&) = delete;
   StopSignals& operator=(const StopSignals&) = delete;
   // The signal that stopped the program (SIGTERM if it cannot be read).
   int which() const {
     signalfd_siginfo info{};
-    if (fd >= 0 && read(fd, &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
+    if (fd.valid() && read(fd.get(), &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
       return static_cast<int>(info.ssi_signo);
     }
     return SIGTERM;
@@ -133,7 +132,7 @@ void register_run(CLI::App& app) {
     StopSignals stop;
     intercept::seccomp::Options opt;
     opt.argv = args->program;
-    opt.stop_fd = stop.fd;
+    opt.stop_fd = stop.fd.get();
     opt.child_sigmask = &stop.original;
     if (!args->user.empty()) {
       auto user = parse_user_spec(args->user);
@@ -194,47 +193,36 @@ void register_run(CLI::App& app) {
     }
     monitor::SetupOptions so;
     so.policy = args->policy;
-    so.audit = args->audit;
     so.task = args->task;  // an unknown task is refused before the safe state is driven
-    so.audit_options = args->audit_options;
-    auto buses = parse_bus_specs(args->buses, args->virtual_buses);
-    if (!buses.ok()) {
-      fmt::print(stderr, "contego run: {}\n", buses.error());
+    if (const Status applied = apply_setup_args(*args, so); !applied.ok()) {
+      fmt::print(stderr, "contego run: {}\n", applied.error());
       return set_exit_code(2);
     }
-    so.real_buses = *buses;
-
-    so.virtual_buses = args->virtual_buses;
-    so.budget_factor = args->budget_factor;
-    so.allow_degraded = args->allow_degraded;
     if (so.real_buses.empty() && so.virtual_buses.empty()) so.virtual_buses = {1};
     // If this process dies without a clean end (SIGKILL, a crash), the
     // guardian drives the safe state with a monitor of its own.
-    std::string guardian_error;
     const pid_t supervisor = getpid();
-    Guardian guardian(
-        [&] {
-          monitor::SetupOptions lost = so;
-          lost.allow_degraded = true;  // drive what can be driven
-          lost.safe_state_reason = fmt::format(
-              "contego run: the supervisor (pid {}) ended without a clean exit; its guardian "
-              "drives the safe state",
-              supervisor);
-          fmt::print(stderr, "{}\n", lost.safe_state_reason);
-          auto t = monitor::setup(lost);
-          if (!t.ok()) {
-            fmt::print(stderr, "contego run: guardian: {}\n", t.error());
-            return 1;
-          }
-          (*t)->monitor->stop_sampling();
-          if (!args->virtual_state.empty()) {
-            std::ofstream(args->virtual_state) << monitor::virtual_state(**t);
-          }
-          return 0;
-        },
-        &guardian_error);
-    if (!guardian_error.empty()) {
-      fmt::print(stderr, "contego run: cannot start the guardian: {}\n", guardian_error);
+    auto guardian = Guardian::start([&] {
+      monitor::SetupOptions lost = so;
+      lost.allow_degraded = true;  // drive what can be driven
+      lost.safe_state_reason = fmt::format(
+          "contego run: the supervisor (pid {}) ended without a clean exit; its guardian "
+          "drives the safe state",
+          supervisor);
+      fmt::print(stderr, "{}\n", lost.safe_state_reason);
+      auto t = monitor::setup(lost);
+      if (!t.ok()) {
+        fmt::print(stderr, "contego run: guardian: {}\n", t.error());
+        return 1;
+      }
+      (*t)->monitor->stop_sampling();
+      if (!args->virtual_state.empty()) {
+        std::ofstream(args->virtual_state) << monitor::virtual_state(**t);
+      }
+      return 0;
+    });
+    if (!guardian.ok()) {
+      fmt::print(stderr, "contego run: cannot start the guardian: {}\n", guardian.error());
       return set_exit_code(2);
     }
     auto trusted = monitor::setup(so);

@@ -25,21 +25,23 @@ std::string where(const std::string& name, const core::DeviceRecord& r,
   return fmt::format("{} {} at i2c-{} 0x{:02x}", noun, name, r.bus, r.addr);
 }
 
+struct Probe {
+  int err;          // 0: the device answered
+  const char* how;  // what was sent
+};
 // i2cdetect's probe: a quick write, except where that can corrupt an
 // EEPROM's write pointer or lock some chips (0x30-0x37, 0x50-0x5f), for a
 // ten-bit address and on an adapter without quick: a one-byte read. Neither
 // carries data a device could take as a command.
-int probe(bus::Bus& b, const core::DeviceRecord& r, std::string* how) {
+Probe probe(bus::Bus& b, const core::DeviceRecord& r) {
   const bool read_range = (r.addr >= 0x30 && r.addr <= 0x37) || (r.addr >= 0x50 && r.addr <= 0x5f);
   if (r.ten_bit == 0 && !read_range && (b.funcs() & bus::kFuncSmbusQuick) != 0) {
-    *how = "an SMBus quick write";
-    return b.quick(r.addr, false);
+    return {b.quick(r.addr, false), "an SMBus quick write"};
   }
-  *how = "a one-byte read";
   uint8_t byte = 0;
   bus::Msg m{r.addr, static_cast<uint16_t>(gate::kMsgRead | (r.ten_bit ? gate::kMsgTen : 0)), 1,
              &byte};
-  return b.transfer({&m, 1});
+  return {b.transfer({&m, 1}), "a one-byte read"};
 }
 
 // One register read: the pointer byte, then one byte (a combined transfer).
@@ -271,8 +273,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     const core::DeviceRecord& r = device_record(d);
     auto it = adapters.find(r.bus);
     if (it == adapters.end()) continue;
-    std::string how;
-    if (int err = probe(*it->second, r, &how); err != 0) {
+    if (const auto [err, how] = probe(*it->second, r); err != 0) {
       problems.push_back(fmt::format("{} does not answer: {} on {} failed with {}",
                                      where(device_name(d), r), how, adapter_name[r.bus],
                                      errno_text(err)));

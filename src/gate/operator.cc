@@ -37,8 +37,8 @@ Result<bool> request_reset(const std::string& socket_path, const std::string& de
   FrameReader reader(fd);
   wire::Header h;
   std::span<const uint8_t> answer;
-  if (const std::string why = reader.next(&h, &answer); !why.empty()) {
-    return make_error("no answer from the monitor at " + socket_path + ": " + why);
+  if (const FrameStatus got = reader.next(&h, &answer); !got.ok()) {
+    return make_error("no answer from the monitor at " + socket_path + ": " + got.why);
   }
   if (h.type == static_cast<uint8_t>(wire::Type::kError)) {
     wire::ErrorMsg e;

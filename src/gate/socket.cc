@@ -43,7 +43,7 @@ bool send_frame(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> 
 
 FrameReader::FrameReader(int fd) : fd_(fd), buf_(kInitialCapacity) {}
 
-std::string FrameReader::next(wire::Header* header, std::span<const uint8_t>* payload) {
+FrameStatus FrameReader::next(wire::Header* header, std::span<const uint8_t>* payload) {
   // Drop the frame handed out last time; keep whatever followed it.
   start_ += consumed_;
   consumed_ = 0;
@@ -54,7 +54,7 @@ std::string FrameReader::next(wire::Header* header, std::span<const uint8_t>* pa
     if (!have_header && avail >= wire::kHeaderSize) {
       if (std::string why = wire::decode_header({buf_.data() + start_, wire::kHeaderSize}, header);
           !why.empty()) {
-        return why;
+        return {FrameStatus::Kind::kBroken, why};
       }
       have_header = true;
     }
@@ -79,8 +79,10 @@ std::string FrameReader::next(wire::Header* header, std::span<const uint8_t>* pa
     // Usually one recv brings the whole frame (header and payload).
     const ssize_t n = ::recv(fd_, buf_.data() + end_, buf_.size() - end_, 0);
     if (n < 0 && errno == EINTR) continue;
-    if (n == 0 && avail == 0) return "closed";
-    if (n <= 0) return have_header ? "truncated payload" : "truncated header";
+    if (n == 0 && avail == 0) return {FrameStatus::Kind::kClosed, "closed"};
+    if (n <= 0) {
+      return {FrameStatus::Kind::kBroken, have_header ? "truncated payload" : "truncated header"};
+    }
     end_ += static_cast<size_t>(n);
   }
 }
@@ -188,7 +190,7 @@ bool SocketClient::exchange(wire::Type type, std::span<const uint8_t> payload, w
     return true;
   }
   const uint32_t seq = ++seq_;
-  if (!send_frame(fd_, type, seq, payload) || !reader_.next(h, answer).empty() || h->seq != seq) {
+  if (!send_frame(fd_, type, seq, payload) || !reader_.next(h, answer).ok() || h->seq != seq) {
     broken_ = true;  // fail closed from now on
     return false;
   }

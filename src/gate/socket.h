@@ -31,11 +31,20 @@ std::string recv_frame(int fd, wire::Header* header, std::vector<uint8_t>* paylo
 // usual case (it asks for as much as the buffer holds and keeps bytes that
 // belong to the next frame), no allocation once the buffer has grown to the
 // largest frame seen. Same results as recv_frame.
+// What FrameReader::next found: a frame, the peer's end between frames, or
+// lost framing (`why` says how; "closed" for the peer's end).
+struct FrameStatus {
+  enum class Kind : uint8_t { kFrame, kClosed, kBroken };
+  Kind kind = Kind::kFrame;
+  std::string why;
+  bool ok() const { return kind == Kind::kFrame; }
+};
+
 class FrameReader {
  public:
   explicit FrameReader(int fd);
   // *payload stays valid until the next call.
-  std::string next(wire::Header* header, std::span<const uint8_t>* payload);
+  FrameStatus next(wire::Header* header, std::span<const uint8_t>* payload);
 
  private:
   static constexpr size_t kInitialCapacity = 16 * 1024;

@@ -30,17 +30,17 @@ TEST_F(FramePair, TwoFramesInOneSendComeOutSeparately) {
   FrameReader reader(fds[0]);
   wire::Header h;
   std::span<const uint8_t> p;
-  ASSERT_EQ(reader.next(&h, &p), "");
+  ASSERT_EQ(reader.next(&h, &p).kind, FrameStatus::Kind::kFrame);
   EXPECT_EQ(h.type, static_cast<uint8_t>(wire::Type::kJobEnd));
   EXPECT_EQ(h.seq, 7u);
   EXPECT_TRUE(p.empty());
-  ASSERT_EQ(reader.next(&h, &p), "");
+  ASSERT_EQ(reader.next(&h, &p).kind, FrameStatus::Kind::kFrame);
   EXPECT_EQ(h.type, static_cast<uint8_t>(wire::Type::kTransfer));
   EXPECT_EQ(h.seq, 8u);
   EXPECT_EQ(std::vector<uint8_t>(p.begin(), p.end()), payload);
   close(fds[1]);
   fds[1] = -1;
-  EXPECT_EQ(reader.next(&h, &p), "closed");
+  EXPECT_EQ(reader.next(&h, &p).kind, FrameStatus::Kind::kClosed);
 }
 
 // The largest frame (42 messages of 8192 bytes) is bigger than the reader's
@@ -55,10 +55,10 @@ TEST_F(FramePair, AFrameLargerThanTheBufferArrivesWhole) {
   FrameReader reader(fds[0]);
   wire::Header h;
   std::span<const uint8_t> p;
-  ASSERT_EQ(reader.next(&h, &p), "");
+  ASSERT_EQ(reader.next(&h, &p).kind, FrameStatus::Kind::kFrame);
   EXPECT_EQ(h.length, wire::kMaxPayload);
   EXPECT_TRUE(std::equal(p.begin(), p.end(), big.begin(), big.end()));
-  ASSERT_EQ(reader.next(&h, &p), "");
+  ASSERT_EQ(reader.next(&h, &p).kind, FrameStatus::Kind::kFrame);
   EXPECT_EQ(h.seq, 2u);
   ASSERT_EQ(p.size(), 1u);
   EXPECT_EQ(p[0], 9);
@@ -72,7 +72,9 @@ TEST_F(FramePair, AnOversizedHeaderIsRefusedAndATruncatedFrameReported) {
   FrameReader reader(fds[0]);
   wire::Header h;
   std::span<const uint8_t> p;
-  EXPECT_NE(reader.next(&h, &p).find("exceeds"), std::string::npos);
+  const FrameStatus got = reader.next(&h, &p);
+  EXPECT_EQ(got.kind, FrameStatus::Kind::kBroken);
+  EXPECT_NE(got.why.find("exceeds"), std::string::npos);
 
   int other[2];
   ASSERT_EQ(socketpair(AF_UNIX, SOCK_STREAM, 0, other), 0);
@@ -81,7 +83,9 @@ TEST_F(FramePair, AnOversizedHeaderIsRefusedAndATruncatedFrameReported) {
   ASSERT_EQ(write(other[1], raw, 4), 4);  // 4 of the 10 payload bytes
   close(other[1]);
   FrameReader cut(other[0]);
-  EXPECT_EQ(cut.next(&h, &p), "truncated payload");
+  const FrameStatus truncated = cut.next(&h, &p);
+  EXPECT_EQ(truncated.kind, FrameStatus::Kind::kBroken);
+  EXPECT_EQ(truncated.why, "truncated payload");
   close(other[0]);
 }
 

@@ -54,7 +54,7 @@ Server::~Server() {
     if (c->thread.joinable()) c->thread.join();
   }
   flush_suppressed(true);
-  if (listen_fd_ >= 0) close(listen_fd_);
+  listen_fd_.reset();
   if (!path_.empty()) unlink(path_.c_str());
 }
 
@@ -63,14 +63,15 @@ Status Server::listen(const std::string& path) {
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  listen_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  if (listen_fd_ < 0) return make_error(std::string("socket: ") + strerror(errno));
+  listen_fd_.reset(socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
+  if (!listen_fd_.valid()) return make_error(std::string("socket: ") + strerror(errno));
   unlink(path.c_str());
-  if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+  if (bind(listen_fd_.get(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     return make_error("cannot bind " + path + ": " + strerror(errno));
   }
   chmod(path.c_str(), 0660);
-  if (::listen(listen_fd_, 64) != 0) return make_error(std::string("listen: ") + strerror(errno));
+  if (::listen(listen_fd_.get(), 64) != 0)
+    return make_error(std::string("listen: ") + strerror(errno));
   path_ = path;
   return {};
 }
@@ -142,8 +143,8 @@ void Server::housekeeping() {
       if (!c.hello.load() && c.hello_deadline_us != 0 && now >= c.hello_deadline_us &&
           !c.timed_out) {
         c.timed_out = true;
-        shutdown(c.fd, SHUT_RDWR);  // its thread sees the end and closes it
-        timed_out.emplace_back(c.uid, c.fd);
+        shutdown(c.fd.get(), SHUT_RDWR);  // its thread sees the end and closes it
+        timed_out.emplace_back(c.uid, c.fd.get());
       }
       ++it;
     }
@@ -162,12 +163,12 @@ void Server::serve() {
   uint64_t accept_reported_us = 0, accept_unreported = 0;
   while (!stopping_) {
     housekeeping();
-    pollfd p{listen_fd_, POLLIN, 0};
+    pollfd p{listen_fd_.get(), POLLIN, 0};
     const int ready = poll(&p, 1, 100);
     if (stopping_) break;
     if (ready <= 0) continue;
-    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (fd < 0) {
+    base::UniqueFd fd(accept4(listen_fd_.get(), nullptr, nullptr, SOCK_CLOEXEC));
+    if (!fd.valid()) {
       const int err = errno;
       if (stopping_) break;
       if (err == EINTR || err == EAGAIN || err == ECONNABORTED) continue;
@@ -193,12 +194,11 @@ void Server::serve() {
     }
     ucred cred{};
     socklen_t len = sizeof cred;
-    if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 ||
+    if (getsockopt(fd.get(), SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 ||
         allowed_.count(cred.uid) == 0) {
       client_event(cred.uid, "peer-refused", fmt::format("pid {} uid {}", cred.pid, cred.uid));
       const auto e = wire::encode_error({EACCES, "peer uid not allowed"});
-      gate::send_frame(fd, wire::Type::kError, 0, e);
-      close(fd);
+      gate::send_frame(fd.get(), wire::Type::kError, 0, e);
       continue;
     }
     if (limits_.connects_per_second > 0) {
@@ -215,8 +215,7 @@ void Server::serve() {
                      fmt::format("pid {} uid {}: over {} new connections per second", cred.pid,
                                  cred.uid, limits_.connects_per_second));
         const auto e = wire::encode_error({EAGAIN, "reconnecting too fast for this uid"});
-        gate::send_frame(fd, wire::Type::kError, 0, e);
-        close(fd);
+        gate::send_frame(fd.get(), wire::Type::kError, 0, e);
         continue;
       }
     }
@@ -229,16 +228,15 @@ void Server::serve() {
                    fmt::format("pid {} uid {}: over the cap of {} connections per uid", cred.pid,
                                cred.uid, limits_.max_per_uid));
       const auto e = wire::encode_error({EAGAIN, "too many connections for this uid"});
-      gate::send_frame(fd, wire::Type::kError, 0, e);
-      close(fd);
+      gate::send_frame(fd.get(), wire::Type::kError, 0, e);
       continue;
     }
     ++live;
     auto c = std::make_unique<Conn>();
-    c->fd = fd;
+    c->pidfd.reset(peer_pidfd(fd.get(), cred.pid));  // -1: a hello for a bound task is refused
+    c->fd = std::move(fd);
     c->uid = cred.uid;
     c->pid = cred.pid;
-    c->pidfd = peer_pidfd(fd, cred.pid);  // -1: a hello for a bound task is refused
     c->hello_deadline_us =
         limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
     Conn* raw = c.get();
@@ -247,10 +245,8 @@ void Server::serve() {
     } catch (const std::system_error&) {
       --live;
       lock.unlock();
-      if (c->pidfd >= 0) close(c->pidfd);
       client_event(cred.uid, "peer-refused",
                    fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
-      close(fd);
       usleep(50000);
       continue;
     }
@@ -263,10 +259,10 @@ void Server::serve() {
 
 void Server::stop() {
   stopping_ = true;
-  if (listen_fd_ >= 0) shutdown(listen_fd_, SHUT_RDWR);
+  if (listen_fd_.valid()) shutdown(listen_fd_.get(), SHUT_RDWR);
   std::lock_guard lock(mu_);
   for (const auto& c : conns_) {
-    if (!c->done.load()) shutdown(c->fd, SHUT_RDWR);
+    if (!c->done.load()) shutdown(c->fd.get(), SHUT_RDWR);
   }
 }
 
@@ -365,7 +361,7 @@ wire::Type Server::reset(Session& s, std::span<const uint8_t> payload) {
 
 void Server::connection(Conn* conn) {
   Conn* const c = conn;
-  const int fd = c->fd;
+  const int fd = c->fd.get();
   Session s;
   s.conn = c;
   gate::FrameReader reader(fd);
@@ -373,9 +369,10 @@ void Server::connection(Conn* conn) {
   for (;;) {
     wire::Header h;
     std::span<const uint8_t> payload;
-    const std::string why = reader.next(&h, &payload);
-    if (why == "closed") break;
-    if (!why.empty()) {
+    const gate::FrameStatus got = reader.next(&h, &payload);
+    if (got.kind == gate::FrameStatus::Kind::kClosed) break;
+    if (got.kind == gate::FrameStatus::Kind::kBroken) {
+      const std::string& why = got.why;
       // The framing is lost: answer once, then drop this connection only.
       client_event(c->uid, "malformed", fmt::format("uid {}: {}", c->uid, why));
       gate::send_frame(fd, wire::Type::kError, h.seq, wire::encode_error({EPROTO, why}));
@@ -412,8 +409,8 @@ void Server::connection(Conn* conn) {
   if (channel) serve_channel(s, *channel);
   end_session(s);
   std::lock_guard lock(mu_);
-  close(fd);
-  if (c->pidfd >= 0) close(c->pidfd);
+  c->fd.reset();
+  c->pidfd.reset();
   if (auto it = per_uid_.find(c->uid); it != per_uid_.end() && --it->second == 0) {
     per_uid_.erase(it);
   }

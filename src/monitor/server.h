@@ -49,6 +49,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 #include "gate/channel.h"
 #include "gate/wire.h"
 #include "monitor/audit_log.h"
@@ -100,10 +101,10 @@ class Server {
     std::vector<uint8_t> out;
   };
   struct Conn {
-    int fd = -1;
+    base::UniqueFd fd;
     uid_t uid = 0;
     pid_t pid = 0;
-    int pidfd = -1;                  // pins the peer (SO_PEERPIDFD or pidfd_open)
+    base::UniqueFd pidfd;            // pins the peer (SO_PEERPIDFD or pidfd_open)
     uint64_t hello_deadline_us = 0;  // 0: said hello (or no timeout)
     std::atomic<bool> hello{false};
     std::atomic<bool> done{false};
@@ -137,7 +138,7 @@ class Server {
   std::set<uid_t> allowed_;
   gate::SpinPolicy spin_;
   bool realtime_;  // serve each connection at its task's priority (SCHED_FIFO)
-  int listen_fd_ = -1;
+  base::UniqueFd listen_fd_;
   std::string path_;
   std::atomic<bool> stopping_{false};
   ServerLimits limits_;

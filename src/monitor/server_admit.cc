@@ -33,8 +33,8 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
   auto binding = bindings_.find(name);
   const bool binds = binding != bindings_.end() && binding->second.binds();
   if (vouch.pid == 0 && !binds) return {};
-  if (c.pidfd < 0) return "the peer process cannot be pinned (pidfd)";
-  auto peer = process_facts(c.pidfd, c.pid);
+  if (!c.pidfd.valid()) return "the peer process cannot be pinned (pidfd)";
+  auto peer = process_facts(c.pidfd.get(), c.pid);
   if (!peer.ok()) return "the peer: " + peer.error();
   PeerFacts facts = *peer;
   facts.uid = c.uid;  // SO_PEERCRED: the credentials the peer connected with

@@ -51,21 +51,6 @@ const char* section_name(uint32_t kind) {
   return kind == 0 ? "header" : "unknown";
 }
 
-std::string one_line(std::string_view text) {
-  std::string out;
-  bool space = false;
-  for (char c : text) {
-    if (c == ' ' || c == '\t' || c == '\n' || c == '\r') {
-      space = true;
-      continue;
-    }
-    if (space && !out.empty()) out += ' ';
-    space = false;
-    out += c;
-  }
-  return out;
-}
-
 PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
                         const image::ImageModel* model) {
   PolicySummary s;

@@ -11,6 +11,8 @@
 
 #include "contego/core/checker.h"
 
+#include "policy/test_util.h"
+
 namespace contego::policy {
 namespace {
 
@@ -68,15 +70,7 @@ class RoverPolicy : public ::testing::Test {
   }
 
   core::Verdict send(std::vector<uint8_t> frame, uint32_t job) {
-    core::Transaction tx{};
-    tx.task = 0;
-    tx.bus = 1;
-    tx.kind = core::TxKind::kWrite;
-    tx.addr = 0x08;
-    tx.job = job;
-    tx.len = static_cast<uint32_t>(frame.size());
-    tx.bytes = frame.data();
-    tx.now_us = 2000;
+    const core::Transaction tx = testing::write_tx(0, 0x08, job, frame.data(), frame.size(), 2000);
     core::Verdict v{};
     checker_->check(tx, &v);
     return v;
@@ -165,14 +159,7 @@ invariant CAP on gopigo.set_left_speed: require speed <= 120
   ASSERT_EQ(checker->load(out.image.data(), static_cast<uint32_t>(out.image.size())).status,
             core::LoadStatus::kOk);
   uint8_t frame[4] = {0x46, 200, 0, 0};
-  core::Transaction tx{};
-  tx.task = 0;
-  tx.bus = 1;
-  tx.kind = core::TxKind::kWrite;
-  tx.addr = 0x08;
-  tx.job = 1;
-  tx.len = 4;
-  tx.bytes = frame;
+  const core::Transaction tx = testing::write_tx(0, 0x08, 1, frame, sizeof frame);
   core::Verdict v{};
   checker->check(tx, &v);
   EXPECT_EQ(v.decision, Decision::kFailsafe);
@@ -202,15 +189,7 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
                                 {0x1C, static_cast<uint8_t>(off & 0xFF)},
                                 {0x1D, static_cast<uint8_t>(off >> 8)}};
     for (const auto& r : regs) {
-      core::Transaction tx{};
-      tx.task = 0;
-      tx.bus = 1;
-      tx.kind = core::TxKind::kWrite;
-      tx.addr = 0x40;
-      tx.job = job;
-      tx.len = 2;
-      tx.bytes = r;
-      checker->check(tx, &v);
+      checker->check(testing::write_tx(0, 0x40, job, r, sizeof r), &v);
     }
     return v;
   };

@@ -12,6 +12,7 @@
 
 #include "image/image_model.h"
 #include "policy/compile.h"
+#include "policy/test_util.h"
 
 namespace contego::policy {
 namespace {
@@ -35,15 +36,8 @@ class Pca9685Policy : public ::testing::Test {
 
   core::Verdict write(std::vector<uint8_t> bytes, uint32_t job, uint16_t addr = 0x40,
                       uint16_t task = 0) {
-    core::Transaction tx{};
-    tx.task = task;
-    tx.bus = 1;
-    tx.kind = core::TxKind::kWrite;
-    tx.addr = addr;
-    tx.job = job;
-    tx.len = static_cast<uint32_t>(bytes.size());
-    tx.bytes = bytes.data();
-    tx.now_us = now_us_ += 1000;
+    const core::Transaction tx =
+        testing::write_tx(task, addr, job, bytes.data(), bytes.size(), now_us_ += 1000);
     core::Verdict v{};
     checker_->check(tx, &v);
     return v;

@@ -7,6 +7,7 @@
 namespace contego::sched {
 namespace {
 
+using testing::blocking_example;
 using testing::issue_example;
 using testing::ms;
 using testing::task;
@@ -53,9 +54,7 @@ TEST(AnalysisTest, ResultsFollowInputOrderNotPriorityOrder) {
 //   although hi itself checks nothing and nothing preempts it.
 //   lo: C^TEE = 1 + 2.5 = 3.5; r = 3.5 -> 3.5 + ceil(3.5/3)*1 = 5.5 -> 5.5: meets 100.
 TEST(AnalysisTest, BlockingAloneMakesHigherPriorityTaskMiss) {
-  TaskSet s;
-  s.tasks = {task("hi", ms(1), ms(3), ms(3), 2, 0, us(500)),
-             task("lo", ms(1), ms(100), ms(100), 1, 5, us(500))};
+  TaskSet s = blocking_example(us(500));
   const Analysis a = analyse(s);
   EXPECT_EQ(a.tasks[0].blocking, us(2500));
   EXPECT_EQ(a.tasks[0].response, us(3500));

@@ -10,6 +10,7 @@
 namespace contego::sched {
 namespace {
 
+using testing::blocking_example;
 using testing::issue_example;
 using testing::ms;
 using testing::task;
@@ -37,9 +38,7 @@ TEST(SensitivityTest, SingleTaskOverheadByHand) {
 //   max N_hi: 1 + 0.2 N + 1 <= 3  <=> N <= 5 (lo: 2 + ceil(r/3)*2 -> 6, fine).
 //   max N_lo: 1 + 0.2 N <= 3 for hi  <=> N <= 10.
 TEST(SensitivityTest, BlockingDominatedSetByHand) {
-  TaskSet s;
-  s.tasks = {task("hi", ms(1), ms(3), ms(3), 2, 0, us(200)),
-             task("lo", ms(1), ms(100), ms(100), 1, 5, us(200))};
+  TaskSet s = blocking_example(us(200));
   const Sensitivity sens = sensitivity(s);
   EXPECT_EQ(sens.max_overhead, us(400));
   EXPECT_EQ(sens.tasks[0].max_overhead, us(400));
@@ -103,9 +102,7 @@ void expect_same(const TaskSet& s, const std::string& what) {
 
 TEST(SensitivityTest, HandExamplesMatchTheSearch) {
   expect_same(issue_example(), "issue example");
-  TaskSet s;
-  s.tasks = {task("hi", ms(1), ms(3), ms(3), 2, 0, us(200)),
-             task("lo", ms(1), ms(100), ms(100), 1, 5, us(200))};
+  TaskSet s = blocking_example(us(200));
   expect_same(s, "blocking");
   // A task far below many short periods: thousands of scheduling points
   // before its deadline, so the jumps hand over to their bounded search.

@@ -33,6 +33,15 @@ inline TaskSet issue_example() {
   return s;
 }
 
+// Blocking dominates: hi: C=1, T=D=3, N=0, prio 2; lo: C=1, T=D=100, N=5,
+// prio 1; C^o = `overhead` for both.
+inline TaskSet blocking_example(Nanos overhead) {
+  TaskSet s;
+  s.tasks = {task("hi", ms(1), ms(3), ms(3), 2, 0, overhead),
+             task("lo", ms(1), ms(100), ms(100), 1, 5, overhead)};
+  return s;
+}
+
 }  // namespace contego::sched::testing
 
 #endif  // CONTEGO_SCHED_TEST_UTIL_H_

@@ -28,6 +28,7 @@
 #include "monitor/monitor.h"
 #include "monitor/server.h"
 #include "policy/compile.h"
+#include "test_support.h"
 
 namespace contego {
 namespace {
@@ -58,18 +59,11 @@ class Identity : public ::testing::Test {
  protected:
   void SetUp() override {
     if (geteuid() != 0) GTEST_SKIP() << "needs root: the program runs as uid 65534 (--user)";
-    char name[] = "/tmp/contego-identity-audit-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    audit_path = name;
-    ASSERT_TRUE(audit.open(audit_path).ok());
-    const policy::CompileOutput out =
-        policy::compile_file(std::string(CONTEGO_POLICIES_DIR) + "/arm.policy");
-    ASSERT_TRUE(out.ok);
-    ASSERT_EQ(
-        decider.checker().load(out.image.data(), static_cast<uint32_t>(out.image.size())).status,
-        core::LoadStatus::kOk);
+    ASSERT_NO_FATAL_FAILURE(
+        test_support::open_temp_audit(audit, &audit_path, "/tmp/contego-identity-audit-XXXXXX"));
+    policy::CompileOutput out;
+    ASSERT_NO_FATAL_FAILURE(test_support::load_policy(
+        std::string(CONTEGO_POLICIES_DIR) + "/arm.policy", decider, &out));
     std::vector<uint32_t> actuates;
     for (size_t i = 0; i < out.model.tasks.size(); ++i) {
       tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
@@ -95,19 +89,11 @@ class Identity : public ::testing::Test {
     mode1_before = pca->reg(0x00);
   }
   void TearDown() override {
-    if (server) {
-      server->stop();
-      server_thread.join();
-    }
+    test_support::stop_server(server.get(), server_thread);
     if (HasFailure()) std::cerr << "audit log:\n" << audit_text();
     if (!audit_path.empty()) unlink(audit_path.c_str());
   }
-  std::string audit_text() {
-    std::ifstream in(audit_path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
+  std::string audit_text() { return test_support::file_text(audit_path); }
   static size_t count(const std::string& text, const std::string& what) {
     size_t n = 0;
     for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;

@@ -13,6 +13,7 @@
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 #include "policy/compile.h"
+#include "test_support.h"
 
 namespace contego {
 namespace {
@@ -24,18 +25,11 @@ const std::array<uint16_t, 5> kLineCentre = {767, 815, 1015, 710, 700};     // p
 class MonitorReading : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-reading-audit-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    audit_path = name;
-    ASSERT_TRUE(audit.open(audit_path).ok());
-    const policy::CompileOutput out =
-        policy::compile_file(std::string(CONTEGO_POLICIES_DIR) + "/rover.policy");
-    ASSERT_TRUE(out.ok);
-    ASSERT_EQ(
-        decider.checker().load(out.image.data(), static_cast<uint32_t>(out.image.size())).status,
-        core::LoadStatus::kOk);
+    ASSERT_NO_FATAL_FAILURE(
+        test_support::open_temp_audit(audit, &audit_path, "/tmp/contego-reading-audit-XXXXXX"));
+    policy::CompileOutput out;
+    ASSERT_NO_FATAL_FAILURE(test_support::load_policy(
+        std::string(CONTEGO_POLICIES_DIR) + "/rover.policy", decider, &out));
     bus.attach(gpg);
     bus.attach(lf);
     mon = std::make_unique<monitor::Monitor>(decider, audit);

@@ -21,6 +21,7 @@
 #include "monitor/monitor.h"
 #include "monitor/server.h"
 #include "policy/compile.h"
+#include "test_support.h"
 
 namespace contego {
 namespace {
@@ -30,18 +31,11 @@ enum class Client { kInProcess, kSocket, kPreload };
 class PolicyE2e : public ::testing::TestWithParam<Client> {
  protected:
   void load(const std::string& policy_name) {
-    char name[] = "/tmp/contego-policy-audit-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    audit_path = name;
-    ASSERT_TRUE(audit.open(audit_path).ok());
-    const std::string path = std::string(CONTEGO_POLICIES_DIR) + "/" + policy_name;
-    const policy::CompileOutput out = policy::compile_file(path);
-    ASSERT_TRUE(out.ok) << path << (out.diagnostics.empty() ? "" : out.diagnostics[0].rendered);
-    const core::LoadResult lr =
-        decider.checker().load(out.image.data(), static_cast<uint32_t>(out.image.size()));
-    ASSERT_EQ(lr.status, core::LoadStatus::kOk);
+    ASSERT_NO_FATAL_FAILURE(
+        test_support::open_temp_audit(audit, &audit_path, "/tmp/contego-policy-audit-XXXXXX"));
+    policy::CompileOutput out;
+    ASSERT_NO_FATAL_FAILURE(test_support::load_policy(
+        std::string(CONTEGO_POLICIES_DIR) + "/" + policy_name, decider, &out));
     std::vector<std::string> names;
     for (size_t i = 0; i < out.model.tasks.size(); ++i) {
       tasks[out.model.tasks[i].name] = static_cast<uint16_t>(i);
@@ -64,10 +58,7 @@ class PolicyE2e : public ::testing::TestWithParam<Client> {
     }
   }
   void TearDown() override {
-    if (server) {
-      server->stop();
-      server_thread.join();
-    }
+    test_support::stop_server(server.get(), server_thread);
     if (HasFailure()) std::cerr << "audit log:\n" << audit_text();
     if (!audit_path.empty()) unlink(audit_path.c_str());
   }
@@ -128,12 +119,7 @@ class PolicyE2e : public ::testing::TestWithParam<Client> {
     (void)mon->has_bus(1);  // orders the reads of the models after the monitor's writes
     return code;
   }
-  std::string audit_text() {
-    std::ifstream in(audit_path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
+  std::string audit_text() { return test_support::file_text(audit_path); }
 
   std::string audit_path, socket_path, output;
   monitor::AuditLog audit;

@@ -37,6 +37,7 @@
 #include "gate/socket.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
+#include "test_support.h"
 
 namespace contego {
 namespace {
@@ -195,12 +196,8 @@ class Supervised : public ::testing::TestWithParam<Client> {
   bool preload() const { return GetParam() == Client::kPreload; }
 
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    audit_path = name;
-    ASSERT_TRUE(audit.open(audit_path).ok());
+    ASSERT_NO_FATAL_FAILURE(
+        test_support::open_temp_audit(audit, &audit_path, "/tmp/contego-audit-XXXXXX"));
     bus.attach(pca);
     bus.attach(gpg);
     bus.attach(lf);
@@ -214,11 +211,8 @@ class Supervised : public ::testing::TestWithParam<Client> {
     }
   }
   void TearDown() override {
-    if (server) {
-      server->stop();
-      server_thread.join();
-      server.reset();
-    }
+    test_support::stop_server(server.get(), server_thread);
+    server.reset();
     unlink(audit_path.c_str());
   }
 
@@ -290,12 +284,7 @@ class Supervised : public ::testing::TestWithParam<Client> {
     }
     return n;
   }
-  std::string audit_text() {
-    std::ifstream in(audit_path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
+  std::string audit_text() { return test_support::file_text(audit_path); }
 
   std::string audit_path;
   monitor::AuditLog audit;

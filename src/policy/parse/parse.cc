@@ -1,6 +1,7 @@
 #include "policy/parse/parse.h"
 
 #include <algorithm>
+#include <initializer_list>
 #include <string_view>
 
 namespace contego::policy {
@@ -172,9 +173,9 @@ class Parser {
   void parse_statement() {
     const Token& t = peek();
     if (t.kind == Tok::kIdent) {
-      if (t.text == "const") return parse_const();
+      if (t.text == "const") return parse_named_value("a constant name", file_.consts);
       if (t.text == "device") return parse_device();
-      if (t.text == "signal") return parse_signal();
+      if (t.text == "signal") return parse_named_value("a signal name", file_.signals);
       if (t.text == "task") return parse_task();
       if (t.text == "overhead") return parse_overhead();
       if (t.text == "allow") return parse_allow();
@@ -186,24 +187,16 @@ class Parser {
       diags_.emit(DiagKind::kExpectedStatement, t.span, describe(t));
   }
 
-  void parse_const() {
+  // `const NAME = expr` and `signal NAME = expr`.
+  template <typename Decl>
+  void parse_named_value(const char* what, std::vector<Decl>& out) {
     advance();
-    ast::ConstDecl d;
-    if (!ident(d.name, "a constant name")) return;
+    Decl d;
+    if (!ident(d.name, what)) return;
     if (!expect(Tok::kAssign)) return;
     d.value = expr();
     if (failed_) return;
-    file_.consts.push_back(std::move(d));
-  }
-
-  void parse_signal() {
-    advance();
-    ast::SignalDecl d;
-    if (!ident(d.name, "a signal name")) return;
-    if (!expect(Tok::kAssign)) return;
-    d.value = expr();
-    if (failed_) return;
-    file_.signals.push_back(std::move(d));
+    out.push_back(std::move(d));
   }
 
   void parse_overhead() {
@@ -640,33 +633,24 @@ class Parser {
     adopt(*e, std::move(hi));
     return e;
   }
-  ExprPtr additive() {
-    ExprPtr l = multiplicative();
+  using OpTable = std::initializer_list<std::pair<Tok, std::string_view>>;
+  // One left-associative level: `next (op next)*` for the operators in `ops`.
+  ExprPtr left_assoc(ExprPtr (Parser::*next)(), OpTable ops) {
+    ExprPtr l = (this->*next)();
     while (!failed_) {
-      if (accept(Tok::kPlus)) {
-        l = binary("+", std::move(l), multiplicative());
-      } else if (accept(Tok::kMinus)) {
-        l = binary("-", std::move(l), multiplicative());
-      } else {
-        break;
-      }
+      auto hit =
+          std::find_if(ops.begin(), ops.end(), [&](const auto& o) { return accept(o.first); });
+      if (hit == ops.end()) break;
+      l = binary(std::string(hit->second), std::move(l), (this->*next)());
     }
     return l;
   }
+  ExprPtr additive() {
+    return left_assoc(&Parser::multiplicative, {{Tok::kPlus, "+"}, {Tok::kMinus, "-"}});
+  }
   ExprPtr multiplicative() {
-    ExprPtr l = unary();
-    while (!failed_) {
-      if (accept(Tok::kStar)) {
-        l = binary("*", std::move(l), unary());
-      } else if (accept(Tok::kSlash)) {
-        l = binary("/", std::move(l), unary());
-      } else if (accept(Tok::kPercent)) {
-        l = binary("%", std::move(l), unary());
-      } else {
-        break;
-      }
-    }
-    return l;
+    return left_assoc(&Parser::unary,
+                      {{Tok::kStar, "*"}, {Tok::kSlash, "/"}, {Tok::kPercent, "%"}});
   }
   ExprPtr unary() {
     DepthGuard g(*this);

@@ -27,4 +27,28 @@ std::string_view SourceBuffer::line_text(uint32_t line) const {
   return std::string_view(text_).substr(begin, end - begin);
 }
 
+std::string one_line(std::string_view text, bool drop_comments) {
+  std::string out;
+  bool space = false;
+  bool comment = false;
+  for (char c : text) {
+    if (comment) {
+      if (c != '\n') continue;
+      comment = false;
+    }
+    if (drop_comments && c == '#') {
+      comment = true;
+      continue;
+    }
+    if (c == ' ' || c == '\t' || c == '\n' || c == '\r') {
+      space = true;
+      continue;
+    }
+    if (space && !out.empty()) out += ' ';
+    space = false;
+    out += c;
+  }
+  return out;
+}
+
 }  // namespace contego::policy

@@ -42,6 +42,10 @@ class SourceBuffer {
   std::vector<uint32_t> line_starts_;  // byte offset of each line's first byte
 };
 
+// `text` on one line: each run of whitespace becomes one space, none is kept
+// at either end; with `drop_comments`, `#` to the end of its line goes too.
+std::string one_line(std::string_view text, bool drop_comments = false);
+
 }  // namespace contego::policy
 
 #endif  // CONTEGO_POLICY_SOURCE_SOURCE_H_
