@@ -286,19 +286,19 @@ Result<Report> run(const Options& o) {
           ns = time_core(*local->mon, w, o.trials, &row.failures);
           break;
         case Path::kSeccompInProcess:
-          ns = run_seccomp(argv, *local->mon, w.task_id, &row);
+          ns = run_seccomp(argv, *local->mon, w.task_id, &row.failures);
           break;
         case Path::kSeccompMonitor:
         case Path::kSeccompMonitorSocket: {
           Transport how;
           how.channel = p == Path::kSeccompMonitor;
           how.spin_us = o.spin_us;
-          ns = run_over_socket(proc->socket(), w, argv, &row, how);
+          ns = run_over_socket(proc->socket(), w, argv, &row.failures, how);
           break;
         }
         case Path::kPreload:
         case Path::kPreloadSocket:
-          ns = run_preload(o.preload_lib, o.spin_us, proc->socket(), w, argv, &row,
+          ns = run_preload(o.preload_lib, o.spin_us, proc->socket(), w, argv, &row.failures,
                            p == Path::kPreload);
           break;
       }

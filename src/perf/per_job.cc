@@ -97,17 +97,17 @@ void run_lane(const PerJobOptions& o, Lane& lane, uint64_t grid_ns) {
       break;
     }
     case Path::kSeccompInProcess:
-      lane.samples = run_seccomp(argv, *lane.rig->mon, w.task_id, &lane.row);
+      lane.samples = run_seccomp(argv, *lane.rig->mon, w.task_id, &lane.row.failures);
       break;
     case Path::kSeccompMonitor: {
       Transport how;
       how.spin_us = o.spin_us;
-      lane.samples = run_over_socket(lane.process->socket(), w, argv, &lane.row, how);
+      lane.samples = run_over_socket(lane.process->socket(), w, argv, &lane.row.failures, how);
       break;
     }
     default:
-      lane.samples =
-          run_preload(o.preload_lib, o.spin_us, lane.process->socket(), w, argv, &lane.row, true);
+      lane.samples = run_preload(o.preload_lib, o.spin_us, lane.process->socket(), w, argv,
+                                 &lane.row.failures, true);
       break;
   }
 }

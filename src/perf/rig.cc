@@ -72,27 +72,29 @@ Result<std::vector<uint64_t>> read_samples(const std::string& path) {
 }
 
 // Runs the task program and reads its samples. exit 2 = some writes failed.
-Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out, Row* row) {
+Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out,
+                                          uint64_t* failures) {
   if (exit_code != 0 && exit_code != 2) {
     return make_error(fmt::format("the bench task exited with status {}", exit_code));
   }
-  if (exit_code == 2 && row != nullptr) row->failures = 1;
+  if (exit_code == 2 && failures != nullptr) *failures = 1;
   return read_samples(out);
 }
 
 Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
-                                          gate::Endpoint& endpoint, uint16_t task, Row* row) {
+                                          gate::Endpoint& endpoint, uint16_t task,
+                                          uint64_t* failures) {
   intercept::seccomp::Options so;
   so.task = task;
   so.argv = argv;
   auto r = intercept::seccomp::run(so, endpoint);
   if (!r.ok()) return make_error(r.error());
-  return finish_task(r->exit_code, argv[5], row);
+  return finish_task(r->exit_code, argv[5], failures);
 }
 
 Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
-                                              const std::vector<std::string>& argv, Row* row,
-                                              const Transport& how) {
+                                              const std::vector<std::string>& argv,
+                                              uint64_t* failures, const Transport& how) {
   std::optional<gate::SpinPolicy> channel;
   if (how.channel) {
     channel = gate::SpinPolicy{};
@@ -113,12 +115,12 @@ Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const W
   if (how.realtime && !r->realtime) {
     return make_error("SCHED_FIFO refused: " + r->realtime_error);
   }
-  return finish_task(r->exit_code, argv[5], row);
+  return finish_task(r->exit_code, argv[5], failures);
 }
 
 Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32_t spin_us,
                                           const std::string& socket, const Workload& w,
-                                          const std::vector<std::string>& argv, Row* row,
+                                          const std::vector<std::string>& argv, uint64_t* failures,
                                           bool channel) {
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -137,7 +139,7 @@ Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32
   }
   int status = 0;
   waitpid(pid, &status, 0);
-  return finish_task(WIFEXITED(status) ? WEXITSTATUS(status) : 128, argv[5], row);
+  return finish_task(WIFEXITED(status) ? WEXITSTATUS(status) : 128, argv[5], failures);
 }
 
 }  // namespace contego::perf::detail

@@ -237,18 +237,20 @@ void next_job(uint32_t period_us);
 Result<std::vector<uint64_t>> read_samples(const std::string& path);
 
 // Runs the task program and reads its samples. exit 2 = some writes failed.
-Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out, Row* row);
+Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out,
+                                          uint64_t* failures);
 
 Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
-                                          gate::Endpoint& endpoint, uint16_t task, Row* row);
+                                          gate::Endpoint& endpoint, uint16_t task,
+                                          uint64_t* failures);
 
 Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
-                                              const std::vector<std::string>& argv, Row* row,
-                                              const Transport& how);
+                                              const std::vector<std::string>& argv,
+                                              uint64_t* failures, const Transport& how);
 
 Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32_t spin_us,
                                           const std::string& socket, const Workload& w,
-                                          const std::vector<std::string>& argv, Row* row,
+                                          const std::vector<std::string>& argv, uint64_t* failures,
                                           bool channel);
 
 }  // namespace contego::perf::detail
