@@ -221,28 +221,27 @@ int compare(size_t count) {
 }
 
 // Full analysis: every task's response time, no early exit.
-void BM_Analyse(benchmark::State& state) {
+// Runs `run(analyzer, set)` over 64 random sets of state.range(0) tasks in turn.
+template <typename Run>
+void over_sets(benchmark::State& state, Run run) {
   const auto sets = make_sets(static_cast<size_t>(state.range(0)), 64);
   Analyzer analyzer;
   size_t k = 0;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(analyzer.analyse(sets[k++ % sets.size()]));
+    benchmark::DoNotOptimize(run(analyzer, sets[k++ % sets.size()]));
   }
   state.counters["task_sets_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_Analyse(benchmark::State& state) {
+  over_sets(state, [](Analyzer& a, const auto& set) { return a.analyse(set); });
 }
 BENCHMARK(BM_Analyse)->Arg(10)->Arg(50)->Arg(200);
 
 // Verdict only (stops at the first miss), as the experiment uses it.
 void BM_Schedulable(benchmark::State& state) {
-  const auto sets = make_sets(static_cast<size_t>(state.range(0)), 64);
-  Analyzer analyzer;
-  size_t k = 0;
-  for (auto _ : state) {
-    benchmark::DoNotOptimize(analyzer.schedulable(sets[k++ % sets.size()]));
-  }
-  state.counters["task_sets_per_s"] =
-      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  over_sets(state, [](Analyzer& a, const auto& set) { return a.schedulable(set); });
 }
 BENCHMARK(BM_Schedulable)->Arg(10)->Arg(50)->Arg(200);
 

@@ -2,6 +2,8 @@
 //
 //   contego bench [--trials N] [--out-dir DIR] [--no-dos] [--no-chart]
 //                 [--policy-dir DIR] [--no-pass-through] [--quiet]
+//   contego bench --per-job [--jobs N] [--period-us P] [--commands-per-job K]
+//                 [--out-dir DIR] [--no-chart] [--policy-dir DIR] [--quiet]
 //
 // The workloads are the example control tasks decided by their compiled
 // policies (policies/rover.policy task follower, policies/arm.policy task
@@ -10,6 +12,12 @@
 // sends its invariant's sequence (both speeds, then fwd) as one job every
 // 2 ms, so every command is allowed (see rover_workload). A line per row
 // goes to stderr as the bench proceeds (--quiet: none).
+//
+// --per-job is the paper's measure instead (src/perf/per_job.h): the rover
+// follower as a periodic task (rover.policy recompiled with period P), K
+// commands per job, J jobs on every path, interleaved; prints the added
+// time per job beside the paper's and writes DIR/per-job.json and the CDF
+// (DIR/per-job.dat, .gp; .svg and .png when gnuplot is there).
 //
 // Prints the table, writes DIR/bench.json (every figure), DIR/overhead.json
 // (for `contego sched --overhead-from`) and DIR/overhead.svg/.png (gnuplot).
@@ -24,6 +32,7 @@
 #include "cli/install_paths.h"
 #include "gate/channel.h"
 #include "perf/overhead.h"
+#include "perf/per_job.h"
 #ifdef CONTEGO_HAVE_POLICY
 #include "policy/compile.h"
 #endif
@@ -43,6 +52,10 @@ struct BenchArgs {
   std::string policy_dir = install_paths().data_dir + "/policies";
   bool no_pass_through = false;
   bool quiet = false;
+  bool per_job = false;
+  uint32_t jobs = perf::PerJobOptions{}.jobs;
+  uint32_t period_us = perf::PerJobOptions{}.period_us;
+  uint32_t commands_per_job = perf::PerJobOptions{}.per_job;
 };
 
 // rover.policy's follower declares the paper's 200 ms period, and a sleep
@@ -101,7 +114,62 @@ bool write_file(const std::string& path, const std::string& text) {
   return static_cast<bool>(out);
 }
 
+// The rover's job: rover.policy's INV3 expects set_left_speed(80),
+// set_right_speed(80), fwd() in each job while the line is under the middle
+// sensor, at most 3 per job.
+const std::vector<std::vector<uint8_t>> kRoverJob = {
+    {0x01, 0x46, 80, 0x00, 0x00}, {0x01, 0x47, 80, 0x00, 0x00}, {0x01, 0x69, 0x00, 0x00, 0x00}};
+
+void bench_per_job(const BenchArgs& a) {
+  perf::PerJobOptions o;
+  o.jobs = a.jobs;
+  o.period_us = a.period_us;
+  o.per_job = a.commands_per_job;
+  o.task_exe = a.task_exe;
+  o.preload_lib = a.preload;
+  o.spin_us = a.spin_us;
+  if (!a.quiet) {
+    o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
+  }
+  if (a.policy_dir.empty()) {
+    o.workload = perf::example_workloads()[0];
+  } else {
+    const std::string timing =
+        fmt::format("period {0}us; deadline {0}us; wcet {1}us", a.period_us, a.period_us / 5);
+    auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08, kRoverJob[0],
+                                 {kRoverTiming, timing});  // fwd() is 0x69
+    if (!rover.ok()) {
+      fmt::print(stderr, "contego bench: {}\n", rover.error());
+      return set_exit_code(1);
+    }
+    o.workload = *rover;
+  }
+  o.workload.job = kRoverJob;
+  auto report = perf::run_per_job(o);
+  if (!report.ok()) {
+    fmt::print(stderr, "contego bench: {}\n", report.error());
+    return set_exit_code(1);
+  }
+  fmt::print("{}", perf::per_job_table(*report));
+  mkdir(a.out_dir.c_str(), 0755);
+  const std::string json = a.out_dir + "/per-job.json";
+  if (!write_file(json, json_text(perf::per_job_json(*report), 2) + "\n")) {
+    fmt::print(stderr, "contego bench: cannot write into {}\n", a.out_dir);
+    return set_exit_code(1);
+  }
+  fmt::print("\nwrote {}\n", json);
+  if (!a.no_chart) {
+    auto cdf = perf::write_per_job_cdf(*report, a.out_dir + "/per-job");
+    if (!cdf.ok()) {
+      fmt::print(stderr, "contego bench: {}\n", cdf.error());
+      return set_exit_code(1);
+    }
+    fmt::print("{}\n", *cdf);
+  }
+}
+
 void bench(const BenchArgs& a) {
+  if (a.per_job) return bench_per_job(a);
   perf::Options o;
   o.trials = a.trials;
   o.task_exe = a.task_exe;
@@ -112,15 +180,11 @@ void bench(const BenchArgs& a) {
     o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
   }
   if (!a.policy_dir.empty()) {
-    // rover.policy's INV3 expects set_left_speed(80), set_right_speed(80),
-    // fwd() in each job while the line is under the middle sensor, at most 3
-    // per job; arm.policy's GRIP sequence starts at 420.
+    // The rover sends kRoverJob; arm.policy's GRIP sequence starts at 420.
     auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08,
                                  {0x01, 0x46, 80, 0x00, 0x00}, {kRoverTiming, kBenchRoverTiming});
     if (rover.ok()) {
-      rover->job = {{0x01, 0x46, 80, 0x00, 0x00},
-                    {0x01, 0x47, 80, 0x00, 0x00},
-                    {0x01, 0x69, 0x00, 0x00, 0x00}};  // fwd() is 105
+      rover->job = kRoverJob;
       rover->job_period_us = kBenchRoverPeriodUs;
     }
     auto arm = policy_workload(a.policy_dir, "arm.policy", "gripper", 0x40,
@@ -182,6 +246,16 @@ void register_bench(CLI::App& app) {
                 "time only the compiled example policies, not the pass-through decider");
   cmd->add_option("--preload-lib", args->preload,
                   "libcontego_preload.so; an empty value skips the preload path");
+  cmd->add_flag("--per-job", args->per_job,
+                "the paper's measure: added time per job of a periodic task, every path "
+                "interleaved (CDF plot)");
+  cmd->add_option("--jobs", args->jobs, "--per-job: jobs per path (default 10000)")
+      ->check(CLI::Range(1u, 1000000u));
+  cmd->add_option("--period-us", args->period_us, "--per-job: the task's period (default 10000)")
+      ->check(CLI::Range(1000u, 1000000u));
+  cmd->add_option("--commands-per-job", args->commands_per_job,
+                  "--per-job: checked commands per job (default 3, the rover's sequence cycled)")
+      ->check(CLI::Range(1u, 1000u));
   cmd->callback([args] { bench(*args); });
 }
 

@@ -27,224 +27,12 @@
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
+#include "perf/rig.h"
 
 namespace contego::perf {
 namespace {
 
-// Allows every command and emits it unchanged, with its audit line: the
-// cost of a decision without the cost of a particular policy.
-class PassDecider final : public monitor::Decider {
- public:
-  void set_host(const core::Host& host) override { host_ = host; }
-  void check(const core::Transaction& tx, core::Verdict* v) override {
-    v->decision = core::Decision::kAllow;
-    v->reason = core::Reason{};
-    v->bus = tx.bus;
-    v->addr = tx.addr;
-    v->emit_count = 0;
-    v->emit_bytes_used = 0;
-    if (tx.kind == core::TxKind::kWrite) {
-      v->emit_count = 1;
-      v->emit_len[0] = static_cast<uint16_t>(tx.len);
-      std::memcpy(v->emit_bytes, tx.bytes, tx.len);
-      v->emit_bytes_used = static_cast<uint16_t>(tx.len);
-    }
-    core::AuditRecord r{};
-    r.task = tx.task;
-    r.job = tx.job;
-    r.decision = v->decision;
-    r.bus = tx.bus;
-    r.addr = tx.addr;
-    r.original = tx.bytes;
-    r.original_len = static_cast<uint16_t>(tx.len);
-    if (host_.audit != nullptr) host_.audit(host_.context, &r);
-  }
-  bool safe_state(uint16_t, core::Verdict*) override { return false; }
-  uint32_t device_count() const override { return 0; }
-  const core::DeviceRecord& device(uint16_t) const override { return none_; }
-  uint32_t task_period_us(uint16_t) const override { return period_us_; }
-  // The DoS measure's follower outranks everything else (the burst has none).
-  uint16_t task_priority(uint16_t task) const override { return task == 0 ? 20 : 0; }
-  uint32_t task_actuations_per_job(uint16_t) const override { return actuations_; }
-  // Every task declares this period and one actuation per job (the DoS
-  // measure with the monitor's over-budget hold).
-  void declare(uint32_t period_us) {
-    period_us_ = period_us;
-    actuations_ = 1;
-  }
-
- private:
-  core::Host host_{};
-  core::DeviceRecord none_{};
-  uint32_t period_us_ = 20000;
-  uint32_t actuations_ = 0;
-};
-
-const std::map<std::string, uint16_t>& task_ids() {
-  static const std::map<std::string, uint16_t> ids = {
-      {"follower", 0}, {"gripper", 1}, {"burst", 2}};
-  return ids;
-}
-
-// A monitor with the virtual bus and its device models, auditing to a file,
-// decided by the workload's policy in the real core or by PassDecider.
-class Rig {
- public:
-  static Result<std::unique_ptr<Rig>> make(const std::string& audit_path, const Workload& w) {
-    std::unique_ptr<Rig> r(new Rig);
-    if (Status s = r->audit.open(audit_path); !s.ok()) return make_error(s.error());
-    r->bus.attach(std::make_shared<bus::Pca9685>());
-    r->bus.attach(std::make_shared<bus::GoPiGo2>());
-    auto line = std::make_shared<bus::LineFollower>();
-    // Each sensor halfway between its white and black calibration in
-    // rover.policy: the line is under the middle sensor (pos 0), the state
-    // in which the rover's invariant INV3 (go forward) applies.
-    line->set_values({889, 914, 937, 856, 852});
-    r->bus.attach(line);
-    monitor::Decider* decider = &r->pass_;
-    std::vector<std::string> names(task_ids().size());
-    for (const auto& [name, id] : task_ids()) names[id] = name;
-    if (!w.image.empty()) {
-      r->core_ = std::make_unique<monitor::CoreDecider>();
-      const core::LoadResult lr =
-          r->core_->checker().load(w.image.data(), static_cast<uint32_t>(w.image.size()));
-      if (lr.status != core::LoadStatus::kOk) {
-        return make_error(fmt::format("{}: the policy image was refused ({})", w.name,
-                                      core::load_status_name(lr.status)));
-      }
-      decider = r->core_.get();
-      names.assign(std::max<size_t>(w.task_id + 1u, 1u), "");
-      names[w.task_id] = w.task;
-      r->policy_ = true;
-    }
-    r->mon = std::make_unique<monitor::Monitor>(*decider, r->audit);
-    r->mon->add_bus(1, &r->bus);
-    r->mon->set_task_names(names);
-    return r;
-  }
-  // Samples the sensors now and then on their periods (policy rigs only).
-  // Starts a thread: call after the last fork of a monitor process.
-  void start() {
-    if (!policy_) return;
-    mon->sample_all();
-    mon->start_sampling();
-  }
-  ~Rig() {
-    if (mon) mon->stop_sampling();
-  }
-
-  PassDecider& pass() { return pass_; }
-
-  bus::VirtualBus bus;
-  monitor::AuditLog audit;
-  std::unique_ptr<monitor::Monitor> mon;
-
- private:
-  Rig() = default;
-  PassDecider pass_;
-  std::unique_ptr<monitor::CoreDecider> core_;
-  bool policy_ = false;
-};
-
-// Paths through the separate monitor process.
-bool is_remote(Path p) {
-  return p == Path::kPreload || p == Path::kSeccompMonitor || p == Path::kPreloadSocket ||
-         p == Path::kSeccompMonitorSocket;
-}
-
-std::map<std::string, uint16_t> server_tasks(const Workload& w) {
-  if (w.image.empty()) return task_ids();
-  return {{w.task, w.task_id}};
-}
-
-struct TempDir {
-  TempDir() {
-    char tmpl[] = "/tmp/contego-bench-XXXXXX";
-    if (mkdtemp(tmpl) != nullptr) path = tmpl;
-  }
-  ~TempDir() {
-    if (!path.empty()) (void)!system(("rm -rf '" + path + "'").c_str());
-  }
-  std::string path;
-};
-
-// The separate monitor process. Forked before this process starts threads.
-class MonitorProcess {
- public:
-  // budget_period_us > 0: every task declares that period and one actuation
-  // per job, and the monitor holds a task past its budget (the CLI's default
-  // factor).
-  Status start(const std::string& dir, const std::string& name, const Workload& w, uint32_t spin_us,
-               bool realtime = false, uint32_t budget_period_us = 0) {
-    socket_ = dir + "/" + name + ".sock";
-    audit_ = dir + "/" + name + "-audit.jsonl";
-    fflush(nullptr);
-    pid_ = fork();
-    if (pid_ < 0) return make_error(std::string("fork: ") + strerror(errno));
-    if (pid_ == 0) {
-      auto rig = Rig::make(audit_, w);
-      if (!rig.ok()) _exit(1);
-      if (budget_period_us > 0) {
-        (*rig)->pass().declare(budget_period_us);
-        (*rig)->mon->set_budget_factor(monitor::Monitor::kDefaultBudgetFactor);
-      }
-      (*rig)->start();
-      gate::SpinPolicy spin;
-      spin.spin_us = spin_us;
-      monitor::Server server(*(*rig)->mon, (*rig)->audit, server_tasks(w), {getuid()}, spin,
-                             realtime);
-      if (!server.listen(socket_).ok()) _exit(1);
-      server.serve();
-      _exit(0);
-    }
-    // Ready when a connection is accepted.
-    for (int i = 0; i < 500; ++i) {
-      const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-      sockaddr_un addr{};
-      addr.sun_family = AF_UNIX;
-      std::memcpy(addr.sun_path, socket_.c_str(), socket_.size() + 1);
-      const bool up = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-      ::close(fd);
-      if (up) return {};
-      usleep(10000);
-    }
-    return make_error("the monitor process did not come up at " + socket_);
-  }
-  ~MonitorProcess() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-  }
-  const std::string& socket() const { return socket_; }
-  const std::string& audit() const { return audit_; }
-
- private:
-  pid_t pid_ = -1;
-  std::string socket_, audit_;
-};
-
-// Decisions recorded so far in an audit log, by outcome.
-std::map<std::string, uint64_t> decisions_in(const std::string& path) {
-  std::ifstream in(path);
-  return monitor::verify_audit(in).summary.by_decision;
-}
-
-std::map<std::string, uint64_t> minus(std::map<std::string, uint64_t> after,
-                                      const std::map<std::string, uint64_t>& before) {
-  for (auto& [k, v] : after) {
-    auto it = before.find(k);
-    if (it != before.end()) v -= std::min(v, it->second);
-  }
-  std::erase_if(after, [](const auto& kv) { return kv.second == 0; });
-  return after;
-}
-
-std::string hex(const std::vector<uint8_t>& bytes) {
-  std::string s;
-  for (uint8_t b : bytes) s += fmt::format("{:02x}", b);
-  return s;
-}
+using namespace detail;
 
 // The bench task's command line (see bench_task.cc): the workload's job
 // (commands separated by ','), and PER_JOB commands between sleeps.
@@ -263,99 +51,6 @@ std::vector<std::string> task_argv(const Options& o, const Workload& w, uint32_t
   if (burst_ms > 0) argv.push_back(std::to_string(burst_ms));
   if (burst_ms == 0 && period_us > 0) argv.push_back(std::to_string(w.commands().size()));
   return argv;
-}
-
-// The pause between two jobs (relative, like the task program's: every
-// pause is long enough to end a job at the monitor).
-void next_job(uint32_t period_us) {
-  timespec left{static_cast<time_t>(period_us / 1000000),
-                static_cast<long>(period_us % 1000000) * 1000};
-  while (nanosleep(&left, &left) != 0 && errno == EINTR) {
-  }
-}
-
-Result<std::vector<uint64_t>> read_samples(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return make_error("the bench task wrote no results to " + path);
-  std::vector<uint64_t> v;
-  uint64_t x;
-  while (in.read(reinterpret_cast<char*>(&x), sizeof x)) v.push_back(x);
-  return v;
-}
-
-// Runs the task program and reads its samples. exit 2 = some writes failed.
-Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out, Row* row) {
-  if (exit_code != 0 && exit_code != 2) {
-    return make_error(fmt::format("the bench task exited with status {}", exit_code));
-  }
-  if (exit_code == 2 && row != nullptr) row->failures = 1;
-  return read_samples(out);
-}
-
-Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
-                                          gate::Endpoint& endpoint, uint16_t task, Row* row) {
-  intercept::seccomp::Options so;
-  so.task = task;
-  so.argv = argv;
-  auto r = intercept::seccomp::run(so, endpoint);
-  if (!r.ok()) return make_error(r.error());
-  return finish_task(r->exit_code, argv[5], row);
-}
-
-// How a supervised bench task reaches the monitor process.
-struct Transport {
-  bool channel = true;     // else the socket alone
-  uint32_t spin_us = 100;  // the channel's client spin
-  bool realtime = false;   // program and supervisor under SCHED_FIFO at the task's priority
-};
-
-Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
-                                              const std::vector<std::string>& argv, Row* row,
-                                              const Transport& how) {
-  std::optional<gate::SpinPolicy> channel;
-  if (how.channel) {
-    channel = gate::SpinPolicy{};
-    channel->spin_us = how.spin_us;
-  }
-  auto c = gate::SocketClient::connect(socket, w.task, channel);
-  if (!c.ok()) return make_error(c.error());
-  if (how.channel != (*c)->uses_channel()) {
-    return make_error("the monitor process did not " +
-                      std::string(how.channel ? "open a channel" : "stay on the socket"));
-  }
-  intercept::seccomp::Options so;
-  so.task = (*c)->task_id();
-  so.argv = argv;
-  if (how.realtime) so.realtime_priority = (*c)->task_priority();
-  auto r = intercept::seccomp::run(so, **c);
-  if (!r.ok()) return make_error(r.error());
-  if (how.realtime && !r->realtime) {
-    return make_error("SCHED_FIFO refused: " + r->realtime_error);
-  }
-  return finish_task(r->exit_code, argv[5], row);
-}
-
-Result<std::vector<uint64_t>> run_preload(const Options& o, const std::string& socket,
-                                          const Workload& w, const std::vector<std::string>& argv,
-                                          Row* row, bool channel) {
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  fflush(nullptr);
-  const pid_t pid = fork();
-  if (pid < 0) return make_error(std::string("fork: ") + strerror(errno));
-  if (pid == 0) {
-    setenv("LD_PRELOAD", o.preload_lib.c_str(), 1);
-    setenv("CONTEGO_SOCKET", socket.c_str(), 1);
-    setenv("CONTEGO_TASK", w.task.c_str(), 1);
-    setenv("CONTEGO_CHANNEL", channel ? "1" : "0", 1);
-    setenv("CONTEGO_SPIN_US", std::to_string(o.spin_us).c_str(), 1);
-    execv(args[0], args.data());
-    _exit(127);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return finish_task(WIFEXITED(status) ? WEXITSTATUS(status) : 128, argv[5], row);
 }
 
 std::vector<uint64_t> time_unprotected(bus::Bus& bus, const Workload& w, uint32_t trials) {
@@ -592,19 +287,20 @@ Result<Report> run(const Options& o) {
           ns = time_core(*local->mon, w, o.trials, &row.failures);
           break;
         case Path::kSeccompInProcess:
-          ns = run_seccomp(argv, *local->mon, w.task_id, &row);
+          ns = run_seccomp(argv, *local->mon, w.task_id, &row.failures);
           break;
         case Path::kSeccompMonitor:
         case Path::kSeccompMonitorSocket: {
           Transport how;
           how.channel = p == Path::kSeccompMonitor;
           how.spin_us = o.spin_us;
-          ns = run_over_socket(proc->socket(), w, argv, &row, how);
+          ns = run_over_socket(proc->socket(), w, argv, &row.failures, how);
           break;
         }
         case Path::kPreload:
         case Path::kPreloadSocket:
-          ns = run_preload(o, proc->socket(), w, argv, &row, p == Path::kPreload);
+          ns = run_preload(o.preload_lib, o.spin_us, proc->socket(), w, argv, &row.failures,
+                           p == Path::kPreload);
           break;
       }
       if (!ns.ok())

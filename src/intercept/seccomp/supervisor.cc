@@ -573,19 +573,23 @@ struct ChildStart {
   _exit(e == ENOENT ? 127 : 126);
 }
 
-}  // namespace
+// The program started under the filter, stopped before exec until
+// release() (see start_program); or why it could not be.
+struct Started {
+  pid_t child = -1;
+  int pidfd = -1;
+  int listener = -1;
+  int to_child = -1;  // the go-ahead pipe's write end
+  void release() {
+    char ack = 1;
+    (void)!write(to_child, &ack, 1);
+    close(to_child);
+    to_child = -1;
+  }
+};
 
-Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
-  if (options.argv.empty()) return make_error("contego run: no program given");
-  const FdRange range = reserved_range();
-  auto filter = build_filter(range);
-  if (!filter.ok()) return make_error(filter.error());
-  sock_fprog prog{static_cast<unsigned short>(filter->size()), filter->data()};
-  std::vector<char*> argv;
-  for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
-  argv.push_back(nullptr);
-  const std::string program = resolve_program(options.argv[0]);
-
+Result<Started> start_child(const Options& options, const std::string& program, char* const* argv,
+                            const sock_fprog& prog) {
   int to_parent[2], to_child[2];
   if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
     return make_error(std::string("pipe: ") + strerror(errno));
@@ -601,14 +605,14 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
     start_program(
-        {options, program, argv.data(), to_parent[1], to_child[0], child_mask, supervisor, &prog});
+        {options, program, argv, to_parent[1], to_child[0], child_mask, supervisor, &prog});
   }
   close(to_parent[1]);
   close(to_child[0]);
   int msg = 0;
   const ssize_t got = read(to_parent[0], &msg, sizeof msg);
   close(to_parent[0]);
-  auto abandon = [&](const std::string& why) -> Result<RunResult> {
+  auto abandon = [&](const std::string& why) -> Result<Started> {
     close(to_child[1]);
     kill(child, SIGKILL);
     waitpid(child, nullptr, 0);
@@ -642,117 +646,147 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
       return abandon(why);
     }
   }
-  // From here the program may run: out of its reach.
-  enter_undumpable();
-  RunResult result;
-  if (options.sync_wakeup &&
-      ioctl(listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS, SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
-    result.sync_wakeup = true;
+  return Started{child, pidfd, listener, to_child[1]};
+}
+
+// The program and the thread that answers its system calls run at the
+// task's priority (set before the program starts; threads and children it
+// creates inherit it). True if this thread's scheduling was changed.
+bool apply_priority(const Options& options, pid_t child, RunResult& result) {
+  if (options.realtime_priority <= 0) return false;
+  sched_param p{};
+  p.sched_priority = fifo_priority(options.realtime_priority);
+  if (sched_setscheduler(child, SCHED_FIFO, &p) != 0) {
+    result.realtime_error = std::string("SCHED_FIFO for the program: ") + strerror(errno);
+    return false;
   }
-  // The program and the thread that answers its system calls run at the
-  // task's priority (set before the program starts; threads and children
-  // it creates inherit it).
-  int old_policy = SCHED_OTHER;
-  sched_param old_param{};
-  pthread_getschedparam(pthread_self(), &old_policy, &old_param);
-  bool loop_realtime = false;
-  if (options.realtime_priority > 0) {
-    sched_param p{};
-    p.sched_priority = fifo_priority(options.realtime_priority);
-    if (sched_setscheduler(child, SCHED_FIFO, &p) != 0) {
-      result.realtime_error = std::string("SCHED_FIFO for the program: ") + strerror(errno);
-    } else if (std::string e = make_thread_realtime(options.realtime_priority); !e.empty()) {
-      result.realtime_error = "SCHED_FIFO for the supervisor: " + e;
-    } else {
-      loop_realtime = true;
-      result.realtime = true;
+  if (std::string e = make_thread_realtime(options.realtime_priority); !e.empty()) {
+    result.realtime_error = "SCHED_FIFO for the supervisor: " + e;
+    return false;
+  }
+  result.realtime = true;
+  return true;
+}
+
+// What the loop and its watcher thread share.
+struct Watch {
+  std::atomic<bool> done{false}, loop_left{false}, stop{false};
+  ChildStatus child_status;
+  pthread_t loop_thread = pthread_self();
+};
+
+// The watcher: waits for the last supervised task to go (POLLHUP on the
+// listener, after the direct child and any grandchildren that outlive
+// it) or for the stop descriptor, then interrupts the loop's RECV with
+// kWakeSignal, repeating until the loop has seen it (a signal that lands
+// just before the loop enters RECV would otherwise be lost).
+void watch(const Options& options, const Started& s, Watch& w) {
+  bool child_done = false;
+  bool stopping = options.stop_fd < 0;
+  for (;;) {
+    // The listener first; the child and the stop descriptor while they matter.
+    pollfd fds[3] = {{s.listener, 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
+    fds[1].fd = child_done ? -1 : s.pidfd;
+    fds[2].fd = stopping ? -1 : options.stop_fd;
+    if (poll(fds, 3, -1) < 0) {
+      if (errno == EINTR) continue;
+      break;
     }
+    if (!child_done && (fds[1].revents & POLLIN)) {
+      child_done = true;
+      w.child_status.reap(s.child);
+    }
+    if (!stopping && (fds[2].revents & (POLLIN | POLLHUP | POLLERR))) {
+      // End the program: the direct child now, the others the loop knows
+      // as soon as it sees `stop` (woken below).
+      stopping = true;
+      w.stop.store(true, std::memory_order_release);
+      if (!child_done) syscall(SYS_pidfd_send_signal, s.pidfd, SIGKILL, nullptr, 0);
+      pthread_kill(w.loop_thread, kWakeSignal);
+    }
+    if (fds[0].revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
   }
+  w.done.store(true, std::memory_order_release);
+  while (!w.loop_left.load(std::memory_order_acquire)) {
+    pthread_kill(w.loop_thread, kWakeSignal);
+    usleep(1000);
+  }
+}
+
+// Answers the program's calls until no supervised task is left.
+void supervise(Started& s, const FdRange& range, const Options& options, gate::Endpoint& endpoint,
+               RunResult& result) {
   seccomp_notif_sizes sizes{};
   syscall(SYS_seccomp, SECCOMP_GET_NOTIF_SIZES, 0, &sizes);
   std::vector<uint8_t> buf(std::max<size_t>(sizes.seccomp_notif, sizeof(seccomp_notif)));
-  char ack = 1;
-  (void)!write(to_child[1], &ack, 1);
-  close(to_child[1]);
-
-  {
-    Loop loop(listener, range, options, endpoint, result);
-    // The loop blocks in SECCOMP_IOCTL_NOTIF_RECV itself (not poll() then
-    // RECV): only a task waiting inside RECV gets the sync wake-up, so the
-    // supervised thread hands the CPU straight to us. A blocked RECV is not
-    // woken when the last supervised task goes away, so a watcher thread
-    // waits for that (POLLHUP on the listener, after the direct child and
-    // any grandchildren that outlive it) and interrupts the RECV with
-    // kWakeSignal, repeating until the loop has seen it (a signal that lands
-    // just before the loop enters RECV would otherwise be lost).
-    install_wake_handler();
-    std::atomic<bool> done{false}, loop_left{false}, stop{false};
-    ChildStatus child_status;
-    const pthread_t loop_thread = pthread_self();
-    std::thread watcher([&] {
-      bool child_done = false;
-      bool stopping = options.stop_fd < 0;
-      for (;;) {
-        // The listener first; the child and the stop descriptor while they matter.
-        pollfd fds[3] = {{listener, 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
-        fds[1].fd = child_done ? -1 : pidfd;
-        fds[2].fd = stopping ? -1 : options.stop_fd;
-        if (poll(fds, 3, -1) < 0) {
-          if (errno == EINTR) continue;
-          break;
-        }
-        if (!child_done && (fds[1].revents & POLLIN)) {
-          child_done = true;
-          child_status.reap(child);
-        }
-        if (!stopping && (fds[2].revents & (POLLIN | POLLHUP | POLLERR))) {
-          // End the program: the direct child now, the others the loop knows
-          // as soon as it sees `stop` (woken below).
-          stopping = true;
-          stop.store(true, std::memory_order_release);
-          if (!child_done) syscall(SYS_pidfd_send_signal, pidfd, SIGKILL, nullptr, 0);
-          pthread_kill(loop_thread, kWakeSignal);
-        }
-        if (fds[0].revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
-      }
-      done.store(true, std::memory_order_release);
-      while (!loop_left.load(std::memory_order_acquire)) {
-        pthread_kill(loop_thread, kWakeSignal);
-        usleep(1000);
-      }
-    });
-    std::memset(buf.data(), 0, buf.size());
-    auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
-    bool closed_down = false;
-    auto close_down_if_stopped = [&] {
-      if (closed_down || !stop.load(std::memory_order_acquire)) return;
-      closed_down = true;
-      result.stopped = true;
-      loop.close_down();
-    };
-    while (!done.load(std::memory_order_acquire)) {
-      close_down_if_stopped();
-      if (ioctl(listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
-        close_down_if_stopped();  // a call received after the stop is answered EIO
-        loop.handle(*n);
-        std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
-        continue;
-      }
-      // EINTR: the watcher (or another signal); ENOENT: the task went away
-      // between the wake-up and the copy, or no task uses the filter any
-      // more (then the watcher sees POLLHUP). Either way: look at `done`.
-      if (errno != EINTR && errno != ENOENT) break;
+  s.release();
+  Loop loop(s.listener, range, options, endpoint, result);
+  // The loop blocks in SECCOMP_IOCTL_NOTIF_RECV itself (not poll() then
+  // RECV): only a task waiting inside RECV gets the sync wake-up, so the
+  // supervised thread hands the CPU straight to us. A blocked RECV is not
+  // woken when the last supervised task goes away: the watcher does that.
+  install_wake_handler();
+  Watch w;
+  std::thread watcher([&] { watch(options, s, w); });
+  std::memset(buf.data(), 0, buf.size());
+  auto* n = reinterpret_cast<seccomp_notif*>(buf.data());
+  bool closed_down = false;
+  auto close_down_if_stopped = [&] {
+    if (closed_down || !w.stop.load(std::memory_order_acquire)) return;
+    closed_down = true;
+    result.stopped = true;
+    loop.close_down();
+  };
+  while (!w.done.load(std::memory_order_acquire)) {
+    close_down_if_stopped();
+    if (ioctl(s.listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
+      close_down_if_stopped();  // a call received after the stop is answered EIO
+      loop.handle(*n);
+      std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
+      continue;
     }
-    loop_left.store(true, std::memory_order_release);
-    watcher.join();
-    result.stopped = stop.load(std::memory_order_acquire);  // the loop may have missed it
-    if (!child_status.reaped) child_status.reap(child);
-    result.exit_code = child_status.exit_code;
-    result.signal = child_status.signal;
+    // EINTR: the watcher (or another signal); ENOENT: the task went away
+    // between the wake-up and the copy, or no task uses the filter any
+    // more (then the watcher sees POLLHUP). Either way: look at `done`.
+    if (errno != EINTR && errno != ENOENT) break;
   }
+  w.loop_left.store(true, std::memory_order_release);
+  watcher.join();
+  result.stopped = w.stop.load(std::memory_order_acquire);  // the loop may have missed it
+  if (!w.child_status.reaped) w.child_status.reap(s.child);
+  result.exit_code = w.child_status.exit_code;
+  result.signal = w.child_status.signal;
+}
+
+}  // namespace
+
+Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
+  if (options.argv.empty()) return make_error("contego run: no program given");
+  const FdRange range = reserved_range();
+  auto filter = build_filter(range);
+  if (!filter.ok()) return make_error(filter.error());
+  sock_fprog prog{static_cast<unsigned short>(filter->size()), filter->data()};
+  std::vector<char*> argv;
+  for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
+  argv.push_back(nullptr);
+  const std::string program = resolve_program(options.argv[0]);
+  auto started = start_child(options, program, argv.data(), prog);
+  if (!started.ok()) return make_error(started.error());
+  // From here the program may run: out of its reach.
+  enter_undumpable();
+  RunResult result;
+  if (options.sync_wakeup && ioctl(started->listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS,
+                                   SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
+    result.sync_wakeup = true;
+  }
+  int old_policy = SCHED_OTHER;
+  sched_param old_param{};
+  pthread_getschedparam(pthread_self(), &old_policy, &old_param);
+  const bool loop_realtime = apply_priority(options, started->child, result);
+  supervise(*started, range, options, endpoint, result);
   if (loop_realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
-  close(listener);
-  close(pidfd);
+  close(started->listener);
+  close(started->pidfd);
   leave_undumpable();
   endpoint.task_exited(options.task);
   return result;
