@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
 #include <thread>
@@ -105,6 +106,8 @@ void register_monitor(CLI::App& app) {
     }
     so.audit = args->audit;
     so.audit_options = args->audit_options;
+    // Under systemd (stderr is the journal): violations go there too.
+    so.audit_options.echo_violations = std::getenv("JOURNAL_STREAM") != nullptr;
     auto buses = parse_bus_specs(args->buses, args->virtual_buses);
     if (!buses.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", buses.error());
