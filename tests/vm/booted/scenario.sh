@@ -132,7 +132,7 @@ viol=$(grep -av '"decision":"allow"' /var/log/contego/audit.jsonl | grep -c '"ki
 [ "$viol" -gt 0 ] && ok "the violations are in the audit log ($viol records)" || bad "no violation in the audit log"
 journalctl -u contego-monitor --no-pager -o cat >/tmp/monitor.log
 show /tmp/monitor.log | tail -n 8
-grep -qiE 'refuse|replace|ignore' /tmp/monitor.log && ok "violations in the journal: $(grep -ciE 'refuse|replace|ignore' /tmp/monitor.log) lines (journalctl -u contego-monitor)" ||
+grep -qE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log && ok "violations in the journal: $(grep -cE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log) lines (journalctl -u contego-monitor)" ||
   bad "no violation in the journal (journalctl -u contego-monitor)"
 
 # ---- stop: the safe state -----------------------------------------------------
