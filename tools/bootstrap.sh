@@ -22,6 +22,9 @@ packages=(
   # the real-kernel test bed (tests/vm): Debian's kernel booted in QEMU with a
   # busybox initramfs; seabios boots it without KVM, cpio packs the initramfs
   qemu-system-x86 seabios busybox-static cpio xz-utils
+  # the booted Debian guest (tests/vm/booted): a Debian 12 root file system
+  # made from Debian's archive, systemd as PID 1
+  mmdebstrap
 )
 
 # contego.ko (kernel/build.sh, docs/kernel-client.md) builds against the

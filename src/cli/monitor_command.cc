@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
 #include <thread>
@@ -108,6 +109,8 @@ void register_monitor(CLI::App& app) {
       fmt::print(stderr, "contego monitor: {}\n", applied.error());
       return set_exit_code(2);
     }
+    // Under systemd (stderr is the journal): violations go there too.
+    so.audit_options.echo_violations = std::getenv("JOURNAL_STREAM") != nullptr;
     if (so.real_buses.empty() && so.virtual_buses.empty()) {
       fmt::print(stderr, "contego monitor: give at least one --bus or --virtual-bus\n");
       return set_exit_code(2);

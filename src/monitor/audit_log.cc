@@ -346,7 +346,33 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   }
   fmt::format_to(Out(line_), ",\"t_us\":{},\"task\":{}", t, r.task);
   name("task_name", names.task);
-  return commit_locked(line_);
+  const bool written = commit_locked(line_);
+  if (options_.echo_violations && r.decision != core::Decision::kAllow)
+    echo_violation_locked(r, names);
+  return written;
+}
+
+void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNames& names) {
+  const uint64_t now = monotonic_us();
+  if (now - echo_window_us_ >= 1000000) {
+    echo_window_us_ = now;
+    echoed_ = 0;
+  }
+  if (echoed_ >= 10) {
+    ++unechoed_;
+    return;
+  }
+  ++echoed_;
+  auto or_number = [](const char* name, unsigned number) {
+    return name != nullptr ? std::string(name) : std::to_string(number);
+  };
+  std::string left_out;
+  if (unechoed_ > 0) left_out = fmt::format(" ({} more left out before this one)", unechoed_);
+  unechoed_ = 0;
+  fmt::print(stderr, "contego: task {}: {} of command {} on device {} ({}, rule {}){}\n",
+             or_number(names.task, r.task), core::decision_name(r.decision),
+             or_number(names.command, r.command), or_number(names.device, r.device),
+             core::reason_name(r.reason), or_number(names.rule, r.rule), left_out);
 }
 
 bool AuditLog::event(const std::string& kind, const std::string& detail) {

@@ -51,6 +51,10 @@ struct AuditOptions {
   bool allow_unsafe = false;
   uint64_t max_bytes = 0;  // rotate before a record would take the file past this (0 = never)
   unsigned keep = 5;       // rotated files kept: PATH.1 (newest) .. PATH.keep
+  // Also one line on standard error for every decision that is not `allow`
+  // (at most 10 a second, then a count of those left out): the monitor under
+  // systemd sets it (JOURNAL_STREAM), so violations reach the journal too.
+  bool echo_violations = false;
 };
 
 // The policy's names of the numbers in a decision record (any may be null:
@@ -103,6 +107,8 @@ class AuditLog {
   // a lost write (a retry after resync). mu_ held.
   bool commit_locked(std::string& body, bool continuation = false);
   bool put_locked(const std::string& line);  // the bytes reach the file (or not at all)
+  // One stderr line for a decision that is not `allow` (echo_violations). mu_ held.
+  void echo_violation_locked(const core::AuditRecord& record, const RecordNames& names);
   bool write_fd_locked(const std::string& line);
   // Opens path_ (the checks of open()) and continues at its end. mu_ held.
   Status open_file_locked();
@@ -146,6 +152,9 @@ class AuditLog {
   uint64_t next_check_us_ = 0;   // monotonic: when the file is next checked
   uint64_t next_report_us_ = 0;  // monotonic: stderr rate limit
   uint64_t unreported_ = 0;      // failures not yet on stderr
+  uint64_t echo_window_us_ = 0;  // monotonic: start of the violation echo's second
+  unsigned echoed_ = 0;          // violations echoed in that second
+  uint64_t unechoed_ = 0;        // violations left out since the last echo
   std::string cont_;             // a continues or audit-gap record being formatted
   uint64_t gap_ = 0;             // records lost since the last one written
   uint64_t gap_since_us_ = 0;    // wall clock of the first of them

@@ -1,0 +1,111 @@
+#!/usr/bin/env bash
+# The booted Debian guest, host side (docs/testbed.md): Debian 12 with systemd
+# as PID 1 (build-rootfs.sh, cached), Debian's kernel (fetch-kernel.sh,
+# cached), the amd64 package under test and the README's "Install" commands
+# (extracted here, so that the guest runs what the README says), booted in
+# QEMU (KVM when /dev/kvm is writable, TCG otherwise). The guest's scenario
+# (booted/scenario.sh) installs, uses, stops, restarts, removes and purges
+# the package and prints one line per check; this script judges them.
+#
+# Usage: tests/vm/booted.sh [--deb PATH] [--workdir DIR] [--timeout SECONDS]
+#   --deb     the package (default: $CONTEGO_DEB; tools/test.sh sets it after
+#             its package stage)
+# Exit 77 (CTest: skipped) with the reason when there is no package, no
+# QEMU, or Debian's kernel or archive cannot be reached.
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")" && pwd)
+src=$(cd "$here/../.." && pwd)
+deb=${CONTEGO_DEB:-}
+workdir=$src/build/dev/tests/vm/booted
+limit=${CONTEGO_VM_TIMEOUT:-600}
+while (($#)); do
+  case "$1" in
+    --deb) deb=$2; shift 2 ;;
+    --workdir) workdir=$2; shift 2 ;;
+    --timeout) limit=$2; shift 2 ;;
+    *) echo "booted.sh: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+
+skip() { echo "SKIPPED: $*"; exit 77; }
+fail() { echo "BOOTED GUEST FAILED: $*" >&2; exit 1; }
+
+[[ -n $deb ]] || skip "no package: give --deb or CONTEGO_DEB (tools/test.sh does after building it)"
+[[ -f $deb ]] || skip "no package at $deb (bash tools/package.sh --arch amd64 builds it)"
+[[ $(dpkg-deb -f "$deb" Architecture) == amd64 ]] || skip "$deb is not an amd64 package"
+qemu=$(command -v qemu-system-x86_64) || skip "qemu-system-x86_64 not found (bash tools/bootstrap.sh)"
+command -v cpio >/dev/null || skip "cpio not found (bash tools/bootstrap.sh)"
+
+mkdir -p "$workdir"
+t0=$SECONDS
+kdir=$(bash "$here/fetch-kernel.sh") || skip "cannot get Debian's kernel (fetch-kernel.sh's message above)"
+t1=$SECONDS
+rootfs=$(bash "$here/build-rootfs.sh" "$kdir" "$deb") ||
+  skip "cannot build the Debian root file system (build-rootfs.sh's message above)"
+t2=$SECONDS
+
+# What the guest gets on top of the cached root file system, as a second
+# cpio archive (the kernel unpacks both, the later one over the first): the
+# package, the scenario, the README's commands and the unit that runs them.
+extra=$workdir/extra
+rm -rf "$extra"
+mkdir -p "$extra/vm/pkg" "$extra/vm/readme" "$extra/etc/systemd/system/multi-user.target.wants"
+# A host name the guest resolves (sudo asks), as on any installed system.
+printf '127.0.0.1 localhost\n127.0.1.1 guest\n' >"$extra/etc/hosts"
+echo guest >"$extra/etc/hostname"
+cp "$deb" "$extra/vm/pkg/"
+cp "$here/booted/scenario.sh" "$extra/vm/"
+# The ```sh blocks of the README's "## Install" section, one file each, in
+# order. `bash tools/package.sh` builds the package on the build machine: the
+# host has just done that; every other line runs in the guest.
+awk -v dir="$extra/vm/readme" '
+  /^## / { inside = ($0 == "## Install") }
+  inside && /^```sh$/ { n++; file = sprintf("%s/%d.sh", dir, n); lines = 0; inblock = 1; next }
+  inblock && /^```$/ { inblock = 0; if (!lines) n--; next }
+  inblock && $0 !~ /^bash tools\/package\.sh/ { print > file; lines++ }
+' "$src/README.md"
+nblocks=$(ls "$extra/vm/readme" | wc -l)
+((nblocks >= 2)) || fail "README.md's Install section has no commands to run (found $nblocks blocks)"
+cat >"$extra/etc/systemd/system/guest-scenario.service" <<'EOF'
+[Unit]
+Description=the booted-guest scenario (tests/vm/booted)
+After=multi-user.target
+[Service]
+Type=oneshot
+ExecStart=/bin/bash /vm/scenario.sh
+StandardOutput=tty
+StandardError=inherit
+TTYPath=/dev/ttyS0
+TimeoutStartSec=infinity
+SuccessAction=poweroff-force
+FailureAction=poweroff-force
+EOF
+ln -sf ../guest-scenario.service "$extra/etc/systemd/system/multi-user.target.wants/"
+(cd "$extra" && find . | LC_ALL=C sort | cpio -o -H newc --quiet -R 0:0) >"$workdir/extra.cpio"
+cat "$rootfs" "$workdir/extra.cpio" >"$workdir/initrd.cpio"
+t3=$SECONDS
+
+accel=(-accel tcg) accel_name=TCG
+if [[ -w /dev/kvm ]]; then accel=(-enable-kvm -cpu host) accel_name=KVM; fi
+log=$workdir/console.log
+echo "booted.sh: $(cat "$kdir/version") under $accel_name, $(basename "$deb"), limit ${limit}s" >&2
+set +e
+timeout -k 10 "$limit" "$qemu" "${accel[@]}" -m 2048 -smp 2 -nographic -no-reboot -nic none \
+  -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio" \
+  -append "console=ttyS0 quiet loglevel=3 panic=-1 systemd.show_status=false" </dev/null 2>&1 |
+  tr -d '\r' | sed -u 's/\x1b\[[0-9;?]*[a-zA-Z]//g; s/\x1b[c78]//g' >"$log"
+qemu_rc=${PIPESTATUS[0]}
+set -e
+t4=$SECONDS
+rm -f "$workdir/initrd.cpio"
+
+echo "==== booted Debian guest (console: $log) ===="
+grep -aE '^VM-(BOOTED|RESULT)' "$log" || true
+echo "kernel $((t1 - t0))s, root file system $((t2 - t1))s ($(du -h "$rootfs" | cut -f1)), initramfs $((t3 - t2))s, boot+scenario $((t4 - t3))s ($accel_name)"
+grep -aE '^VM-CHECK' "$log" || true
+((qemu_rc != 124 && qemu_rc != 137)) || fail "QEMU killed after ${limit}s: the guest hung (see $log)"
+grep -aq '^VM-BOOTED' "$log" || fail "the guest never ran its scenario (QEMU exit $qemu_rc; see $log)"
+grep -aq '^VM-DONE' "$log" || fail "the scenario did not finish (QEMU exit $qemu_rc; see $log)"
+grep -aq '^VM-RESULT PASS' "$log" || { tail -n 120 "$log"; fail "$(grep -a '^VM-RESULT' "$log")"; }
+echo "BOOTED GUEST PASSED"

@@ -1,0 +1,177 @@
+#!/bin/bash
+# The booted Debian guest's scenario (docs/testbed.md), run by
+# guest-scenario.service once multi-user.target is reached, as root, output on
+# the serial console. It installs the package and sets contego up with the
+# README's "Install" commands exactly as written (/vm/readme/NN.sh, extracted
+# on the host; the only change: the guest's adapter is /dev/i2c-0 where the
+# README's robot has /dev/i2c-1), checks what a robot's owner relies on, and
+# removes and purges the package. Every check prints one line:
+#   VM-CHECK PASS|FAIL booted: WHAT
+# and the end VM-RESULT PASS|FAIL booted, then VM-DONE.
+set -u
+export DEBIAN_FRONTEND=noninteractive PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin
+SCENARIO=booted
+FAILS=0 CHECKS=0
+ok() { CHECKS=$((CHECKS + 1)); echo "VM-CHECK PASS $SCENARIO: $*"; }
+bad() { CHECKS=$((CHECKS + 1)); FAILS=$((FAILS + 1)); echo "VM-CHECK FAIL $SCENARIO: $*"; }
+check() { d=$1; shift; if "$@" >/dev/null 2>&1; then ok "$d"; else bad "$d"; fi; }
+show() { sed 's/^/    | /' "$@"; }
+A=0x40 LED5_OFF=0x1c PRESCALE=0xfe
+# i2c-stub keeps byte and word writes apart: read and write LED5_OFF as bytes,
+# as the PCA9685's users (and contego's safe state) write them.
+word() { echo $(($(i2cget -y 0 $A $LED5_OFF) | $(i2cget -y 0 $A $((LED5_OFF + 1))) << 8)); }
+set_word() { i2cset -y 0 $A $LED5_OFF $(($1 & 255)) && i2cset -y 0 $A $((LED5_OFF + 1)) $(($1 >> 8)); }
+reg() { i2cget -y 0 $A "$1" 2>/dev/null; }
+
+# Runs README block N as written (bus node renamed), echoing each command.
+readme() {
+  echo "  README block $1:"
+  sed 's#/dev/i2c-1#/dev/i2c-0#g' "/vm/readme/$1.sh" >"/tmp/readme-$1.sh"
+  show "/tmp/readme-$1.sh"
+  (cd /vm/pkg && bash -e -x "/tmp/readme-$1.sh") >"/tmp/readme-$1.out" 2>&1
+  local rc=$?
+  show "/tmp/readme-$1.out" | tail -n 25
+  return $rc
+}
+
+echo "VM-BOOTED $(uname -r), systemd $(systemctl --version | awk 'NR==1 { print $2 }'), $(systemctl is-system-running)"
+
+# The "robot": a PCA9685 at 0x40 on the guest's only adapter, i2c-stub.
+modprobe i2c-stub chip_addr=$A && modprobe i2c-dev ||
+  { bad "modprobe i2c-stub chip_addr=$A and i2c-dev"; }
+udevadm settle
+i2cset -y 0 $A $PRESCALE 0x1e # the chip out of reset: 200 Hz
+set_word 0
+
+# The user's control program (the README's CONTEGO_PROGRAM): the arm's
+# gripper, as python3-smbus2 drives a PCA9685 (four byte writes per pulse,
+# one pulse per job of 1 s): 420, 577, 420 (the test bed's sequence), two
+# writes arm.policy does not allow, and a high pulse 900 that the policy's
+# fail-safe replaces by the expected 577.
+mkdir -p /opt/robot
+cat >/opt/robot/gripper.py <<'EOF'
+import errno, os, time
+from smbus2 import SMBus
+
+def attempt(what, fn):
+    try:
+        fn()
+        print("GRIPPER", what, "ok", flush=True)
+    except OSError as e:
+        print("GRIPPER", what, errno.errorcode.get(e.errno, e.errno), flush=True)
+
+with SMBus(1) as bus:
+    def pulse(p):
+        for reg, value in ((0x1A, 0), (0x1B, 0), (0x1C, p & 0xFF), (0x1D, p >> 8)):
+            bus.write_byte_data(0x40, reg, value)
+    attempt("pulse-420", lambda: pulse(420))
+    time.sleep(1.05)
+    attempt("pulse-577", lambda: pulse(577))
+    time.sleep(1.05)
+    attempt("pulse-420", lambda: pulse(420))
+    time.sleep(1.05)
+    attempt("prescale-3", lambda: bus.write_byte_data(0x40, 0xFE, 0x03))
+    attempt("address-0x41", lambda: bus.write_byte_data(0x41, 0x00, 0x01))
+    time.sleep(1.05)
+    attempt("pulse-900", lambda: pulse(900))
+print("GRIPPER holding", flush=True)
+while True:
+    time.sleep(3600)
+EOF
+
+# ---- the README, as written ---------------------------------------------------
+blocks=$(ls /vm/readme | sed 's/\.sh$//' | sort -n)
+last=$(echo "$blocks" | tail -n1)
+for n in $blocks; do
+  [ "$n" = "$last" ] && break # the removal, after the checks
+  if readme "$n"; then ok "README Install block $n runs as written (exit 0)"; else bad "README Install block $n failed"; fi
+done
+
+# ---- installed ----------------------------------------------------------------
+check "dpkg: contego installed from the local file, no network" dpkg-query -W -f='${Status}' contego
+getent passwd contego >/dev/null && getent group contego-client >/dev/null &&
+  ok "sysusers: user contego, group contego-client" || bad "sysusers: no user contego or group contego-client"
+own=$(stat -c '%U:%G %a' /dev/i2c-0 2>&1)
+[ "$own" = "contego:contego 660" ] && ok "udev rule: /dev/i2c-0 is $own" || bad "udev rule: /dev/i2c-0 is $own, not contego:contego 660"
+check "contego-monitor.service active (Type=notify: READY after the safe state)" systemctl is-active contego-monitor
+check "contego-run@gripper.service active" systemctl is-active contego-run@gripper
+uid=$(id -u contego-gripper)
+muid=$(awk '/^Uid:/ { print $2 }' /proc/"$(systemctl show -p MainPID --value contego-monitor)"/status)
+[ "$muid" = "$(id -u contego)" ] && ok "the monitor runs as the user contego (uid $muid)" || bad "the monitor runs as uid $muid"
+
+# The program's own view, in its journal.
+for i in $(seq 1 100); do
+  journalctl -u contego-run@gripper --no-pager -o cat | grep -q 'GRIPPER holding' && break
+  sleep 0.2
+done
+journalctl -u contego-run@gripper --no-pager -o cat >/tmp/gripper.log
+show /tmp/gripper.log | tail -n 12
+allowed=$(grep -a '"task_name":"gripper"' /var/log/contego/audit.jsonl | grep -ac '"decision":"allow"')
+grep -q 'GRIPPER pulse-577 ok' /tmp/gripper.log && [ "$allowed" -ge 12 ] &&
+  ok "the program works through the socket: pulses 420, 577, 420 allowed ($allowed writes in the audit log)" ||
+  bad "the program's pulses were not allowed ($allowed allowed writes)"
+[ "$(word)" = 577 ] && ok "high pulse 900 replaced on the stub by the expected 577 (i2cget: LED5 off=$(word))" ||
+  bad "after the high pulse 900 LED5 off=$(word), not 577"
+[ "$(reg $PRESCALE)" = 0x1e ] && ok "forbidden command (gripper's PRE_SCALE=0x03) not on the stub: i2cget PRE_SCALE=$(reg $PRESCALE)" ||
+  bad "PRE_SCALE is $(reg $PRESCALE) after the gripper's forbidden write"
+grep -q 'GRIPPER address-0x41 ok' /tmp/gripper.log && bad "write to 0x41 (not in the policy) succeeded" ||
+  ok "write to 0x41 (not in the policy) refused: $(grep -o 'address-0x41 .*' /tmp/gripper.log)"
+err=$(setpriv --reuid="$uid" --regid=nogroup --groups="$(getent group contego-client | cut -d: -f3)" \
+  python3 -c 'import os, errno
+try:
+    os.open("/dev/i2c-0", os.O_RDWR); print("opened")
+except OSError as e:
+    print(errno.errorcode[e.errno])' 2>&1)
+[ "$err" = EACCES ] && ok "contego-gripper cannot open /dev/i2c-0 itself: $err" || bad "contego-gripper opening /dev/i2c-0: $err"
+
+# ---- audit log and journal ----------------------------------------------------
+n=$(wc -l </var/log/contego/audit.jsonl 2>/dev/null || echo 0)
+[ "$n" -gt 0 ] && ok "audit log fills: /var/log/contego/audit.jsonl has $n records ($(stat -c '%U:%G %a' /var/log/contego/audit.jsonl))" ||
+  bad "no audit log under /var/log/contego"
+viol=$(grep -av '"decision":"allow"' /var/log/contego/audit.jsonl | grep -c '"kind":"decision"')
+[ "$viol" -gt 0 ] && ok "the violations are in the audit log ($viol records)" || bad "no violation in the audit log"
+journalctl -u contego-monitor --no-pager -o cat >/tmp/monitor.log
+show /tmp/monitor.log | tail -n 8
+grep -qE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log && ok "violations in the journal: $(grep -cE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log) lines (journalctl -u contego-monitor)" ||
+  bad "no violation in the journal (journalctl -u contego-monitor)"
+
+# ---- stop: the safe state -----------------------------------------------------
+set_word 0x41 # anything but the safe state
+systemctl stop contego-monitor
+[ "$(word)" = 420 ] && ok "systemctl stop contego-monitor drives the safe state (LED5 off=420)" ||
+  bad "after systemctl stop LED5 off=$(word), not 420"
+check "contego-run@gripper stopped with the monitor" sh -c '! systemctl is-active -q contego-run@gripper'
+
+# ---- restart: the chain stays verifiable --------------------------------------
+systemctl start contego-monitor contego-run@gripper && systemctl restart contego-monitor ||
+  bad "systemctl start/restart contego-monitor failed"
+check "contego-monitor active after restart" systemctl is-active contego-monitor
+sleep 1
+if contego audit /var/log/contego/audit.jsonl >/tmp/audit.out 2>&1; then
+  ok "after stop, start and restart: contego audit verifies the chain ($(wc -l </var/log/contego/audit.jsonl) records)"
+else
+  bad "contego audit: the chain does not verify after restart"
+fi
+show /tmp/audit.out | tail -n 5
+
+# ---- remove, then the README's purge ------------------------------------------
+set_word 0x41
+if apt-get remove -q contego >/tmp/remove.out 2>&1; then ok "apt-get remove contego"; else bad "apt-get remove contego"; show /tmp/remove.out; fi
+[ "$(word)" = 420 ] && ok "remove stopped the monitor: safe state (LED5 off=420)" || bad "after remove LED5 off=$(word)"
+check "remove: /usr/bin/contego gone" test ! -e /usr/bin/contego
+check "remove: no contego process left" sh -c '! pgrep -x contego'
+check "remove: conffiles kept (/etc/default/contego)" test -e /etc/default/contego
+if readme "$last"; then ok "README Install block $last (removal) runs as written"; else bad "README Install block $last failed"; fi
+check "purge: dpkg knows no contego" sh -c '! dpkg-query -W -f="\${Status}" contego 2>/dev/null | grep -q "[a-z]"'
+left=$(find / -xdev \( -path /proc -o -path /sys -o -path /vm -o -path /tmp -o -path /etc/apt/apt.conf.d \) -prune -o -name '*contego*' -print 2>/dev/null |
+  grep -v -e '^/etc/contego/robot.policy$' -e '^/etc/contego/run/gripper.conf$' -e '^/opt/robot' -e '^/etc/contego$' -e '^/etc/contego/run$')
+[ -z "$left" ] && ok "purge: no file of contego's left (the admin's own policy and program config stay in /etc/contego)" ||
+  bad "purge left: $(echo $left)"
+check "purge: no dangling unit symlinks" sh -c '! find /etc/systemd -xtype l -name "contego*" | grep -q .'
+getent passwd contego >/dev/null && ok "purge: the system users stay (Debian's convention for system users)" || ok "purge: user contego removed"
+
+[ $CHECKS -gt 0 ] || bad "no checks ran"
+if [ $FAILS = 0 ]; then echo "VM-RESULT PASS booted ($CHECKS checks)"; else echo "VM-RESULT FAIL booted ($FAILS of $CHECKS checks failed)"; fi
+echo "VM-DONE"
+sync
+systemctl poweroff -ff
