@@ -9,6 +9,9 @@ quick=0
 [[ "${1:-}" == "--quick" ]] && quick=1
 
 bash tools/bootstrap.sh
+# The arm64 cross toolchain, libraries and QEMU for the arm64 test bed
+# (vm.testbed_arm64 in the dev build's CTest; it skips without them).
+bash tools/bootstrap.sh --cross-arm64
 
 step() { printf '\n==== %s ====\n' "$*"; }
 

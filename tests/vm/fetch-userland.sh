@@ -22,12 +22,12 @@ command -v mmdebstrap >/dev/null || die "mmdebstrap missing (bash tools/bootstra
 
 packages=(busybox-static i2c-tools python3.11-minimal libpython3.11-stdlib python3-smbus
   python3-smbus2 python3-periphery libstdc++6 libfmt9 libssl3 libseccomp2 libsystemd0)
-key=""
-for p in libc6 libstdc++6 libssl3 libseccomp2 libsystemd0 libfmt9 python3.11-minimal i2c-tools; do
-  v=$(apt-cache policy "$p:$arch" 2>/dev/null | awk '/Candidate:/ { print $2 }')
-  [[ -n "$v" && "$v" != "(none)" ]] ||
+# One apt-cache call for all of them (each call parses every package list).
+abi=(libc6 libstdc++6 libssl3 libseccomp2 libsystemd0 libfmt9 python3.11-minimal i2c-tools)
+key=$(apt-cache policy "${abi[@]/%/:$arch}" 2>/dev/null | awk '/^[^ ]/ { p = $1 } /Candidate:/ { print p "=" $2 }')
+for p in "${abi[@]}"; do
+  grep -q "^$p:$arch:=[^(]" <<<"$key" ||
     die "no $p:$arch in the package lists (dpkg --add-architecture $arch; apt-get update)"
-  key+="$p=$v "
 done
 key=$(printf '%s\n' "$key" "${packages[*]}" | sha256sum | cut -c1-16)
 dir=$cache_root/userland-$arch/$key
