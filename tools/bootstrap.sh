@@ -25,6 +25,8 @@ packages=(
   # the booted Debian guest (tests/vm/booted): a Debian 12 root file system
   # made from Debian's archive, systemd as PID 1
   mmdebstrap
+  # package checks (tools/check_package.sh)
+  lintian
 )
 
 # contego.ko (kernel/build.sh, docs/kernel-client.md) builds against the
@@ -36,12 +38,18 @@ if [[ "${1:-}" != --cross-arm64 && $(dpkg --print-architecture) == amd64 ]]; the
   if [[ -n "$kpkg" ]]; then packages+=("linux-headers-${kpkg#linux-image-}"); fi
 fi
 
-# --cross-arm64 (tools/package.sh --arch arm64): the arm64 libraries the
-# cross-built package links against, from Debian's archive as multiarch
-# packages, instead of the list above.
+# --cross-arm64 (tools/package.sh --arch arm64, the arm64 test bed): the
+# arm64 libraries the cross-built package links against, from Debian's
+# archive as multiarch packages, instead of the list above; and for the test
+# bed on Debian's arm64 kernel (tests/vm/run.sh --arch arm64): QEMU's aarch64
+# system emulator, Debian's kernel source and kbuild tools to cross-build
+# i2c-stub (which that kernel lacks), mmdebstrap to unpack the guest's arm64
+# user space. The kernel, its headers and that user space are fetched into a
+# cache by tests/vm, not installed.
 if [[ "${1:-}" == --cross-arm64 ]]; then
-  packages=(g++-aarch64-linux-gnu qemu-user
-    libfmt-dev:arm64 libssl-dev:arm64 libseccomp-dev:arm64 libsystemd-dev:arm64)
+  packages=(g++-aarch64-linux-gnu gcc-aarch64-linux-gnu qemu-user
+    libfmt-dev:arm64 libssl-dev:arm64 libseccomp-dev:arm64 libsystemd-dev:arm64
+    qemu-system-arm linux-source-6.1 linux-kbuild-6.1 mmdebstrap libgtest-dev)
   if ! dpkg --print-foreign-architectures | grep -qx arm64; then
     echo "bootstrap: dpkg --add-architecture arm64"
     if [[ $(id -u) -ne 0 ]]; then sudo dpkg --add-architecture arm64; else dpkg --add-architecture arm64; fi

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Checks built Debian packages: the architecture, the files the runtime
 # package must hold, no build-tree path in any file list (dpkg-deb -c), and
-# no source- or build-tree path in the installed binaries (strings).
+# no source- or build-tree path in the installed binaries (strings), and
+# lintian on every .deb: no error or warning other than the tags
+# packaging/lintian.suppress lists with their reasons.
 # Usage: tools/check_package.sh --arch ARCH --forbid DIR [--forbid DIR]... DEB...
 #   DIR: a path that must not appear (the source tree the packages were built from)
 set -euo pipefail
@@ -55,6 +57,26 @@ if [[ -n $runtime ]]; then
   done < <(find "$tmp/root" -type f -print0)
   grep -q "ExecStart=/usr/bin/contego monitor" "$tmp/root/usr/lib/systemd/system/contego-monitor.service" ||
     bad "the monitor unit does not run /usr/bin/contego"
+fi
+# lintian (bootstrap.sh installs it) on the .deb files; the .ddeb debug
+# packages are CPack's and not lintian's business.
+if command -v lintian >/dev/null; then
+  suppress=$(cd "$(dirname "$0")/.." && pwd)/packaging/lintian.suppress
+  for deb in "$@"; do
+    [[ $deb == *.deb ]] || continue
+    # Debian's lintian checks a foreign-architecture package as well.
+    rc=0
+    lintian --fail-on error,warning --suppress-tags-from-file "$suppress" --tag-display-limit 0 \
+      "$deb" >"$tmp/lintian.out" 2>&1 || rc=$?
+    grep -v 'running with root privileges' "$tmp/lintian.out" || true
+    if ((rc == 0)); then
+      echo "check_package: lintian $(basename "$deb"): clean (tolerated: the $(grep -c '^[a-z]' "$suppress") tags of packaging/lintian.suppress)"
+    else
+      bad "lintian $(basename "$deb") exit $rc (see above)"
+    fi
+  done
+else
+  bad "lintian not installed (bash tools/bootstrap.sh)"
 fi
 ((fail == 0)) || exit 1
 echo "check_package: ok"

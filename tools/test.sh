@@ -22,7 +22,10 @@ step "debug build + tests"
 cmake --preset dev >/dev/null
 cmake --build --preset dev
 # vm.booted_guest needs the package: it runs after the package stage below.
-ctest --preset dev -E '^vm\.booted_guest$'
+# The arm64 test bed (label arm64: `bash tools/bootstrap.sh --cross-arm64`,
+# then `ctest --preset dev -L arm64`, docs/testbed.md) is not yet run here:
+# its cold cross build does not fit the CI time budget.
+ctest --preset dev -E '^vm\.booted_guest$' -LE arm64
 
 ((quick)) && exit 0
 

@@ -12,7 +12,16 @@
 #                             test binaries run on the guest kernel (/vm/bin)
 # and every shared library those programs load, with the dynamic loader.
 #
-# Usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
+# For a foreign architecture (--arch arm64 --userland DIR) busybox, the
+# i2c-tools, python3 and every library come from DIR, the tree of Debian's
+# arm64 packages fetch-userland.sh printed, instead of from the host, and the
+# libraries are resolved from the ELF headers (the host's ldd cannot).
+# --mirror PATH copies a host file or directory to the same path in the
+# guest (ELF files stripped, their libraries added): the data of test
+# binaries that name it at compile time.
+#
+# Usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]...
+#                           OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
 # Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
 #                    beside the two i2c modules; unset or empty: none.
@@ -21,27 +30,57 @@
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
-(($# >= 4)) || die "usage: build-initramfs.sh OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]"
+arch=$(dpkg --print-architecture) userland="" mirrors=()
+while [[ "${1:-}" == --* ]]; do
+  case "$1" in
+    --arch) arch=$2; shift 2 ;;
+    --userland) userland=$2; shift 2 ;;
+    --mirror) mirrors+=("$2"); shift 2 ;;
+    *) die "unknown option $1" ;;
+  esac
+done
+(($# >= 4)) || die "usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]... OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]"
 out=$1 contego=$2 kdir=$3 bench_client=$4
 shift 4
 test_binaries=("$@")
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(cd "$here/../.." && pwd)
+strip=strip triplet=""
+if [[ "$arch" != "$(dpkg --print-architecture)" ]]; then
+  [[ -d "$userland" ]] || die "--arch $arch needs --userland DIR (fetch-userland.sh --arch $arch)"
+  case "$arch" in
+    arm64) triplet=aarch64-linux-gnu ;;
+    *) die "unsupported guest architecture $arch" ;;
+  esac
+  strip=$triplet-strip
+  command -v "$strip" >/dev/null || die "$strip missing (bash tools/bootstrap.sh --cross-arm64)"
+fi
 
 [[ -x "$contego" ]] || die "no contego binary at $contego (build it first)"
 [[ -x "$bench_client" ]] || die "no bench client at $bench_client (build it first)"
 [[ -f "$kdir/modules/i2c-stub.ko" ]] || die "no modules in $kdir (run fetch-kernel.sh)"
-busybox=/bin/busybox
-[[ -x "$busybox" ]] && file -L "$busybox" 2>/dev/null | grep -q 'statically linked' ||
-  busybox=$(command -v busybox) || true
+busybox=$userland/bin/busybox
+if [[ -z "$userland" ]]; then
+  busybox=/bin/busybox
+  [[ -x "$busybox" ]] && file -L "$busybox" 2>/dev/null | grep -q 'statically linked' ||
+    busybox=$(command -v busybox) || true
+fi
 # Debian's busybox-static installs /bin/busybox; the dynamic busybox package
 # would need its libraries in the guest too, so insist on the static one.
 file -L "$busybox" | grep -q 'statically linked' || die "no static busybox (apt-get install busybox-static)"
-# The interpreter must be Debian's: the python3-smbus* packages live in its
-# dist-packages, and a pyenv or venv python would not find them.
-python=/usr/bin/python3
-pyver=$("$python" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")') ||
-  die "Debian's $python does not run (apt-get install python3)"
+if [[ -n "$userland" ]]; then
+  # The arm64 python cannot run here: its version is the stdlib's directory.
+  pyver=$(cd "$userland/usr/lib" && ls -d python3.* | head -n1)
+  pyver=${pyver#python}
+  python=$userland/usr/bin/python$pyver
+  [[ -x "$python" ]] || die "no python$pyver in $userland"
+else
+  # The interpreter must be Debian's: the python3-smbus* packages live in its
+  # dist-packages, and a pyenv or venv python would not find them.
+  python=/usr/bin/python3
+  pyver=$("$python" -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")') ||
+    die "Debian's $python does not run (apt-get install python3)"
+fi
 
 root=$(mktemp -d)
 trap 'rm -rf "$root"' EXIT
@@ -60,15 +99,40 @@ put() {
 # as ldd resolves them on the host, to the same paths in the guest.
 put_libs() {
   local lib
+  if [[ -n "$userland" ]]; then
+    put_foreign_libs "$1"
+    return
+  fi
   for lib in $(ldd "$1" 2>/dev/null | awk '/=> \// { print $3 } /^\t\/lib/ { print $1 }'); do
     put "$lib"
+  done
+}
+# The same for a foreign ELF file: its interpreter and NEEDED entries,
+# looked up in the multiarch directories of the unpacked user space,
+# recursively.
+put_foreign_libs() {
+  local f=$1 interp lib d
+  interp=$(readelf -l "$f" 2>/dev/null | sed -n 's/.*program interpreter: \(.*\)]$/\1/p')
+  [[ -z "$interp" ]] || put "$userland$interp" "$interp"
+  for lib in $(readelf -d "$f" 2>/dev/null | sed -n 's/.*(NEEDED).*\[\(.*\)\]$/\1/p'); do
+    for d in /lib/$triplet /usr/lib/$triplet /lib /usr/lib; do
+      [[ -e "$userland$d/$lib" ]] || continue
+      if [[ ! -e "$root$d/$lib" ]]; then
+        put "$userland$d/$lib" "$d/$lib"
+        put_foreign_libs "$userland$d/$lib"
+      fi
+      continue 2
+    done
+    die "$f needs $lib, which the $arch user space in $userland lacks"
   done
 }
 
 # busybox: one link per applet, except its i2c applets: the tests must run
 # the real i2c-tools, so the names may not resolve to busybox's versions.
 cp "$busybox" "$root/bin/busybox"
-for applet in $("$busybox" --list); do
+run_busybox=("$busybox")
+[[ -z "$userland" ]] || run_busybox=(qemu-"${triplet%%-*}" "$busybox")
+for applet in $("${run_busybox[@]}" --list); do
   case "$applet" in i2c*|busybox) continue ;; esac
   ln -sf busybox "$root/bin/$applet"
 done
@@ -81,7 +145,7 @@ if [[ -n "${CONTEGO_KMOD:-}" ]]; then
 fi
 
 # contego, stripped (the debug build is tens of MB with its symbols).
-strip -o "$root/usr/bin/contego" "$contego"
+"$strip" -o "$root/usr/bin/contego" "$contego"
 put_libs "$contego"
 cp "$bench_client" "$root/usr/bin/i2c-write-loop"
 if [[ -n "${CONTEGO_STATIC_CLIENT:-}" ]]; then
@@ -93,13 +157,30 @@ put_libs "$bench_client"
 mkdir -p "$root/vm/bin"
 for t in "${test_binaries[@]}"; do
   [[ -x "$t" ]] || die "no test binary at $t (build it first)"
-  strip -o "$root/vm/bin/$(basename "$t")" "$t"
+  "$strip" -o "$root/vm/bin/$(basename "$t")" "$t"
   put_libs "$t"
 done
 
+# Test data named at compile time, at the same paths.
+for m in "${mirrors[@]}"; do
+  [[ -e "$m" ]] || die "no $m to mirror into the guest"
+  mkdir -p "$root$(dirname "$m")"
+  cp -a "$m" "$root$m"
+  while IFS= read -r -d '' f; do
+    head -c4 "$f" | grep -q 'ELF' || continue
+    "$strip" "$f" 2>/dev/null || true
+    put_libs "$f"
+  done < <(find "$root$m" -type f -print0)
+done
+
 for t in i2cdetect i2cget i2cset i2cdump i2ctransfer; do
-  p=$(command -v "$t" || true)
-  [[ -n "$p" && "$p" != *busybox* ]] || die "$t not found (apt-get install i2c-tools)"
+  if [[ -n "$userland" ]]; then
+    p=$userland/usr/sbin/$t
+    [[ -x "$p" ]] || die "$t not in $userland"
+  else
+    p=$(command -v "$t" || true)
+    [[ -n "$p" && "$p" != *busybox* ]] || die "$t not found (apt-get install i2c-tools)"
+  fi
   put "$p" "/usr/sbin/$t"
   put_libs "$p"
 done
@@ -108,12 +189,12 @@ done
 # GUI, packaging, the static library under config-*), lib-dynload with the
 # libraries its extension modules link, and the three I2C packages.
 pybin=$(readlink -f "$python")
-put "$pybin"
+put "$pybin" "${pybin#"$userland"}"
 ln -sf "$(basename "$pybin")" "$root/usr/bin/python3"
 put_libs "$pybin"
 stdlib=/usr/lib/python$pyver
 mkdir -p "$root$stdlib"
-tar -C "$stdlib" -cf - \
+tar -C "$userland$stdlib" -cf - \
   --exclude="./test" --exclude="./idlelib" --exclude="./tkinter" --exclude="./turtledemo" \
   --exclude="./lib2to3" --exclude="./ensurepip" --exclude="./distutils" --exclude="./pydoc_data" \
   --exclude="./config-*" --exclude="./venv" --exclude="./sqlite3" --exclude="./dbm" \
@@ -125,6 +206,13 @@ tar -C "$stdlib" -cf - \
 for so in "$root$stdlib"/lib-dynload/*.so; do put_libs "$so"; done
 dist=/usr/lib/python3/dist-packages
 python_pkgs=(python3-smbus python3-smbus2 python3-periphery)
+if [[ -n "$userland" ]]; then
+  # The unpacked tree holds only these three packages' dist-packages.
+  mkdir -p "$root$dist"
+  cp -a "$userland$dist/." "$root$dist/"
+  for so in $(find "$root$dist" -name '*.so'); do put_libs "$so"; done
+  python_pkgs=()
+fi
 for pkg in "${python_pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed' ||
     die "$pkg is not installed (bash tools/bootstrap.sh)"
@@ -141,11 +229,13 @@ cat >"$root/etc/passwd" <<'PASSWD'
 root:x:0:0:root:/root:/bin/sh
 contego:x:990:990:contego monitor:/run/contego:/bin/false
 task:x:1000:1000:control task:/tmp:/bin/sh
+nobody:x:65534:65534:nobody:/nonexistent:/bin/false
 PASSWD
 cat >"$root/etc/group" <<'GROUP'
 root:x:0:
 contego:x:990:task
 task:x:1000:
+nogroup:x:65534:
 GROUP
 
 # The test material.

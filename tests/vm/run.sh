@@ -6,8 +6,18 @@
 # guest must say it finished. Missing QEMU or kernel is a failure, never a
 # skip: CI must not go green without having run anything.
 #
-# Usage: tests/vm/run.sh [--contego PATH] [--bench-client PATH] [--workdir DIR]
+# Usage: tests/vm/run.sh [--arch amd64|arm64] [--contego PATH] [--bench-client PATH]
+#                        [--test-binary PATH]... [--mirror PATH]... [--workdir DIR]
 #                        [--scenarios a,b,...] [--shell] [--timeout SECONDS]
+#                        [--skip-code N]
+#   --arch arm64 Debian's arm64 kernel in qemu-system-aarch64 (-M virt,
+#                Cortex-A53), its i2c-stub cross-built (fetch-kernel.sh), its
+#                user space from Debian's arm64 packages (fetch-userland.sh);
+#                the binaries given must be the cross-built ones
+#   --mirror     a host path copied to the same path in the guest (test data
+#                a test binary names at compile time)
+#   --skip-code  exit N instead of failing when QEMU or a cross tool is
+#                missing (CTest's SKIP_RETURN_CODE for the optional arm64 bed)
 #   --shell      boot to an interactive shell on this terminal instead (run
 #                one scenario by hand: sh /vm/scenarios/NAME.sh; leave: poweroff -f)
 # Defaults: the dev build's binaries (build/dev), workdir build/dev/tests/vm.
@@ -21,10 +31,14 @@ contego=$src/build/dev/src/cli/contego
 bench_client=$src/build/dev/tests/vm/i2c-write-loop
 test_binaries=()  # GoogleTest binaries run in the guest (scenario 01)
 workdir=$src/build/dev/tests/vm
-scenarios=all shell=0
+mirrors=()
+scenarios=all shell=0 arch=amd64 skip_code=""
 limit=${CONTEGO_VM_TIMEOUT:-900}
 while (($#)); do
   case "$1" in
+    --arch) arch=$2; shift 2 ;;
+    --mirror) mirrors+=(--mirror "$2"); shift 2 ;;
+    --skip-code) skip_code=$2; shift 2 ;;
     --contego) contego=$2; shift 2 ;;
     --bench-client) bench_client=$2; shift 2 ;;
     --test-binary) test_binaries+=("$2"); shift 2 ;;
@@ -37,13 +51,38 @@ while (($#)); do
 done
 
 fail() { echo "VM TEST BED FAILED: $*" >&2; exit 1; }
+# A missing tool: a failure, or with --skip-code a skip that says why.
+missing() {
+  [[ -n "$skip_code" ]] || fail "$*"
+  echo "VM TEST BED SKIPPED: $*"
+  exit "$skip_code"
+}
 
-qemu=$(command -v qemu-system-x86_64) ||
-  fail "qemu-system-x86_64 not found: run bash tools/bootstrap.sh (package qemu-system-x86)"
+host_arch=$(dpkg --print-architecture)
+case "$arch" in
+  amd64) qemu_name=qemu-system-x86_64 qemu_pkg=qemu-system-x86 console=ttyS0 boot_opt="" ;;
+  arm64) qemu_name=qemu-system-aarch64 qemu_pkg=qemu-system-arm console=ttyAMA0 boot_opt=" --cross-arm64" ;;
+  *) fail "unknown architecture $arch (amd64 or arm64)" ;;
+esac
+qemu=$(command -v $qemu_name) ||
+  missing "$qemu_name not found: run bash tools/bootstrap.sh$boot_opt (package $qemu_pkg)"
+userland_args=()
+if [[ "$arch" != "$host_arch" ]]; then
+  for tool in aarch64-linux-gnu-gcc qemu-aarch64 mmdebstrap; do
+    command -v $tool >/dev/null || missing "$tool not found: run bash tools/bootstrap.sh --cross-arm64"
+  done
+  [[ -d /usr/lib/linux-kbuild-6.1 ]] && compgen -G '/usr/src/linux-source-6.1.tar.*' >/dev/null ||
+    missing "linux-source-6.1 or linux-kbuild-6.1 not installed: run bash tools/bootstrap.sh --cross-arm64"
+fi
 mkdir -p "$workdir"
 
 t_start=$(date +%s.%N)
-kdir=$(bash "$here/fetch-kernel.sh") || fail "cannot get Debian's kernel (see fetch-kernel's message above)"
+kdir=$(bash "$here/fetch-kernel.sh" --arch "$arch") || fail "cannot get Debian's $arch kernel (see fetch-kernel's message above)"
+if [[ "$arch" != "$host_arch" ]]; then
+  userland=$(bash "$here/fetch-userland.sh" --arch "$arch") ||
+    fail "cannot get Debian's $arch user space (see fetch-userland's message above)"
+  userland_args=(--arch "$arch" --userland "$userland")
+fi
 t_kernel=$(date +%s.%N)
 # contego.ko (docs/kernel-client.md), built against the headers of exactly
 # this kernel; without them the module's scenario reports a skip.
@@ -59,23 +98,33 @@ case $kmod_rc in
 esac
 # A statically linked copy of the bench client: no dynamic loader, so no
 # preload can reach it; only the kernel client checks it (scenario 60).
-static_client=$workdir/i2c-write-loop-static
-cc -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
-  fail "cannot link the static bench client (libc6-dev's libc.a)"
+static_client=
+if [[ "$arch" == "$host_arch" ]]; then
+  static_client=$workdir/i2c-write-loop-static
+  cc -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
+    fail "cannot link the static bench client (libc6-dev's libc.a)"
+fi
 t_kmod=$(date +%s.%N)
-CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod bash "$here/build-initramfs.sh" "$workdir/initrd.cpio" "$contego" "$kdir" "$bench_client" \
-  "${test_binaries[@]}" ||
+CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod bash "$here/build-initramfs.sh" \
+  "${userland_args[@]}" "${mirrors[@]}" "$workdir/initrd.cpio" \
+  "$contego" "$kdir" "$bench_client" "${test_binaries[@]}" ||
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)
 
 accel=(-accel tcg)
 accel_name=TCG
-if [[ -w /dev/kvm ]]; then
+if [[ "$arch" == arm64 ]]; then
+  # The paper's Raspberry Pi 3 core. No KVM for a foreign architecture.
+  machine=(-M virt -cpu cortex-a53)
+elif [[ -w /dev/kvm ]]; then
+  machine=()
   accel=(-enable-kvm -cpu host)
   accel_name=KVM
+else
+  machine=()
 fi
-append="console=ttyS0 quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
-qemu_args=("${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
+append="console=$console quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
+qemu_args=("${machine[@]}" "${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
   -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio")
 
 if ((shell)); then

@@ -21,7 +21,7 @@ mount -t devtmpfs devtmpfs /dev
 mount -t tmpfs -o mode=1777 tmpfs /tmp
 mount -t tmpfs -o mode=0755 tmpfs /run
 # Loop device nodes and the like are not needed; /dev/console is the serial
-# port (console=ttyS0), where every line below goes.
+# port (console=ttyS0, or ttyAMA0 on arm64), where every line below goes.
 exec </dev/console >/dev/console 2>&1
 
 scenarios=all shell=0 timeout=240
