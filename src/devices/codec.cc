@@ -133,6 +133,7 @@ Result<std::vector<DecodedCommand>> HostDecoder::write(std::span<const uint8_t> 
 
 Result<std::vector<DecodedCommand>> HostDecoder::write_frame(std::span<const uint8_t> bytes) {
   const ProfileSpec& p = *profile_;
+  if (bytes.size() == 1 && p.short_queries && p.frame_len != 1) return write_short_query(bytes[0]);
   if (bytes.size() != p.frame_len && bytes.size() != size_t{p.frame_len} + p.prefix_len) {
     return make_error(fmt::format(
         "{}: malformed write of {} bytes (frames are {}{})", p.name, bytes.size(), p.frame_len,
@@ -152,6 +153,22 @@ Result<std::vector<DecodedCommand>> HostDecoder::write_frame(std::span<const uin
     return std::vector<DecodedCommand>{std::move(d)};
   }
   return make_error(fmt::format("{}: unknown opcode {} (0x{:02x})", p.name, frame[0], frame[0]));
+}
+
+// A one-byte write naming a query is that query, its fields zero (as the
+// core decodes it); any other single byte is malformed.
+Result<std::vector<DecodedCommand>> HostDecoder::write_short_query(uint8_t opcode) {
+  const ProfileSpec& p = *profile_;
+  for (const CommandSpec& c : p.commands) {
+    if (c.match != opcode) continue;
+    if (c.command_class != core::CommandClass::kQuery) break;
+    DecodedCommand d;
+    d.command = &c;
+    d.values.assign(c.fields.size(), 0);
+    return std::vector<DecodedCommand>{std::move(d)};
+  }
+  return make_error(fmt::format("{}: malformed one-byte write 0x{:02x} (not a query)", p.name,
+                                opcode));
 }
 
 Result<std::vector<DecodedCommand>> HostDecoder::write_registers(std::span<const uint8_t> bytes) {

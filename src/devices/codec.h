@@ -83,6 +83,7 @@ class HostDecoder {
 
  private:
   Result<std::vector<DecodedCommand>> write_frame(std::span<const uint8_t> bytes);
+  Result<std::vector<DecodedCommand>> write_short_query(uint8_t opcode);
   Result<std::vector<DecodedCommand>> write_registers(std::span<const uint8_t> bytes);
 
   const ProfileSpec* profile_;

@@ -69,6 +69,17 @@ TEST(LineFollowerDecode, ReadRequestIsTheQueryCommand) {
   EXPECT_EQ(decode(line(), {0x01, 0x03, 0x00, 0x00, 0x00}), "read_sensors()");
 }
 
+// DI's driver probes with a one-byte write of the board-name query; the host
+// decoder agrees with the core (decode.cc): a single byte is a query or malformed.
+TEST(LineFollowerDecode, OneByteQueryWritesAreTheQuery) {
+  EXPECT_EQ(decode(line(), {0x12}), "board_name()");
+  EXPECT_EQ(decode(line(), {0x03}), "read_sensors()");
+  EXPECT_EQ(decode(line(), {0x44}),
+            "error: line_follower: malformed one-byte write 0x44 (not a query)");
+  // Profiles without one-byte queries keep refusing a single byte.
+  EXPECT_NE(decode(gopigo(), {0x08}).find("malformed write of 1"), std::string::npos);
+}
+
 TEST(LineFollowerSample, EncodesFiveBigEndianReadings) {
   std::vector<FieldValue> v = {
       {"raw0", 767}, {"raw1", 815}, {"raw2", 1015}, {"raw3", 710}, {"raw4", 1004}};
