@@ -167,8 +167,8 @@ Result<std::vector<DecodedCommand>> HostDecoder::write_short_query(uint8_t opcod
     d.values.assign(c.fields.size(), 0);
     return std::vector<DecodedCommand>{std::move(d)};
   }
-  return make_error(fmt::format("{}: malformed one-byte write 0x{:02x} (not a query)", p.name,
-                                opcode));
+  return make_error(
+      fmt::format("{}: malformed one-byte write 0x{:02x} (not a query)", p.name, opcode));
 }
 
 Result<std::vector<DecodedCommand>> HostDecoder::write_registers(std::span<const uint8_t> bytes) {
