@@ -39,12 +39,73 @@ struct contego_kmod_stats {
   __u64 refused;       /* calls refused (errno to the program) */
   __u64 ignored;       /* calls ignored (success, nothing acted) */
   __u64 failsafe;      /* calls replaced by a substitute or the safe state */
+  __u64 records;       /* audit records taken by the ring */
+  __u64 unrecorded;    /* records lost (no reader, ring full): each failed its call closed */
+  __u64 audit_refused; /* calls refused (EIO) because their record could not be taken */
   __u32 loaded;        /* 1: an image is in force */
-  __u32 pad;
+  __u32 reader;        /* 1: an audit reader holds /dev/contego-audit */
+};
+
+/* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one
+ * record per decoded command the core decides (its audit host callback) and
+ * one per module event, taken before anything of the call acts. A call whose
+ * record the ring cannot take (no reader attached, the ring full) does not
+ * act: it fails with EIO, the devices go to their safe state, and the next
+ * record taken is an audit-gap record counting what was lost. read() returns
+ * whole records, oldest first, without consuming them; CONTEGO_KMOD_AUDIT_ACK
+ * frees every record up to a sequence number once the reader has stored it,
+ * so a reader that dies loses nothing: the next one is handed the records
+ * not yet acknowledged. One reader at a time (EBUSY), CAP_SYS_ADMIN. */
+enum contego_kmod_record_type {
+  CONTEGO_KMOD_REC_DECISION = 1,   /* the core's audit record of one command */
+  CONTEGO_KMOD_REC_SAFE_STATE = 2, /* device's safe state driven; `why` */
+  CONTEGO_KMOD_REC_LOAD = 3,       /* an image verified and in force; count = its size */
+  CONTEGO_KMOD_REC_LOAD_REFUSED = 4, /* the verifier refused an image; reason = its status */
+  CONTEGO_KMOD_REC_GAP = 5,        /* count = records lost before this one */
+};
+
+enum contego_kmod_safe_why {
+  CONTEGO_KMOD_SAFE_LOAD = 1,        /* a policy was loaded */
+  CONTEGO_KMOD_SAFE_UNRECORDED = 2,  /* a record could not be taken: failing closed */
+  CONTEGO_KMOD_SAFE_TRANSFER = 3,    /* a fail-safe inside a transfer of several messages */
+  CONTEGO_KMOD_SAFE_UNLOAD = 4,      /* the module is being unloaded */
+  CONTEGO_KMOD_SAFE_FAILED = 0x80,   /* or'ed in: the safe state could not be written */
+};
+
+#define CONTEGO_KMOD_REC_BYTES 24 /* bytes of the command (and substitute) kept */
+
+struct contego_kmod_record {
+  __u64 seq;     /* 1, 2, 3, ...: consecutive, never reused while the module lives */
+  __u64 time_us; /* CLOCK_MONOTONIC (ktime_get_ns() / 1000), the core's now */
+  __u32 pid;     /* the caller's thread group (0: the module itself) */
+  __u32 uid;     /* its effective uid */
+  __u8 type;     /* enum contego_kmod_record_type */
+  __u8 decision;
+  __u8 reason;
+  __u8 rule_kind;
+  __u16 task;
+  __u16 device;
+  __u16 command;
+  __u16 rule;
+  __u32 job;
+  __u8 bus;
+  __u8 index;
+  __u8 field_count;
+  __u8 why; /* SAFE_STATE: enum contego_kmod_safe_why */
+  __u16 addr;
+  __u16 original_len;   /* the command's length (bytes kept: at most CONTEGO_KMOD_REC_BYTES) */
+  __u16 substitute_len; /* the substitute's length */
+  __u16 pad;
+  __u32 count; /* GAP: records lost; LOAD: image bytes */
+  __s32 fields[8];
+  __u8 original[CONTEGO_KMOD_REC_BYTES];
+  __u8 substitute[CONTEGO_KMOD_REC_BYTES];
 };
 
 #define CONTEGO_KMOD_IOC_MAGIC 0xC7
 #define CONTEGO_KMOD_LOAD _IOWR(CONTEGO_KMOD_IOC_MAGIC, 1, struct contego_kmod_load)
 #define CONTEGO_KMOD_STATS _IOR(CONTEGO_KMOD_IOC_MAGIC, 2, struct contego_kmod_stats)
+/* On /dev/contego-audit: records up to and including *arg are stored. */
+#define CONTEGO_KMOD_AUDIT_ACK _IOW(CONTEGO_KMOD_IOC_MAGIC, 3, __u64)
 
 #endif /* CONTEGO_KMOD_H_ */

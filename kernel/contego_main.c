@@ -31,8 +31,13 @@
 #include <linux/mm.h>
 #include <linux/module.h>
 #include <linux/mutex.h>
+#include <linux/poll.h>
+#include <linux/sched.h>
 #include <linux/slab.h>
+#include <linux/spinlock.h>
 #include <linux/uaccess.h>
+#include <linux/vmalloc.h>
+#include <linux/wait.h>
 
 #include "contego/core_c.h"
 #include "contego_kmod.h"
@@ -53,6 +58,10 @@ MODULE_PARM_DESC(buses, "the policy's bus number of each protected adapter (`at 
 static bool trace;
 module_param(trace, bool, 0644);
 MODULE_PARM_DESC(trace, "log every decision to the kernel log (debugging; not the audit log)");
+
+static unsigned int audit_records = 16384;
+module_param(audit_records, uint, 0444);
+MODULE_PARM_DESC(audit_records, "records the audit ring holds until the reader acknowledges them");
 
 /* ---- the checker in force ---------------------------------------------- */
 
@@ -145,6 +154,107 @@ static u16 ct_task_of_current(const struct ct_policy *p)
 	return CONTEGO_NONE;
 }
 
+/* ---- the audit ring ------------------------------------------------------ */
+
+/* Records seq acked+1 .. head are in the ring (record s at (s - 1) % cap).
+ * ct_ring_lock covers the ring, the reader flag and the gap count; the
+ * producers also hold ct_lock (one decision at a time). */
+static struct contego_kmod_record *ct_ring;
+static u32 ct_ring_cap;
+static u64 ct_head, ct_acked;
+static bool ct_reader;
+static u64 ct_gap; /* records lost since the last one taken */
+static DEFINE_SPINLOCK(ct_ring_lock);
+static DECLARE_WAIT_QUEUE_HEAD(ct_ring_wait);
+/* Set by the core's audit callback when a record of the call in progress
+ * could not be taken (under ct_lock). */
+static bool ct_audit_lost;
+
+/* Takes one record (seq assigned here), first the gap record if records were
+ * lost before it. False: not taken (no reader, the ring full); it is counted
+ * in the gap. */
+static bool ct_push(struct contego_kmod_record *r)
+{
+	unsigned long flags;
+	bool ok;
+
+	spin_lock_irqsave(&ct_ring_lock, flags);
+	ok = ct_reader && ct_ring_cap - (u32)(ct_head - ct_acked) >= (ct_gap ? 2u : 1u);
+	if (ok && ct_gap) {
+		struct contego_kmod_record *g = &ct_ring[ct_head % ct_ring_cap];
+
+		memset(g, 0, sizeof(*g));
+		g->seq = ++ct_head;
+		g->time_us = r->time_us;
+		g->type = CONTEGO_KMOD_REC_GAP;
+		g->count = (u32)min_t(u64, ct_gap, U32_MAX);
+		ct_gap = 0;
+	}
+	if (ok) {
+		r->seq = ++ct_head;
+		ct_ring[(r->seq - 1) % ct_ring_cap] = *r;
+		ct_stats.records++;
+	} else {
+		ct_gap++;
+		ct_stats.unrecorded++;
+	}
+	spin_unlock_irqrestore(&ct_ring_lock, flags);
+	if (ok)
+		wake_up_interruptible(&ct_ring_wait);
+	return ok;
+}
+
+static void ct_record_start(struct contego_kmod_record *r, u8 type, bool caller)
+{
+	memset(r, 0, sizeof(*r));
+	r->type = type;
+	r->time_us = div_u64(ktime_get_ns(), 1000);
+	r->task = CONTEGO_NONE;
+	r->device = CONTEGO_NONE;
+	r->command = CONTEGO_NONE;
+	r->rule = CONTEGO_NONE;
+	if (caller) {
+		r->pid = task_tgid_nr(current);
+		r->uid = from_kuid(&init_user_ns, current_euid());
+	}
+}
+
+/* The core's audit host callback: one record per decoded command, inside
+ * contego_check (under ct_lock). */
+static void ct_audit(void *context, const contego_audit_record *a)
+{
+	struct contego_kmod_record r;
+	u32 n;
+
+	ct_record_start(&r, CONTEGO_KMOD_REC_DECISION, true);
+	r.time_us = a->time_us;
+	r.job = a->job;
+	r.task = a->task;
+	r.device = a->device;
+	r.command = a->command;
+	r.rule = a->rule;
+	r.rule_kind = a->rule_kind;
+	r.decision = a->decision;
+	r.reason = a->reason;
+	r.index = a->index;
+	r.field_count = min_t(u8, a->field_count, ARRAY_SIZE(r.fields));
+	memcpy(r.fields, a->fields, r.field_count * sizeof(r.fields[0]));
+	r.bus = a->bus;
+	r.addr = a->addr;
+	r.original_len = a->original_len;
+	n = min_t(u32, a->original_len, CONTEGO_KMOD_REC_BYTES);
+	if (a->original && n)
+		memcpy(r.original, a->original, n);
+	r.substitute_len = a->substitute ? a->substitute_len : 0;
+	n = min_t(u32, r.substitute_len, CONTEGO_KMOD_REC_BYTES);
+	if (a->substitute && n)
+		memcpy(r.substitute, a->substitute, n);
+	if (!ct_push(&r))
+		ct_audit_lost = true;
+}
+
+static const contego_host ct_host = { .context = NULL, .read_sample = NULL, .audit = ct_audit };
+
 /* ---- bus operations ------------------------------------------------------ */
 
 /* One write of `len` bytes at `addr`: a plain I2C message when the adapter
@@ -215,30 +325,46 @@ static bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 add
 	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
 }
 
-/* Every device's safe state (at load). Under ct_lock. Returns how many. */
-static u32 ct_drive_safe_states(struct ct_policy *p)
+/* Device d's declared safe state, written and recorded (best effort: the
+ * record may be lost, then counted in the gap). Under ct_lock. True if written. */
+static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
+{
+	struct contego_kmod_record r;
+	struct ct_node *node;
+	struct i2c_adapter *adap;
+	bool done = false;
+
+	if (!contego_safe_state(p->checker, d, &ct_safe_verdict))
+		return false;
+	node = ct_node_for_bus(ct_safe_verdict.bus);
+	adap = node ? i2c_get_adapter(node->nr) : NULL;
+	if (adap) {
+		done = ct_perform_emits(adap, &ct_safe_verdict, 0) == 0;
+		i2c_put_adapter(adap);
+	}
+	if (!done)
+		pr_warn("contego: safe state of device %u failed\n", d);
+	ct_record_start(&r, CONTEGO_KMOD_REC_SAFE_STATE, why != CONTEGO_KMOD_SAFE_UNLOAD &&
+							    why != CONTEGO_KMOD_SAFE_LOAD);
+	r.device = d;
+	r.bus = ct_safe_verdict.bus;
+	r.addr = ct_safe_verdict.addr;
+	r.why = why | (done ? 0 : CONTEGO_KMOD_SAFE_FAILED);
+	r.substitute_len = ct_safe_verdict.emit_bytes_used;
+	memcpy(r.substitute, ct_safe_verdict.emit_bytes,
+	       min_t(u32, ct_safe_verdict.emit_bytes_used, CONTEGO_KMOD_REC_BYTES));
+	ct_push(&r);
+	return done;
+}
+
+/* Every device's safe state. Under ct_lock. Returns how many were written. */
+static u32 ct_drive_safe_states(struct ct_policy *p, u8 why)
 {
 	u32 n = 0;
 	u16 d;
 
-	for (d = 0; d < 32; d++) {
-		struct ct_node *node;
-		struct i2c_adapter *adap;
-
-		if (!contego_safe_state(p->checker, d, &ct_safe_verdict))
-			continue;
-		node = ct_node_for_bus(ct_safe_verdict.bus);
-		if (!node)
-			continue;
-		adap = i2c_get_adapter(node->nr);
-		if (!adap)
-			continue;
-		if (ct_perform_emits(adap, &ct_safe_verdict, 0) == 0)
-			n++;
-		else
-			pr_warn("contego: safe state of device %u failed\n", d);
-		i2c_put_adapter(adap);
-	}
+	for (d = 0; d < 32; d++)
+		n += ct_drive_safe_state(p, d, why);
 	return n;
 }
 
@@ -247,6 +373,28 @@ static u32 ct_drive_safe_states(struct ct_policy *p)
 /* Checks transactions ct_txs[0..n) as one transfer. Under ct_lock. Returns
  * the core's transfer action (CT_* below) and the deciding verdict's index. */
 enum { CT_PERFORM = 0, CT_REFUSE = 1, CT_IGNORE = 2, CT_SUBSTITUTE = 3, CT_SAFE_STATE = 4 };
+
+/* A record of the call could not be taken: nothing of it acts, it fails
+ * with EIO, and the devices go to their safe state -- once per run of lost
+ * records, since nothing acts until records are taken again. Under ct_lock. */
+static bool ct_failing_closed; /* under ct_lock: the safe state was driven for the lost run */
+
+static u8 ct_fail_unrecorded(struct ct_policy *p, u32 *decider)
+{
+	contego_abort_transfer(p->checker, CONTEGO_REJECT);
+	ct_stats.audit_refused++;
+	ct_stats.refused++;
+	ct_verdicts[0].decision = CONTEGO_REJECT;
+	ct_verdicts[0].reply_errno = EIO;
+	*decider = 0;
+	if (!ct_failing_closed) {
+		ct_failing_closed = true;
+		pr_warn_ratelimited("contego: an audit record could not be taken (%s): failing closed, devices to their safe state\n",
+				    ct_reader ? "the ring is full" : "no audit reader");
+		ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_UNRECORDED);
+	}
+	return CT_REFUSE;
+}
 
 static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 {
@@ -284,9 +432,12 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		v->decision = CONTEGO_REJECT; /* fail closed if the core leaves it */
 		v->reply_errno = EPERM;
 		v->emit_count = 0;
+		ct_audit_lost = false;
 		contego_check(p->checker, &tx, v);
 		ct_stats.checks++;
 		checked = i + 1;
+		if (ct_audit_lost)
+			return ct_fail_unrecorded(p, decider);
 		if (trace)
 			pr_info("contego: task %u job %u bus %u addr 0x%02x kind %u len %u: %s (%s) emits %u\n",
 				task, job, tx.bus, tx.addr, tx.kind, tx.len,
@@ -295,6 +446,7 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		if (v->decision == CONTEGO_REJECT)
 			break;
 	}
+	ct_failing_closed = false; /* every record of this call was taken */
 	action = contego_combine_transfer(ct_verdicts, checked, decider);
 	if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
 		contego_commit_transfer(p->checker);
@@ -321,21 +473,9 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 	if (action == CT_SAFE_STATE) {
 		/* Several messages, one fail-safe: the device's declared safe state
 		 * instead of any of them (as the monitor's drive_transfer_safe_states). */
-		for (i = 0; i < checked; i++) {
-			struct ct_node *node;
-			struct i2c_adapter *adap;
-
-			if (ct_verdicts[i].decision != CONTEGO_FAILSAFE)
-				continue;
-			if (!contego_safe_state(p->checker, ct_verdicts[i].device, &ct_safe_verdict))
-				continue;
-			node = ct_node_for_bus(ct_safe_verdict.bus);
-			adap = node ? i2c_get_adapter(node->nr) : NULL;
-			if (!adap)
-				continue;
-			ct_perform_emits(adap, &ct_safe_verdict, 0);
-			i2c_put_adapter(adap);
-		}
+		for (i = 0; i < checked; i++)
+			if (ct_verdicts[i].decision == CONTEGO_FAILSAFE)
+				ct_drive_safe_state(p, ct_verdicts[i].device, CONTEGO_KMOD_SAFE_TRANSFER);
 	}
 	return action;
 }
@@ -822,20 +962,34 @@ static long ct_load(unsigned long arg)
 	req.section = r.section;
 	req.index = r.index;
 	if (r.status != 0) {
+		struct contego_kmod_record rec;
+
 		mutex_lock(&ct_lock);
 		ct_stats.refused_loads++;
+		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD_REFUSED, true);
+		rec.reason = r.status;
+		rec.count = req.size;
+		ct_push(&rec);
 		mutex_unlock(&ct_lock);
 		pr_warn("contego: image refused by the verifier: %s (section %u, index %u); the previous policy stays\n",
 			contego_load_status_name(r.status), r.section, r.index);
 		ret = -EINVAL;
 		goto fail;
 	}
+	contego_set_host(p->checker, &ct_host);
 	mutex_lock(&ct_lock);
 	old = ct_policy;
 	ct_policy = p;
 	ct_stats.loads++;
 	ct_stats.loaded = 1;
-	req.devices = ct_drive_safe_states(p);
+	{
+		struct contego_kmod_record rec;
+
+		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
+		rec.count = req.size;
+		ct_push(&rec);
+	}
+	req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
 	mutex_unlock(&ct_lock);
 	ct_policy_free(old);
 	pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state)\n",
@@ -861,7 +1015,10 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		return ct_load(arg);
 	case CONTEGO_KMOD_STATS:
 		mutex_lock(&ct_lock);
+		spin_lock_irq(&ct_ring_lock);
 		s = ct_stats;
+		s.reader = ct_reader;
+		spin_unlock_irq(&ct_ring_lock);
 		mutex_unlock(&ct_lock);
 		return copy_to_user((void __user *)arg, &s, sizeof(s)) ? -EFAULT : 0;
 	default:
@@ -878,6 +1035,132 @@ static struct miscdevice ct_ctl = {
 	.minor = MISC_DYNAMIC_MINOR,
 	.name = "contego",
 	.fops = &ct_ctl_fops,
+	.mode = 0600,
+};
+
+/* ---- /dev/contego-audit: the reader's end of the ring --------------------- */
+
+struct ct_reader_file {
+	u64 next; /* the next seq this reader is handed */
+};
+
+static int ct_audit_open(struct inode *inode, struct file *file)
+{
+	struct ct_reader_file *rf;
+
+	if (!capable(CAP_SYS_ADMIN))
+		return -EPERM;
+	rf = kzalloc(sizeof(*rf), GFP_KERNEL);
+	if (!rf)
+		return -ENOMEM;
+	spin_lock_irq(&ct_ring_lock);
+	if (ct_reader) {
+		spin_unlock_irq(&ct_ring_lock);
+		kfree(rf);
+		return -EBUSY;
+	}
+	ct_reader = true;
+	rf->next = ct_acked + 1; /* what no reader acknowledged is handed again */
+	spin_unlock_irq(&ct_ring_lock);
+	file->private_data = rf;
+	return 0;
+}
+
+static int ct_audit_release(struct inode *inode, struct file *file)
+{
+	spin_lock_irq(&ct_ring_lock);
+	ct_reader = false;
+	spin_unlock_irq(&ct_ring_lock);
+	kfree(file->private_data);
+	return 0;
+}
+
+static bool ct_audit_ready(struct ct_reader_file *rf)
+{
+	bool ready;
+
+	spin_lock_irq(&ct_ring_lock);
+	ready = rf->next <= ct_head;
+	spin_unlock_irq(&ct_ring_lock);
+	return ready;
+}
+
+#define CT_READ_BATCH 128
+
+static ssize_t ct_audit_read(struct file *file, char __user *buf, size_t count, loff_t *off)
+{
+	struct ct_reader_file *rf = file->private_data;
+	struct contego_kmod_record *batch;
+	u32 n = 0, want = min_t(size_t, count / sizeof(*batch), CT_READ_BATCH);
+	int ret;
+
+	if (want == 0)
+		return -EINVAL;
+	if (!ct_audit_ready(rf)) {
+		if (file->f_flags & O_NONBLOCK)
+			return -EAGAIN;
+		ret = wait_event_interruptible(ct_ring_wait, ct_audit_ready(rf));
+		if (ret)
+			return ret;
+	}
+	batch = kmalloc_array(want, sizeof(*batch), GFP_KERNEL);
+	if (!batch)
+		return -ENOMEM;
+	spin_lock_irq(&ct_ring_lock);
+	while (n < want && rf->next + n <= ct_head) {
+		batch[n] = ct_ring[(rf->next + n - 1) % ct_ring_cap];
+		n++;
+	}
+	spin_unlock_irq(&ct_ring_lock);
+	if (copy_to_user(buf, batch, n * sizeof(*batch))) {
+		kfree(batch);
+		return -EFAULT;
+	}
+	kfree(batch);
+	rf->next += n;
+	return n * sizeof(*batch);
+}
+
+static __poll_t ct_audit_poll(struct file *file, poll_table *wait)
+{
+	poll_wait(file, &ct_ring_wait, wait);
+	return ct_audit_ready(file->private_data) ? EPOLLIN | EPOLLRDNORM : 0;
+}
+
+static long ct_audit_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
+{
+	struct ct_reader_file *rf = file->private_data;
+	u64 seq;
+
+	if (cmd != CONTEGO_KMOD_AUDIT_ACK)
+		return -ENOTTY;
+	if (copy_from_user(&seq, (void __user *)arg, sizeof(seq)))
+		return -EFAULT;
+	spin_lock_irq(&ct_ring_lock);
+	if (seq >= rf->next) { /* not handed to this reader yet */
+		spin_unlock_irq(&ct_ring_lock);
+		return -EINVAL;
+	}
+	if (seq > ct_acked)
+		ct_acked = seq;
+	spin_unlock_irq(&ct_ring_lock);
+	return 0;
+}
+
+static const struct file_operations ct_audit_fops = {
+	.owner = THIS_MODULE,
+	.open = ct_audit_open,
+	.release = ct_audit_release,
+	.read = ct_audit_read,
+	.poll = ct_audit_poll,
+	.unlocked_ioctl = ct_audit_ioctl,
+	.llseek = no_llseek,
+};
+
+static struct miscdevice ct_audit_dev = {
+	.minor = MISC_DYNAMIC_MINOR,
+	.name = "contego-audit",
+	.fops = &ct_audit_fops,
 	.mode = 0600,
 };
 
@@ -906,9 +1189,20 @@ static int __init ct_init(void)
 		adapters[0] = 0;
 		n_adapters = 1;
 	}
+	/* The record layout `contego kmod audit` reads (kmod_audit.cc asserts it too). */
+	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
+	if (audit_records < 64 || audit_records > (1u << 20)) {
+		pr_err("contego: audit_records=%u: give 64 .. 1048576\n", audit_records);
+		return -EINVAL;
+	}
+	ct_ring_cap = audit_records;
+	ct_ring = vmalloc_array(ct_ring_cap, sizeof(*ct_ring));
+	if (!ct_ring)
+		return -ENOMEM;
 	ct_class = class_create(THIS_MODULE, "i2c-dev");
 	if (IS_ERR(ct_class)) {
 		pr_err("contego: cannot create class i2c-dev (is i2c-dev loaded? contego.ko replaces it)\n");
+		vfree(ct_ring);
 		return PTR_ERR(ct_class);
 	}
 	for (i = 0; i < n_adapters; i++) {
@@ -954,20 +1248,35 @@ static int __init ct_init(void)
 	ret = misc_register(&ct_ctl);
 	if (ret)
 		goto fail;
+	ret = misc_register(&ct_audit_dev);
+	if (ret) {
+		misc_deregister(&ct_ctl);
+		goto fail;
+	}
 	return 0;
 fail:
 	ct_remove_nodes();
 	class_destroy(ct_class);
+	vfree(ct_ring);
 	return ret;
 }
 
 static void __exit ct_exit(void)
 {
+	misc_deregister(&ct_audit_dev);
 	misc_deregister(&ct_ctl);
+	/* No node is open (each open holds the module): the actuators go to
+	 * their safe state before the checker and the nodes go away. */
+	mutex_lock(&ct_lock);
+	if (ct_policy)
+		pr_info("contego: unloading: %u devices driven to their safe state\n",
+			ct_drive_safe_states(ct_policy, CONTEGO_KMOD_SAFE_UNLOAD));
+	mutex_unlock(&ct_lock);
 	ct_remove_nodes();
 	class_destroy(ct_class);
 	ct_policy_free(ct_policy);
 	ct_policy = NULL;
+	vfree(ct_ring);
 }
 
 module_init(ct_init);

@@ -5,7 +5,8 @@
 // old one. Bindings: from --bind, and from each task's `user` in the policy
 // (a process whose effective uid is that user's acts as the task); a process
 // no binding names is no task and gets the policy's default (deny).
-// `contego kmod stats` prints the module's counters.
+// `contego kmod stats` prints the module's counters; `contego kmod audit`
+// writes the module's audit ring to the audit log (kmod_audit.cc).
 #include <fcntl.h>
 #include <pwd.h>
 #include <unistd.h>
@@ -18,7 +19,9 @@
 #include <sys/ioctl.h>
 
 #include "base/read_file.h"
+#include "cli/audit_args.h"
 #include "cli/command.h"
+#include "cli/kmod_audit.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
 
@@ -138,8 +141,9 @@ int stats(const std::string& device) {
   }
   fmt::print(
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
-      "failsafe={}\n",
-      s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe);
+      "failsafe={} reader={} records={} unrecorded={} audit_refused={}\n",
+      s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
+      s.reader, s.records, s.unrecorded, s.audit_refused);
   return 0;
 }
 
@@ -169,6 +173,18 @@ void register_kmod(CLI::App& app) {
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", args->device, "the module's control device")->capture_default_str();
   st->callback([args] { set_exit_code(stats(args->device)); });
+  auto audit = std::make_shared<KmodAuditOptions>();
+  auto* au = cmd->add_subcommand(
+      "audit",
+      "Write contego.ko's audit ring to the audit log (the module fails calls closed "
+      "while no reader runs)");
+  au->add_option("--policy", audit->policy, "the policy loaded into the module (names)")
+      ->required();
+  au->add_option("--audit", audit->audit, "audit log file (- = standard error)")->required();
+  au->add_option("--device", audit->device, "the module's audit device")->capture_default_str();
+  au->add_flag("--quiet", audit->quiet, "no start and stop lines on standard error");
+  add_audit_options(au, &audit->audit_options);
+  au->callback([audit] { set_exit_code(kmod_audit(*audit)); });
 }
 
 }  // namespace contego::cli

@@ -1,8 +1,11 @@
 # contego.ko in place of i2c-dev (docs/kernel-client.md): unmodified clients
 # open /dev/i2c-0 themselves -- no `contego run`, no preload, no monitor --
 # and the module checks each call with the core against policies/arm.policy
-# (its bus 1 is adapter 0 here: buses=1). What reached the chips is read back
-# at the end through the plain i2c-dev, after contego.ko is unloaded.
+# (its bus 1 is adapter 0 here: buses=1). Every decision goes through the
+# module's audit ring to `contego kmod audit` and the hash-chained log; with
+# no reader, or the ring full, calls fail closed. What reached the chips is
+# read back at the end through the plain i2c-dev, after contego.ko is unloaded
+# (which drives the safe state).
 . /vm/lib.sh
 KO=/lib/modules/contego.ko
 if [ ! -f $KO ]; then
@@ -37,8 +40,9 @@ if [ $RC != 0 ]; then
   finish
 fi
 ok "contego.ko loads in place of i2c-dev"
-wait_for /dev/i2c-0 10 && wait_for /dev/contego 10 &&
-  ok "/dev/i2c-0 and /dev/contego exist" || bad "no /dev/i2c-0 or /dev/contego"
+wait_for /dev/i2c-0 10 && wait_for /dev/contego 10 && wait_for /dev/contego-audit 10 &&
+  ok "/dev/i2c-0, /dev/contego and /dev/contego-audit exist" ||
+  bad "no /dev/i2c-0, /dev/contego or /dev/contego-audit"
 dmesg | grep -q "contego: /dev/i2c-0 checked as the policy's bus 1" &&
   ok "the kernel log names adapter 0 as the policy's bus 1" || bad "no contego line in the kernel log"
 # The node is open to every user: the module, not the file mode, decides.
@@ -52,6 +56,34 @@ run_logged nopolicy as_task i2cset -y 0 $A 0x01 0x04
 run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego
 [ $RC = 0 ] && grep -q "loaded" "$OUT" && ok "contego kmod load: arm.policy verified and in force" ||
   bad "contego kmod load (exit $RC)"
+
+# No audit reader yet: an allowed command fails closed (EIO) and does not land
+# (the i2cget below still reads the old PRE_SCALE).
+run_logged noreader as_task i2cset -y 0 $A 0xfe 101
+[ $RC != 0 ] && ok "no audit reader: arm_init's allowed i2cset fails closed (exit $RC)" ||
+  bad "no audit reader: i2cset succeeded"
+run_logged stats0 contego kmod stats
+grep -q "reader=0 .*audit_refused=1" "$OUT" && ok "module counters: reader=0, one call refused unrecorded" ||
+  bad "module counters without a reader"
+
+AUDIT_LOG=$LOGDIR/kmod-audit.jsonl
+READER_PID=
+start_reader() {
+  contego kmod audit --policy $POLICIES/arm.policy --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
+  READER_PID=$!
+  i=0
+  until contego kmod stats 2>/dev/null | grep -q "reader=1"; do
+    i=$((i + 1))
+    [ $i -gt 100 ] && { bad "contego kmod audit did not attach"; show "$LOGDIR/reader.log"; return 1; }
+    usleep 100000
+  done
+}
+stop_reader() {
+  [ -n "$READER_PID" ] || return 0
+  kill -TERM $READER_PID; wait $READER_PID; rc=$?; READER_PID=
+  return $rc
+}
+start_reader && ok "contego kmod audit attached to the ring"
 
 run_logged get as_task i2cget -y 0 $A 0xfe
 [ "$(cat "$OUT")" = 0x79 ] && ok "arm_init: i2cget reads PRE_SCALE 0x79 through contego.ko" ||
@@ -104,6 +136,23 @@ grep -q "pulse sent" "$OUT" && grep -q "prescale written" "$OUT" &&
 echo 0 >/sys/module/contego/parameters/trace
 dmesg | grep 'contego: task' >"$LOGDIR/grip-trace"
 
+# The gripper's pulse, read back through contego.ko (arm_init may read the
+# arm): the reader's crash below drives the safe state, LED5 off = 420.
+lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d)
+[ $(( (hi << 8) | lo )) = 577 ] && ok "the gripper's LED5 off = 420, then 577 next job, landed" ||
+  bad "LED5 off reads $lo $hi, expected 577"
+
+# The reader dies (SIGKILL): calls fail closed until a new one attaches, and
+# the new reader is handed what the old one had not acknowledged.
+kill -KILL $READER_PID; wait $READER_PID 2>/dev/null; READER_PID=
+run_logged crashed as_task i2cset -y 0 $A 0xfd 0
+[ $RC != 0 ] && ok "audit reader killed: the next call fails closed (exit $RC)" ||
+  bad "audit reader killed: i2cset succeeded"
+start_reader && ok "a new audit reader attaches after the crash"
+run_logged resumed as_task i2cset -y 0 $A 0xfd 0
+[ $RC = 0 ] && ok "with the new reader, arm_init's allowed i2cset works again" ||
+  bad "after the new reader: exit $RC"
+
 # A bad image is refused by the module's verifier; the policy in force stays.
 head -c 600 $POLICIES/arm.policy >/tmp/bad.img
 run_logged badimg contego kmod load --unverified-image /tmp/bad.img
@@ -113,7 +162,8 @@ run_logged after as_task i2cget -y 0 $A 0x01
 [ "$(cat "$OUT")" = 0x04 ] && ok "after the refused image, arm.policy still serves arm_init" ||
   bad "after the refused image: i2cget read '$(cat "$OUT")'"
 run_logged stats contego kmod stats
-grep -q "loaded=1 loads=1 refused_loads=1" "$OUT" && ok "module counters: one load, one refused" ||
+grep -q "loaded=1 loads=1 refused_loads=1 .*reader=1" "$OUT" &&
+  ok "module counters: one load, one refused, a reader attached" ||
   bad "module counters"
 # An unmodified C program (the bench client, SMBus byte-data writes) as root: refused.
 run_logged loop i2c-write-loop 0 $A 0x01 0x00 5
@@ -151,13 +201,58 @@ else
   bad "bench rows did not complete: plain '$plain', contego.ko '$kmod'"
 fi
 
+# LED5 to 577 again, so that the unload's safe state shows on the chip. The
+# GRIP sequence goes on from the last command checked (577): 420, then 577.
+run_logged led420 as_task i2cset -y 0 $A 0x1a 0 0 0xa4 0x01 i
+run_logged led577 as_task i2cset -y 0 $A 0x1a 0 0 0x41 0x02 i
+lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d)
+[ $(( (hi << 8) | lo )) = 577 ] && ok "arm_init: LED5 off = 577 before the unload" ||
+  bad "LED5 off reads $lo $hi before the unload, expected 577"
+
+# The log: one chain, every decision and event of the module in it.
+stop_reader && ok "contego kmod audit stops on SIGTERM (exit 0)" || bad "contego kmod audit exit $rc"
+show "$LOGDIR/reader.log"
+run_logged verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "contego audit verifies the module's log" || bad "contego audit exit $RC"
+for what in '"kind":"audit-gap"' '"kind":"policy-load-refused"' \
+    '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"'; do
+  grep -q "$what" $AUDIT_LOG && ok "the module's log has $what" || bad "the module's log lacks $what"
+done
+kbench_lines=$(grep -c '"task_name":"arm_init"' $AUDIT_LOG)
+[ "$kbench_lines" -ge "$N" ] && ok "every one of the bench's $N commands has its record ($kbench_lines arm_init lines)" ||
+  bad "only $kbench_lines arm_init records for $N bench commands"
+
 # What reached the chips, through the plain i2c-dev.
 rmmod contego && ok "contego.ko unloads" || bad "rmmod contego"
+dmesg | grep -q "contego: unloading: 1 devices driven to their safe state" &&
+  ok "the unload drove the arm's safe state" || bad "no safe state at unload in the kernel log"
 back_to_i2c_dev
 expect_reg $A 0xfe 101 "PRE_SCALE=101 landed; PRE_SCALE=3 (arm_init, gripper) did not"
 expect_reg $A 0x01 0x04 "MODE2=0x04 landed; root's MODE2=0 did not"
 expect_reg 0x48 0x01 0x22 "nothing reached chip 0x48"
 expect_reg $A 0x00 0x21 "MODE1=0x21 landed"
-expect_word $A 0x1c 577 "the gripper's LED5 off = 420, then 577 next job, landed"
+expect_word $A 0x1c 420 "after the unload: the safe state, LED5 off = 420"
+
+# A full ring fails closed too: a small ring (audit_records=64) and a reader
+# that stops reading (SIGSTOP). Reloaded, the module starts with no policy.
+rmmod i2c_dev
+run_logged insmod2 insmod $KO adapters=0 buses=1 audit_records=64
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader
+run_logged load2 contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego
+kill -STOP $READER_PID
+run_logged full as_task i2c-write-loop 0 $A 0xfd 0 200
+errors=$(sed -n 's/.*errors=\([0-9]*\).*/\1/p' "$OUT")
+[ -n "$errors" ] && [ "$errors" -gt 100 ] && [ "$errors" -lt 200 ] &&
+  ok "reader stopped, ring of 64: the first writes pass, the other $errors of 200 fail closed" ||
+  bad "ring full: errors=$errors of 200"
+kill -CONT $READER_PID
+run_logged after_full as_task i2cset -y 0 $A 0xfd 0
+[ $RC = 0 ] && ok "the reader drains the ring: calls work again" || bad "after the drain: exit $RC"
+stop_reader
+run_logged verify2 contego audit $AUDIT_LOG
+[ $RC = 0 ] && grep -q '"kind":"audit-gap"' $AUDIT_LOG &&
+  ok "the log still verifies, the lost records are an audit-gap record" || bad "log after the full ring"
+back_to_i2c_dev
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish

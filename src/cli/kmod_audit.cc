@@ -1,0 +1,211 @@
+// `contego kmod audit --policy FILE --audit LOG`: the reader of contego.ko's
+// audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"). Each record
+// the module took becomes a line of the hash-chained audit log (the same
+// writer and format as `contego monitor`, names from the policy); records are
+// acknowledged to the module only once their lines are in the log, so a
+// reader that dies or cannot write loses nothing: the module keeps them for
+// the next reader, and while no reader takes records it fails every call
+// closed. SIGINT/SIGTERM: stop after what has been read; SIGHUP: reopen (or
+// rotate) the log, as the monitor does.
+#include "cli/kmod_audit.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstddef>
+#include <cstring>
+#include <fmt/core.h>
+#include <sys/ioctl.h>
+#include <sys/signalfd.h>
+
+#include "base/unique_fd.h"
+#include "cli/trusted_setup.h"
+#include "contego_kmod.h"
+
+namespace contego::cli {
+namespace {
+
+// The layout contego.ko writes (its BUILD_BUG_ON says the same).
+static_assert(sizeof(contego_kmod_record) == 136);
+static_assert(offsetof(contego_kmod_record, fields) == 56);
+
+const char* safe_why(uint8_t why) {
+  switch (why & ~CONTEGO_KMOD_SAFE_FAILED) {
+    case CONTEGO_KMOD_SAFE_LOAD:
+      return "policy loaded";
+    case CONTEGO_KMOD_SAFE_UNRECORDED:
+      return "an audit record could not be taken: failing closed";
+    case CONTEGO_KMOD_SAFE_TRANSFER:
+      return "fail-safe inside a transfer of several messages";
+    case CONTEGO_KMOD_SAFE_UNLOAD:
+      return "module unloading";
+    default:
+      return "unknown reason";
+  }
+}
+
+std::string hex(const uint8_t* bytes, uint32_t len) {
+  std::string s;
+  for (uint32_t i = 0; i < len; ++i) s += fmt::format("{}{:02x}", i ? " " : "", bytes[i]);
+  return s;
+}
+
+std::string caller(const contego_kmod_record& r) {
+  return r.pid == 0 ? std::string("module") : fmt::format("pid {} uid {}", r.pid, r.uid);
+}
+
+}  // namespace
+
+bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
+                       const contego_kmod_record& r) {
+  constexpr uint32_t kKept = CONTEGO_KMOD_REC_BYTES;
+  switch (r.type) {
+    case CONTEGO_KMOD_REC_DECISION: {
+      core::AuditRecord a{};
+      a.time_us = r.time_us;
+      a.job = r.job;
+      a.task = r.task;
+      a.device = r.device;
+      a.command = r.command;
+      a.rule = r.rule;
+      a.rule_kind = static_cast<core::RuleKind>(r.rule_kind);
+      a.decision = static_cast<core::Decision>(r.decision);
+      a.reason = static_cast<core::Reason>(r.reason);
+      a.index = r.index;
+      a.field_count = std::min<uint8_t>(r.field_count, core::kMaxFieldsPerCommand);
+      std::copy_n(r.fields, a.field_count, a.fields);
+      a.bus = r.bus;
+      a.addr = r.addr;
+      a.original = r.original;
+      a.original_len = static_cast<uint16_t>(std::min<uint32_t>(r.original_len, kKept));
+      if (r.substitute_len != 0) {
+        a.substitute = r.substitute;
+        a.substitute_len = static_cast<uint16_t>(std::min<uint32_t>(r.substitute_len, kKept));
+      }
+      return log.decision(a, names.of(a));
+    }
+    case CONTEGO_KMOD_REC_SAFE_STATE: {
+      const char* device =
+          r.device < names.devices.size() ? names.devices[r.device].c_str() : "(unknown)";
+      return log.event(
+          "safe-state",
+          fmt::format("contego.ko: device {} ({}) at bus {} 0x{:02x}: {} [{}]; {}{}", r.device,
+                      device, r.bus, r.addr, safe_why(r.why),
+                      hex(r.substitute, std::min<uint32_t>(r.substitute_len, kKept)), caller(r),
+                      (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
+    }
+    case CONTEGO_KMOD_REC_LOAD:
+      return log.event("policy-load",
+                       fmt::format("contego.ko: image of {} bytes verified and in force; {}",
+                                   r.count, caller(r)));
+    case CONTEGO_KMOD_REC_LOAD_REFUSED:
+      return log.event("policy-load-refused",
+                       fmt::format("contego.ko: the verifier refused an image of {} bytes "
+                                   "(status {}); the policy in force stays; {}",
+                                   r.count, r.reason, caller(r)));
+    case CONTEGO_KMOD_REC_GAP:
+      return log.event("audit-gap",
+                       fmt::format("contego.ko: {} record(s) could not be taken (no reader or "
+                                   "the ring full); every call among them failed closed",
+                                   r.count));
+    default:
+      return log.event("fault", fmt::format("contego.ko: record {} of unknown type {}", r.seq,
+                                            static_cast<int>(r.type)));
+  }
+}
+
+int kmod_audit(const KmodAuditOptions& o) {
+  // Signals are taken by the signalfd below: blocked before any thread (the
+  // log's grower) starts, so none of them can die of SIGTERM mid-record.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  sigaddset(&set, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  monitor::SetupOptions setup;
+  setup.policy = o.policy;
+  auto loaded = monitor::load_policy(setup);
+  if (!loaded.ok()) {
+    fmt::print(stderr, "contego kmod audit: {}\n", loaded.error());
+    return 2;
+  }
+  const monitor::NameTable names = monitor::name_table(loaded->model);
+  monitor::AuditLog log;
+  if (Status s = log.open(o.audit, o.audit_options); !s.ok()) {
+    fmt::print(stderr, "contego kmod audit: {}\n", s.error());
+    return 2;
+  }
+  base::UniqueFd ring(::open(o.device.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC));
+  if (!ring.valid()) {
+    const int err = errno;
+    fmt::print(stderr, "contego kmod audit: {}: {}{}\n", o.device, std::strerror(err),
+               err == EBUSY    ? " (another reader holds the ring)"
+               : err == ENOENT ? " (is contego.ko loaded?)"
+                               : "");
+    return 2;
+  }
+  base::UniqueFd signals(::signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK));
+  log.event("start",
+            fmt::format("contego kmod audit: reading {} for {}", o.device, loaded->source));
+  if (!o.quiet) fmt::print(stderr, "contego kmod audit: {} -> {}\n", o.device, o.audit);
+
+  // The size of the module's largest read (CT_READ_BATCH); acknowledged once
+  // per batch, after every line of it is in the log.
+  static contego_kmod_record batch[128];
+  uint64_t taken = 0;
+  bool stop = false;
+  while (true) {
+    const ssize_t n = ::read(ring.get(), batch, sizeof(batch));
+    if (n < 0 && errno != EAGAIN && errno != EINTR) {
+      fmt::print(stderr, "contego kmod audit: read {}: {}\n", o.device, std::strerror(errno));
+      return 1;
+    }
+    if (n > 0) {
+      const size_t count = static_cast<size_t>(n) / sizeof(batch[0]);
+      size_t written = 0;
+      while (written < count && write_kmod_record(log, names, batch[written])) ++written;
+      // What is in the log is acknowledged; the rest stays in the module.
+      if (written > 0) {
+        uint64_t seq = batch[written - 1].seq;
+        if (::ioctl(ring.get(), CONTEGO_KMOD_AUDIT_ACK, &seq) != 0) {
+          fmt::print(stderr, "contego kmod audit: acknowledge {}: {}\n", seq, std::strerror(errno));
+          return 1;
+        }
+        taken += written;
+      }
+      if (written < count) {
+        fmt::print(stderr,
+                   "contego kmod audit: record {} could not be written to {}; stopping (the "
+                   "module keeps it and fails calls closed until a reader takes it)\n",
+                   batch[written].seq, o.audit);
+        return 1;
+      }
+      continue;  // drain before waiting
+    }
+    if (stop) break;
+    pollfd fds[2] = {{ring.get(), POLLIN, 0}, {signals.get(), POLLIN, 0}};
+    if (::poll(fds, 2, -1) < 0 && errno != EINTR) {
+      fmt::print(stderr, "contego kmod audit: poll: {}\n", std::strerror(errno));
+      return 1;
+    }
+    signalfd_siginfo si{};
+    while (::read(signals.get(), &si, sizeof(si)) == static_cast<ssize_t>(sizeof(si))) {
+      if (si.ssi_signo == SIGHUP) {
+        auto what = log.reopen();
+        log.event("signal", "SIGHUP: " + (what.ok() ? *what : what.error()));
+      } else {
+        stop = true;  // one more drain of what the ring holds, then out
+      }
+    }
+  }
+  log.event("stop", fmt::format("contego kmod audit: {} record(s) taken", taken));
+  if (!o.quiet) fmt::print(stderr, "contego kmod audit: stopped, {} record(s) taken\n", taken);
+  return 0;
+}
+
+}  // namespace contego::cli

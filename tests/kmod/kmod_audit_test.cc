@@ -1,0 +1,128 @@
+// contego.ko's audit records (kernel/contego_kmod.h) as `contego kmod audit`
+// writes them: every record type becomes one chained line of the audit log,
+// with the policy's names beside the numbers; the bytes kept by the module
+// are what the line shows, never more.
+#include "cli/kmod_audit.h"
+
+#include <unistd.h>
+
+#include <fstream>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "contego/core_c.h"
+
+#include "cli/trusted_setup.h"
+
+namespace contego::cli {
+namespace {
+
+class KmodAudit : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char name[] = "/tmp/contego-kmod-audit-XXXXXX";
+    const int fd = mkstemp(name);
+    ASSERT_GE(fd, 0);
+    close(fd);
+    path_ = name;
+    monitor::SetupOptions o;
+    o.policy = std::string(CONTEGO_POLICIES_DIR) + "/arm.policy";
+    auto loaded = monitor::load_policy(o);
+    ASSERT_TRUE(loaded.ok()) << loaded.error();
+    names_ = monitor::name_table(loaded->model);
+    ASSERT_TRUE(log_.open(path_).ok());
+  }
+  void TearDown() override { unlink(path_.c_str()); }
+
+  std::vector<nlohmann::json> lines() {
+    std::ifstream in(path_);
+    std::vector<nlohmann::json> out;
+    for (std::string line; std::getline(in, line);) {
+      if (!line.empty() && line[0] == '{') out.push_back(nlohmann::json::parse(line));
+    }
+    return out;
+  }
+
+  std::string path_;
+  monitor::NameTable names_;
+  monitor::AuditLog log_;
+};
+
+contego_kmod_record record(uint8_t type) {
+  contego_kmod_record r{};
+  r.type = type;
+  r.seq = 1;
+  r.task = r.device = r.command = r.rule = CONTEGO_NONE;
+  return r;
+}
+
+TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
+  contego_kmod_record r = record(CONTEGO_KMOD_REC_DECISION);
+  r.task = 1;  // gripper
+  r.device = 0;
+  r.command = 0;
+  r.decision = 2;  // failsafe
+  r.job = 7;
+  r.bus = 1;
+  r.addr = 0x40;
+  r.field_count = 2;
+  r.fields[0] = 0;
+  r.fields[1] = 900;
+  r.original_len = 40;  // longer than the module keeps
+  for (uint8_t i = 0; i < CONTEGO_KMOD_REC_BYTES; ++i) r.original[i] = i;
+  r.substitute_len = 5;
+  r.substitute[0] = 0x1a;
+  r.pid = 42;
+  ASSERT_TRUE(write_kmod_record(log_, names_, r));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 1u);
+  EXPECT_EQ(l[0]["kind"], "decision");
+  EXPECT_EQ(l[0]["decision"], "failsafe");
+  EXPECT_EQ(l[0]["task_name"], names_.tasks[1]);
+  EXPECT_EQ(l[0]["device_name"], names_.devices[0]);
+  EXPECT_EQ(l[0]["job"], 7);
+  EXPECT_EQ(l[0]["fields"][1], 900);
+  // Space-separated hex: three characters a byte, less the last space.
+  EXPECT_EQ(l[0]["bytes"].get<std::string>().size(), 3u * CONTEGO_KMOD_REC_BYTES - 1);
+  EXPECT_EQ(l[0]["substitute"], "1a 00 00 00 00");
+}
+
+TEST_F(KmodAudit, EventsNameDeviceCallerAndGap) {
+  contego_kmod_record s = record(CONTEGO_KMOD_REC_SAFE_STATE);
+  s.device = 0;
+  s.bus = 1;
+  s.addr = 0x40;
+  s.why = CONTEGO_KMOD_SAFE_UNRECORDED | CONTEGO_KMOD_SAFE_FAILED;
+  s.pid = 99;
+  s.uid = 1000;
+  contego_kmod_record g = record(CONTEGO_KMOD_REC_GAP);
+  g.count = 12;
+  contego_kmod_record ld = record(CONTEGO_KMOD_REC_LOAD);
+  ld.count = 4096;
+  contego_kmod_record bad = record(CONTEGO_KMOD_REC_LOAD_REFUSED);
+  bad.reason = 3;
+  contego_kmod_record odd = record(200);
+  for (const auto* r : {&s, &g, &ld, &bad, &odd}) ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 5u);
+  const std::string safe = l[0]["detail"];
+  EXPECT_EQ(l[0]["kind"], "safe-state");
+  EXPECT_NE(safe.find(names_.devices[0]), std::string::npos) << safe;
+  EXPECT_NE(safe.find("failing closed"), std::string::npos) << safe;
+  EXPECT_NE(safe.find("pid 99 uid 1000"), std::string::npos) << safe;
+  EXPECT_NE(safe.find("FAILED"), std::string::npos) << safe;
+  EXPECT_EQ(l[1]["kind"], "audit-gap");
+  EXPECT_NE(l[1]["detail"].get<std::string>().find("12 record(s)"), std::string::npos);
+  EXPECT_EQ(l[2]["kind"], "policy-load");
+  EXPECT_EQ(l[3]["kind"], "policy-load-refused");
+  EXPECT_EQ(l[4]["kind"], "fault");
+  // One chain: `contego audit` verifies it.
+  std::ifstream in(path_);
+  const monitor::AuditCheck c = monitor::verify_audit(in);
+  EXPECT_TRUE(c.ok) << c.error;
+}
+
+}  // namespace
+}  // namespace contego::cli
