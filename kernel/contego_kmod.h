@@ -57,19 +57,19 @@ struct contego_kmod_stats {
  * so a reader that dies loses nothing: the next one is handed the records
  * not yet acknowledged. One reader at a time (EBUSY), CAP_SYS_ADMIN. */
 enum contego_kmod_record_type {
-  CONTEGO_KMOD_REC_DECISION = 1,   /* the core's audit record of one command */
-  CONTEGO_KMOD_REC_SAFE_STATE = 2, /* device's safe state driven; `why` */
-  CONTEGO_KMOD_REC_LOAD = 3,       /* an image verified and in force; count = its size */
+  CONTEGO_KMOD_REC_DECISION = 1,     /* the core's audit record of one command */
+  CONTEGO_KMOD_REC_SAFE_STATE = 2,   /* device's safe state driven; `why` */
+  CONTEGO_KMOD_REC_LOAD = 3,         /* an image verified and in force; count = its size */
   CONTEGO_KMOD_REC_LOAD_REFUSED = 4, /* the verifier refused an image; reason = its status */
-  CONTEGO_KMOD_REC_GAP = 5,        /* count = records lost before this one */
+  CONTEGO_KMOD_REC_GAP = 5,          /* count = records lost before this one */
 };
 
 enum contego_kmod_safe_why {
-  CONTEGO_KMOD_SAFE_LOAD = 1,        /* a policy was loaded */
-  CONTEGO_KMOD_SAFE_UNRECORDED = 2,  /* a record could not be taken: failing closed */
-  CONTEGO_KMOD_SAFE_TRANSFER = 3,    /* a fail-safe inside a transfer of several messages */
-  CONTEGO_KMOD_SAFE_UNLOAD = 4,      /* the module is being unloaded */
-  CONTEGO_KMOD_SAFE_FAILED = 0x80,   /* or'ed in: the safe state could not be written */
+  CONTEGO_KMOD_SAFE_LOAD = 1,       /* a policy was loaded */
+  CONTEGO_KMOD_SAFE_UNRECORDED = 2, /* a record could not be taken: failing closed */
+  CONTEGO_KMOD_SAFE_TRANSFER = 3,   /* a fail-safe inside a transfer of several messages */
+  CONTEGO_KMOD_SAFE_UNLOAD = 4,     /* the module is being unloaded */
+  CONTEGO_KMOD_SAFE_FAILED = 0x80,  /* or'ed in: the safe state could not be written */
 };
 
 #define CONTEGO_KMOD_REC_BYTES 24 /* bytes of the command (and substitute) kept */
