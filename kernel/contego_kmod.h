@@ -11,13 +11,27 @@
 #define CONTEGO_KMOD_MAX_IMAGE (4u << 20) /* bytes */
 #define CONTEGO_KMOD_MAX_BINDS 64
 
-/* A process whose effective uid is `uid` acts as task `task` (its id in the
- * image). A process no binding names is no task: the policy's default
- * (deny) applies to it. */
+/* Who acts as task `task` (its id in the image): a process that meets every
+ * fact the binding names -- its effective uid, a group it is in (effective or
+ * supplementary), the executable it runs (device and inode, as stat(2) gives
+ * them), its cgroup (v2 path, that cgroup or one below it) and/or a systemd
+ * unit (a component of that path). The first binding a process meets, in
+ * table order, gives its task; a process no binding names is no task: the
+ * policy's default (deny) applies to it. */
+#define CONTEGO_KMOD_ANY 0xFFFFFFFFu /* uid, gid: not a condition */
+#define CONTEGO_KMOD_BIND_EXE 1u     /* flags: exe_major/minor/ino must match */
+
 struct contego_kmod_bind {
-  __u32 uid;
+  __u32 uid; /* CONTEGO_KMOD_ANY: any */
+  __u32 gid; /* CONTEGO_KMOD_ANY: any */
   __u16 task;
-  __u16 pad;
+  __u16 flags;
+  __u32 exe_major; /* major(st_dev) of the executable */
+  __u32 exe_minor; /* minor(st_dev) */
+  __u32 pad;
+  __u64 exe_ino;
+  char cgroup[128]; /* "": any; NUL-terminated absolute path */
+  char unit[64];    /* "": any; a systemd unit name */
 };
 
 struct contego_kmod_load {

@@ -18,10 +18,14 @@
  * the core answers its default: deny.
  */
 #include <linux/cdev.h>
+#include <linux/cgroup.h>
 #include <linux/compat.h>
 #include <linux/cred.h>
 #include <linux/device.h>
 #include <linux/fs.h>
+#include <linux/file.h>
+#include <linux/sched/mm.h>
+#include <linux/stat.h>
 #include <linux/i2c-dev.h>
 #include <linux/i2c.h>
 #include <linux/init.h>
@@ -31,6 +35,7 @@
 #include <linux/mm.h>
 #include <linux/module.h>
 #include <linux/mutex.h>
+#include <linux/nsproxy.h>
 #include <linux/poll.h>
 #include <linux/sched.h>
 #include <linux/slab.h>
@@ -142,15 +147,106 @@ static u32 ct_job(struct ct_policy *p, u16 task, u64 now)
 	return (u32)div64_u64(now - p->phase_us[task], period) + 1;
 }
 
+/* Scratch for the caller's cgroup path, under ct_lock. */
+static char ct_cgroup_buf[PATH_MAX];
+
+/* The caller's cgroup v2 path into ct_cgroup_buf, as the initial cgroup
+ * namespace sees it (a process cannot move its own root with a namespace of
+ * its own). task_cgroup_path() would give a v1 hierarchy's path. */
+static bool ct_current_cgroup_path(void)
+{
+	struct cgroup *cgrp;
+	int ret;
+
+	rcu_read_lock();
+	cgrp = task_dfl_cgroup(current);
+	cgroup_get(cgrp);
+	rcu_read_unlock();
+	ret = cgroup_path_ns(cgrp, ct_cgroup_buf, sizeof(ct_cgroup_buf),
+			     init_task.nsproxy->cgroup_ns);
+	cgroup_put(cgrp);
+	return ret >= 0 && ret < (int)sizeof(ct_cgroup_buf);
+}
+
+/* Whether `path` is `cg` or below it. */
+static bool ct_cgroup_under(const char *path, const char *cg)
+{
+	size_t n = strlen(cg);
+
+	if (strcmp(cg, "/") == 0)
+		return true;
+	return strncmp(path, cg, n) == 0 && (path[n] == '\0' || path[n] == '/');
+}
+
+/* Whether a component of `path` is `unit`. */
+static bool ct_cgroup_has_unit(const char *path, const char *unit)
+{
+	size_t n = strlen(unit);
+	const char *c = path;
+
+	while ((c = strstr(c, unit)) != NULL) {
+		if ((c == path || c[-1] == '/') && (c[n] == '\0' || c[n] == '/'))
+			return true;
+		c += n;
+	}
+	return false;
+}
+
+/* Whether the caller runs the executable (dev, ino) -- as stat(2) of it says. */
+static bool ct_current_exe_is(const struct contego_kmod_bind *b)
+{
+	struct mm_struct *mm = current->mm;
+	struct file *exe = NULL;
+	struct kstat st;
+	bool same = false;
+
+	/* get_mm_exe_file() is not exported: its RCU read, here (our own mm). */
+	if (!mm)
+		return false;
+	rcu_read_lock();
+	exe = rcu_dereference(mm->exe_file);
+	if (exe && !get_file_rcu(exe))
+		exe = NULL;
+	rcu_read_unlock();
+	if (!exe)
+		return false;
+	if (vfs_getattr(&exe->f_path, &st, STATX_INO, AT_STATX_SYNC_AS_STAT) == 0)
+		same = st.ino == b->exe_ino && MAJOR(st.dev) == b->exe_major &&
+		       MINOR(st.dev) == b->exe_minor;
+	fput(exe);
+	return same;
+}
+
+/* The caller's task: the first binding whose every fact it meets. Under ct_lock. */
 static u16 ct_task_of_current(const struct ct_policy *p)
 {
-	kuid_t euid = current_euid();
-	u32 uid = from_kuid(&init_user_ns, euid);
+	u32 uid = from_kuid(&init_user_ns, current_euid());
+	bool have_cgroup = false, cgroup_known = false;
 	u32 i;
 
-	for (i = 0; i < p->nbinds; i++)
-		if (p->binds[i].uid == uid)
-			return p->binds[i].task;
+	for (i = 0; i < p->nbinds; i++) {
+		const struct contego_kmod_bind *b = &p->binds[i];
+
+		if (b->uid != CONTEGO_KMOD_ANY && b->uid != uid)
+			continue;
+		if (b->gid != CONTEGO_KMOD_ANY && !in_egroup_p(make_kgid(&init_user_ns, b->gid)))
+			continue;
+		if ((b->flags & CONTEGO_KMOD_BIND_EXE) && !ct_current_exe_is(b))
+			continue;
+		if (b->cgroup[0] || b->unit[0]) {
+			if (!have_cgroup) {
+				have_cgroup = true;
+				cgroup_known = ct_current_cgroup_path();
+			}
+			if (!cgroup_known)
+				continue;
+			if (b->cgroup[0] && !ct_cgroup_under(ct_cgroup_buf, b->cgroup))
+				continue;
+			if (b->unit[0] && !ct_cgroup_has_unit(ct_cgroup_buf, b->unit))
+				continue;
+		}
+		return b->task;
+	}
 	return CONTEGO_NONE;
 }
 
@@ -930,6 +1026,7 @@ static long ct_load(unsigned long arg)
 	contego_load_result r;
 	size_t size = contego_checker_size();
 	long ret = 0;
+	u32 i;
 
 	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
 		return -EFAULT;
@@ -950,6 +1047,17 @@ static long ct_load(unsigned long arg)
 		goto fail;
 	}
 	p->nbinds = req.nbinds;
+	for (i = 0; i < p->nbinds; i++) {
+		struct contego_kmod_bind *b = &p->binds[i];
+
+		/* Strings terminated here, whatever the caller sent. */
+		b->cgroup[sizeof(b->cgroup) - 1] = '\0';
+		b->unit[sizeof(b->unit) - 1] = '\0';
+		if ((b->cgroup[0] && b->cgroup[0] != '/') || (b->flags & ~CONTEGO_KMOD_BIND_EXE)) {
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
 	/* kvzalloc is page- or slab-aligned: enough for the checker (checked). */
 	p->checker = contego_checker_init(p->mem, size);
 	if (!p->checker) {

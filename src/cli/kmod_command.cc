@@ -2,9 +2,11 @@
 // image and the task bindings to contego.ko (docs/kernel-client.md) through
 // its control device. The module verifies the image with the core's own
 // verifier before it replaces the policy in force; a refused image leaves the
-// old one. Bindings: from --bind, and from each task's `user` in the policy
-// (a process whose effective uid is that user's acts as the task); a process
-// no binding names is no task and gets the policy's default (deny).
+// old one. Bindings: each task's `user`, `group`, `exe`, `unit` and `cgroup`
+// in the policy (a process that meets all of them acts as the task; the
+// module checks them on every call from kernel facts), then each --bind
+// TASK=USER (every process of that user); a process no binding names is no
+// task and gets the policy's default (deny).
 // `contego kmod stats` prints the module's counters; `contego kmod audit`
 // writes the module's audit ring to the audit log (kmod_audit.cc).
 #include <fcntl.h>
@@ -12,11 +14,13 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fmt/core.h>
 #include <map>
 #include <sys/ioctl.h>
+#include <sys/sysmacros.h>
 
 #include "base/read_file.h"
 #include "cli/audit_args.h"
@@ -24,6 +28,7 @@
 #include "cli/kmod_audit.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
+#include "monitor/peer_identity.h"
 
 namespace contego::cli {
 namespace {
@@ -35,6 +40,27 @@ Result<uint32_t> uid_of(const std::string& user) {
   const passwd* pw = getpwnam(user.c_str());
   if (pw == nullptr) return make_error("no user '" + user + "'");
   return static_cast<uint32_t>(pw->pw_uid);
+}
+
+// One row of the module's binding table (kernel/contego_kmod.h).
+Result<contego_kmod_bind> kmod_binding(uint16_t task, const monitor::TaskBinding& b) {
+  contego_kmod_bind row{};
+  row.task = task;
+  row.uid = b.uid ? static_cast<uint32_t>(*b.uid) : CONTEGO_KMOD_ANY;
+  row.gid = b.gid ? static_cast<uint32_t>(*b.gid) : CONTEGO_KMOD_ANY;
+  if (b.has_exe) {
+    row.flags |= CONTEGO_KMOD_BIND_EXE;
+    row.exe_major = major(b.exe_dev);
+    row.exe_minor = minor(b.exe_dev);
+    row.exe_ino = b.exe_ino;
+  }
+  if (b.cgroup.size() >= sizeof(row.cgroup) || b.unit.size() >= sizeof(row.unit)) {
+    return make_error(fmt::format("cgroup or unit name too long for the module ({} / {} bytes)",
+                                  sizeof(row.cgroup) - 1, sizeof(row.unit) - 1));
+  }
+  std::copy(b.cgroup.begin(), b.cgroup.end(), row.cgroup);
+  std::copy(b.unit.begin(), b.unit.end(), row.unit);
+  return row;
 }
 
 int load(const std::string& device, const std::string& policy, const std::string& raw_image,
@@ -62,34 +88,55 @@ int load(const std::string& device, const std::string& policy, const std::string
     for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
       ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
     }
-    auto add = [&](const std::string& task, const std::string& user) -> Result<uint32_t> {
+    auto task_id = [&](const std::string& task) -> Result<uint16_t> {
       auto it = ids.find(task);
       if (it == ids.end()) return make_error("the policy has no task '" + task + "'");
-      auto uid = uid_of(user);
-      if (!uid.ok()) return make_error(uid.error());
-      for (const auto& b : table) {
-        if (b.uid == *uid) return make_error(fmt::format("uid {} bound twice", *uid));
-      }
-      table.push_back({*uid, it->second, 0});
-      return *uid;
+      return it->second;
     };
+    // The policy's own words first (user, group, exe, unit, cgroup: every
+    // fact named must hold), as the monitor checks them on each hello.
     for (const auto& t : loaded->bindings) {
-      if (t.user.empty()) continue;
-      if (auto r = add(t.name, t.user); !r.ok()) {
-        fmt::print(stderr, "contego kmod: task {}: {}\n", t.name, r.error());
+      auto b =
+          monitor::resolve_binding(t.name, {t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions});
+      if (!b.ok()) {
+        fmt::print(stderr, "contego kmod: {}\n", b.error());
         return 2;
       }
+      if (!b->unresolved.empty()) {
+        fmt::print(stderr, "contego kmod: task {}: {}\n", t.name, b->unresolved);
+        return 2;
+      }
+      if (!b->binds()) continue;
+      auto row = kmod_binding(*task_id(t.name), *b);
+      if (!row.ok()) {
+        fmt::print(stderr, "contego kmod: task {}: {}\n", t.name, row.error());
+        return 2;
+      }
+      table.push_back(*row);
     }
+    // Then --bind TASK=USER: every process of that user.
     for (const std::string& b : binds) {
       const auto eq = b.find('=');
       if (eq == std::string::npos) {
         fmt::print(stderr, "contego kmod: --bind {}: expected TASK=USER\n", b);
         return 2;
       }
-      if (auto r = add(b.substr(0, eq), b.substr(eq + 1)); !r.ok()) {
-        fmt::print(stderr, "contego kmod: --bind {}: {}\n", b, r.error());
+      auto id = task_id(b.substr(0, eq));
+      auto uid = uid_of(b.substr(eq + 1));
+      if (!id.ok() || !uid.ok()) {
+        fmt::print(stderr, "contego kmod: --bind {}: {}\n", b, !id.ok() ? id.error() : uid.error());
         return 2;
       }
+      for (const auto& row : table) {
+        if (row.uid == *uid && row.gid == CONTEGO_KMOD_ANY && row.flags == 0 &&
+            row.cgroup[0] == '\0' && row.unit[0] == '\0') {
+          fmt::print(stderr, "contego kmod: --bind {}: uid {} bound twice\n", b, *uid);
+          return 2;
+        }
+      }
+      monitor::TaskBinding only_uid;
+      only_uid.uid = *uid;
+      table.push_back(*kmod_binding(*id, only_uid));
     }
   }
   if (table.size() > CONTEGO_KMOD_MAX_BINDS) {

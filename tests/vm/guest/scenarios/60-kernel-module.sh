@@ -249,6 +249,29 @@ errors=$(sed -n 's/.*errors=\([0-9]*\).*/\1/p' "$OUT")
 kill -CONT $READER_PID
 run_logged after_full as_task i2cset -y 0 $A 0xfd 0
 [ $RC = 0 ] && ok "the reader drains the ring: calls work again" || bad "after the drain: exit $RC"
+
+# Identity from kernel facts, as the policy declares it: arm_init is
+# i2cset (exe) in the cgroup /robot or below; the gripper stays bound to
+# uid 990 by --bind. The module checks the facts on every call.
+mkdir -p /sys/fs/cgroup && { mountpoint -q /sys/fs/cgroup || mount -t cgroup2 none /sys/fs/cgroup; }
+mkdir -p /sys/fs/cgroup/robot/arm
+awk '{ print } /^task arm_init \{/ { print "  exe \"/usr/sbin/i2cset\"; cgroup \"/robot\"" }' \
+  $POLICIES/arm.policy >/tmp/arm-bound.policy
+run_logged load3 contego kmod load --policy /tmp/arm-bound.policy --bind gripper=contego
+[ $RC = 0 ] && ok "kmod load: arm_init bound by exe and cgroup" || bad "kmod load of the bound policy (exit $RC)"
+in_cgroup() {  # in_cgroup CGROUP COMMAND...: runs COMMAND as the task user inside CGROUP
+  cg=$1; shift
+  sh -c "echo \$\$ >/sys/fs/cgroup$cg/cgroup.procs && exec su task -s /bin/sh -c 'cd /tmp && exec $*'"
+}
+run_logged id_ok in_cgroup /robot/arm /usr/sbin/i2cset -y 0 $A 0xfd 0
+[ $RC = 0 ] && ok "i2cset in /robot/arm acts as arm_init (exe and cgroup met)" || bad "i2cset in /robot/arm: exit $RC"
+run_logged id_cgroup as_task i2cset -y 0 $A 0xfd 0
+[ $RC != 0 ] && ok "the same i2cset outside /robot is no task: refused (exit $RC)" ||
+  bad "i2cset outside the bound cgroup succeeded"
+run_logged id_exe in_cgroup /robot python3 /tmp/kmod_smbus.py
+[ $RC != 0 ] && ok "python3 in /robot (another exe) is no task: refused (exit $RC)" ||
+  bad "python3 with the wrong exe succeeded"
+
 stop_reader
 run_logged verify2 contego audit $AUDIT_LOG
 [ $RC = 0 ] && grep -q '"kind":"audit-gap"' $AUDIT_LOG &&
