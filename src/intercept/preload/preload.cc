@@ -37,6 +37,7 @@
 #include <unordered_map>
 
 #include "gate/socket.h"
+#include "intercept/i2c_abi/bus_name.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 
 namespace {
@@ -176,34 +177,7 @@ gate::SocketClient* connected() {
 // removing "." and ".." (symbolic links are not followed: bypassable anyway).
 int bus_number(const char* path) {
   if (path == nullptr || path[0] != '/') return -1;
-  std::string lexical;
-  const char* p = path;
-  while (*p != 0) {
-    while (*p == '/') ++p;
-    const char* end = p;
-    while (*end != 0 && *end != '/') ++end;
-    const std::string part(p, end);
-    if (part == "..") {
-      const size_t slash = lexical.rfind('/');
-      lexical.erase(slash == std::string::npos ? 0 : slash);
-    } else if (!part.empty() && part != ".") {
-      lexical += "/" + part;
-    }
-    p = end;
-  }
-  std::string rest;
-  if (lexical.rfind("/dev/i2c-", 0) == 0 || lexical.rfind("/dev/i2c/", 0) == 0) {
-    rest = lexical.substr(9);
-  } else {
-    return -1;
-  }
-  if (rest.empty() || rest.size() > 3) return -1;
-  int n = 0;
-  for (char c : rest) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
+  return intercept::bus_number(intercept::lexical_normalise(path));
 }
 
 bool has_mode(int flags) { return (flags & O_CREAT) != 0 || (flags & O_TMPFILE) == O_TMPFILE; }

@@ -153,36 +153,6 @@ int walk(Fd root, Fd start, const std::string& path, pid_t tid, bool nofollow) {
 
 }  // namespace
 
-std::string lexical_normalise(const std::string& path) {
-  std::vector<std::string> parts;
-  for (auto& part : components(path)) {
-    if (part == "..") {
-      if (!parts.empty()) parts.pop_back();
-    } else if (part != ".") {
-      parts.push_back(part);
-    }
-  }
-  std::string out;
-  for (const auto& p : parts) out += "/" + p;
-  return out.empty() ? "/" : out;
-}
-
-int bus_number(const std::string& path) {
-  std::string rest;
-  if (path.rfind("/dev/i2c-", 0) == 0 || path.rfind("/dev/i2c/", 0) == 0) {
-    rest = path.substr(9);
-  } else {
-    return -1;
-  }
-  if (rest.empty() || rest.size() > 3) return -1;
-  int n = 0;
-  for (char c : rest) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
-}
-
 BusPath resolve_bus_path(pid_t tid, int dirfd, const std::string& path, uint64_t resolve,
                          bool nofollow) {
   if (path.empty()) return {};

@@ -26,6 +26,8 @@
 #include <string>
 #include <sys/types.h>
 
+#include "intercept/i2c_abi/bus_name.h"
+
 namespace contego::intercept::seccomp {
 
 struct BusPath {
@@ -41,11 +43,9 @@ inline constexpr unsigned kI2cDevMajor = 89;
 BusPath resolve_bus_path(pid_t tid, int dirfd, const std::string& path, uint64_t resolve,
                          bool nofollow);
 
-// The bus number of /dev/i2c-N or /dev/i2c/N (N in 0..255), else -1: the one
-// parser of bus node names.
-int bus_number(const std::string& path);
-// `path` with `.`, `..` and repeated slashes removed (`..` of / is /).
-std::string lexical_normalise(const std::string& path);
+// The names: intercept/i2c_abi/bus_name.h, the one parser of bus node names.
+using intercept::bus_number;
+using intercept::lexical_normalise;
 
 }  // namespace contego::intercept::seccomp
 
