@@ -44,8 +44,7 @@ int main(int argc, char** argv) {
   size_t space = size;
   aligned = std::align(contego_checker_align(), contego_checker_size(), aligned, space);
   contego_checker* c = contego_checker_init(aligned, contego_checker_size());
-  const contego_load_result r =
-      contego_load(c, image.data(), static_cast<uint32_t>(image.size()));
+  const contego_load_result r = contego_load(c, image.data(), static_cast<uint32_t>(image.size()));
   if (c == nullptr || r.status != 0) {
     std::fprintf(stderr, "check_insns: image refused: %s\n", contego_load_status_name(r.status));
     return 2;
