@@ -86,7 +86,10 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
         a.substitute = r.substitute;
         a.substitute_len = static_cast<uint16_t>(std::min<uint32_t>(r.substitute_len, kKept));
       }
-      return log.decision(a, names.of(a));
+      monitor::RecordNames named = names.of(a);
+      named.pid = r.pid;
+      named.uid = r.uid;
+      return log.decision(a, named);
     }
     case CONTEGO_KMOD_REC_SAFE_STATE: {
       const char* device =

@@ -333,10 +333,10 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   for (uint8_t i = 0; i < nfields; ++i) {
     fmt::format_to(Out(line_), "{}{}", i ? "," : "", r.fields[i]);
   }
-  fmt::format_to(Out(line_),
-                 "],\"index\":{},\"job\":{},\"kind\":\"decision\",\"reason\":{},"
-                 "\"reason_name\":\"{}\",\"rule\":{},\"rule_kind\":{}",
-                 r.index, r.job, static_cast<int>(r.reason), core::reason_name(r.reason), r.rule,
+  fmt::format_to(Out(line_), "],\"index\":{},\"job\":{},\"kind\":\"decision\"", r.index, r.job);
+  if (names.pid >= 0) fmt::format_to(Out(line_), ",\"pid\":{}", names.pid);
+  fmt::format_to(Out(line_), ",\"reason\":{},\"reason_name\":\"{}\",\"rule\":{},\"rule_kind\":{}",
+                 static_cast<int>(r.reason), core::reason_name(r.reason), r.rule,
                  static_cast<int>(r.rule_kind));
   name("rule_name", names.rule);
   if (r.substitute != nullptr) {
@@ -346,6 +346,7 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   }
   fmt::format_to(Out(line_), ",\"t_us\":{},\"task\":{}", t, r.task);
   name("task_name", names.task);
+  if (names.uid >= 0) fmt::format_to(Out(line_), ",\"uid\":{}", names.uid);
   const bool written = commit_locked(line_);
   if (options_.echo_violations && r.decision != core::Decision::kAllow)
     echo_violation_locked(r, names);

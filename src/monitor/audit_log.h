@@ -64,6 +64,10 @@ struct RecordNames {
   const char* device = nullptr;
   const char* command = nullptr;
   const char* rule = nullptr;
+  // The process that asked, when the writer knows it (contego.ko's records
+  // carry it; the monitor binds a connection to a task instead): -1 = not written.
+  int64_t pid = -1;
+  int64_t uid = -1;
 };
 
 // The policy image's names, by id: what a decision record's numbers mean.

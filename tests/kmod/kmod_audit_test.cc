@@ -87,6 +87,8 @@ TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
   // Space-separated hex: three characters a byte, less the last space.
   EXPECT_EQ(l[0]["bytes"].get<std::string>().size(), 3u * CONTEGO_KMOD_REC_BYTES - 1);
   EXPECT_EQ(l[0]["substitute"], "1a 00 00 00 00");
+  EXPECT_EQ(l[0]["pid"], 42);
+  EXPECT_EQ(l[0]["uid"], 0);
 }
 
 TEST_F(KmodAudit, EventsNameDeviceCallerAndGap) {
