@@ -23,6 +23,7 @@
 #include <sys/signalfd.h>
 
 #include "base/unique_fd.h"
+#include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
 
@@ -124,12 +125,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
 int kmod_audit(const KmodAuditOptions& o) {
   // Signals are taken by the signalfd below: blocked before any thread (the
   // log's grower) starts, so none of them can die of SIGTERM mid-record.
-  sigset_t set;
-  sigemptyset(&set);
-  sigaddset(&set, SIGINT);
-  sigaddset(&set, SIGTERM);
-  sigaddset(&set, SIGHUP);
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  StopSignals signals;
   monitor::SetupOptions setup;
   setup.policy = o.policy;
   auto loaded = monitor::load_policy(setup);
@@ -152,7 +148,6 @@ int kmod_audit(const KmodAuditOptions& o) {
                                : "");
     return 2;
   }
-  base::UniqueFd signals(::signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK));
   log.event("start",
             fmt::format("contego kmod audit: reading {} for {}", o.device, loaded->source));
   if (!o.quiet) fmt::print(stderr, "contego kmod audit: {} -> {}\n", o.device, o.audit);
@@ -191,13 +186,13 @@ int kmod_audit(const KmodAuditOptions& o) {
       continue;  // drain before waiting
     }
     if (stop) break;
-    pollfd fds[2] = {{ring.get(), POLLIN, 0}, {signals.get(), POLLIN, 0}};
+    pollfd fds[2] = {{ring.get(), POLLIN, 0}, {signals.fd.get(), POLLIN, 0}};
     if (::poll(fds, 2, -1) < 0 && errno != EINTR) {
       fmt::print(stderr, "contego kmod audit: poll: {}\n", std::strerror(errno));
       return 1;
     }
     signalfd_siginfo si{};
-    while (::read(signals.get(), &si, sizeof(si)) == static_cast<ssize_t>(sizeof(si))) {
+    while (::read(signals.fd.get(), &si, sizeof(si)) == static_cast<ssize_t>(sizeof(si))) {
       if (si.ssi_signo == SIGHUP) {
         auto what = log.reopen();
         log.event("signal", "SIGHUP: " + (what.ok() ? *what : what.error()));

@@ -12,6 +12,7 @@
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/setup_args.h"
+#include "cli/stop_signals.h"
 #include "cli/systemd_notify.h"
 #include "cli/trusted_setup.h"
 #include "monitor/server.h"
@@ -87,12 +88,8 @@ void register_monitor(CLI::App& app) {
     // stop the server (then the safe state is driven and the exit code is
     // 0); SIGHUP reopens (or rotates) the audit log, is audited, and the
     // monitor keeps serving.
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    sigaddset(&set, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    StopSignals stop;
+    const sigset_t& set = stop.set;
     monitor::SetupOptions so;
     so.policy = args->policy;
     so.image = args->image;

@@ -12,6 +12,7 @@
 #include "cli/command.h"
 #include "cli/guardian.h"
 #include "cli/setup_args.h"
+#include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
 #include "cli/user_spec.h"
 #include "gate/socket.h"
@@ -19,32 +20,6 @@
 
 namespace contego::cli {
 namespace {
-
-// SIGINT, SIGTERM and SIGHUP, blocked for the whole process and readable from
-// `fd` (-1 if signalfd failed: then they are only blocked, and still end the
-// program through the supervisor's death (PR_SET_PDEATHSIG) once unblocked).
-struct StopSignals {
-  sigset_t set{}, original{};
-  base::UniqueFd fd;
-  StopSignals() {
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    sigaddset(&set, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &set, &original);
-    fd.reset(signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK));
-  }
-  StopSignals(const StopSignals&) = delete;
-  StopSignals& operator=(const StopSignals&) = delete;
-  // The signal that stopped the program (SIGTERM if it cannot be read).
-  int which() const {
-    signalfd_siginfo info{};
-    if (fd.valid() && read(fd.get(), &info, sizeof info) == static_cast<ssize_t>(sizeof info)) {
-      return static_cast<int>(info.ssi_signo);
-    }
-    return SIGTERM;
-  }
-};
 
 // The monitor connection of `contego run --socket`, made once the program's
 // process exists (its supervisor vouches for it in the hello) and before it
