@@ -268,14 +268,20 @@ static bool ct_audit_lost;
 
 /* Takes one record (seq assigned here), first the gap record if records were
  * lost before it. False: not taken (no reader, the ring full); it is counted
- * in the gap. */
-static bool ct_push(struct contego_kmod_record *r)
+ * in the gap. A record of something that acts nothing (a refused or ignored
+ * command, `acting` false) may use only three quarters of the ring: a flood
+ * of refused calls cannot take the room the records of actions need. */
+static bool ct_push(struct contego_kmod_record *r, bool acting)
 {
 	unsigned long flags;
+	u32 room;
 	bool ok;
 
 	spin_lock_irqsave(&ct_ring_lock, flags);
-	ok = ct_reader && ct_ring_cap - (u32)(ct_head - ct_acked) >= (ct_gap ? 2u : 1u);
+	room = ct_ring_cap - (u32)(ct_head - ct_acked);
+	if (!acting)
+		room = room > ct_ring_cap / 4 ? room - ct_ring_cap / 4 : 0;
+	ok = ct_reader && room >= (ct_gap ? 2u : 1u);
 	if (ok && ct_gap) {
 		struct contego_kmod_record *g = &ct_ring[ct_head % ct_ring_cap];
 
@@ -345,8 +351,12 @@ static void ct_audit(void *context, const contego_audit_record *a)
 	n = min_t(u32, r.substitute_len, CONTEGO_KMOD_REC_BYTES);
 	if (a->substitute && n)
 		memcpy(r.substitute, a->substitute, n);
-	if (!ct_push(&r))
-		ct_audit_lost = true;
+	/* Nothing acts unrecorded: only a command that may act (allowed, or
+	 * replaced by a substitute) fails its call when its record is lost; a
+	 * refused or ignored one is counted in the gap and refused or ignored
+	 * all the same. */
+	if (!ct_push(&r, a->decision == CONTEGO_ALLOW || a->decision == CONTEGO_FAILSAFE))
+		ct_audit_lost |= a->decision == CONTEGO_ALLOW || a->decision == CONTEGO_FAILSAFE;
 }
 
 static const contego_host ct_host = { .context = NULL, .read_sample = NULL, .audit = ct_audit };
@@ -449,7 +459,7 @@ static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
 	r.substitute_len = ct_safe_verdict.emit_bytes_used;
 	memcpy(r.substitute, ct_safe_verdict.emit_bytes,
 	       min_t(u32, ct_safe_verdict.emit_bytes_used, CONTEGO_KMOD_REC_BYTES));
-	ct_push(&r);
+	ct_push(&r, true);
 	return done;
 }
 
@@ -1077,7 +1087,7 @@ static long ct_load(unsigned long arg)
 		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD_REFUSED, true);
 		rec.reason = r.status;
 		rec.count = req.size;
-		ct_push(&rec);
+		ct_push(&rec, false);
 		mutex_unlock(&ct_lock);
 		pr_warn("contego: image refused by the verifier: %s (section %u, index %u); the previous policy stays\n",
 			contego_load_status_name(r.status), r.section, r.index);
@@ -1095,7 +1105,7 @@ static long ct_load(unsigned long arg)
 
 		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
 		rec.count = req.size;
-		ct_push(&rec);
+		ct_push(&rec, true);
 	}
 	req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
 	mutex_unlock(&ct_lock);

@@ -241,6 +241,13 @@ wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
 start_reader
 run_logged load2 contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego
 kill -STOP $READER_PID
+# A flood of refused calls (root is bound to no task) cannot take the room
+# the records of actions need: three quarters of the ring at most.
+run_logged flood i2c-write-loop 0 $A 0xfd 0 100
+run_logged after_flood as_task i2cset -y 0 $A 0xfd 0
+grep -q "errors=100" "$LOGDIR/flood.out" && [ $RC = 0 ] &&
+  ok "100 refused writes from an unbound process leave room: arm_init's write still acts" ||
+  bad "after a flood of refused writes: arm_init's write exit $RC"
 run_logged full as_task i2c-write-loop 0 $A 0xfd 0 200
 errors=$(sed -n 's/.*errors=\([0-9]*\).*/\1/p' "$OUT")
 [ -n "$errors" ] && [ "$errors" -gt 100 ] && [ "$errors" -lt 200 ] &&
