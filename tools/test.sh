@@ -2,7 +2,7 @@
 # The whole test suite: installs dependencies, then builds and tests every
 # mode (debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
 # runs, the amd64 Debian package). Exits non-zero on any failure.
-# Usage: tools/test.sh [--quick]   (--quick: debug build and CTest only)
+# Usage: tools/test.sh [--quick]   (--quick: the debug build and all its tests only)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 quick=0
@@ -18,21 +18,37 @@ if command -v clang-format >/dev/null; then
   git ls-files '*.h' '*.cc' | xargs clang-format --dry-run --Werror
 fi
 
-step "debug build + tests"
+if ((quick)); then
+  step "debug build + tests"
+  cmake --preset dev >/dev/null
+  cmake --build --preset dev
+  ctest --preset dev -E '^vm\.booted_guest$' -LE arm64
+  exit 0
+fi
+
+# Every unit, integration and CLI test runs once, in the sanitizer build: a
+# plain debug run of the same tests would find nothing more and cost a build.
+step "asan+ubsan build + tests"
+cmake --preset asan-ubsan >/dev/null
+cmake --build --preset asan-ubsan
+# Label tree: checks of the source tree, the kernel module build and the
+# aarch64 cross build, whose outcome does not depend on this build's flags
+# (they run once, in the debug stage below).
+ctest --preset asan-ubsan -LE tree
+
+# The debug build: what the sanitizer build cannot run or would only slow
+# down: the real-kernel test bed (its guest runs uninstrumented binaries), the
+# benchmarks' smoke runs (the sanitizer preset has no benchmarks) and the tree
+# checks. Only the targets they use are built.
+step "debug build: test bed, bench smoke runs, tree checks"
 cmake --preset dev >/dev/null
-cmake --build --preset dev
+cmake --build --preset dev --target contego contego_preload contego-bench-task \
+  contego-kernel-floor core_bench sched_bench check_insns vm_i2c_write_loop seccomp_filter_test
 # vm.booted_guest needs the package: it runs after the package stage below.
 # The arm64 test bed (label arm64: `bash tools/bootstrap.sh --cross-arm64`,
 # then `ctest --preset dev -L arm64`, docs/testbed.md) is not yet run here:
 # its cold cross build does not fit the CI time budget.
-ctest --preset dev -E '^vm\.booted_guest$' -LE arm64
-
-((quick)) && exit 0
-
-step "asan+ubsan build + tests"
-cmake --preset asan-ubsan >/dev/null
-cmake --build --preset asan-ubsan
-ctest --preset asan-ubsan
+ctest --preset dev -L 'vm|bench|tree' -E '^vm\.booted_guest$' -LE arm64
 
 step "tsan build + monitor, supervisor and gate tests"
 cmake --preset tsan >/dev/null
@@ -43,7 +59,7 @@ ctest --preset tsan -L 'monitor|supervisor|gate'
 if [[ -f fuzz/CMakeLists.txt ]]; then
   step "fuzz smoke runs (clang, libFuzzer)"
   cmake --preset fuzz >/dev/null
-  cmake --build --preset fuzz
+  cmake --build --preset fuzz --target fuzzers
   bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-10}"
 fi
 
