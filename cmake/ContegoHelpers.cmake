@@ -28,3 +28,23 @@ function(contego_test name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main GTest::gmock)
   gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# contego_cli_script_test(NAME SCRIPT [TIMEOUT SECONDS] [PASS REGEX] ARGS ...):
+# `bash SCRIPT <the contego executable> ARGS...` as the CTest test NAME, label
+# `cli`; it passes when the script prints `ok` on a line of its own (PASS
+# overrides that). Registered only when the `contego` executable and the
+# policy compiler are built.
+function(contego_cli_script_test name script)
+  if(NOT (TARGET contego AND TARGET contego_policy))
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "TIMEOUT;PASS" "ARGS" ${ARGN})
+  if(NOT ARG_PASS)
+    set(ARG_PASS "^ok|\nok")
+  endif()
+  add_test(NAME ${name} COMMAND bash ${script} $<TARGET_FILE:contego> ${ARG_ARGS})
+  set_tests_properties(${name} PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION "${ARG_PASS}")
+  if(ARG_TIMEOUT)
+    set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
+  endif()
+endfunction()
