@@ -37,33 +37,24 @@
 #include "gate/socket.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
+#include "monitor/test_fake_decider.h"
 #include "test_support.h"
 
 namespace contego {
 namespace {
 
-class ScriptedDecider final : public monitor::Decider {
+class ScriptedDecider final : public monitor::testing::FakeDecider {
  public:
   ScriptedDecider() {
-    devices_[0] = {};
-    devices_[0].role = core::kRoleActuator;
-    devices_[0].bus = 1;
-    devices_[0].addr = 0x40;
-    devices_[1] = {};
-    devices_[1].role = core::kRoleActuator;
-    devices_[1].bus = 1;
-    devices_[1].addr = 0x08;
-    devices_[2] = {};
-    devices_[2].role = core::kRoleSensor;
-    devices_[2].bus = 1;
-    devices_[2].addr = 0x06;
+    add_device(core::kRoleActuator, 0x40);
+    add_device(core::kRoleActuator, 0x08);
+    core::DeviceRecord& sensor = add_device(core::kRoleSensor, 0x06);
     const uint8_t req[5] = {0x01, 0x03, 0, 0, 0};
-    devices_[2].sample_request_len = 5;
-    std::memcpy(devices_[2].sample_request, req, 5);
-    devices_[2].sample_len = 10;
-    devices_[2].sample_period_us = 10000;
+    sensor.sample_request_len = 5;
+    std::memcpy(sensor.sample_request, req, 5);
+    sensor.sample_len = 10;
+    sensor.sample_period_us = 10000;
   }
-  void set_host(const core::Host& host) override { host_ = host; }
   void check(const core::Transaction& tx, core::Verdict* v) override {
     *v = core::Verdict{};
     v->bus = tx.bus;
@@ -110,27 +101,12 @@ class ScriptedDecider final : public monitor::Decider {
     }
     return false;
   }
-  uint32_t device_count() const override { return 3; }
-  const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
   uint16_t task_priority(uint16_t task) const override { return task == 0 ? 9 : 0; }
   // Task 0 declares two checked commands per job; others declare none.
   uint32_t task_actuations_per_job(uint16_t task) const override { return task == 0 ? 2 : 0; }
 
-  // The latest sample the monitor handed to the core (via Host::read_sample).
-  std::vector<uint8_t> sample(uint16_t device) {
-    std::vector<uint8_t> buf(64);
-    uint64_t at = 0;
-    buf.resize(host_.read_sample(host_.context, device, buf.data(), 64, &at));
-    return buf;
-  }
-
  private:
-  static void emit(core::Verdict* v, const std::vector<uint8_t>& bytes) {
-    v->emit_len[v->emit_count++] = static_cast<uint16_t>(bytes.size());
-    std::memcpy(v->emit_bytes + v->emit_bytes_used, bytes.data(), bytes.size());
-    v->emit_bytes_used = static_cast<uint16_t>(v->emit_bytes_used + bytes.size());
-  }
   void reject(const core::Transaction& tx, core::Verdict* v) {
     v->decision = core::Decision::kReject;
     v->reason = core::Reason::kAccessDenied;
@@ -149,8 +125,6 @@ class ScriptedDecider final : public monitor::Decider {
     r.original_len = static_cast<uint16_t>(tx.len);
     if (host_.audit != nullptr) host_.audit(host_.context, &r);
   }
-  core::Host host_{};
-  core::DeviceRecord devices_[3];
 };
 
 // The enclave clients every test runs against:
@@ -161,6 +135,8 @@ class ScriptedDecider final : public monitor::Decider {
 //  - kPreload: libcontego_preload.so in the program, monitor behind the
 //    socket, through the channel.
 enum class Client { kInProcess, kSocket, kSocketOnly, kPreload };
+constexpr const char* kClientNames[] = {"seccomp_in_process", "seccomp_channel", "seccomp_socket",
+                                        "preload_socket"};
 
 // Redirects this process's standard output (which a supervised program
 // inherits) into a pipe until finish() hands back what was written.
@@ -979,19 +955,7 @@ TEST(Preload, UnreachableMonitorRefusesTheBusAndLeavesOtherFilesAlone) {
 INSTANTIATE_TEST_SUITE_P(Clients, Supervised,
                          ::testing::Values(Client::kInProcess, Client::kSocket, Client::kSocketOnly,
                                            Client::kPreload),
-                         [](const auto& p) {
-                           switch (p.param) {
-                             case Client::kInProcess:
-                               return "seccomp_in_process";
-                             case Client::kSocket:
-                               return "seccomp_channel";
-                             case Client::kSocketOnly:
-                               return "seccomp_socket";
-                             case Client::kPreload:
-                               return "preload_socket";
-                           }
-                           return "unknown";
-                         });
+                         test_support::enum_param_names(kClientNames));
 
 }  // namespace
 }  // namespace contego
