@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/test_temp.h"
 #include "monitor/audit_log.h"
 
 namespace contego::monitor {
@@ -63,9 +64,7 @@ std::string first_line(const std::string& path) {
 class AuditFaults : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-faults-XXXXXX";
-    ASSERT_NE(mkdtemp(name), nullptr);
-    dir = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-audit-faults", &dir));
     path = dir + "/audit.jsonl";
   }
   void TearDown() override {

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include "base/test_temp.h"
 #include "monitor/audit_explain.h"
 
 namespace contego::monitor {
@@ -20,11 +21,7 @@ namespace {
 class AuditChain : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-chain-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    path = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_file("contego-audit-chain", &path));
   }
   void TearDown() override { unlink(path.c_str()); }
 

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <sstream>
 
+#include "base/test_temp.h"
 #include "bus/virtual_bus.h"
 #include "gate/transfer.h"
 #include "monitor/monitor.h"
@@ -106,11 +107,7 @@ gate::Message rmsg(uint16_t addr, uint16_t len, uint16_t flags = 0) {
 class MonitorSmbus : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-smbus-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    path = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_file("contego-audit-smbus", &path));
     ASSERT_TRUE(audit.open(path).ok());
     bus.set_funcs(bus::kI2cStubFuncs);
     bus.attach(dev);

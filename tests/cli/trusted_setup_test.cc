@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "base/test_temp.h"
 #include "gate/transfer.h"
 
 namespace contego::monitor {
@@ -44,9 +45,7 @@ class FaultyBus final : public bus::Bus {
 class SetupTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char tmpl[] = "/tmp/contego-setup-XXXXXX";
-    ASSERT_NE(mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-setup", &dir_));
     options_.policy = kRover;
     options_.audit = dir_ + "/audit.jsonl";
     gopigo_ = std::make_shared<bus::GoPiGo2>(0x08);
@@ -200,9 +199,8 @@ namespace {
 // vendor library leaves it): the shadow is read back at start (audited), and
 // whole-channel auto-increment writes are decided as the device takes them.
 TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
-  char tmpl[] = "/tmp/contego-setup-XXXXXX";
-  ASSERT_NE(mkdtemp(tmpl), nullptr);
-  const std::string dir = tmpl;
+  std::string dir;
+  ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-setup", &dir));
   SetupOptions o;
   o.policy = std::string(CONTEGO_POLICIES_DIR) + "/boat.policy";
   o.audit = dir + "/audit.jsonl";
