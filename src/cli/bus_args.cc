@@ -75,4 +75,28 @@ void configure_bus_option(CLI::Option* option) {
       "N=PATH"));
 }
 
+void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
+                     std::vector<int>* virtual_buses, std::string* virtual_state,
+                     const std::string& bus_note) {
+  configure_bus_option(cmd->add_option(
+      "--bus", *buses,
+      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
+      "means N=/dev/i2c-N); once per bus" +
+          bus_note));
+  cmd->add_option("--virtual-bus", *virtual_buses,
+                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
+                  "GoPiGo2 0x08, line follower 0x06); once per bus")
+      ->allow_extra_args(false);
+  cmd->add_option("--virtual-state", *virtual_state,
+                  "tests: write the virtual buses' device state to this file at exit")
+      ->group("");
+}
+
+void add_budget_option(CLI::App* cmd, uint32_t* budget_factor) {
+  cmd->add_option("--budget-factor", *budget_factor,
+                  "hold a task's transfers to the end of its period once it has sent more than "
+                  "this many times its declared actuations in one job (0 = never)")
+      ->capture_default_str();
+}
+
 }  // namespace contego::cli
