@@ -23,6 +23,9 @@ using core::Reason;
 // LEDn registers: ON_L ON_H OFF_L OFF_H at 0x06 + 4n.
 constexpr uint8_t led_reg(uint8_t channel) { return static_cast<uint8_t>(0x06 + 4 * channel); }
 
+// (register, value) pairs.
+using Pairs = std::vector<std::pair<uint8_t, uint8_t>>;
+
 class Pca9685Policy : public ::testing::Test {
  protected:
   // Compiles `text` (a policy declaring `device arm : pca9685 at i2c-1 0x40`) and loads it.
@@ -53,10 +56,17 @@ class Pca9685Policy : public ::testing::Test {
     write({static_cast<uint8_t>(r + 2), static_cast<uint8_t>(off & 0xFF)}, job, 0x40, task);
     return write({static_cast<uint8_t>(r + 3), static_cast<uint8_t>(off >> 8)}, job, 0x40, task);
   }
+  // The register writes that replace led(5, on, off=577), a pulse out of the
+  // gripper's sequence (the invariant answers `failsafe expected`).
+  Pairs substituted_for_grip(uint16_t on, uint32_t job) {
+    const core::Verdict v = write_led(5, on, 577, job);
+    EXPECT_EQ(v.decision, Decision::kFailsafe);
+    return pairs(v);
+  }
 
   // The (register, value) pairs a verdict writes.
-  static std::vector<std::pair<uint8_t, uint8_t>> pairs(const core::Verdict& v) {
-    std::vector<std::pair<uint8_t, uint8_t>> p;
+  static Pairs pairs(const core::Verdict& v) {
+    Pairs p;
     uint32_t at = 0;
     for (uint32_t i = 0; i < v.emit_count; ++i) {
       if (v.emit_len[i] == 2) p.emplace_back(v.emit_bytes[at], v.emit_bytes[at + 1]);
@@ -91,8 +101,6 @@ invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off 
 }
 
 // --- per-channel safe states (TemplateRecord::index) -----------------------------
-
-using Pairs = std::vector<std::pair<uint8_t, uint8_t>>;
 
 TEST_F(Pca9685Policy, SafeStateWritesEachNamedChannelWithEveryField) {
   load(R"(
@@ -199,9 +207,8 @@ TEST_F(Pca9685Policy, AllLedWritesReachEveryChannelsShadow) {
   EXPECT_EQ(write({0xFD, 0x00}, 1).decision, Decision::kAllow);
   // Out of sequence (577 where 420 is due): the expected pulse is substituted;
   // its unnamed fields come from the shadow, which now says "not full off".
-  const core::Verdict v = write_led(5, 0, 577, 2);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
+  EXPECT_EQ(substituted_for_grip(0, 2),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
 }
 
 TEST_F(Pca9685Policy, AllLedBroadcastIsUndoneWhenItsTransactionIsRefused) {
@@ -216,9 +223,8 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
   // shadow keeps its power-on OFF_H (0x10) and the substitute says so too.
   write({0xFC, 0xFF}, 1);
   EXPECT_EQ(write({0xFD, 0x0F}, 1).decision, Decision::kIgnore);
-  const core::Verdict v = write_led(5, 0, 577, 2);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
+  EXPECT_EQ(substituted_for_grip(0, 2),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
 }
 
 TEST_F(Pca9685Policy, FailsafeExpectedNeverTakesUnnamedFieldsFromTheRequest) {
@@ -227,9 +233,8 @@ TEST_F(Pca9685Policy, FailsafeExpectedNeverTakesUnnamedFieldsFromTheRequest) {
   // the fields the invariant does not name from the shadow (what the device
   // holds: here its power-on state, full off), never from the request, so the
   // attacker's full-on bit cannot ride along with the expected pulse.
-  const core::Verdict v = write_led(5, 0x1000, 577, 1);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
+  EXPECT_EQ(substituted_for_grip(0x1000, 1),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
 }
 
 TEST_F(Pca9685Policy, FailsafeExpectedAfterTheSafeStateDrivesTheChannel) {
@@ -244,9 +249,8 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
 )"));
   core::Verdict safe{};
   ASSERT_TRUE(checker_->safe_state(0, &safe));
-  const core::Verdict v = write_led(5, 0, 577, 1);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
+  EXPECT_EQ(substituted_for_grip(0, 1),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
 }
 
 // --- the general call -------------------------------------------------------------
