@@ -48,3 +48,15 @@ function(contego_cli_script_test name script)
     set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
   endif()
 endfunction()
+
+# contego_source_check(TEST TOOL PLANTED_TEST PLANTED_SCRIPT LABELS ...): a
+# check of the source tree, `TOOL <source dir>` (a Python script) as the CTest
+# test TEST, and PLANTED_TEST, `bash PLANTED_SCRIPT <source dir>`, which plants
+# violations into a copy of the tree and expects TOOL to name each one.
+function(contego_source_check test tool planted_test planted_script)
+  cmake_parse_arguments(ARG "" "" "LABELS" ${ARGN})
+  find_package(Python3 REQUIRED COMPONENTS Interpreter)
+  add_test(NAME ${test} COMMAND Python3::Interpreter ${tool} ${PROJECT_SOURCE_DIR})
+  add_test(NAME ${planted_test} COMMAND bash ${planted_script} ${PROJECT_SOURCE_DIR})
+  set_tests_properties(${test} ${planted_test} PROPERTIES LABELS "${ARG_LABELS}")
+endfunction()

@@ -61,6 +61,22 @@ class SetupTest : public ::testing::Test {
     s << in.rdbuf();
     return s.str();
   }
+  // Starts on the rover's devices behind a bus that fails at `addr` (its
+  // reads and/or writes, with `err`); returns the refusal ("" if it started).
+  std::string refusal_behind_faulty_bus(uint16_t addr, bool fail_reads, bool fail_writes, int err) {
+    bus::VirtualBus vb;
+    vb.attach(gopigo_);
+    vb.attach(line_);
+    FaultyBus faulty(vb, addr, fail_reads, fail_writes, err);
+    options_.buses = {{1, &faulty}};
+    auto t = setup(options_);
+    EXPECT_FALSE(t.ok());
+    if (t.ok()) {
+      (*t)->monitor->stop_sampling();
+      return "";
+    }
+    return t.error();
+  }
   std::string dir_;
   SetupOptions options_;
   std::shared_ptr<bus::GoPiGo2> gopigo_;
@@ -128,33 +144,23 @@ TEST_F(SetupTest, AllowDegradedStartsAndAuditsIt) {
 }
 
 TEST_F(SetupTest, UnreadableSensorRefusesBeforeAnySafeState) {
-  bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
-  FaultyBus faulty(vb, 0x06, /*fail_reads=*/true, /*fail_writes=*/false, EIO);
-  options_.buses = {{1, &faulty}};
-  auto t = setup(options_);
-  ASSERT_FALSE(t.ok());
-  EXPECT_NE(t.error().find("refusing to start (sensors unreadable):"), std::string::npos);
-  EXPECT_NE(t.error().find("sensor line at i2c-1 0x06 cannot be read: EIO (Input/output error)"),
+  const std::string error =
+      refusal_behind_faulty_bus(0x06, /*fail_reads=*/true, /*fail_writes=*/false, EIO);
+  EXPECT_NE(error.find("refusing to start (sensors unreadable):"), std::string::npos);
+  EXPECT_NE(error.find("sensor line at i2c-1 0x06 cannot be read: EIO (Input/output error)"),
             std::string::npos)
-      << t.error();
+      << error;
   EXPECT_EQ(gopigo_->frames(), 0u);  // no safe state was sent
 }
 
 TEST_F(SetupTest, SafeStateTheBusRefusesRefusesToStart) {
-  bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
-  FaultyBus faulty(vb, 0x08, /*fail_reads=*/false, /*fail_writes=*/true, EREMOTEIO);
-  options_.buses = {{1, &faulty}};
-  auto t = setup(options_);
-  ASSERT_FALSE(t.ok());
-  EXPECT_NE(t.error().find("refusing to start (safe state not applied):"), std::string::npos);
-  EXPECT_NE(t.error().find("safe state of device gopigo at i2c-1 0x08 cannot be applied: "
-                           "EREMOTEIO (Remote I/O error)"),
+  const std::string error =
+      refusal_behind_faulty_bus(0x08, /*fail_reads=*/false, /*fail_writes=*/true, EREMOTEIO);
+  EXPECT_NE(error.find("refusing to start (safe state not applied):"), std::string::npos);
+  EXPECT_NE(error.find("safe state of device gopigo at i2c-1 0x08 cannot be applied: "
+                       "EREMOTEIO (Remote I/O error)"),
             std::string::npos)
-      << t.error();
+      << error;
   EXPECT_NE(audit().find("\"kind\":\"fault\""), std::string::npos);
 }
 
