@@ -4,21 +4,9 @@
 #include <fmt/core.h>
 #include <set>
 
+#include "base/bus_number.h"
+
 namespace contego::cli {
-namespace {
-
-// A bus number: 1 to 3 decimal digits, 0..255.
-int bus_number(const std::string& digits) {
-  if (digits.empty() || digits.size() > 3) return -1;
-  int n = 0;
-  for (char c : digits) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
-}
-
-}  // namespace
 
 Result<std::pair<int, std::string>> parse_bus_spec(const std::string& value) {
   const std::string expected = "expected N=PATH (e.g. 1=/dev/i2c-1) or /dev/i2c-N";
@@ -26,12 +14,12 @@ Result<std::pair<int, std::string>> parse_bus_spec(const std::string& value) {
   if (eq == std::string::npos) {
     const std::string prefix = "/dev/i2c-";
     if (value.rfind(prefix, 0) == 0) {
-      const int n = bus_number(value.substr(prefix.size()));
+      const int n = parse_bus_number(value.substr(prefix.size()));
       if (n >= 0) return std::make_pair(n, value);
     }
     return make_error(fmt::format("--bus '{}': {}", value, expected));
   }
-  const int n = bus_number(value.substr(0, eq));
+  const int n = parse_bus_number(value.substr(0, eq));
   if (n < 0) {
     return make_error(fmt::format("--bus '{}': the bus number '{}' is not 0..255; {}", value,
                                   value.substr(0, eq), expected));

@@ -37,6 +37,7 @@
 #include "gate/socket.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
+#include "monitor/test_audit_record.h"
 #include "monitor/test_fake_decider.h"
 #include "test_support.h"
 
@@ -114,15 +115,11 @@ class ScriptedDecider final : public monitor::testing::FakeDecider {
     audit(tx, *v);
   }
   void audit(const core::Transaction& tx, const core::Verdict& v) {
-    core::AuditRecord r{};
+    core::AuditRecord r =
+        monitor::testing::decision_record(tx.job, v.decision, tx.addr, std::span(tx.bytes, tx.len));
     r.task = tx.task;
-    r.job = tx.job;
-    r.decision = v.decision;
     r.reason = v.reason;
     r.bus = tx.bus;
-    r.addr = tx.addr;
-    r.original = tx.bytes;
-    r.original_len = static_cast<uint16_t>(tx.len);
     if (host_.audit != nullptr) host_.audit(host_.context, &r);
   }
 };
