@@ -61,12 +61,16 @@ class SetupTest : public ::testing::Test {
     s << in.rdbuf();
     return s.str();
   }
+  // Puts the rover's motor board and line follower on `vb`.
+  void attach_devices(bus::VirtualBus& vb) {
+    vb.attach(gopigo_);
+    vb.attach(line_);
+  }
   // Starts on the rover's devices behind a bus that fails at `addr` (its
   // reads and/or writes, with `err`); returns the refusal ("" if it started).
   std::string refusal_behind_faulty_bus(uint16_t addr, bool fail_reads, bool fail_writes, int err) {
     bus::VirtualBus vb;
-    vb.attach(gopigo_);
-    vb.attach(line_);
+    attach_devices(vb);
     FaultyBus faulty(vb, addr, fail_reads, fail_writes, err);
     options_.buses = {{1, &faulty}};
     auto t = setup(options_);
@@ -85,8 +89,7 @@ class SetupTest : public ::testing::Test {
 
 TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}};
   auto t = setup(options_);
   ASSERT_TRUE(t.ok()) << t.error();
@@ -101,8 +104,7 @@ TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
 // before anything reaches a bus (it used to drive the safe state first).
 TEST_F(SetupTest, UnknownTaskIsRefusedBeforeAnyBusOperation) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}};
   options_.task = "nosuch";
   auto t = setup(options_);
@@ -166,8 +168,7 @@ TEST_F(SetupTest, SafeStateTheBusRefusesRefusesToStart) {
 
 TEST_F(SetupTest, PolicyBusWithoutAdapterRefusesAndAnUnusedBusWarns) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{2, &vb}};
   auto t = setup(options_);
   ASSERT_FALSE(t.ok());
@@ -183,8 +184,7 @@ TEST_F(SetupTest, PolicyBusWithoutAdapterRefusesAndAnUnusedBusWarns) {
 
 TEST_F(SetupTest, AnUnusedBusBesideTheRightOneOnlyWarns) {
   bus::VirtualBus vb, spare;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}, {3, &spare}};
   auto t = setup(options_);
   ASSERT_TRUE(t.ok()) << t.error();
