@@ -30,11 +30,7 @@ class Pca9685Policy : public ::testing::Test {
  protected:
   // Compiles `text` (a policy declaring `device arm : pca9685 at i2c-1 0x40`) and loads it.
   void load(const std::string& text) {
-    out_ = compile_source("arm.policy", text);
-    ASSERT_TRUE(out_.ok) << (out_.diagnostics.empty() ? "" : out_.diagnostics[0].rendered);
-    checker_ = std::make_unique<core::Checker>();
-    ASSERT_EQ(checker_->load(out_.image.data(), static_cast<uint32_t>(out_.image.size())).status,
-              core::LoadStatus::kOk);
+    ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out_, &checker_));
   }
 
   core::Verdict write(std::vector<uint8_t> bytes, uint32_t job, uint16_t addr = 0x40,
