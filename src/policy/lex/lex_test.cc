@@ -60,7 +60,9 @@ TEST_P(LexRefuses, WithOneDiagnostic) {
   const Lexed l = run(GetParam().text);
   ASSERT_EQ(l.diags.size(), 1u);
   EXPECT_EQ(l.diags[0].id, GetParam().id);
-  if (GetParam().column != 0) EXPECT_EQ(l.diags[0].column, GetParam().column);
+  if (GetParam().column != 0) {
+    EXPECT_EQ(l.diags[0].column, GetParam().column);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Lex, LexRefuses,
