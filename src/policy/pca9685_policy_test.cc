@@ -23,6 +23,14 @@ using core::Reason;
 // LEDn registers: ON_L ON_H OFF_L OFF_H at 0x06 + 4n.
 constexpr uint8_t led_reg(uint8_t channel) { return static_cast<uint8_t>(0x06 + 4 * channel); }
 
+// The arm and a task `t` that may drive it, then `rules`.
+std::string with_arm(const std::string& rules) {
+  return "device arm : pca9685 at i2c-1 0x40\n"
+         "task t { period 1s; wcet 1ms }\n"
+         "allow t -> arm\n" +
+         rules + "\n";
+}
+
 // (register, value) pairs.
 using Pairs = std::vector<std::pair<uint8_t, uint8_t>>;
 
@@ -79,12 +87,8 @@ class Pca9685Policy : public ::testing::Test {
 // --- LAST_FIELD history per channel --------------------------------------------
 
 TEST_F(Pca9685Policy, LastFieldIsTheSameChannelsLastValueNotAnotherChannels) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off = 375
-)");
+  load(with_arm(
+      "invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off = 375"));
   // No history for a channel yet: last() faults, the rule fails closed with
   // its constant substitute, and the substitute becomes the channel's history.
   EXPECT_EQ(write_led(3, 0, 300, 1).decision, Decision::kFailsafe);  // channel 3 := 375
@@ -171,12 +175,8 @@ invariant WINDOW on arm.led: require off <= 600 else ignore
 }
 
 TEST_F(Pca9685Policy, AConstantFailsafeCommandCanNameAnotherChannel) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)
-)");
+  load(
+      with_arm("invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)"));
   // ALL_LED_ON_H = 0x10 (every output constantly on) becomes gripper-open on channel 5.
   write({0xFA, 0x00}, 1);
   write({0xFB, 0x10}, 1);
@@ -188,12 +188,8 @@ invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)
 
 // --- the shadow after ALL_LED writes, `failsafe expected` ------------------------
 
-constexpr const char* kGrip = R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
-)";
+const std::string kGrip =
+    with_arm("invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected");
 
 TEST_F(Pca9685Policy, AllLedWritesReachEveryChannelsShadow) {
   load(kGrip);
@@ -208,13 +204,9 @@ TEST_F(Pca9685Policy, AllLedWritesReachEveryChannelsShadow) {
 }
 
 TEST_F(Pca9685Policy, AllLedBroadcastIsUndoneWhenItsTransactionIsRefused) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant ALL on arm.all_led: require off <= 600 else ignore
-invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
-)");
+  load(
+      with_arm("invariant ALL on arm.all_led: require off <= 600 else ignore\n"
+               "invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected"));
   // ALL_LED_OFF = 0x0FFF is ignored: nothing reached the device, so channel 5's
   // shadow keeps its power-on OFF_H (0x10) and the substitute says so too.
   write({0xFC, 0xFF}, 1);
@@ -277,12 +269,7 @@ limit gripper -> arm.swrst 0 per job else reject EPERM
 }
 
 TEST_F(Pca9685Policy, ARegisterWriteThroughTheGeneralCallIsIgnored) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant CAP on arm.led: require off <= 600 else failsafe off = 600
-)");
+  load(with_arm("invariant CAP on arm.led: require off <= 600 else failsafe off = 600"));
   // A PCA9685 takes a general call's first byte as a command (0x06: software
   // reset), never as a register: a channel write sent there is no write the
   // policy can check, whatever its values. Nothing is written, nothing of
