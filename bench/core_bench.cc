@@ -43,6 +43,23 @@ void report(benchmark::State& state, const Checker& c, uint64_t insns_before, ui
   state.counters["worst_case_insns"] = c.worst_case_cost();
 }
 
+// Checks `tx` once per benchmark iteration, `prepare(tx, n)` first (n: the
+// checks so far), reports the counters and returns the last verdict.
+template <typename Prepare>
+Verdict check_repeatedly(benchmark::State& state, Bench& b, Transaction& tx, Prepare prepare) {
+  Verdict v{};
+  const uint64_t before = b.h.checker->executed_instructions();
+  uint64_t checks = 0;
+  for (auto _ : state) {
+    prepare(tx, checks);
+    b.h.checker->check(tx, &v);
+    benchmark::DoNotOptimize(v.decision);
+    ++checks;
+  }
+  report(state, *b.h.checker, before, checks);
+  return v;
+}
+
 // Checks one follower frame over and over with the line centred (fresh
 // samples each time); the decision must be `expect`.
 void check_centred(benchmark::State& state, std::array<uint8_t, 5> frame, Decision expect,
@@ -52,18 +69,11 @@ void check_centred(benchmark::State& state, std::array<uint8_t, 5> frame, Decisi
   Transaction tx{
       rover::kFollower, 1, TxKind::kWrite, 0x08, 0, 0, 0, static_cast<uint32_t>(frame.size()),
       frame.data(),     0};
-  Verdict v{};
-  const uint64_t before = b.h.checker->executed_instructions();
-  uint64_t checks = 0;
-  for (auto _ : state) {
-    tx.now_us += 10;
-    b.h.samples[rover::kLine].taken_at_us = tx.now_us;
-    b.h.checker->check(tx, &v);
-    benchmark::DoNotOptimize(v.decision);
-    ++checks;
-  }
+  const Verdict v = check_repeatedly(state, b, tx, [&](Transaction& t, uint64_t) {
+    t.now_us += 10;
+    b.h.samples[rover::kLine].taken_at_us = t.now_us;
+  });
   if (v.decision != expect) state.SkipWithError(otherwise);
-  report(state, *b.h.checker, before, checks);
 }
 
 // One allowed fwd() frame (prefixed, as the C library sends it) with the line
@@ -85,17 +95,10 @@ void BM_RoverRateLimitedSpeed(benchmark::State& state) {
   Bench b(rover::model());
   const uint8_t frame[] = {1, 70, 80, 0, 0};
   Transaction tx{rover::kFollower, 1, TxKind::kWrite, 0x08, 0, 0, 1, sizeof(frame), frame, 0};
-  Verdict v{};
-  const uint64_t before = b.h.checker->executed_instructions();
-  uint64_t checks = 0;
-  for (auto _ : state) {
-    tx.now_us += 10;
-    tx.job = static_cast<uint32_t>(1 + checks / 3);
-    b.h.checker->check(tx, &v);
-    benchmark::DoNotOptimize(v.decision);
-    ++checks;
-  }
-  report(state, *b.h.checker, before, checks);
+  check_repeatedly(state, b, tx, [](Transaction& t, uint64_t checks) {
+    t.now_us += 10;
+    t.job = static_cast<uint32_t>(1 + checks / 3);
+  });
 }
 BENCHMARK(BM_RoverRateLimitedSpeed);
 
@@ -106,20 +109,13 @@ void BM_ArmByteWiseWrites(benchmark::State& state) {
   Bench b(arm::model());
   uint8_t w[2] = {0, 0};
   Transaction tx{arm::kController, 1, TxKind::kWrite, 0x40, 0, 0, 0, 2, w, 0};
-  Verdict v{};
-  const uint64_t before = b.h.checker->executed_instructions();
-  uint64_t checks = 0;
-  for (auto _ : state) {
+  check_repeatedly(state, b, tx, [&w](Transaction& t, uint64_t checks) {
     const uint32_t step = static_cast<uint32_t>(checks % 4);
     const uint8_t ch = 3;
     w[0] = static_cast<uint8_t>(0x06 + 4 * ch + step);
     w[1] = step == 2 ? 0x77 : step == 3 ? 0x01 : 0x00;  // off = 375
-    tx.now_us += 10;
-    b.h.checker->check(tx, &v);
-    benchmark::DoNotOptimize(v.decision);
-    ++checks;
-  }
-  report(state, *b.h.checker, before, checks);
+    t.now_us += 10;
+  });
 }
 BENCHMARK(BM_ArmByteWiseWrites);
 
@@ -130,20 +126,13 @@ void BM_ArmGripperSequenceBlock(benchmark::State& state) {
   b.h.checker->seed_register(arm::kArm, 0x00, 0x21);  // MODE1.AI
   uint8_t w[5] = {0x06 + 4 * 5, 0, 0, 0, 0};
   Transaction tx{arm::kController, 1, TxKind::kWrite, 0x40, 0, 0, 0, 5, w, 0};
-  Verdict v{};
-  const uint64_t before = b.h.checker->executed_instructions();
-  uint64_t checks = 0;
-  for (auto _ : state) {
+  const Verdict v = check_repeatedly(state, b, tx, [&w](Transaction& t, uint64_t checks) {
     const bool open = checks % 2 == 0;
     w[3] = open ? 0xA4 : 0x41;
     w[4] = open ? 0x01 : 0x02;
-    tx.now_us += 10;
-    b.h.checker->check(tx, &v);
-    benchmark::DoNotOptimize(v.decision);
-    ++checks;
-  }
+    t.now_us += 10;
+  });
   if (v.decision != Decision::kAllow) state.SkipWithError("expected allow");
-  report(state, *b.h.checker, before, checks);
 }
 BENCHMARK(BM_ArmGripperSequenceBlock);
 

@@ -28,3 +28,35 @@ function(contego_test name)
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main GTest::gmock)
   gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
 endfunction()
+
+# contego_cli_script_test(NAME SCRIPT [TIMEOUT SECONDS] [PASS REGEX] ARGS ...):
+# `bash SCRIPT <the contego executable> ARGS...` as the CTest test NAME, label
+# `cli`; it passes when the script prints `ok` on a line of its own (PASS
+# overrides that). Registered only when the `contego` executable and the
+# policy compiler are built.
+function(contego_cli_script_test name script)
+  if(NOT (TARGET contego AND TARGET contego_policy))
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "TIMEOUT;PASS" "ARGS" ${ARGN})
+  if(NOT ARG_PASS)
+    set(ARG_PASS "^ok|\nok")
+  endif()
+  add_test(NAME ${name} COMMAND bash ${script} $<TARGET_FILE:contego> ${ARG_ARGS})
+  set_tests_properties(${name} PROPERTIES LABELS cli PASS_REGULAR_EXPRESSION "${ARG_PASS}")
+  if(ARG_TIMEOUT)
+    set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
+  endif()
+endfunction()
+
+# contego_source_check(TEST TOOL PLANTED_TEST PLANTED_SCRIPT LABELS ...): a
+# check of the source tree, `TOOL <source dir>` (a Python script) as the CTest
+# test TEST, and PLANTED_TEST, `bash PLANTED_SCRIPT <source dir>`, which plants
+# violations into a copy of the tree and expects TOOL to name each one.
+function(contego_source_check test tool planted_test planted_script)
+  cmake_parse_arguments(ARG "" "" "LABELS" ${ARGN})
+  find_package(Python3 REQUIRED COMPONENTS Interpreter)
+  add_test(NAME ${test} COMMAND Python3::Interpreter ${tool} ${PROJECT_SOURCE_DIR})
+  add_test(NAME ${planted_test} COMMAND bash ${planted_script} ${PROJECT_SOURCE_DIR})
+  set_tests_properties(${test} ${planted_test} PROPERTIES LABELS "${ARG_LABELS}")
+endfunction()

@@ -22,8 +22,8 @@ namespace contego {
 // few hundred KiB), far below what would hurt a small board.
 inline constexpr size_t kMaxInputFileBytes = 16u << 20;
 
-namespace detail {
-
+// What a file of `mode` is, for a message that refuses anything but a regular
+// file: "a directory", "a FIFO", ...
 inline const char* file_kind(mode_t mode) {
   if (S_ISDIR(mode)) return "a directory";
   if (S_ISCHR(mode)) return "a character device";
@@ -33,6 +33,8 @@ inline const char* file_kind(mode_t mode) {
   return "not a regular file";
 }
 
+namespace detail {
+
 // Opens `path` for reading if it is a regular file. O_NONBLOCK so that
 // opening a FIFO does not wait for a writer before it can be refused.
 inline Result<int> open_regular(const std::string& path) {
@@ -40,7 +42,7 @@ inline Result<int> open_regular(const std::string& path) {
   if (fd < 0) return make_error(path + ": cannot open: " + std::strerror(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    const std::string kind = detail::file_kind(st.st_mode);
+    const std::string kind = file_kind(st.st_mode);
     ::close(fd);
     return make_error(path + ": is " + kind + "; expected a regular file");
   }

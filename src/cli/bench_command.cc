@@ -108,6 +108,23 @@ Result<perf::Workload> policy_workload(const std::string& dir, const std::string
 #endif
 }
 
+// Says what failed, as contego bench, and exits with 1.
+void fail(const std::string& message) {
+  fmt::print(stderr, "contego bench: {}\n", message);
+  set_exit_code(1);
+}
+
+// What every path of the bench takes from the command line alike.
+template <typename Options>
+void set_common_options(const BenchArgs& a, Options& o) {
+  o.task_exe = a.task_exe;
+  o.preload_lib = a.preload;
+  o.spin_us = a.spin_us;
+  if (!a.quiet) {
+    o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
+  }
+}
+
 bool write_file(const std::string& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
@@ -125,12 +142,7 @@ void bench_per_job(const BenchArgs& a) {
   o.jobs = a.jobs;
   o.period_us = a.period_us;
   o.per_job = a.commands_per_job;
-  o.task_exe = a.task_exe;
-  o.preload_lib = a.preload;
-  o.spin_us = a.spin_us;
-  if (!a.quiet) {
-    o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
-  }
+  set_common_options(a, o);
   if (a.policy_dir.empty()) {
     o.workload = perf::example_workloads()[0];
   } else {
@@ -138,32 +150,22 @@ void bench_per_job(const BenchArgs& a) {
         fmt::format("period {0}us; deadline {0}us; wcet {1}us", a.period_us, a.period_us / 5);
     auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08, kRoverJob[0],
                                  {kRoverTiming, timing});  // fwd() is 0x69
-    if (!rover.ok()) {
-      fmt::print(stderr, "contego bench: {}\n", rover.error());
-      return set_exit_code(1);
-    }
+    if (!rover.ok()) return fail(rover.error());
     o.workload = *rover;
   }
   o.workload.job = kRoverJob;
   auto report = perf::run_per_job(o);
-  if (!report.ok()) {
-    fmt::print(stderr, "contego bench: {}\n", report.error());
-    return set_exit_code(1);
-  }
+  if (!report.ok()) return fail(report.error());
   fmt::print("{}", perf::per_job_table(*report));
   mkdir(a.out_dir.c_str(), 0755);
   const std::string json = a.out_dir + "/per-job.json";
   if (!write_file(json, json_text(perf::per_job_json(*report), 2) + "\n")) {
-    fmt::print(stderr, "contego bench: cannot write into {}\n", a.out_dir);
-    return set_exit_code(1);
+    return fail("cannot write into " + a.out_dir);
   }
   fmt::print("\nwrote {}\n", json);
   if (!a.no_chart) {
     auto cdf = perf::write_per_job_cdf(*report, a.out_dir + "/per-job");
-    if (!cdf.ok()) {
-      fmt::print(stderr, "contego bench: {}\n", cdf.error());
-      return set_exit_code(1);
-    }
+    if (!cdf.ok()) return fail(cdf.error());
     fmt::print("{}\n", *cdf);
   }
 }
@@ -172,13 +174,8 @@ void bench(const BenchArgs& a) {
   if (a.per_job) return bench_per_job(a);
   perf::Options o;
   o.trials = a.trials;
-  o.task_exe = a.task_exe;
-  o.preload_lib = a.preload;
   o.dos = !a.no_dos;
-  o.spin_us = a.spin_us;
-  if (!a.quiet) {
-    o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
-  }
+  set_common_options(a, o);
   if (!a.policy_dir.empty()) {
     // The rover sends kRoverJob; arm.policy's GRIP sequence starts at 420.
     auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08,
@@ -190,10 +187,7 @@ void bench(const BenchArgs& a) {
     auto arm = policy_workload(a.policy_dir, "arm.policy", "gripper", 0x40,
                                {0x1A, 0x00, 0x00, 0xA4, 0x01});
     for (auto* w : {&rover, &arm}) {
-      if (!w->ok()) {
-        fmt::print(stderr, "contego bench: {}\n", w->error());
-        return set_exit_code(1);
-      }
+      if (!w->ok()) return fail(w->error());
       o.workloads.push_back(**w);
     }
   }
@@ -201,23 +195,18 @@ void bench(const BenchArgs& a) {
     for (const perf::Workload& w : perf::example_workloads()) o.workloads.push_back(w);
   }
   auto report = perf::run(o);
-  if (!report.ok()) {
-    fmt::print(stderr, "contego bench: {}\n", report.error());
-    return set_exit_code(1);
-  }
+  if (!report.ok()) return fail(report.error());
   fmt::print("{}", perf::table(*report));
   mkdir(a.out_dir.c_str(), 0755);
   const std::string json = a.out_dir + "/bench.json", overhead = a.out_dir + "/overhead.json";
   if (!write_file(json, json_text(perf::to_json(*report), 2) + "\n") ||
       !write_file(overhead, json_text(perf::sched_overhead(*report), 2) + "\n")) {
-    fmt::print(stderr, "contego bench: cannot write into {}\n", a.out_dir);
-    return set_exit_code(1);
+    return fail("cannot write into " + a.out_dir);
   }
   fmt::print("\nwrote {} and {} (contego sched --overhead-from {})\n", json, overhead, overhead);
   if (!a.no_chart) {
     if (Status s = perf::write_chart(*report, a.out_dir + "/overhead"); !s.ok()) {
-      fmt::print(stderr, "contego bench: {}\n", s.error());
-      return set_exit_code(1);
+      return fail(s.error());
     }
     fmt::print("wrote {0}/overhead.svg and {0}/overhead.png\n", a.out_dir);
   }

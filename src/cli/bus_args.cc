@@ -4,21 +4,9 @@
 #include <fmt/core.h>
 #include <set>
 
+#include "base/bus_number.h"
+
 namespace contego::cli {
-namespace {
-
-// A bus number: 1 to 3 decimal digits, 0..255.
-int bus_number(const std::string& digits) {
-  if (digits.empty() || digits.size() > 3) return -1;
-  int n = 0;
-  for (char c : digits) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
-}
-
-}  // namespace
 
 Result<std::pair<int, std::string>> parse_bus_spec(const std::string& value) {
   const std::string expected = "expected N=PATH (e.g. 1=/dev/i2c-1) or /dev/i2c-N";
@@ -26,12 +14,12 @@ Result<std::pair<int, std::string>> parse_bus_spec(const std::string& value) {
   if (eq == std::string::npos) {
     const std::string prefix = "/dev/i2c-";
     if (value.rfind(prefix, 0) == 0) {
-      const int n = bus_number(value.substr(prefix.size()));
+      const int n = parse_bus_number(value.substr(prefix.size()));
       if (n >= 0) return std::make_pair(n, value);
     }
     return make_error(fmt::format("--bus '{}': {}", value, expected));
   }
-  const int n = bus_number(value.substr(0, eq));
+  const int n = parse_bus_number(value.substr(0, eq));
   if (n < 0) {
     return make_error(fmt::format("--bus '{}': the bus number '{}' is not 0..255; {}", value,
                                   value.substr(0, eq), expected));
@@ -73,6 +61,30 @@ void configure_bus_option(CLI::Option* option) {
         return spec.ok() ? std::string() : spec.error();
       },
       "N=PATH"));
+}
+
+void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
+                     std::vector<int>* virtual_buses, std::string* virtual_state,
+                     const std::string& bus_note) {
+  configure_bus_option(cmd->add_option(
+      "--bus", *buses,
+      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
+      "means N=/dev/i2c-N); once per bus" +
+          bus_note));
+  cmd->add_option("--virtual-bus", *virtual_buses,
+                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
+                  "GoPiGo2 0x08, line follower 0x06); once per bus")
+      ->allow_extra_args(false);
+  cmd->add_option("--virtual-state", *virtual_state,
+                  "tests: write the virtual buses' device state to this file at exit")
+      ->group("");
+}
+
+void add_budget_option(CLI::App* cmd, uint32_t* budget_factor) {
+  cmd->add_option("--budget-factor", *budget_factor,
+                  "hold a task's transfers to the end of its period once it has sent more than "
+                  "this many times its declared actuations in one job (0 = never)")
+      ->capture_default_str();
 }
 
 }  // namespace contego::cli

@@ -3,6 +3,7 @@
 #ifndef CONTEGO_CLI_BUS_ARGS_H_
 #define CONTEGO_CLI_BUS_ARGS_H_
 
+#include <cstdint>
 #include <map>
 #include <string>
 #include <utility>
@@ -11,8 +12,9 @@
 #include "base/result.h"
 
 namespace CLI {
+class App;
 class Option;
-}
+}  // namespace CLI
 
 namespace contego::cli {
 
@@ -29,6 +31,15 @@ Result<std::map<int, std::string>> parse_bus_specs(const std::vector<std::string
 // Makes a CLI11 option take one `--bus` value per occurrence and check its
 // form while parsing (so `contego --parse-only` rejects it too).
 void configure_bus_option(CLI::Option* option);
+
+// `--bus` (configured as above; `bus_note` ends its help), `--virtual-bus` and
+// the tests' `--virtual-state` on `cmd`.
+void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
+                     std::vector<int>* virtual_buses, std::string* virtual_state,
+                     const std::string& bus_note = "");
+
+// `--budget-factor` on `cmd`, as the Monitor takes it.
+void add_budget_option(CLI::App* cmd, uint32_t* budget_factor);
 
 }  // namespace contego::cli
 

@@ -58,26 +58,13 @@ void register_monitor(CLI::App& app) {
                   "client-error events (malformed requests, refused peers...) written per peer uid "
                   "and second; the rest are counted in a `suppressed` summary (0 = no limit)")
       ->capture_default_str();
-  configure_bus_option(cmd->add_option(
-      "--bus", args->buses,
-      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
-      "means N=/dev/i2c-N); once per bus"));
-  cmd->add_option("--virtual-bus", args->virtual_buses,
-                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
-                  "GoPiGo2 0x08, line follower 0x06); once per bus")
-      ->allow_extra_args(false);
+  add_bus_options(cmd, &args->buses, &args->virtual_buses, &args->virtual_state);
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
-  cmd->add_option("--budget-factor", args->budget_factor,
-                  "hold a task's transfers to the end of its period once it has sent more than "
-                  "this many times its declared actuations in one job (0 = never)")
-      ->capture_default_str();
-  cmd->add_option("--virtual-state", args->virtual_state,
-                  "tests: write the virtual buses' device state to this file at exit")
-      ->group("");
+  add_budget_option(cmd, &args->budget_factor);
   cmd->add_flag("--allow-degraded", args->allow_degraded,
                 "start even if a device does not answer, a sensor cannot be read, a safe state "
                 "cannot be applied or a device's bus has no adapter (audited: degraded-start)");

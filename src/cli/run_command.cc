@@ -64,28 +64,15 @@ void register_run(CLI::App& app) {
   cmd->add_option("--socket", args->socket, "use the monitor daemon at this socket instead");
   cmd->add_option("--audit", args->audit, "audit log of the embedded monitor (- = stderr)");
   add_audit_options(cmd, &args->audit_options);
-  configure_bus_option(cmd->add_option(
-      "--bus", args->buses,
-      "N=PATH: bus N of the policy is the adapter at PATH (e.g. 1=/dev/i2c-1; /dev/i2c-N alone "
-      "means N=/dev/i2c-N); once per bus"
-      " (embedded monitor)"));
-  cmd->add_option("--virtual-bus", args->virtual_buses,
-                  "N: bus N is a virtual bus with the built-in device models (PCA9685 0x40, "
-                  "GoPiGo2 0x08, line follower 0x06); once per bus")
-      ->allow_extra_args(false);
+  add_bus_options(cmd, &args->buses, &args->virtual_buses, &args->virtual_state,
+                  " (embedded monitor)");
   cmd->add_option("--spin-us", args->spin_us,
                   "with --socket: busy-wait this long for the monitor's answer before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
   cmd->add_flag("--no-channel", args->no_channel,
                 "with --socket: talk over the socket only, no shared-memory channel");
-  cmd->add_option("--budget-factor", args->budget_factor,
-                  "hold a task's transfers to the end of its period once it has sent more than "
-                  "this many times its declared actuations in one job (0 = never)")
-      ->capture_default_str();
-  cmd->add_option("--virtual-state", args->virtual_state,
-                  "tests: write the virtual buses' device state to this file at exit")
-      ->group("");
+  add_budget_option(cmd, &args->budget_factor);
   cmd->add_flag("--allow-degraded", args->allow_degraded,
                 "embedded monitor: start even if a device does not answer, a sensor cannot be "
                 "read, a safe state cannot be applied or a device's bus has no adapter "

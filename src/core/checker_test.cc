@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <random>
 
+#include "core/harness_fixture_test.h"
 #include "core/test_fixtures.h"
 
 namespace contego::core {
@@ -15,14 +16,9 @@ namespace rover = testing::rover;
 using Bytes = std::vector<uint8_t>;
 using image::Named;
 
-class RoverTest : public ::testing::Test {
+class RoverTest : public testing::HarnessTest {
  protected:
   void SetUp() override { load(rover::model()); }
-  void load(const image::ImageModel& m) {
-    const LoadResult r = h.load(m);
-    ASSERT_EQ(r.status, LoadStatus::kOk)
-        << load_status_name(r.status) << " section " << r.section << " index " << r.index;
-  }
   void sense(const int32_t (&raw)[5], uint64_t taken_at = 1000) {
     h.samples[rover::kLine].bytes = rover::sample(raw);
     h.samples[rover::kLine].taken_at_us = taken_at;
@@ -31,8 +27,35 @@ class RoverTest : public ::testing::Test {
                uint32_t job = 0) {
     return h.check(task, 0x08, std::move(bytes), now, job);
   }
-  Harness h;
+  // Sends left() at 1, 2 and 3 ms under a latch of three: the first two are
+  // invariant violations (failsafe) that do not latch the motor board yet, the
+  // third latches it and drives its safe state, stop(). Returns the third verdict.
+  Verdict three_violations_latch() {
+    for (uint64_t t : {1000, 2000}) {
+      const Verdict v = send({1, 97, 0, 0, 0}, rover::kFollower, t);
+      EXPECT_EQ(v.decision, Decision::kFailsafe);
+      EXPECT_EQ(v.reason, Reason::kInvariantViolated);
+    }
+    EXPECT_FALSE(h.checker->latched(rover::kGopigo));
+    const Verdict third = send({1, 97, 0, 0, 0}, rover::kFollower, 3000);
+    EXPECT_EQ(third.reason, Reason::kLatched);
+    EXPECT_EQ(emits(third), (std::vector<Bytes>{{120, 0, 0, 0}}));  // safe state: stop
+    EXPECT_TRUE(h.checker->latched(rover::kGopigo));
+    return third;
+  }
+  // The verdict on fwd() under `m`, the line sensor reading `line`.
+  Verdict forward_under(const image::ImageModel& m, const int32_t (&line)[5]) {
+    load(m);
+    sense(line);
+    return send({1, 119, 0, 0, 0});
+  }
 };
+
+// `m` with INV1 running `program` instead of its own.
+void replace_inv1_program(image::ImageModel& m, const Prog& program) {
+  m.invariants[rover::kInv1].record.code_first = testing::add_code(m, program);
+  m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(program.size());
+}
 
 TEST(CheckerTest, NothingLoadedRejectsEverything) {
   Harness h;
@@ -236,9 +259,7 @@ TEST_F(RoverTest, InvariantFailWithRejectResponse) {
   image::ImageModel m = rover::model();
   m.invariants[rover::kInv1].record.response = static_cast<uint8_t>(Response::kReject);
   m.invariants[rover::kInv1].record.reply_errno = 121;
-  load(m);
-  sense(rover::kLineLeft);
-  const Verdict v = send({1, 119, 0, 0, 0});
+  const Verdict v = forward_under(m, rover::kLineLeft);
   EXPECT_EQ(v.decision, Decision::kReject);
   EXPECT_EQ(v.reply_errno, 121);
   EXPECT_EQ(v.emit_count, 0);
@@ -247,9 +268,7 @@ TEST_F(RoverTest, InvariantFailWithRejectResponse) {
 TEST_F(RoverTest, InvariantFailsafeWithoutTemplateIgnores) {
   image::ImageModel m = rover::model();
   m.invariants[rover::kInv1].record.template_id = kNone;
-  load(m);
-  sense(rover::kLineLeft);
-  const Verdict v = send({1, 119, 0, 0, 0});
+  const Verdict v = forward_under(m, rover::kLineLeft);
   EXPECT_EQ(v.decision, Decision::kIgnore);
   EXPECT_EQ(v.reason, Reason::kInvariantViolated);
 }
@@ -342,12 +361,9 @@ TEST_F(RoverTest, ProgramFaultFailsClosed) {
   image::ImageModel m = rover::model();
   Prog div0;
   div0.push(1).push(0).op(Op::kDiv).op(Op::kDrop).op(Op::kPass);
-  m.invariants[rover::kInv1].record.code_first = testing::add_code(m, div0);
-  m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(div0.size());
+  replace_inv1_program(m, div0);
   m.invariants[rover::kInv1].record.template_id = kNone;
-  load(m);
-  sense(rover::kCentre);
-  const Verdict v = send({1, 119, 0, 0, 0});
+  const Verdict v = forward_under(m, rover::kCentre);
   EXPECT_EQ(v.decision, Decision::kIgnore);
   EXPECT_EQ(v.reason, Reason::kProgramFault);
 }
@@ -357,11 +373,8 @@ TEST_F(RoverTest, OverflowFaultsTheProgram) {
   m.constants.push_back(INT64_MAX);
   Prog ovf;
   ovf.op(Op::kPushConst, 0).push(1).op(Op::kAdd).op(Op::kDrop).op(Op::kPass);
-  m.invariants[rover::kInv1].record.code_first = testing::add_code(m, ovf);
-  m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(ovf.size());
-  load(m);
-  sense(rover::kCentre);
-  const Verdict v = send({1, 119, 0, 0, 0});
+  replace_inv1_program(m, ovf);
+  const Verdict v = forward_under(m, rover::kCentre);
   EXPECT_EQ(v.reason, Reason::kProgramFault);
   EXPECT_EQ(v.decision, Decision::kFailsafe);  // INV1's template
 }
@@ -446,22 +459,22 @@ TEST_F(RoverTest, HasLastGuardsTheHistoryBeforeTheFirstCommand) {
   EXPECT_EQ(send({71, 190, 0, 0}, rover::kFollower, 4000).decision, Decision::kAllow);
 }
 
-TEST_F(RoverTest, LatchAfterKViolationsDrivesSafeStateThenIgnores) {
+// The rover model with a latch on the motor board: `count` violations within
+// `window_us` latch it in `mode`.
+image::ImageModel with_latch(LatchMode mode, uint8_t count, uint32_t window_us) {
   image::ImageModel m = rover::model();
-  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(LatchMode::kHoldSafe);
-  m.devices[rover::kGopigo].record.latch_count = 3;
-  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
-  load(m);
+  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(mode);
+  m.devices[rover::kGopigo].record.latch_count = count;
+  m.devices[rover::kGopigo].record.latch_window_us = window_us;
+  return m;
+}
+
+TEST_F(RoverTest, LatchAfterKViolationsDrivesSafeStateThenIgnores) {
+  load(with_latch(LatchMode::kHoldSafe, 3, 1000000));
   sense(rover::kCentre, 0);
-  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 1000).decision, Decision::kFailsafe);
-  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 2000).decision, Decision::kFailsafe);
-  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
-  const Verdict third = send({1, 97, 0, 0, 0}, rover::kFollower, 3000);
+  const Verdict third = three_violations_latch();
   EXPECT_EQ(third.decision, Decision::kFailsafe);
-  EXPECT_EQ(third.reason, Reason::kLatched);
   EXPECT_EQ(third.rule_kind, RuleKind::kLatch);
-  EXPECT_EQ(emits(third), (std::vector<Bytes>{{120, 0, 0, 0}}));  // safe state: stop
-  EXPECT_TRUE(h.checker->latched(rover::kGopigo));
   // Even a valid command is now ignored.
   const Verdict held = send({1, 119, 0, 0, 0}, rover::kFollower, 4000);
   EXPECT_EQ(held.decision, Decision::kIgnore);
@@ -472,11 +485,7 @@ TEST_F(RoverTest, LatchAfterKViolationsDrivesSafeStateThenIgnores) {
 }
 
 TEST_F(RoverTest, ViolationsSpreadBeyondTheWindowDoNotLatch) {
-  image::ImageModel m = rover::model();
-  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(LatchMode::kHoldSafe);
-  m.devices[rover::kGopigo].record.latch_count = 2;
-  m.devices[rover::kGopigo].record.latch_window_us = 10000;
-  load(m);
+  load(with_latch(LatchMode::kHoldSafe, 2, 10000));
   h.samples[rover::kLine].bytes = rover::sample(rover::kCentre);
   for (uint64_t t = 0; t < 10; ++t) {
     h.samples[rover::kLine].taken_at_us = t * 20000;
@@ -487,12 +496,7 @@ TEST_F(RoverTest, ViolationsSpreadBeyondTheWindowDoNotLatch) {
 }
 
 TEST_F(RoverTest, AnUnrepairedLatchIgnoresExpectedSubstitutesAndForbiddenCommands) {
-  image::ImageModel m = rover::model();
-  m.devices[rover::kGopigo].record.latch_mode =
-      static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired);
-  m.devices[rover::kGopigo].record.latch_count = 3;
-  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
-  load(m);
+  load(with_latch(LatchMode::kHoldSafeUnrepaired, 3, 1000000));
   sense(rover::kCentre, 0);
   // left() on the line: INV3 substitutes the expected fwd(), five times.
   for (uint64_t t = 1; t <= 5; ++t) {
@@ -513,21 +517,10 @@ TEST_F(RoverTest, AnUnrepairedLatchIgnoresExpectedSubstitutesAndForbiddenCommand
 }
 
 TEST_F(RoverTest, AnUnrepairedLatchCountsTemplateResponsesAndFaults) {
-  image::ImageModel m = rover::model();
-  m.devices[rover::kGopigo].record.latch_mode =
-      static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired);
-  m.devices[rover::kGopigo].record.latch_count = 3;
-  m.devices[rover::kGopigo].record.latch_window_us = 1000000;
-  load(m);
+  load(with_latch(LatchMode::kHoldSafeUnrepaired, 3, 1000000));
   sense(rover::kLineLeft, 0);
   // left() with the line on the left: INV1 answers with its template right().
-  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 1000).reason, Reason::kInvariantViolated);
-  EXPECT_EQ(send({1, 97, 0, 0, 0}, rover::kFollower, 2000).reason, Reason::kInvariantViolated);
-  EXPECT_FALSE(h.checker->latched(rover::kGopigo));
-  const Verdict third = send({1, 97, 0, 0, 0}, rover::kFollower, 3000);
-  EXPECT_EQ(third.reason, Reason::kLatched);
-  EXPECT_EQ(emits(third), (std::vector<Bytes>{{120, 0, 0, 0}}));  // safe state: stop
-  EXPECT_TRUE(h.checker->latched(rover::kGopigo));
+  three_violations_latch();
 }
 
 TEST_F(RoverTest, SafeStateIsTheEncodedTemplates) {

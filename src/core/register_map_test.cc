@@ -3,6 +3,7 @@
 // templates encoded as register pairs, aliases, state words.
 #include <gtest/gtest.h>
 
+#include "core/harness_fixture_test.h"
 #include "core/test_fixtures.h"
 
 namespace contego::core {
@@ -10,20 +11,14 @@ namespace {
 
 using namespace testing::arm_tests;  // NOLINT(google-build-using-namespace)
 
-class ArmTest : public ::testing::Test {
+class ArmTest : public testing::HarnessTest {
  protected:
   void SetUp() override { load(arm::model()); }
-  void load(const image::ImageModel& m) {
-    const LoadResult r = h.load(m);
-    ASSERT_EQ(r.status, LoadStatus::kOk)
-        << load_status_name(r.status) << " section " << r.section << " index " << r.index;
-  }
   Verdict send(Bytes bytes, uint16_t task = arm::kController, uint16_t addr = kAddr) {
     return h.check(task, addr, std::move(bytes), ++now);
   }
   void auto_increment_on() { ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x21)); }
   uint64_t now = 1000;
-  Harness h;
 };
 
 TEST_F(ArmTest, ByteWiseWritesStageUntilOffHighThenCommitOnce) {

@@ -77,6 +77,12 @@ class VerifierTest : public ::testing::Test {
     return h.checker->load(b.data(), static_cast<uint32_t>(b.size()));
   }
   LoadStatus load_model(const image::ImageModel& m) { return h.load(m).status; }
+  // The status of the rover model after `edit`.
+  LoadStatus load_rover_with(void (*edit)(image::ImageModel&)) {
+    image::ImageModel m = rover::model();
+    edit(m);
+    return load_model(m);
+  }
   // Replaces invariant 0's program with `p`.
   LoadResult load_with_program(const Prog& p) {
     image::ImageModel m = rover::model();
@@ -209,13 +215,11 @@ TEST_F(VerifierTest, TooManyTasks) {
 }
 
 TEST_F(VerifierTest, BadTagInDeviceProfileAndPadding) {
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.profile = 7; }),
+            LoadStatus::kBadTag);
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.pad0[1] = 1; }),
+            LoadStatus::kBadTag);
   image::ImageModel m = rover::model();
-  m.devices[0].record.profile = 7;
-  EXPECT_EQ(load_model(m), LoadStatus::kBadTag);
-  m = rover::model();
-  m.devices[0].record.pad0[1] = 1;
-  EXPECT_EQ(load_model(m), LoadStatus::kBadTag);
-  m = rover::model();
   m.invariants[1].record.response = 9;
   const LoadResult r = h.load(m);
   EXPECT_EQ(r.status, LoadStatus::kBadTag);
@@ -294,15 +298,14 @@ TEST_F(VerifierTest, BroadcastAndGeneralCallCommandsAreCrossChecked) {
 }
 
 TEST_F(VerifierTest, BadFieldGeometry) {
-  image::ImageModel m = rover::model();
-  m.fields[0].record.width = 0;
-  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
-  m = rover::model();
-  m.fields[0].record.offset = 4;  // past the 4-byte frame
-  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
-  m = rover::model();
-  m.signals[4].record.field.offset = 9;  // 2 bytes from 9 leave the 10-byte sample
-  EXPECT_EQ(load_model(m), LoadStatus::kBadField);
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.fields[0].record.width = 0; }),
+            LoadStatus::kBadField);
+  // Past the 4-byte frame.
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.fields[0].record.offset = 4; }),
+            LoadStatus::kBadField);
+  // 2 bytes from 9 leave the 10-byte sample.
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.signals[4].record.field.offset = 9; }),
+            LoadStatus::kBadField);
 }
 
 TEST_F(VerifierTest, BadProgramOpcodeAndOperand) {

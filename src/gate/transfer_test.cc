@@ -21,10 +21,15 @@ Message r(uint16_t addr, uint16_t len) {
   return m;
 }
 
-TEST(ToTransactions, OneBytePointerBeforeReadBecomesRegisterRead) {
+// The transactions of a transfer of `messages`.
+auto transactions_of(std::vector<Message> messages) {
   Transfer t;
-  t.messages = {w(0x40, {0x00}), r(0x40, 1)};
-  auto txs = to_transactions(t);
+  t.messages = std::move(messages);
+  return to_transactions(t);
+}
+
+TEST(ToTransactions, OneBytePointerBeforeReadBecomesRegisterRead) {
+  auto txs = transactions_of({w(0x40, {0x00}), r(0x40, 1)});
   ASSERT_EQ(txs.size(), 1u);
   EXPECT_EQ(txs[0].kind, core::TxKind::kRead);
   EXPECT_EQ(txs[0].bytes, std::vector<uint8_t>{0x00});
@@ -33,9 +38,8 @@ TEST(ToTransactions, OneBytePointerBeforeReadBecomesRegisterRead) {
 
 TEST(ToTransactions, EveryWriteInsideACombinedTransferIsCheckedAsAWrite) {
   // The smuggling attack: a real command hidden between reads.
-  Transfer t;
-  t.messages = {r(0x40, 1), w(0x40, {0xFE, 0x03}), w(0x08, {0x01, 0x77, 0, 0, 0}), r(0x08, 1)};
-  auto txs = to_transactions(t);
+  auto txs = transactions_of(
+      {r(0x40, 1), w(0x40, {0xFE, 0x03}), w(0x08, {0x01, 0x77, 0, 0, 0}), r(0x08, 1)});
   ASSERT_EQ(txs.size(), 4u);
   EXPECT_EQ(txs[0].kind, core::TxKind::kRead);
   EXPECT_EQ(txs[1].kind, core::TxKind::kWrite);
@@ -46,18 +50,14 @@ TEST(ToTransactions, EveryWriteInsideACombinedTransferIsCheckedAsAWrite) {
 }
 
 TEST(ToTransactions, PointerToAnotherAddressIsAWrite) {
-  Transfer t;
-  t.messages = {w(0x40, {0x06}), r(0x41, 1)};
-  auto txs = to_transactions(t);
+  auto txs = transactions_of({w(0x40, {0x06}), r(0x41, 1)});
   ASSERT_EQ(txs.size(), 2u);
   EXPECT_EQ(txs[0].kind, core::TxKind::kWrite);
 }
 
 TEST(ToTransactions, GeneralCallByteIsNeverAPointer) {
   // 0x06 to address 0 resets every PCA9685 on the bus, even if a read follows.
-  Transfer t;
-  t.messages = {w(0x00, {0x06}), r(0x00, 1)};
-  auto txs = to_transactions(t);
+  auto txs = transactions_of({w(0x00, {0x06}), r(0x00, 1)});
   ASSERT_EQ(txs.size(), 2u);
   EXPECT_EQ(txs[0].kind, core::TxKind::kWrite);
   EXPECT_EQ(txs[0].addr, 0);

@@ -14,72 +14,45 @@ namespace {
 
 using core::SectionKind;
 
-uint32_t record_size(SectionKind kind) {
-  switch (kind) {
-    case SectionKind::kTasks:
-      return sizeof(core::TaskRecord);
-    case SectionKind::kDevices:
-      return sizeof(core::DeviceRecord);
-    case SectionKind::kAliases:
-      return sizeof(core::AliasRecord);
-    case SectionKind::kCommands:
-      return sizeof(core::CommandRecord);
-    case SectionKind::kFields:
-      return sizeof(core::FieldRecord);
-    case SectionKind::kSignals:
-      return sizeof(core::SignalRecord);
-    case SectionKind::kRates:
-      return sizeof(core::RateRecord);
-    case SectionKind::kInvariants:
-      return sizeof(core::InvariantRecord);
-    case SectionKind::kTemplates:
-      return sizeof(core::TemplateRecord);
-    case SectionKind::kCode:
-      return sizeof(core::Insn);
-    case SectionKind::kConstants:
-      return sizeof(int64_t);
-    case SectionKind::kAccess:
-      return sizeof(core::AccessRecord);
-    case SectionKind::kRegisterInit:
-      return sizeof(core::RegisterInitRecord);
-    case SectionKind::kNames:
-      return 1;
+struct SectionInfo {
+  SectionKind kind;
+  const char* name;
+  uint32_t record_size;
+};
+
+// Every section's name and record size, in kind order.
+constexpr SectionInfo kSections[] = {
+    {SectionKind::kTasks, "TASKS", sizeof(core::TaskRecord)},
+    {SectionKind::kDevices, "DEVICES", sizeof(core::DeviceRecord)},
+    {SectionKind::kAliases, "ALIASES", sizeof(core::AliasRecord)},
+    {SectionKind::kCommands, "COMMANDS", sizeof(core::CommandRecord)},
+    {SectionKind::kFields, "FIELDS", sizeof(core::FieldRecord)},
+    {SectionKind::kSignals, "SIGNALS", sizeof(core::SignalRecord)},
+    {SectionKind::kRates, "RATES", sizeof(core::RateRecord)},
+    {SectionKind::kInvariants, "INVARIANTS", sizeof(core::InvariantRecord)},
+    {SectionKind::kTemplates, "TEMPLATES", sizeof(core::TemplateRecord)},
+    {SectionKind::kCode, "CODE", sizeof(core::Insn)},
+    {SectionKind::kConstants, "CONSTANTS", sizeof(int64_t)},
+    {SectionKind::kAccess, "ACCESS", sizeof(core::AccessRecord)},
+    {SectionKind::kRegisterInit, "REGISTER_INIT", sizeof(core::RegisterInitRecord)},
+    {SectionKind::kNames, "NAMES", 1},
+};
+
+const SectionInfo* section_info(uint32_t kind) {
+  for (const SectionInfo& s : kSections) {
+    if (static_cast<uint32_t>(s.kind) == kind) return &s;
   }
-  return 0;
+  return nullptr;
+}
+
+uint32_t record_size(SectionKind kind) {
+  const SectionInfo* s = section_info(static_cast<uint32_t>(kind));
+  return s != nullptr ? s->record_size : 0;
 }
 
 const char* section_name(uint32_t kind) {
-  switch (static_cast<SectionKind>(kind)) {
-    case SectionKind::kTasks:
-      return "TASKS";
-    case SectionKind::kDevices:
-      return "DEVICES";
-    case SectionKind::kAliases:
-      return "ALIASES";
-    case SectionKind::kCommands:
-      return "COMMANDS";
-    case SectionKind::kFields:
-      return "FIELDS";
-    case SectionKind::kSignals:
-      return "SIGNALS";
-    case SectionKind::kRates:
-      return "RATES";
-    case SectionKind::kInvariants:
-      return "INVARIANTS";
-    case SectionKind::kTemplates:
-      return "TEMPLATES";
-    case SectionKind::kCode:
-      return "CODE";
-    case SectionKind::kConstants:
-      return "CONSTANTS";
-    case SectionKind::kAccess:
-      return "ACCESS";
-    case SectionKind::kRegisterInit:
-      return "REGISTER_INIT";
-    case SectionKind::kNames:
-      return "NAMES";
-  }
-  return "?";
+  const SectionInfo* s = section_info(kind);
+  return s != nullptr ? s->name : "?";
 }
 
 }  // namespace

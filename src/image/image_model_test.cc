@@ -61,19 +61,15 @@ TEST(ImageModelTest, DeserializeNamesWhatIsWrong) {
 
 TEST(ImageModelTest, DumpListsTablesAndDisassemblesEveryProgram) {
   const std::string text = dump(rover::model());
-  EXPECT_NE(text.find("t0 follower: period 200000us"), std::string::npos) << text;
-  EXPECT_NE(text.find("d0 gopigo: role A profile frame i2c-1 0x08"), std::string::npos) << text;
-  EXPECT_NE(text.find("s5 pos: derived"), std::string::npos) << text;
-  EXPECT_NE(text.find("i0 INV1"), std::string::npos) << text;
-  EXPECT_NE(text.find("i2 INV3"), std::string::npos) << text;
-  EXPECT_NE(text.find("failsubst"), std::string::npos) << text;
-  EXPECT_NE(text.find("signal s5  ; pos"), std::string::npos) << text;
-  EXPECT_NE(text.find("jz +"), std::string::npos) << text;
-  EXPECT_NE(text.find("ret"), std::string::npos) << text;
+  for (const char* line :
+       {"t0 follower: period 200000us", "d0 gopigo: role A profile frame i2c-1 0x08",
+        "s5 pos: derived", "i0 INV1", "i2 INV3", "failsubst", "signal s5  ; pos", "jz +", "ret"}) {
+    EXPECT_NE(text.find(line), std::string::npos) << line << " is not in\n" << text;
+  }
   const std::string a = dump(arm::model());
-  EXPECT_NE(a.find("ai bit 5 of 0x00"), std::string::npos) << a;
-  EXPECT_NE(a.find("group 4 x16 stride 4"), std::string::npos) << a;
-  EXPECT_NE(a.find("setstate"), std::string::npos) << a;
+  for (const char* line : {"ai bit 5 of 0x00", "group 4 x16 stride 4", "setstate"}) {
+    EXPECT_NE(a.find(line), std::string::npos) << line << " is not in\n" << a;
+  }
 }
 
 }  // namespace

@@ -18,20 +18,16 @@
 #include <thread>
 #include <vector>
 
+#include "base/test_temp.h"
 #include "monitor/audit_log.h"
+#include "monitor/test_audit_record.h"
 
 namespace contego::monitor {
 namespace {
 
 core::AuditRecord record(uint32_t job) {
   static const uint8_t bytes[] = {0x01, 0x46, 0x64, 0x00, 0x00};
-  core::AuditRecord r{};
-  r.job = job;
-  r.decision = core::Decision::kAllow;
-  r.addr = 0x08;
-  r.original = bytes;
-  r.original_len = 5;
-  return r;
+  return testing::decision_record(job, core::Decision::kAllow, 0x08, bytes);
 }
 
 AuditCheck verify_file(const std::string& path, const std::string& from = {}) {
@@ -63,9 +59,7 @@ std::string first_line(const std::string& path) {
 class AuditFaults : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-faults-XXXXXX";
-    ASSERT_NE(mkdtemp(name), nullptr);
-    dir = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-audit-faults", &dir));
     path = dir + "/audit.jsonl";
   }
   void TearDown() override {

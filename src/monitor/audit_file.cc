@@ -27,6 +27,7 @@
 
 #include "base/clock.h"
 #include "base/json_text.h"
+#include "base/read_file.h"
 #include "monitor/audit_internal.h"
 #include "monitor/audit_log.h"
 #include "monitor/sha256.h"
@@ -110,15 +111,6 @@ std::string lock_holder(const struct stat& st) {
     return name.empty() ? "pid " + pid : "pid " + pid + " (" + name + ")";
   }
   return {};
-}
-
-const char* file_type(mode_t mode) {
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISSOCK(mode)) return "a socket";
-  if (S_ISDIR(mode)) return "a directory";
-  return "not a regular file";
 }
 
 // The SIGBUS guard of the copy into the mapped log. Space is allocated
@@ -387,7 +379,7 @@ Status AuditLog::open_file_locked() {
       return make_error(fmt::format(
           "audit log {} is {}, not a regular file: what is written there cannot be checked, "
           "locked or rotated (give --audit-unsafe to log there anyway, or - for standard error)",
-          path_, file_type(st.st_mode)));
+          path_, file_kind(st.st_mode)));
     }
     // --audit-unsafe: write(2) per line, blocking (a FIFO reader paces us).
     (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);

@@ -12,7 +12,9 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include "base/test_temp.h"
 #include "monitor/audit_explain.h"
+#include "monitor/test_audit_record.h"
 
 namespace contego::monitor {
 namespace {
@@ -20,11 +22,7 @@ namespace {
 class AuditChain : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-chain-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    path = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_file("contego-audit-chain", &path));
   }
   void TearDown() override { unlink(path.c_str()); }
 
@@ -34,14 +32,9 @@ class AuditChain : public ::testing::Test {
     log.event("start", "test");
     const uint8_t bytes[] = {0x01, 0x46, 0x64, 0x00, 0x00};
     for (int i = 0; i < decisions; ++i) {
-      core::AuditRecord r{};
-      r.task = 0;
-      r.job = static_cast<uint32_t>(i);
-      r.decision = i % 3 == 0 ? core::Decision::kReject : core::Decision::kAllow;
-      r.addr = 0x08;
-      r.original = bytes;
-      r.original_len = 5;
-      log.decision(r, "follower");
+      const auto decision = i % 3 == 0 ? core::Decision::kReject : core::Decision::kAllow;
+      log.decision(testing::decision_record(static_cast<uint32_t>(i), decision, 0x08, bytes),
+                   "follower");
     }
   }
   std::vector<std::string> lines() {
@@ -74,23 +67,13 @@ TEST_F(AuditChain, DecisionRecordsCarryNamesAndExplainInWords) {
     names.invariants = {"INV3"};
     const uint8_t bytes[] = {0x01, 0x46, 0xFF, 0x00, 0x00};
     const uint8_t sub[] = {0x01, 0x46, 0x50, 0x00, 0x00};
-    core::AuditRecord r{};
-    r.task = 0;
-    r.job = 7;
-    r.device = 0;
+    core::AuditRecord r = testing::decision_record(7, core::Decision::kFailsafe, 0x08, bytes, sub);
     r.command = 1;
-    r.decision = core::Decision::kFailsafe;
     r.reason = core::Reason::kInvariantViolated;
     r.rule_kind = core::RuleKind::kInvariant;
-    r.rule = 0;
     r.fields[0] = 255;
     r.field_count = 1;
     r.bus = 1;
-    r.addr = 0x08;
-    r.original = bytes;
-    r.original_len = 5;
-    r.substitute = sub;
-    r.substitute_len = 5;
     ASSERT_TRUE(log.decision(r, names.of(r)));
   }
   const auto v = lines();
@@ -195,13 +178,7 @@ TEST_F(AuditChain, AKilledWriterLosesNoRecordWhoseDecisionActed) {
     if (!log.open(path).ok()) _exit(1);
     const uint8_t bytes[] = {0x01, 0x46, 0x50, 0x00, 0x00};
     for (uint32_t i = 0;; ++i) {
-      core::AuditRecord r{};
-      r.job = i;
-      r.decision = core::Decision::kAllow;
-      r.addr = 0x08;
-      r.original = bytes;
-      r.original_len = 5;
-      log.decision(r, "follower");
+      log.decision(testing::decision_record(i, core::Decision::kAllow, 0x08, bytes), "follower");
       if (write(acted[1], "x", 1) != 1) _exit(1);  // the decision acts
     }
   }
@@ -281,23 +258,16 @@ TEST_F(AuditChain, HandFormattedLinesAreJsonWithEveryField) {
     log.event("malformed", "quote \" back\\slash\nnew\x01line \xff\xfe");
     const uint8_t bytes[] = {0x1A, 0x00, 0xFF};
     const uint8_t sub[] = {0x1A, 0x00, 0x00};
-    core::AuditRecord r{};
+    core::AuditRecord r = testing::decision_record(77, core::Decision::kFailsafe, 0x40, bytes, sub);
     r.task = 3;
-    r.job = 77;
     r.device = 2;
     r.command = 0xFFFF;
     r.rule = 5;
-    r.decision = core::Decision::kFailsafe;
     r.index = 4;
     r.field_count = 2;
     r.fields[0] = -12;
     r.fields[1] = 4095;
     r.bus = 1;
-    r.addr = 0x40;
-    r.original = bytes;
-    r.original_len = 3;
-    r.substitute = sub;
-    r.substitute_len = 3;
     log.decision(r, "grip\"per");
   }
   const auto v = lines();

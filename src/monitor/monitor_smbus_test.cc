@@ -12,9 +12,11 @@
 #include <gtest/gtest.h>
 #include <sstream>
 
+#include "base/test_temp.h"
 #include "bus/virtual_bus.h"
 #include "gate/transfer.h"
 #include "monitor/monitor.h"
+#include "monitor/test_fake_decider.h"
 
 namespace contego::monitor {
 namespace {
@@ -46,22 +48,15 @@ class Registers final : public bus::DeviceModel {
 
 // Allows everything, emitting the bytes as sent; writes to 0x41 are replaced
 // by a 40-byte frame (a substitute no SMBus transaction carries).
-class CountingDecider final : public Decider {
+class CountingDecider final : public testing::FakeDecider {
  public:
   CountingDecider() {
-    devices_[0] = {};
-    devices_[0].role = core::kRoleActuator;
-    devices_[0].bus = 1;
-    devices_[0].addr = 0x40;
-    devices_[1] = {};
-    devices_[1].role = core::kRoleSensor;
-    devices_[1].bus = 1;
-    devices_[1].addr = 0x48;
-    devices_[1].sample_request_len = 1;
-    devices_[1].sample_request[0] = 0x10;
-    devices_[1].sample_len = 4;
+    add_device(core::kRoleActuator, 0x40);
+    core::DeviceRecord& sensor = add_device(core::kRoleSensor, 0x48);
+    sensor.sample_request_len = 1;
+    sensor.sample_request[0] = 0x10;
+    sensor.sample_len = 4;
   }
-  void set_host(const core::Host& host) override { host_ = host; }
   void check(const core::Transaction& tx, core::Verdict* v) override {
     ++checks;
     *v = core::Verdict{};
@@ -87,28 +82,10 @@ class CountingDecider final : public Decider {
     emit(v, safe);
     return true;
   }
-  uint32_t device_count() const override { return 2; }
-  const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
-
-  std::vector<uint8_t> sample(uint16_t device) {
-    std::vector<uint8_t> buf(64);
-    uint64_t at = 0;
-    buf.resize(host_.read_sample(host_.context, device, buf.data(), 64, &at));
-    return buf;
-  }
 
   int checks = 0;
   std::vector<uint8_t> safe{0x06, 0x00};
-
- private:
-  static void emit(core::Verdict* v, const std::vector<uint8_t>& bytes) {
-    v->emit_len[v->emit_count++] = static_cast<uint16_t>(bytes.size());
-    std::memcpy(v->emit_bytes + v->emit_bytes_used, bytes.data(), bytes.size());
-    v->emit_bytes_used = static_cast<uint16_t>(v->emit_bytes_used + bytes.size());
-  }
-  core::Host host_{};
-  core::DeviceRecord devices_[2];
 };
 
 gate::Message wmsg(uint16_t addr, std::vector<uint8_t> bytes) {
@@ -130,11 +107,7 @@ gate::Message rmsg(uint16_t addr, uint16_t len, uint16_t flags = 0) {
 class MonitorSmbus : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-audit-smbus-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    path = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_file("contego-audit-smbus", &path));
     ASSERT_TRUE(audit.open(path).ok());
     bus.set_funcs(bus::kI2cStubFuncs);
     bus.attach(dev);

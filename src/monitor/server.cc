@@ -109,6 +109,12 @@ void Server::client_event(uid_t uid, const std::string& kind, const std::string&
   audit_.event(kind, detail);
 }
 
+void Server::refuse_peer(int fd, pid_t pid, uid_t uid, const std::string& why, int error,
+                         const char* message) {
+  client_event(uid, "peer-refused", fmt::format("pid {} uid {}{}", pid, uid, why));
+  gate::send_frame(fd, wire::Type::kError, 0, wire::encode_error({error, message}));
+}
+
 void Server::flush_suppressed(bool all) {
   std::lock_guard lock(events_mu_);
   const uint64_t now = now_us();
@@ -196,9 +202,7 @@ void Server::serve() {
     socklen_t len = sizeof cred;
     if (getsockopt(fd.get(), SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 ||
         allowed_.count(cred.uid) == 0) {
-      client_event(cred.uid, "peer-refused", fmt::format("pid {} uid {}", cred.pid, cred.uid));
-      const auto e = wire::encode_error({EACCES, "peer uid not allowed"});
-      gate::send_frame(fd.get(), wire::Type::kError, 0, e);
+      refuse_peer(fd.get(), cred.pid, cred.uid, "", EACCES, "peer uid not allowed");
       continue;
     }
     if (limits_.connects_per_second > 0) {
@@ -211,11 +215,10 @@ void Server::serve() {
       }
       if (++opened > limits_.connects_per_second) {
         over_rate_.fetch_add(1);
-        client_event(cred.uid, "peer-refused",
-                     fmt::format("pid {} uid {}: over {} new connections per second", cred.pid,
-                                 cred.uid, limits_.connects_per_second));
-        const auto e = wire::encode_error({EAGAIN, "reconnecting too fast for this uid"});
-        gate::send_frame(fd.get(), wire::Type::kError, 0, e);
+        refuse_peer(
+            fd.get(), cred.pid, cred.uid,
+            fmt::format(": over {} new connections per second", limits_.connects_per_second),
+            EAGAIN, "reconnecting too fast for this uid");
         continue;
       }
     }
@@ -224,11 +227,9 @@ void Server::serve() {
     if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
       lock.unlock();
       over_cap_.fetch_add(1);
-      client_event(cred.uid, "peer-refused",
-                   fmt::format("pid {} uid {}: over the cap of {} connections per uid", cred.pid,
-                               cred.uid, limits_.max_per_uid));
-      const auto e = wire::encode_error({EAGAIN, "too many connections for this uid"});
-      gate::send_frame(fd.get(), wire::Type::kError, 0, e);
+      refuse_peer(fd.get(), cred.pid, cred.uid,
+                  fmt::format(": over the cap of {} connections per uid", limits_.max_per_uid),
+                  EAGAIN, "too many connections for this uid");
       continue;
     }
     ++live;

@@ -119,6 +119,10 @@ class Server {
   void connection(Conn* c);
   // A client-error event, rate-limited per uid.
   void client_event(uid_t uid, const std::string& kind, const std::string& detail);
+  // Refuses a connecting peer: a `peer-refused` event ("pid P uid U" and
+  // `why`), then an error frame of `error` and `message` on `fd`.
+  void refuse_peer(int fd, pid_t pid, uid_t uid, const std::string& why, int error,
+                   const char* message);
   void flush_suppressed(bool all);  // summaries of windows that are over
   void housekeeping();              // joins finished threads, enforces hello deadlines
   std::optional<gate::wire::Type> dispatch(Session& s, uint8_t type,

@@ -135,44 +135,42 @@ std::vector<Workload> example_workloads() {
   };
 }
 
-const char* path_label(Path p) {
-  switch (p) {
-    case Path::kUnprotected:
-      return "a unprotected";
-    case Path::kPreload:
-      return "b preload";
-    case Path::kPreloadSocket:
-      return "b-sock preload";
-    case Path::kSeccompInProcess:
-      return "c1 seccomp+checker";
-    case Path::kSeccompMonitor:
-      return "c2 seccomp+monitor";
-    case Path::kSeccompMonitorSocket:
-      return "c2-sock seccomp+mon.";
-    case Path::kCore:
-      return "d in-process core";
+namespace {
+
+struct PathNames {
+  Path path;
+  const char* label;
+  const char* key;
+};
+
+// Both names of every path, in the order of the enum.
+constexpr PathNames kPathNames[] = {
+    {Path::kUnprotected, "a unprotected", "unprotected"},
+    {Path::kPreload, "b preload", "preload"},
+    {Path::kPreloadSocket, "b-sock preload", "preload_socket_only"},
+    {Path::kSeccompInProcess, "c1 seccomp+checker", "seccomp_in_process"},
+    {Path::kSeccompMonitor, "c2 seccomp+monitor", "seccomp_monitor_process"},
+    {Path::kSeccompMonitorSocket, "c2-sock seccomp+mon.", "seccomp_monitor_process_socket_only"},
+    {Path::kCore, "d in-process core", "in_process_core"},
+};
+
+const PathNames* names_of(Path p) {
+  for (const PathNames& n : kPathNames) {
+    if (n.path == p) return &n;
   }
-  return "?";
+  return nullptr;
+}
+
+}  // namespace
+
+const char* path_label(Path p) {
+  const PathNames* n = names_of(p);
+  return n != nullptr ? n->label : "?";
 }
 
 const char* path_key(Path p) {
-  switch (p) {
-    case Path::kUnprotected:
-      return "unprotected";
-    case Path::kPreload:
-      return "preload";
-    case Path::kPreloadSocket:
-      return "preload_socket_only";
-    case Path::kSeccompInProcess:
-      return "seccomp_in_process";
-    case Path::kSeccompMonitor:
-      return "seccomp_monitor_process";
-    case Path::kSeccompMonitorSocket:
-      return "seccomp_monitor_process_socket_only";
-    case Path::kCore:
-      return "in_process_core";
-  }
-  return "?";
+  const PathNames* n = names_of(p);
+  return n != nullptr ? n->key : "?";
 }
 
 bool Row::all_allowed() const {

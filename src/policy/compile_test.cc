@@ -153,11 +153,9 @@ allow t -> gopigo
 invariant CAP on gopigo.set_left_speed: require speed <= 120
   else failsafe speed = clamp(speed, 0, 120)
 )";
-  CompileOutput out = compile_source("cap.policy", text);
-  ASSERT_TRUE(out.ok) << (out.diagnostics.empty() ? "" : out.diagnostics[0].rendered);
-  auto checker = std::make_unique<core::Checker>();
-  ASSERT_EQ(checker->load(out.image.data(), static_cast<uint32_t>(out.image.size())).status,
-            core::LoadStatus::kOk);
+  CompileOutput out;
+  std::unique_ptr<core::Checker> checker;
+  ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("cap.policy", text, &out, &checker));
   uint8_t frame[4] = {0x46, 200, 0, 0};
   const core::Transaction tx = testing::write_tx(0, 0x08, 1, frame, sizeof frame);
   core::Verdict v{};
@@ -176,11 +174,9 @@ task t { period 1s; wcet 1ms }
 allow t -> arm
 invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
 )";
-  CompileOutput out = compile_source("arm.policy", text);
-  ASSERT_TRUE(out.ok) << (out.diagnostics.empty() ? "" : out.diagnostics[0].rendered);
-  auto checker = std::make_unique<core::Checker>();
-  ASSERT_EQ(checker->load(out.image.data(), static_cast<uint32_t>(out.image.size())).status,
-            core::LoadStatus::kOk);
+  CompileOutput out;
+  std::unique_ptr<core::Checker> checker;
+  ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out, &checker));
   // LED5 = registers 0x1A..0x1D: ON_L ON_H OFF_L OFF_H (MODE1.AI is 0 at power-on: byte writes).
   auto write_led5 = [&](uint16_t off, uint32_t job) {
     core::Verdict v{};

@@ -23,15 +23,22 @@ using core::Reason;
 // LEDn registers: ON_L ON_H OFF_L OFF_H at 0x06 + 4n.
 constexpr uint8_t led_reg(uint8_t channel) { return static_cast<uint8_t>(0x06 + 4 * channel); }
 
+// The arm and a task `t` that may drive it, then `rules`.
+std::string with_arm(const std::string& rules) {
+  return "device arm : pca9685 at i2c-1 0x40\n"
+         "task t { period 1s; wcet 1ms }\n"
+         "allow t -> arm\n" +
+         rules + "\n";
+}
+
+// (register, value) pairs.
+using Pairs = std::vector<std::pair<uint8_t, uint8_t>>;
+
 class Pca9685Policy : public ::testing::Test {
  protected:
   // Compiles `text` (a policy declaring `device arm : pca9685 at i2c-1 0x40`) and loads it.
   void load(const std::string& text) {
-    out_ = compile_source("arm.policy", text);
-    ASSERT_TRUE(out_.ok) << (out_.diagnostics.empty() ? "" : out_.diagnostics[0].rendered);
-    checker_ = std::make_unique<core::Checker>();
-    ASSERT_EQ(checker_->load(out_.image.data(), static_cast<uint32_t>(out_.image.size())).status,
-              core::LoadStatus::kOk);
+    ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out_, &checker_));
   }
 
   core::Verdict write(std::vector<uint8_t> bytes, uint32_t job, uint16_t addr = 0x40,
@@ -53,10 +60,17 @@ class Pca9685Policy : public ::testing::Test {
     write({static_cast<uint8_t>(r + 2), static_cast<uint8_t>(off & 0xFF)}, job, 0x40, task);
     return write({static_cast<uint8_t>(r + 3), static_cast<uint8_t>(off >> 8)}, job, 0x40, task);
   }
+  // The register writes that replace led(5, on, off=577), a pulse out of the
+  // gripper's sequence (the invariant answers `failsafe expected`).
+  Pairs substituted_for_grip(uint16_t on, uint32_t job) {
+    const core::Verdict v = write_led(5, on, 577, job);
+    EXPECT_EQ(v.decision, Decision::kFailsafe);
+    return pairs(v);
+  }
 
   // The (register, value) pairs a verdict writes.
-  static std::vector<std::pair<uint8_t, uint8_t>> pairs(const core::Verdict& v) {
-    std::vector<std::pair<uint8_t, uint8_t>> p;
+  static Pairs pairs(const core::Verdict& v) {
+    Pairs p;
     uint32_t at = 0;
     for (uint32_t i = 0; i < v.emit_count; ++i) {
       if (v.emit_len[i] == 2) p.emplace_back(v.emit_bytes[at], v.emit_bytes[at + 1]);
@@ -73,12 +87,8 @@ class Pca9685Policy : public ::testing::Test {
 // --- LAST_FIELD history per channel --------------------------------------------
 
 TEST_F(Pca9685Policy, LastFieldIsTheSameChannelsLastValueNotAnotherChannels) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off = 375
-)");
+  load(with_arm(
+      "invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off = 375"));
   // No history for a channel yet: last() faults, the rule fails closed with
   // its constant substitute, and the substitute becomes the channel's history.
   EXPECT_EQ(write_led(3, 0, 300, 1).decision, Decision::kFailsafe);  // channel 3 := 375
@@ -91,8 +101,6 @@ invariant STEP on arm.led: require abs(off - last(off)) <= 50 else failsafe off 
 }
 
 // --- per-channel safe states (TemplateRecord::index) -----------------------------
-
-using Pairs = std::vector<std::pair<uint8_t, uint8_t>>;
 
 TEST_F(Pca9685Policy, SafeStateWritesEachNamedChannelWithEveryField) {
   load(R"(
@@ -167,12 +175,8 @@ invariant WINDOW on arm.led: require off <= 600 else ignore
 }
 
 TEST_F(Pca9685Policy, AConstantFailsafeCommandCanNameAnotherChannel) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)
-)");
+  load(
+      with_arm("invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)"));
   // ALL_LED_ON_H = 0x10 (every output constantly on) becomes gripper-open on channel 5.
   write({0xFA, 0x00}, 1);
   write({0xFB, 0x10}, 1);
@@ -184,12 +188,8 @@ invariant ALL on arm.all_led: require full_on == 0 else failsafe led(5, off=420)
 
 // --- the shadow after ALL_LED writes, `failsafe expected` ------------------------
 
-constexpr const char* kGrip = R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
-)";
+const std::string kGrip =
+    with_arm("invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected");
 
 TEST_F(Pca9685Policy, AllLedWritesReachEveryChannelsShadow) {
   load(kGrip);
@@ -199,26 +199,20 @@ TEST_F(Pca9685Policy, AllLedWritesReachEveryChannelsShadow) {
   EXPECT_EQ(write({0xFD, 0x00}, 1).decision, Decision::kAllow);
   // Out of sequence (577 where 420 is due): the expected pulse is substituted;
   // its unnamed fields come from the shadow, which now says "not full off".
-  const core::Verdict v = write_led(5, 0, 577, 2);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
+  EXPECT_EQ(substituted_for_grip(0, 2),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
 }
 
 TEST_F(Pca9685Policy, AllLedBroadcastIsUndoneWhenItsTransactionIsRefused) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant ALL on arm.all_led: require off <= 600 else ignore
-invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
-)");
+  load(
+      with_arm("invariant ALL on arm.all_led: require off <= 600 else ignore\n"
+               "invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected"));
   // ALL_LED_OFF = 0x0FFF is ignored: nothing reached the device, so channel 5's
   // shadow keeps its power-on OFF_H (0x10) and the substitute says so too.
   write({0xFC, 0xFF}, 1);
   EXPECT_EQ(write({0xFD, 0x0F}, 1).decision, Decision::kIgnore);
-  const core::Verdict v = write_led(5, 0, 577, 2);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
+  EXPECT_EQ(substituted_for_grip(0, 2),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
 }
 
 TEST_F(Pca9685Policy, FailsafeExpectedNeverTakesUnnamedFieldsFromTheRequest) {
@@ -227,9 +221,8 @@ TEST_F(Pca9685Policy, FailsafeExpectedNeverTakesUnnamedFieldsFromTheRequest) {
   // the fields the invariant does not name from the shadow (what the device
   // holds: here its power-on state, full off), never from the request, so the
   // attacker's full-on bit cannot ride along with the expected pulse.
-  const core::Verdict v = write_led(5, 0x1000, 577, 1);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
+  EXPECT_EQ(substituted_for_grip(0x1000, 1),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x11}}));
 }
 
 TEST_F(Pca9685Policy, FailsafeExpectedAfterTheSafeStateDrivesTheChannel) {
@@ -244,9 +237,8 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
 )"));
   core::Verdict safe{};
   ASSERT_TRUE(checker_->safe_state(0, &safe));
-  const core::Verdict v = write_led(5, 0, 577, 1);
-  ASSERT_EQ(v.decision, Decision::kFailsafe);
-  EXPECT_EQ(pairs(v), (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
+  EXPECT_EQ(substituted_for_grip(0, 1),
+            (Pairs{{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}}));
 }
 
 // --- the general call -------------------------------------------------------------
@@ -277,12 +269,7 @@ limit gripper -> arm.swrst 0 per job else reject EPERM
 }
 
 TEST_F(Pca9685Policy, ARegisterWriteThroughTheGeneralCallIsIgnored) {
-  load(R"(
-device arm : pca9685 at i2c-1 0x40
-task t { period 1s; wcet 1ms }
-allow t -> arm
-invariant CAP on arm.led: require off <= 600 else failsafe off = 600
-)");
+  load(with_arm("invariant CAP on arm.led: require off <= 600 else failsafe off = 600"));
   // A PCA9685 takes a general call's first byte as a command (0x06: software
   // reset), never as a register: a channel write sent there is no write the
   // policy can check, whatever its values. Nothing is written, nothing of

@@ -7,11 +7,7 @@
 namespace contego::sched {
 namespace {
 
-using testing::blocking_example;
-using testing::issue_example;
-using testing::ms;
-using testing::task;
-using testing::us;
+using namespace testing;  // NOLINT(google-build-using-namespace): the sched test helpers
 
 // Issue 5's example, by hand, C^o = 0.5 ms:
 //   C^TEE: t1 = 1 + 1*0.5 = 1.5, t2 = 2 + 2*0.5 = 3, t3 = 3 + 1*0.5 = 3.5

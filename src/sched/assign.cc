@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <utility>
 
 #include "sched/analysis.h"
 
@@ -33,25 +34,25 @@ std::vector<size_t> monotonic_order(const TaskSet& set, bool by_deadline) {
 
 }  // namespace
 
+// One name a way, in the order of the enum; the parser and the printer both read it.
+constexpr std::pair<Assignment, const char*> kAssignmentNames[] = {
+    {Assignment::kGiven, "given"},
+    {Assignment::kRateMonotonic, "rm"},
+    {Assignment::kDeadlineMonotonic, "dm"},
+    {Assignment::kAudsley, "audsley"},
+};
+
 Result<Assignment> parse_assignment(std::string_view text) {
-  if (text == "given") return Assignment::kGiven;
-  if (text == "rm") return Assignment::kRateMonotonic;
-  if (text == "dm") return Assignment::kDeadlineMonotonic;
-  if (text == "audsley") return Assignment::kAudsley;
+  for (const auto& [how, name] : kAssignmentNames) {
+    if (text == name) return how;
+  }
   return make_error("unknown priority assignment '" + std::string(text) +
                     "' (use given, rm, dm or audsley)");
 }
 
 const char* assignment_name(Assignment a) {
-  switch (a) {
-    case Assignment::kGiven:
-      return "given";
-    case Assignment::kRateMonotonic:
-      return "rm";
-    case Assignment::kDeadlineMonotonic:
-      return "dm";
-    case Assignment::kAudsley:
-      return "audsley";
+  for (const auto& [how, name] : kAssignmentNames) {
+    if (how == a) return name;
   }
   return "?";
 }

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <gtest/gtest.h>
 
+#include "sim/test_metric.h"
+
 namespace contego::sim {
 namespace {
 
@@ -15,13 +17,7 @@ Scenario rover(const std::string& attack) {
   return *sc;
 }
 
-double metric(const RunResult& r, const std::string& name) {
-  for (const auto& m : r.metrics) {
-    if (m.name == name) return m.value;
-  }
-  ADD_FAILURE() << "no metric " << name;
-  return 0;
-}
+using testing::metric;
 
 size_t column(const RunResult& r, const std::string& name) {
   auto it = std::find(r.columns.begin(), r.columns.end(), name);
@@ -120,57 +116,55 @@ Result<RunResult> run_text(const std::string& text, bool attacks) {
   return run_scenario(*sc, {"x", attacks, nullptr, {}});
 }
 
-double value(const RunResult& r, const std::string& name) {
-  for (const auto& m : r.metrics) {
-    if (m.name == name) return m.value;
-  }
-  ADD_FAILURE() << "no metric " << name;
-  return 0;
+// The scenario `text` run without its attacks and with them.
+struct BaseAndAttacked {
+  Result<RunResult> base, bad;
+};
+BaseAndAttacked run_both(const std::string& text) {
+  return {run_text(text, false), run_text(text, true)};
 }
+
+using testing::metric;
 
 TEST(RunnerTest, TankMonitorAlarmsOnlyWhenTheLevelIsHigh) {
   const std::string sc =
       "platform tank\npolicy none\nduration 90s\nstep 10ms\ntrace 100ms\n"
       "attack false_alarm from 30s to 50s\n";
-  auto base = run_text(sc, false);
-  auto bad = run_text(sc, true);
+  auto [base, bad] = run_both(sc);
   ASSERT_TRUE(base.ok() && bad.ok());
-  EXPECT_GT(value(*base, "buzzer_on_time"), 20.0);   // two high phases of ~15 s
-  EXPECT_LT(value(*base, "false_alarm_time"), 1.5);  // only the 0.5 s polling lag
-  EXPECT_GT(value(*bad, "false_alarm_time"), 15.0);
+  EXPECT_GT(metric(*base, "buzzer_on_time"), 20.0);   // two high phases of ~15 s
+  EXPECT_LT(metric(*base, "false_alarm_time"), 1.5);  // only the 0.5 s polling lag
+  EXPECT_GT(metric(*bad, "false_alarm_time"), 15.0);
 }
 
 TEST(RunnerTest, PumpStopsAtTheDoseUnlessOverdosed) {
   const std::string sc =
       "platform pump\npolicy none\nduration 30h\nstep 1s\ntrace 1min\nset period 60s\n"
       "attack overdose from 2h to 28h rate=1000\n";
-  auto base = run_text(sc, false);
-  auto bad = run_text(sc, true);
+  auto [base, bad] = run_both(sc);
   ASSERT_TRUE(base.ok() && bad.ok());
-  EXPECT_NEAR(value(*base, "dose_delivered"), 5000.0, 10.0);
-  EXPECT_NEAR(value(*base, "dose_reached_at"), 25.0, 0.2);
-  EXPECT_GT(value(*bad, "dose_delivered"), 20000.0);
+  EXPECT_NEAR(metric(*base, "dose_delivered"), 5000.0, 10.0);
+  EXPECT_NEAR(metric(*base, "dose_reached_at"), 25.0, 0.2);
+  EXPECT_GT(metric(*bad, "dose_delivered"), 20000.0);
 }
 
 TEST(RunnerTest, CameraPatrolStaysInRangeUnlessSpoofed) {
   const std::string sc =
       "platform camera\npolicy none\nduration 60s\nattack beyond_range from 20s to 40s\n";
-  auto base = run_text(sc, false);
-  auto bad = run_text(sc, true);
+  auto [base, bad] = run_both(sc);
   ASSERT_TRUE(base.ok() && bad.ok());
-  EXPECT_LT(value(*base, "max_pan_angle"), 60.0);
-  EXPECT_GT(value(*bad, "max_pan_angle"), 80.0);
-  EXPECT_GT(value(*bad, "time_beyond_range"), 15.0);
+  EXPECT_LT(metric(*base, "max_pan_angle"), 60.0);
+  EXPECT_GT(metric(*bad, "max_pan_angle"), 80.0);
+  EXPECT_GT(metric(*bad, "time_beyond_range"), 15.0);
 }
 
 TEST(RunnerTest, CameraSirenSoundsOnlyWithSomethingInView) {
   const std::string sc =
       "platform camera\npolicy none\nduration 60s\nattack false_siren from 20s to 40s\n";
-  auto base = run_text(sc, false);
-  auto bad = run_text(sc, true);
+  auto [base, bad] = run_both(sc);
   ASSERT_TRUE(base.ok() && bad.ok());
-  EXPECT_LT(value(*base, "false_siren_time"), 2.5);  // 1 s polling lag per visit
-  EXPECT_GT(value(*bad, "false_siren_time"), 10.0);
+  EXPECT_LT(metric(*base, "false_siren_time"), 2.5);  // 1 s polling lag per visit
+  EXPECT_GT(metric(*bad, "false_siren_time"), 10.0);
 }
 
 }  // namespace

@@ -43,21 +43,17 @@ wait_for() {  # FILE [tenths]: until it exists and is not empty
   return 1
 }
 field() { awk -v k="$1" '{for (i = 1; i < NF; i++) if ($i == k) print $(i + 1)}' "$2"; }
-# wait_ok FILE N: until the writer reports at least N successful writes.
-wait_ok() {
+# wait_field FIELD FILE N: until the writer reports FIELD (ok: successful
+# writes, failed: failed ones) at least N.
+wait_field() {
   for _ in $(seq 100); do
-    [[ -s "$1" ]] && (($(field ok "$1") >= $2)) && return 0
+    [[ -s "$2" ]] && (($(field "$1" "$2") >= $3)) && return 0
     sleep 0.1
   done
   return 1
 }
-wait_failed() {
-  for _ in $(seq 100); do
-    [[ -s "$1" ]] && (($(field failed "$1") >= $2)) && return 0
-    sleep 0.1
-  done
-  return 1
-}
+wait_ok() { wait_field ok "$@"; }          # FILE N
+wait_failed() { wait_field failed "$@"; }  # FILE N
 # start_monitor NAME ARGS...: `contego monitor` on $dir/NAME.sock.
 start_monitor() {
   local name="$1"

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <string>
 
+#include "base/test_temp.h"
 #include "gate/transfer.h"
 
 namespace contego::monitor {
@@ -44,9 +45,7 @@ class FaultyBus final : public bus::Bus {
 class SetupTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    char tmpl[] = "/tmp/contego-setup-XXXXXX";
-    ASSERT_NE(mkdtemp(tmpl), nullptr);
-    dir_ = tmpl;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-setup", &dir_));
     options_.policy = kRover;
     options_.audit = dir_ + "/audit.jsonl";
     gopigo_ = std::make_shared<bus::GoPiGo2>(0x08);
@@ -62,6 +61,26 @@ class SetupTest : public ::testing::Test {
     s << in.rdbuf();
     return s.str();
   }
+  // Puts the rover's motor board and line follower on `vb`.
+  void attach_devices(bus::VirtualBus& vb) {
+    vb.attach(gopigo_);
+    vb.attach(line_);
+  }
+  // Starts on the rover's devices behind a bus that fails at `addr` (its
+  // reads and/or writes, with `err`); returns the refusal ("" if it started).
+  std::string refusal_behind_faulty_bus(uint16_t addr, bool fail_reads, bool fail_writes, int err) {
+    bus::VirtualBus vb;
+    attach_devices(vb);
+    FaultyBus faulty(vb, addr, fail_reads, fail_writes, err);
+    options_.buses = {{1, &faulty}};
+    auto t = setup(options_);
+    EXPECT_FALSE(t.ok());
+    if (t.ok()) {
+      (*t)->monitor->stop_sampling();
+      return "";
+    }
+    return t.error();
+  }
   std::string dir_;
   SetupOptions options_;
   std::shared_ptr<bus::GoPiGo2> gopigo_;
@@ -70,8 +89,7 @@ class SetupTest : public ::testing::Test {
 
 TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}};
   auto t = setup(options_);
   ASSERT_TRUE(t.ok()) << t.error();
@@ -86,8 +104,7 @@ TEST_F(SetupTest, HealthyBusStartsAndDrivesTheSafeState) {
 // before anything reaches a bus (it used to drive the safe state first).
 TEST_F(SetupTest, UnknownTaskIsRefusedBeforeAnyBusOperation) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}};
   options_.task = "nosuch";
   auto t = setup(options_);
@@ -129,40 +146,29 @@ TEST_F(SetupTest, AllowDegradedStartsAndAuditsIt) {
 }
 
 TEST_F(SetupTest, UnreadableSensorRefusesBeforeAnySafeState) {
-  bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
-  FaultyBus faulty(vb, 0x06, /*fail_reads=*/true, /*fail_writes=*/false, EIO);
-  options_.buses = {{1, &faulty}};
-  auto t = setup(options_);
-  ASSERT_FALSE(t.ok());
-  EXPECT_NE(t.error().find("refusing to start (sensors unreadable):"), std::string::npos);
-  EXPECT_NE(t.error().find("sensor line at i2c-1 0x06 cannot be read: EIO (Input/output error)"),
+  const std::string error =
+      refusal_behind_faulty_bus(0x06, /*fail_reads=*/true, /*fail_writes=*/false, EIO);
+  EXPECT_NE(error.find("refusing to start (sensors unreadable):"), std::string::npos);
+  EXPECT_NE(error.find("sensor line at i2c-1 0x06 cannot be read: EIO (Input/output error)"),
             std::string::npos)
-      << t.error();
+      << error;
   EXPECT_EQ(gopigo_->frames(), 0u);  // no safe state was sent
 }
 
 TEST_F(SetupTest, SafeStateTheBusRefusesRefusesToStart) {
-  bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
-  FaultyBus faulty(vb, 0x08, /*fail_reads=*/false, /*fail_writes=*/true, EREMOTEIO);
-  options_.buses = {{1, &faulty}};
-  auto t = setup(options_);
-  ASSERT_FALSE(t.ok());
-  EXPECT_NE(t.error().find("refusing to start (safe state not applied):"), std::string::npos);
-  EXPECT_NE(t.error().find("safe state of device gopigo at i2c-1 0x08 cannot be applied: "
-                           "EREMOTEIO (Remote I/O error)"),
+  const std::string error =
+      refusal_behind_faulty_bus(0x08, /*fail_reads=*/false, /*fail_writes=*/true, EREMOTEIO);
+  EXPECT_NE(error.find("refusing to start (safe state not applied):"), std::string::npos);
+  EXPECT_NE(error.find("safe state of device gopigo at i2c-1 0x08 cannot be applied: "
+                       "EREMOTEIO (Remote I/O error)"),
             std::string::npos)
-      << t.error();
+      << error;
   EXPECT_NE(audit().find("\"kind\":\"fault\""), std::string::npos);
 }
 
 TEST_F(SetupTest, PolicyBusWithoutAdapterRefusesAndAnUnusedBusWarns) {
   bus::VirtualBus vb;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{2, &vb}};
   auto t = setup(options_);
   ASSERT_FALSE(t.ok());
@@ -178,8 +184,7 @@ TEST_F(SetupTest, PolicyBusWithoutAdapterRefusesAndAnUnusedBusWarns) {
 
 TEST_F(SetupTest, AnUnusedBusBesideTheRightOneOnlyWarns) {
   bus::VirtualBus vb, spare;
-  vb.attach(gopigo_);
-  vb.attach(line_);
+  attach_devices(vb);
   options_.buses = {{1, &vb}, {3, &spare}};
   auto t = setup(options_);
   ASSERT_TRUE(t.ok()) << t.error();
@@ -200,9 +205,8 @@ namespace {
 // vendor library leaves it): the shadow is read back at start (audited), and
 // whole-channel auto-increment writes are decided as the device takes them.
 TEST(SetupShadow, RegisterMapShadowIsReadBackFromTheDevice) {
-  char tmpl[] = "/tmp/contego-setup-XXXXXX";
-  ASSERT_NE(mkdtemp(tmpl), nullptr);
-  const std::string dir = tmpl;
+  std::string dir;
+  ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-setup", &dir));
   SetupOptions o;
   o.policy = std::string(CONTEGO_POLICIES_DIR) + "/boat.policy";
   o.audit = dir + "/audit.jsonl";

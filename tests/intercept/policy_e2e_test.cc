@@ -27,6 +27,7 @@ namespace contego {
 namespace {
 
 enum class Client { kInProcess, kSocket, kPreload };
+constexpr const char* kClientNames[] = {"seccomp_in_process", "seccomp_socket", "preload_socket"};
 
 class PolicyE2e : public ::testing::TestWithParam<Client> {
  protected:
@@ -281,17 +282,7 @@ TEST_P(PolicyE2e, ArmAttackCombinedTransferGeneralCallAndReservedAddressesActNot
 
 INSTANTIATE_TEST_SUITE_P(Clients, PolicyE2e,
                          ::testing::Values(Client::kInProcess, Client::kSocket, Client::kPreload),
-                         [](const auto& p) {
-                           switch (p.param) {
-                             case Client::kInProcess:
-                               return "seccomp_in_process";
-                             case Client::kSocket:
-                               return "seccomp_socket";
-                             case Client::kPreload:
-                               return "preload_socket";
-                           }
-                           return "unknown";
-                         });
+                         test_support::enum_param_names(kClientNames));
 
 }  // namespace
 }  // namespace contego

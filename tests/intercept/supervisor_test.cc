@@ -37,33 +37,25 @@
 #include "gate/socket.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
+#include "monitor/test_audit_record.h"
+#include "monitor/test_fake_decider.h"
 #include "test_support.h"
 
 namespace contego {
 namespace {
 
-class ScriptedDecider final : public monitor::Decider {
+class ScriptedDecider final : public monitor::testing::FakeDecider {
  public:
   ScriptedDecider() {
-    devices_[0] = {};
-    devices_[0].role = core::kRoleActuator;
-    devices_[0].bus = 1;
-    devices_[0].addr = 0x40;
-    devices_[1] = {};
-    devices_[1].role = core::kRoleActuator;
-    devices_[1].bus = 1;
-    devices_[1].addr = 0x08;
-    devices_[2] = {};
-    devices_[2].role = core::kRoleSensor;
-    devices_[2].bus = 1;
-    devices_[2].addr = 0x06;
+    add_device(core::kRoleActuator, 0x40);
+    add_device(core::kRoleActuator, 0x08);
+    core::DeviceRecord& sensor = add_device(core::kRoleSensor, 0x06);
     const uint8_t req[5] = {0x01, 0x03, 0, 0, 0};
-    devices_[2].sample_request_len = 5;
-    std::memcpy(devices_[2].sample_request, req, 5);
-    devices_[2].sample_len = 10;
-    devices_[2].sample_period_us = 10000;
+    sensor.sample_request_len = 5;
+    std::memcpy(sensor.sample_request, req, 5);
+    sensor.sample_len = 10;
+    sensor.sample_period_us = 10000;
   }
-  void set_host(const core::Host& host) override { host_ = host; }
   void check(const core::Transaction& tx, core::Verdict* v) override {
     *v = core::Verdict{};
     v->bus = tx.bus;
@@ -110,27 +102,12 @@ class ScriptedDecider final : public monitor::Decider {
     }
     return false;
   }
-  uint32_t device_count() const override { return 3; }
-  const core::DeviceRecord& device(uint16_t id) const override { return devices_[id]; }
   uint32_t task_period_us(uint16_t) const override { return 20000; }
   uint16_t task_priority(uint16_t task) const override { return task == 0 ? 9 : 0; }
   // Task 0 declares two checked commands per job; others declare none.
   uint32_t task_actuations_per_job(uint16_t task) const override { return task == 0 ? 2 : 0; }
 
-  // The latest sample the monitor handed to the core (via Host::read_sample).
-  std::vector<uint8_t> sample(uint16_t device) {
-    std::vector<uint8_t> buf(64);
-    uint64_t at = 0;
-    buf.resize(host_.read_sample(host_.context, device, buf.data(), 64, &at));
-    return buf;
-  }
-
  private:
-  static void emit(core::Verdict* v, const std::vector<uint8_t>& bytes) {
-    v->emit_len[v->emit_count++] = static_cast<uint16_t>(bytes.size());
-    std::memcpy(v->emit_bytes + v->emit_bytes_used, bytes.data(), bytes.size());
-    v->emit_bytes_used = static_cast<uint16_t>(v->emit_bytes_used + bytes.size());
-  }
   void reject(const core::Transaction& tx, core::Verdict* v) {
     v->decision = core::Decision::kReject;
     v->reason = core::Reason::kAccessDenied;
@@ -138,19 +115,13 @@ class ScriptedDecider final : public monitor::Decider {
     audit(tx, *v);
   }
   void audit(const core::Transaction& tx, const core::Verdict& v) {
-    core::AuditRecord r{};
+    core::AuditRecord r =
+        monitor::testing::decision_record(tx.job, v.decision, tx.addr, std::span(tx.bytes, tx.len));
     r.task = tx.task;
-    r.job = tx.job;
-    r.decision = v.decision;
     r.reason = v.reason;
     r.bus = tx.bus;
-    r.addr = tx.addr;
-    r.original = tx.bytes;
-    r.original_len = static_cast<uint16_t>(tx.len);
     if (host_.audit != nullptr) host_.audit(host_.context, &r);
   }
-  core::Host host_{};
-  core::DeviceRecord devices_[3];
 };
 
 // The enclave clients every test runs against:
@@ -161,6 +132,8 @@ class ScriptedDecider final : public monitor::Decider {
 //  - kPreload: libcontego_preload.so in the program, monitor behind the
 //    socket, through the channel.
 enum class Client { kInProcess, kSocket, kSocketOnly, kPreload };
+constexpr const char* kClientNames[] = {"seccomp_in_process", "seccomp_channel", "seccomp_socket",
+                                        "preload_socket"};
 
 // Redirects this process's standard output (which a supervised program
 // inherits) into a pipe until finish() hands back what was written.
@@ -454,13 +427,12 @@ TEST_P(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
   EXPECT_NE(output.find("open-other-path "), std::string::npos) << output;
   EXPECT_EQ(output.find("open-other-path -1"), std::string::npos) << output;  // got a descriptor
   EXPECT_NE(output.find("slave-force 0 0"), std::string::npos) << output;
-  EXPECT_NE(output.find("write-prescale -1 1"), std::string::npos) << output;  // EPERM
-  EXPECT_NE(output.find("raw-write-prescale -1 1"), std::string::npos) << output;
-  EXPECT_NE(output.find("write-allcall -1 1"), std::string::npos) << output;
-  EXPECT_NE(output.find("rdwr-smuggle -1 1"), std::string::npos) << output;
-  EXPECT_NE(output.find("dup2-out -1 1"), std::string::npos) << output;
-  EXPECT_NE(output.find("write-prescale-copy -1 1"), std::string::npos) << output;
-  EXPECT_NE(output.find("fork-child-denied 0"), std::string::npos) << output;
+  // -1 1: refused with EPERM.
+  for (const char* line :
+       {"write-prescale -1 1", "raw-write-prescale -1 1", "write-allcall -1 1", "rdwr-smuggle -1 1",
+        "dup2-out -1 1", "write-prescale-copy -1 1", "fork-child-denied 0"}) {
+    EXPECT_NE(output.find(line), std::string::npos) << line << " is not in\n" << output;
+  }
   EXPECT_EQ(r.exit_code, 1);  // the exec'd i2cset was refused too
   EXPECT_EQ(pca->reg(0xFE), 0x1E);
   for (int ch = 0; ch < 16; ++ch) EXPECT_EQ(pca->led_off(ch), 0x1000) << ch;
@@ -979,19 +951,7 @@ TEST(Preload, UnreachableMonitorRefusesTheBusAndLeavesOtherFilesAlone) {
 INSTANTIATE_TEST_SUITE_P(Clients, Supervised,
                          ::testing::Values(Client::kInProcess, Client::kSocket, Client::kSocketOnly,
                                            Client::kPreload),
-                         [](const auto& p) {
-                           switch (p.param) {
-                             case Client::kInProcess:
-                               return "seccomp_in_process";
-                             case Client::kSocket:
-                               return "seccomp_channel";
-                             case Client::kSocketOnly:
-                               return "seccomp_socket";
-                             case Client::kPreload:
-                               return "preload_socket";
-                           }
-                           return "unknown";
-                         });
+                         test_support::enum_param_names(kClientNames));
 
 }  // namespace
 }  // namespace contego

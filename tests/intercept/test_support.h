@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include <cstddef>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <memory>
@@ -46,6 +47,13 @@ inline std::string file_text(const std::string& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+// Names the instances of a test parameterised by an enum: names[param], the
+// names in the order of the enum's values.
+template <size_t N>
+auto enum_param_names(const char* const (&names)[N]) {
+  return [&names](const auto& info) { return std::string(names[static_cast<size_t>(info.param)]); };
 }
 
 // Stops a test's server (if it was started) and joins the thread serving it.

@@ -14,6 +14,7 @@
 
 #include "contego/core_c.h"
 
+#include "base/test_temp.h"
 #include "cli/trusted_setup.h"
 
 namespace contego::cli {
@@ -22,11 +23,7 @@ namespace {
 class KmodAudit : public ::testing::Test {
  protected:
   void SetUp() override {
-    char name[] = "/tmp/contego-kmod-audit-XXXXXX";
-    const int fd = mkstemp(name);
-    ASSERT_GE(fd, 0);
-    close(fd);
-    path_ = name;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_file("contego-kmod-audit", &path_));
     monitor::SetupOptions o;
     o.policy = std::string(CONTEGO_POLICIES_DIR) + "/arm.policy";
     auto loaded = monitor::load_policy(o);

@@ -10,6 +10,7 @@
 #include "sim/monitor_guard.h"
 #include "sim/report.h"
 #include "sim/runner.h"
+#include "sim/test_metric.h"
 
 namespace contego::sim {
 namespace {
@@ -81,13 +82,7 @@ double gain(const RunResult& r, const std::string& col, double t0, double t1) {
   return at(r, col, t1) - at(r, col, t0);
 }
 
-double metric(const RunResult& r, const std::string& name) {
-  for (const auto& m : r.metrics) {
-    if (m.name == name) return m.value;
-  }
-  ADD_FAILURE() << "no metric " << name;
-  return 0;
-}
+using sim::testing::metric;
 
 // Fig. 4(a): window 10..20 s.
 TEST_F(ProtectionTest, SpoofingStallsTheUnprotectedRoverButNotTheProtectedOne) {

@@ -2,22 +2,13 @@
 
 #include <vector>
 
+#include "base/bus_number.h"
+
 namespace contego::intercept {
 
 int bus_number(const std::string& path) {
-  std::string rest;
-  if (path.rfind("/dev/i2c-", 0) == 0 || path.rfind("/dev/i2c/", 0) == 0) {
-    rest = path.substr(9);
-  } else {
-    return -1;
-  }
-  if (rest.empty() || rest.size() > 3) return -1;
-  int n = 0;
-  for (char c : rest) {
-    if (c < '0' || c > '9') return -1;
-    n = n * 10 + (c - '0');
-  }
-  return n <= 255 ? n : -1;
+  if (path.rfind("/dev/i2c-", 0) != 0 && path.rfind("/dev/i2c/", 0) != 0) return -1;
+  return parse_bus_number(std::string_view(path).substr(9));
 }
 
 std::string lexical_normalise(const std::string& path) {

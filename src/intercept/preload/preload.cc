@@ -241,26 +241,26 @@ void job_end() {
 
 #define CONTEGO_EXPORT extern "C" __attribute__((visibility("default")))
 
-CONTEGO_EXPORT int open(const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (has_mode(flags)) {
-    va_list ap;
-    va_start(ap, flags);
-    mode = va_arg(ap, mode_t);
-    va_end(ap);
+// Declares `mode`: the optional argument after `flags` of open(2) and its
+// variants, there only when `flags` create a file (0 otherwise). A macro, as
+// va_start must stand in the variadic function itself.
+#define CONTEGO_MODE_ARG(flags, mode) \
+  mode_t mode = 0;                    \
+  if (has_mode(flags)) {              \
+    va_list ap;                       \
+    va_start(ap, flags);              \
+    mode = va_arg(ap, mode_t);        \
+    va_end(ap);                       \
   }
+
+CONTEGO_EXPORT int open(const char* path, int flags, ...) {
+  CONTEGO_MODE_ARG(flags, mode);
   if (int r = open_bus(path, flags); r != -2) return r;
   return real().open(path, flags, mode);
 }
 
 CONTEGO_EXPORT int open64(const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (has_mode(flags)) {
-    va_list ap;
-    va_start(ap, flags);
-    mode = va_arg(ap, mode_t);
-    va_end(ap);
-  }
+  CONTEGO_MODE_ARG(flags, mode);
   if (int r = open_bus(path, flags); r != -2) return r;
   return real().open64(path, flags, mode);
 }
@@ -276,25 +276,13 @@ CONTEGO_EXPORT int __open64_2(const char* path, int flags) {
 }
 
 CONTEGO_EXPORT int openat(int dirfd, const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (has_mode(flags)) {
-    va_list ap;
-    va_start(ap, flags);
-    mode = va_arg(ap, mode_t);
-    va_end(ap);
-  }
+  CONTEGO_MODE_ARG(flags, mode);
   if (int r = open_bus(path, flags); r != -2) return r;
   return real().openat(dirfd, path, flags, mode);
 }
 
 CONTEGO_EXPORT int openat64(int dirfd, const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (has_mode(flags)) {
-    va_list ap;
-    va_start(ap, flags);
-    mode = va_arg(ap, mode_t);
-    va_end(ap);
-  }
+  CONTEGO_MODE_ARG(flags, mode);
   if (int r = open_bus(path, flags); r != -2) return r;
   return real().openat64(dirfd, path, flags, mode);
 }

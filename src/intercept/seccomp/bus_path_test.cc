@@ -10,6 +10,8 @@
 #include <sys/syscall.h>
 #include <sys/sysmacros.h>
 
+#include "base/test_temp.h"
+
 namespace contego::intercept::seccomp {
 namespace {
 
@@ -36,9 +38,7 @@ TEST(BusPath, NodesWithoutAFileAreKnownByName) {
 class BusNode : public ::testing::Test {
  protected:
   void SetUp() override {
-    char tmpl[] = "/tmp/contego-bus-path-XXXXXX";
-    ASSERT_NE(mkdtemp(tmpl), nullptr);
-    dir = tmpl;
+    ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("contego-bus-path", &dir));
     if (mknod((dir + "/node").c_str(), S_IFCHR | 0600, makedev(89, 7)) != 0) {
       GTEST_SKIP() << "cannot make a character node here (needs CAP_MKNOD)";
     }

@@ -35,30 +35,6 @@ task t { period 100ms; wcet 1ms; actuations 2 }
 allow t -> gopigo
 )";
 
-TEST(Check, DurationWhereANumberIsExpectedIsAUnitError) {
-  const Checked c = run(std::string(kBase) + "task u { period 100ms; wcet 1ms; priority 2ms }\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0401"}));
-}
-
-TEST(Check, ComparingADurationWithANumberIsRefused) {
-  const Checked c =
-      run(std::string(kBase) + "invariant A on gopigo: require since_last() > 5 else ignore\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0402"}));
-}
-
-TEST(Check, BooleanConditionIsRequired) {
-  const Checked c =
-      run(std::string(kBase) + "invariant A on gopigo.set_left_speed: require speed else ignore\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0401"}));
-}
-
-TEST(Check, IntervalAnalysisFindsImpossibleComparisons) {
-  // raw0 is a 10-bit reading: it can never exceed 2000.
-  const Checked c = run(std::string(kBase) +
-                        "invariant A on gopigo: when line.raw0 > 2000 expect stop() else ignore\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"W0704", "W0703"}));
-}
-
 TEST(Check, LinePositionIsBoundedByItsCalibration) {
   const Checked c = run(std::string(kBase) + R"(
 signal pos = line_position(line.raw, white=[0,0,0,0,0], black=[1023,1023,1023,1023,1023],
@@ -69,11 +45,6 @@ invariant A on gopigo: when pos < 0 expect stop() else ignore
   ASSERT_EQ(c.policy.signals.size(), 6u);  // five raw + pos
   EXPECT_EQ(c.policy.signals[5].lo, -15000);
   EXPECT_EQ(c.policy.signals[5].hi, 15000);
-}
-
-TEST(Check, RateAboveActuationsWarns) {
-  const Checked c = run(std::string(kBase) + "limit t -> gopigo 5 per job else ignore\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"W0702"}));
 }
 
 TEST(Check, ExpectMaskIsTheExpectedGroups) {
@@ -88,6 +59,50 @@ device esc : pca9685 at i2c-1 0x40
 task t { period 100ms; wcet 1ms; actuations 2 }
 allow t -> esc
 )";
+
+// A policy (a base and one more declaration) and the diagnostics the checker
+// gives it, by id.
+struct Diagnosed {
+  const char* name;
+  const char* base;
+  const char* addition;
+  std::vector<std::string> ids;
+};
+
+class CheckDiagnoses : public ::testing::TestWithParam<Diagnosed> {};
+
+TEST_P(CheckDiagnoses, ByIdInOrder) {
+  const Checked c = run(std::string(GetParam().base) + GetParam().addition);
+  EXPECT_EQ(c.ids(), GetParam().ids);
+}
+
+const Diagnosed kDiagnosed[] = {
+    {"DurationWhereANumberIsExpectedIsAUnitError",
+     kBase,
+     "task u { period 100ms; wcet 1ms; priority 2ms }\n",
+     {"E0401"}},
+    {"ComparingADurationWithANumberIsRefused",
+     kBase,
+     "invariant A on gopigo: require since_last() > 5 else ignore\n",
+     {"E0402"}},
+    {"BooleanConditionIsRequired",
+     kBase,
+     "invariant A on gopigo.set_left_speed: require speed else ignore\n",
+     {"E0401"}},
+    // raw0 is a 10-bit reading: it can never exceed 2000.
+    {"IntervalAnalysisFindsImpossibleComparisons",
+     kBase,
+     "invariant A on gopigo: when line.raw0 > 2000 expect stop() else ignore\n",
+     {"W0704", "W0703"}},
+    {"RateAboveActuationsWarns", kBase, "limit t -> gopigo 5 per job else ignore\n", {"W0702"}},
+    {"LastDefaultMustHaveTheFieldsKind",
+     kPca,
+     "invariant S on esc.led: require last(off, 1ms) > 0 else ignore\n",
+     {"E0401"}},
+};
+
+INSTANTIATE_TEST_SUITE_P(Check, CheckDiagnoses, ::testing::ValuesIn(kDiagnosed),
+                         [](const auto& p) { return std::string(p.param.name); });
 
 TEST(Check, LastWithoutDefaultAndANonWritingResponseNeverStarts) {
   const Checked c = run(std::string(kPca) +
@@ -109,12 +124,6 @@ TEST(Check, LastWithADefaultOrAConstantFailsafeStarts) {
     EXPECT_TRUE(c.diags.empty()) << rule << ": " << c.diags[0].rendered;
     ASSERT_EQ(c.policy.invariants.size(), 1u) << rule;
   }
-}
-
-TEST(Check, LastDefaultMustHaveTheFieldsKind) {
-  const Checked c =
-      run(std::string(kPca) + "invariant S on esc.led: require last(off, 1ms) > 0 else ignore\n");
-  EXPECT_EQ(c.ids(), (std::vector<std::string>{"E0401"}));
 }
 
 TEST(Check, FailsafeNamingAPulseClearsTheFullOnAndFullOffBits) {

@@ -2,6 +2,7 @@
 
 #include <cctype>
 #include <limits>
+#include <utility>
 
 namespace contego::policy {
 namespace {
@@ -20,6 +21,42 @@ int64_t unit_scale(std::string_view unit) {
   if (unit == "min") return 60000000;
   return 0;
 }
+
+// How the messages name each token. A spelling in backticks is also the text
+// of a punctuation token, which the lexer matches in this order: the two-character
+// ones first, so `..` wins over `.`.
+constexpr std::pair<Tok, std::string_view> kSpellings[] = {
+    {Tok::kEnd, "the end of the file"},
+    {Tok::kIdent, "a name"},
+    {Tok::kInt, "a number"},
+    {Tok::kDuration, "a duration"},
+    {Tok::kString, "a string"},
+    {Tok::kError, "an invalid token"},
+    {Tok::kDotDot, "`..`"},
+    {Tok::kEq, "`==`"},
+    {Tok::kNe, "`!=`"},
+    {Tok::kLe, "`<=`"},
+    {Tok::kGe, "`>=`"},
+    {Tok::kArrow, "`->`"},
+    {Tok::kLParen, "`(`"},
+    {Tok::kRParen, "`)`"},
+    {Tok::kLBrace, "`{`"},
+    {Tok::kRBrace, "`}`"},
+    {Tok::kLBracket, "`[`"},
+    {Tok::kRBracket, "`]`"},
+    {Tok::kComma, "`,`"},
+    {Tok::kSemi, "`;`"},
+    {Tok::kColon, "`:`"},
+    {Tok::kDot, "`.`"},
+    {Tok::kAssign, "`=`"},
+    {Tok::kLt, "`<`"},
+    {Tok::kGt, "`>`"},
+    {Tok::kPlus, "`+`"},
+    {Tok::kMinus, "`-`"},
+    {Tok::kStar, "`*`"},
+    {Tok::kSlash, "`/`"},
+    {Tok::kPercent, "`%`"},
+};
 
 class Lexer {
  public:
@@ -176,59 +213,17 @@ class Lexer {
   }
 
   void lex_punct(Token& t) {
-    const char c = text_[pos_];
-    const char n = pos_ + 1 < text_.size() ? text_[pos_ + 1] : '\0';
-    auto one = [&](Tok k) {
-      t.kind = k;
-      pos_ += 1;
-    };
-    auto two = [&](Tok k) {
-      t.kind = k;
-      pos_ += 2;
-    };
-    switch (c) {
-      case '(':
-        return one(Tok::kLParen);
-      case ')':
-        return one(Tok::kRParen);
-      case '{':
-        return one(Tok::kLBrace);
-      case '}':
-        return one(Tok::kRBrace);
-      case '[':
-        return one(Tok::kLBracket);
-      case ']':
-        return one(Tok::kRBracket);
-      case ',':
-        return one(Tok::kComma);
-      case ';':
-        return one(Tok::kSemi);
-      case ':':
-        return one(Tok::kColon);
-      case '.':
-        return n == '.' ? two(Tok::kDotDot) : one(Tok::kDot);
-      case '=':
-        return n == '=' ? two(Tok::kEq) : one(Tok::kAssign);
-      case '!':
-        if (n == '=') return two(Tok::kNe);
-        break;
-      case '<':
-        return n == '=' ? two(Tok::kLe) : one(Tok::kLt);
-      case '>':
-        return n == '=' ? two(Tok::kGe) : one(Tok::kGt);
-      case '+':
-        return one(Tok::kPlus);
-      case '-':
-        return n == '>' ? two(Tok::kArrow) : one(Tok::kMinus);
-      case '*':
-        return one(Tok::kStar);
-      case '/':
-        return one(Tok::kSlash);
-      case '%':
-        return one(Tok::kPercent);
-      default:
-        break;
+    const std::string_view rest = text_.substr(pos_);
+    for (const auto& [kind, spelling] : kSpellings) {
+      if (!spelling.starts_with('`')) continue;  // a kind of word, not a text to match
+      const std::string_view punct = spelling.substr(1, spelling.size() - 2);
+      if (rest.starts_with(punct)) {
+        t.kind = kind;
+        pos_ += static_cast<uint32_t>(punct.size());
+        return;
+      }
     }
+    const char c = text_[pos_];
     // One UTF-8 sequence at most, so the message shows a whole character.
     uint32_t len = 1;
     const auto uc = static_cast<unsigned char>(c);
@@ -250,67 +245,8 @@ class Lexer {
 }  // namespace
 
 std::string_view tok_spelling(Tok kind) {
-  switch (kind) {
-    case Tok::kEnd:
-      return "the end of the file";
-    case Tok::kIdent:
-      return "a name";
-    case Tok::kInt:
-      return "a number";
-    case Tok::kDuration:
-      return "a duration";
-    case Tok::kString:
-      return "a string";
-    case Tok::kLParen:
-      return "`(`";
-    case Tok::kRParen:
-      return "`)`";
-    case Tok::kLBrace:
-      return "`{`";
-    case Tok::kRBrace:
-      return "`}`";
-    case Tok::kLBracket:
-      return "`[`";
-    case Tok::kRBracket:
-      return "`]`";
-    case Tok::kComma:
-      return "`,`";
-    case Tok::kSemi:
-      return "`;`";
-    case Tok::kColon:
-      return "`:`";
-    case Tok::kDot:
-      return "`.`";
-    case Tok::kDotDot:
-      return "`..`";
-    case Tok::kAssign:
-      return "`=`";
-    case Tok::kEq:
-      return "`==`";
-    case Tok::kNe:
-      return "`!=`";
-    case Tok::kLt:
-      return "`<`";
-    case Tok::kLe:
-      return "`<=`";
-    case Tok::kGt:
-      return "`>`";
-    case Tok::kGe:
-      return "`>=`";
-    case Tok::kPlus:
-      return "`+`";
-    case Tok::kMinus:
-      return "`-`";
-    case Tok::kStar:
-      return "`*`";
-    case Tok::kSlash:
-      return "`/`";
-    case Tok::kPercent:
-      return "`%`";
-    case Tok::kArrow:
-      return "`->`";
-    case Tok::kError:
-      return "an invalid token";
+  for (const auto& [k, spelling] : kSpellings) {
+    if (k == kind) return spelling;
   }
   return "a token";
 }
