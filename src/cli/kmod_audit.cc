@@ -22,6 +22,8 @@
 #include <sys/ioctl.h>
 #include <sys/signalfd.h>
 
+#include "contego/core_c.h"
+
 #include "base/unique_fd.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
@@ -44,6 +46,8 @@ const char* safe_why(uint8_t why) {
       return "fail-safe inside a transfer of several messages";
     case CONTEGO_KMOD_SAFE_UNLOAD:
       return "module unloading";
+    case CONTEGO_KMOD_SAFE_EXIT:
+      return "session ended";
     default:
       return "unknown reason";
   }
@@ -57,6 +61,19 @@ std::string hex(const uint8_t* bytes, uint32_t len) {
 
 std::string caller(const contego_kmod_record& r) {
   return r.pid == 0 ? std::string("module") : fmt::format("pid {} uid {}", r.pid, r.uid);
+}
+
+// A session's end (CONTEGO_KMOD_SAFE_EXIT): which task, which process, how it
+// ended (`count` is its wait status), as the monitor's "task N exited".
+std::string session_end(const monitor::NameTable& names, const contego_kmod_record& r) {
+  const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+  const uint32_t status = r.count;
+  const std::string how = (status & 0x7f) != 0
+                              ? fmt::format("killed by signal {}{}", status & 0x7f,
+                                            (status & 0x80) ? " (core dumped)" : "")
+                              : fmt::format("exited with status {}", (status >> 8) & 0xff);
+  return fmt::format("task {} ({}) exited: pid {} uid {} {}{}", r.task, task, r.pid, r.uid, how,
+                     r.index ? ", then its process group's leader exited" : "");
 }
 
 }  // namespace
@@ -95,6 +112,20 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
     case CONTEGO_KMOD_REC_SAFE_STATE: {
       const char* device =
           r.device < names.devices.size() ? names.devices[r.device].c_str() : "(unknown)";
+      if ((r.why & ~CONTEGO_KMOD_SAFE_FAILED) == CONTEGO_KMOD_SAFE_EXIT) {
+        if (r.device == CONTEGO_NONE) {
+          return log.event("safe-state", fmt::format("contego.ko: {}; none of its actuators "
+                                                     "has a safe state",
+                                                     session_end(names, r)));
+        }
+        return log.event(
+            "safe-state",
+            fmt::format("contego.ko: {}; device {} ({}) at bus {} 0x{:02x} driven to its safe "
+                        "state [{}]{}",
+                        session_end(names, r), r.device, device, r.bus, r.addr,
+                        hex(r.substitute, std::min<uint32_t>(r.substitute_len, kKept)),
+                        (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
+      }
       return log.event(
           "safe-state",
           fmt::format("contego.ko: device {} ({}) at bus {} 0x{:02x}: {} [{}]; {}{}", r.device,
