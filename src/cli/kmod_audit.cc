@@ -11,6 +11,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -59,6 +60,12 @@ std::string hex(const uint8_t* bytes, uint32_t len) {
   return s;
 }
 
+uint64_t clock_us(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
+}
+
 std::string caller(const contego_kmod_record& r) {
   return r.pid == 0 ? std::string("module") : fmt::format("pid {} uid {}", r.pid, r.uid);
 }
@@ -77,6 +84,15 @@ std::string session_end(const monitor::NameTable& names, const contego_kmod_reco
 }
 
 }  // namespace
+
+uint64_t decision_wall_us(uint64_t mono_us) {
+  // The module's clock is CLOCK_MONOTONIC (ktime_get_ns): the same clock
+  // user space reads. Its distance to now, taken off the wall clock now.
+  const uint64_t mono_now = clock_us(CLOCK_MONOTONIC);
+  const uint64_t wall_now = clock_us(CLOCK_REALTIME);
+  const uint64_t ago = mono_now > mono_us ? mono_now - mono_us : 0;
+  return wall_now > ago ? wall_now - ago : 0;
+}
 
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        const contego_kmod_record& r) {
@@ -107,6 +123,9 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
       monitor::RecordNames named = names.of(a);
       named.pid = r.pid;
       named.uid = r.uid;
+      // The module's time of the decision, not the time the line is written.
+      named.mono_us = static_cast<int64_t>(r.time_us);
+      named.t_us = static_cast<int64_t>(decision_wall_us(r.time_us));
       return log.decision(a, named);
     }
     case CONTEGO_KMOD_REC_SAFE_STATE: {

@@ -4,8 +4,10 @@
 // are what the line shows, never more.
 #include "cli/kmod_audit.h"
 
+#include <time.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -75,6 +77,15 @@ TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
   r.substitute_len = 5;
   r.substitute[0] = 0x1a;
   r.pid = 42;
+  // Taken by the module two seconds ago (its CLOCK_MONOTONIC): the line
+  // carries that instant, not the time it is written.
+  timespec mono{}, wall{};
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  clock_gettime(CLOCK_REALTIME, &wall);
+  const auto us = [](const timespec& t) {
+    return static_cast<uint64_t>(t.tv_sec) * 1000000u + static_cast<uint64_t>(t.tv_nsec) / 1000u;
+  };
+  r.time_us = us(mono) - 2000000;
   ASSERT_TRUE(write_kmod_record(log_, names_, r));
   auto l = lines();
   ASSERT_EQ(l.size(), 1u);
@@ -89,6 +100,10 @@ TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
   EXPECT_EQ(l[0]["substitute"], "1a 00 00 00 00");
   EXPECT_EQ(l[0]["pid"], 42);
   EXPECT_EQ(l[0]["uid"], 0);
+  EXPECT_EQ(l[0]["mono_us"].get<uint64_t>(), r.time_us);
+  const int64_t t = l[0]["t_us"].get<int64_t>();
+  const int64_t expected = static_cast<int64_t>(us(wall)) - 2000000;
+  EXPECT_LT(std::llabs(t - expected), 500000) << t << " vs " << expected;
 }
 
 TEST_F(KmodAudit, EventsNameDeviceCallerAndGap) {

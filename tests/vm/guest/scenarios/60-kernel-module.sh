@@ -289,7 +289,7 @@ show "$LOGDIR/reader.log"
 run_logged verify contego audit $AUDIT_LOG
 [ $RC = 0 ] && ok "contego audit verifies the module's log" || bad "contego audit exit $RC"
 for what in '"kind":"audit-gap"' '"kind":"policy-load-refused"' \
-    '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"' \
+    '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"' '"mono_us":' \
     "task 1 (gripper) exited: pid $CTL uid 990 killed by signal 9; device 0 (arm)" \
     "task 0 (arm_init) exited: pid [0-9]* uid 1000 exited with status 0, then its process group's leader exited"; do
   grep -q "$what" $AUDIT_LOG && ok "the module's log has $what" || bad "the module's log lacks $what"
