@@ -373,42 +373,48 @@ back_to_i2c_dev
 # the module samples the tank itself on the bus ([0x00], then 4 bytes:
 # big-endian level and temperature; an I2C block read on i2c-stub). Each
 # round sets the level on the stub through the plain i2c-dev, loads
-# contego.ko, sends the monitor task's tone(1), and reads the buzzer back.
-# Their records go to a log of their own (tank.policy's names).
+# contego.ko, and for each policy given loads it and sends the monitor
+# task's tone(1); the buzzer is read back after the unload. Their records go
+# to a log of their own (tank.policy's names).
 AUDIT_LOG=$LOGDIR/kmod-tank.jsonl
-tank_round() {  # tank_round LABEL LEVEL [POLICY]
-  stub_set 0x48 0x00 $(($2 >> 8)); stub_set 0x48 0x01 $(($2 & 0xff))
+tank_round() {  # tank_round LABEL LEVEL POLICY...
+  round=$1 level=$2; shift 2  # not `label`: run_logged sets that
+  stub_set 0x48 0x00 $((level >> 8)); stub_set 0x48 0x01 $((level & 0xff))
   stub_set 0x48 0x02 0; stub_set 0x48 0x03 200  # 20.0 degC
   stub_set 0x20 0x01 0
   rmmod i2c_dev
-  run_logged ${1}_insmod insmod $KO adapters=0 buses=1
+  run_logged ${round}_insmod insmod $KO adapters=0 buses=1
   wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
-  start_reader ${3:-$POLICIES/tank.policy}
-  run_logged ${1}_load contego kmod load --policy ${3:-$POLICIES/tank.policy} --bind monitor=task
-  run_logged ${1}_tone as_task i2cset -y 0 0x20 0x01 1
-  TONE_RC=$RC
-  run_logged ${1}_stats contego kmod stats
+  start_reader $POLICIES/tank.policy
+  n=0
+  for policy in "$@"; do
+    n=$((n + 1))
+    run_logged ${round}_load$n contego kmod load --policy $policy --bind monitor=task
+    run_logged ${round}_tone$n as_task i2cset -y 0 0x20 0x01 1
+    eval TONE_RC$n=$RC
+    run_logged ${round}_stats$n contego kmod stats
+  done
   stop_reader
   back_to_i2c_dev
 }
-tank_round tank500 500
-[ $TONE_RC = 0 ] && grep -q "samples=[1-9].* sample_errors=0" "$LOGDIR/tank500_stats.out" &&
+tank_round tank500 500 $POLICIES/tank.policy
+[ $TONE_RC1 = 0 ] && grep -q "samples=[1-9].* sample_errors=0" "$LOGDIR/tank500_stats1.out" &&
   ok "level 500 mm: the module sampled the tank; tone(1) exits 0 (ignored, INV_W)" ||
-  bad "level 500: tone(1) exit $TONE_RC, $(cat "$LOGDIR/tank500_stats.out")"
+  bad "level 500: tone(1) exit $TONE_RC1, $(cat "$LOGDIR/tank500_stats1.out")"
 expect_reg 0x20 0x01 0 "level 500 mm (normal): the buzzer's tone(1) did not land"
-tank_round tank900 900
-[ $TONE_RC = 0 ] && ok "level 900 mm: tone(1) exits 0" || bad "level 900: tone(1) exit $TONE_RC"
-expect_reg 0x20 0x01 1 "level 900 mm (high): the buzzer's tone(1) landed"
-# The tank moved to an address where nothing answers: its sample fails, its
-# signals are unavailable, and the same tone(1) with the level still 900 on
-# the stub does not land (fail closed).
+# Level 900, first with the tank moved to an address where nothing answers:
+# its sample fails, its signals are unavailable, and tone(1) is ignored
+# (fail closed, recorded as signal-unavailable); then with tank.policy
+# itself: tone(1) lands.
 sed 's/^device tank : regmap at i2c-1 0x48/device tank : regmap at i2c-1 0x49/' \
   $POLICIES/tank.policy >/tmp/tank-missing.policy
-tank_round tanklost 900 /tmp/tank-missing.policy
-grep -q "sample_errors=[1-9]" "$LOGDIR/tanklost_stats.out" &&
-  ok "a tank that does not answer: the module counts the failed sample" ||
-  bad "no failed sample counted: $(cat "$LOGDIR/tanklost_stats.out")"
-expect_reg 0x20 0x01 0 "the tank unreadable: tone(1) did not land (its signals unavailable)"
+tank_round tank900 900 /tmp/tank-missing.policy $POLICIES/tank.policy
+grep -q "sample_errors=[1-9]" "$LOGDIR/tank900_stats1.out" &&
+  grep -q '"reason_name":"signal-unavailable".*"rule_name":"INV_W"' $AUDIT_LOG &&
+  ok "a tank that does not answer: the failed sample is counted, tone(1) ignored as signal-unavailable" ||
+  bad "the unreadable tank: $(cat "$LOGDIR/tank900_stats1.out")"
+[ $TONE_RC2 = 0 ] && ok "level 900 mm: tone(1) exits 0" || bad "level 900: tone(1) exit $TONE_RC2"
+expect_reg 0x20 0x01 1 "level 900 mm (high): the buzzer's tone(1) landed"
 run_logged verify3 contego audit $AUDIT_LOG
 [ $RC = 0 ] && grep -q '"rule_name":"INV_W"' $AUDIT_LOG &&
   ok "the log verifies and has the INV_W decisions" || bad "the log after the tank rounds"
