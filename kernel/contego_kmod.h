@@ -46,18 +46,23 @@ struct contego_kmod_load {
 };
 
 struct contego_kmod_stats {
-  __u64 loads;         /* images accepted */
-  __u64 refused_loads; /* images the verifier refused (the previous one stayed) */
-  __u64 checks;        /* transactions checked */
-  __u64 performed;     /* calls that acted on a bus */
-  __u64 refused;       /* calls refused (errno to the program) */
-  __u64 ignored;       /* calls ignored (success, nothing acted) */
-  __u64 failsafe;      /* calls replaced by a substitute or the safe state */
-  __u64 records;       /* audit records taken by the ring */
-  __u64 unrecorded;    /* records lost (no reader, ring full): each failed its call closed */
-  __u64 audit_refused; /* calls refused (EIO) because their record could not be taken */
-  __u32 loaded;        /* 1: an image is in force */
-  __u32 reader;        /* 1: an audit reader holds /dev/contego-audit */
+  __u64 loads;            /* images accepted */
+  __u64 refused_loads;    /* images the verifier refused (the previous one stayed) */
+  __u64 checks;           /* transactions checked */
+  __u64 performed;        /* calls that acted on a bus */
+  __u64 refused;          /* calls refused (errno to the program) */
+  __u64 ignored;          /* calls ignored (success, nothing acted) */
+  __u64 failsafe;         /* calls replaced by a substitute or the safe state */
+  __u64 records;          /* audit records taken by the ring */
+  __u64 unrecorded;       /* records lost (no reader, ring full): each failed its call closed */
+  __u64 audit_refused;    /* calls refused (EIO) because their record could not be taken */
+  __u64 sessions;         /* sessions open now (processes acting as a task, ends deferred) */
+  __u64 session_ends;     /* sessions ended: each drove its task's actuators to their safe state */
+  __u64 sessions_refused; /* calls refused (EAGAIN): no room for one more session */
+  __u64 samples;          /* sensor samples read from a bus */
+  __u64 sample_errors;    /* sensor samples that failed (their signals unavailable) */
+  __u32 loaded;           /* 1: an image is in force */
+  __u32 reader;           /* 1: an audit reader holds /dev/contego-audit */
 };
 
 /* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one
@@ -83,6 +88,10 @@ enum contego_kmod_safe_why {
   CONTEGO_KMOD_SAFE_UNRECORDED = 2, /* a record could not be taken: failing closed */
   CONTEGO_KMOD_SAFE_TRANSFER = 3,   /* a fail-safe inside a transfer of several messages */
   CONTEGO_KMOD_SAFE_UNLOAD = 4,     /* the module is being unloaded */
+  CONTEGO_KMOD_SAFE_EXIT = 5,       /* a session of `task` ended (docs/kernel-client.md
+                                     * "Sessions"): pid/uid are the process's, count its
+                                     * wait status, index 1 if the end waited for its
+                                     * process group's leader */
   CONTEGO_KMOD_SAFE_FAILED = 0x80,  /* or'ed in: the safe state could not be written */
 };
 
@@ -110,7 +119,7 @@ struct contego_kmod_record {
   __u16 original_len;   /* the command's length (bytes kept: at most CONTEGO_KMOD_REC_BYTES) */
   __u16 substitute_len; /* the substitute's length */
   __u16 pad;
-  __u32 count; /* GAP: records lost; LOAD: image bytes */
+  __u32 count; /* GAP: records lost; LOAD: image bytes; SAFE_STATE/EXIT: wait status */
   __s32 fields[8];
   __u8 original[CONTEGO_KMOD_REC_BYTES];
   __u8 substitute[CONTEGO_KMOD_REC_BYTES];

@@ -36,13 +36,16 @@
 #include <linux/module.h>
 #include <linux/mutex.h>
 #include <linux/nsproxy.h>
+#include <linux/pid.h>
 #include <linux/poll.h>
 #include <linux/sched.h>
+#include <linux/sched/signal.h>
 #include <linux/slab.h>
 #include <linux/spinlock.h>
 #include <linux/uaccess.h>
 #include <linux/vmalloc.h>
 #include <linux/wait.h>
+#include <linux/workqueue.h>
 
 #include "contego/core_c.h"
 #include "contego_kmod.h"
@@ -50,6 +53,8 @@
 #define CT_MAX_ADAPTERS 8
 #define CT_MAX_MSGS I2C_RDWR_IOCTL_MAX_MSGS /* 42 */
 #define CT_MAX_LEN 8192
+#define CT_MAX_SAMPLE 64 /* contego::core::kMaxSampleBytes */
+#define CT_MAX_SESSIONS 1024
 
 static int adapters[CT_MAX_ADAPTERS];
 static int n_adapters;
@@ -70,7 +75,16 @@ MODULE_PARM_DESC(audit_records, "records the audit ring holds until the reader a
 
 /* ---- the checker in force ---------------------------------------------- */
 
+/* The latest sample of a sensor (the core's read_sample host callback). */
+struct ct_sample {
+	u64 taken_us;
+	u32 len;
+	bool valid; /* false: none yet, or the last read failed */
+	u8 bytes[CT_MAX_SAMPLE];
+};
+
 struct ct_policy {
+	u64 gen; /* which load: sessions opened under an older one end without acting */
 	void *mem; /* checker storage, contego_checker_size() bytes */
 	contego_checker *checker;
 	u8 *image; /* the verified image, kept for the checker's lifetime */
@@ -80,12 +94,14 @@ struct ct_policy {
 	 * its first transaction; job k spans [phase + (k-1)*period, phase + k*period). */
 	u64 phase_us[32];
 	u32 phase_set; /* bit per task */
+	struct ct_sample samples[32];
 };
 
 /* One decision at a time (the core is not thread-safe): the lock covers the
  * checks of a call and its bus operations, as the user-space monitor's does. */
 static DEFINE_MUTEX(ct_lock);
 static struct ct_policy *ct_policy;
+static u64 ct_gen; /* under ct_lock: loads so far */
 static struct contego_kmod_stats ct_stats;
 /* Scratch for one call, under ct_lock (kept off the 16 KiB kernel stack). */
 static contego_verdict ct_verdicts[CT_MAX_MSGS];
@@ -359,8 +375,6 @@ static void ct_audit(void *context, const contego_audit_record *a)
 		ct_audit_lost |= a->decision == CONTEGO_ALLOW || a->decision == CONTEGO_FAILSAFE;
 }
 
-static const contego_host ct_host = { .context = NULL, .read_sample = NULL, .audit = ct_audit };
-
 /* ---- bus operations ------------------------------------------------------ */
 
 /* One write of `len` bytes at `addr`: a plain I2C message when the adapter
@@ -431,9 +445,146 @@ static bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 add
 	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
 }
 
+/* ---- sensor samples (the core's read_sample host) ------------------------ */
+
+/* Reads a sample of `info`'s sensor into buf (info->sample_len bytes), as the
+ * monitor's sample_device_locked does: the sample request written, then the
+ * sample read. An adapter without plain I2C reads a one-byte request's
+ * register in one SMBus transaction (register, repeated start, read):
+ * byte data, word data or an I2C block read (src/bus/smbus_plan.h). */
+static int ct_read_sample_bus(struct i2c_adapter *adap, const contego_device_info *info, u8 *buf)
+{
+	u32 funcs = i2c_get_functionality(adap);
+	u16 ten = info->ten_bit ? I2C_M_TEN : 0;
+	u8 n = info->sample_len, reg = info->sample_request[0];
+	union i2c_smbus_data data;
+	int ret;
+
+	if (funcs & I2C_FUNC_I2C) {
+		struct i2c_msg m = { .addr = info->addr, .flags = ten | I2C_M_RD, .len = n, .buf = buf };
+
+		if (info->sample_request_len) {
+			ret = ct_write_bytes(adap, info->addr, ten, info->sample_request,
+					     info->sample_request_len);
+			if (ret < 0)
+				return ret;
+		}
+		ret = i2c_transfer(adap, &m, 1);
+		return ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
+	}
+	if (ten)
+		return -EOPNOTSUPP;
+	if (info->sample_request_len == 1) {
+		if (n == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE_DATA)) {
+			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
+					     I2C_SMBUS_BYTE_DATA, &data);
+			if (ret == 0)
+				buf[0] = data.byte;
+			return ret;
+		}
+		if (n == 2 && (funcs & I2C_FUNC_SMBUS_READ_WORD_DATA)) {
+			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
+					     I2C_SMBUS_WORD_DATA, &data);
+			if (ret == 0) {
+				buf[0] = data.word & 0xff;
+				buf[1] = data.word >> 8;
+			}
+			return ret;
+		}
+		if (n <= I2C_SMBUS_BLOCK_MAX && (funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK)) {
+			data.block[0] = n;
+			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
+					     I2C_SMBUS_I2C_BLOCK_DATA, &data);
+			if (ret < 0)
+				return ret;
+			if (data.block[0] < n)
+				return -EIO;
+			memcpy(buf, &data.block[1], n);
+			return 0;
+		}
+		return -EOPNOTSUPP;
+	}
+	/* A longer request (or none) on its own, then a read without a pointer:
+	 * one byte is all SMBus can receive that way. */
+	if (n != 1 || !(funcs & I2C_FUNC_SMBUS_READ_BYTE))
+		return -EOPNOTSUPP;
+	if (info->sample_request_len) {
+		ret = ct_write_bytes(adap, info->addr, 0, info->sample_request,
+				     info->sample_request_len);
+		if (ret < 0)
+			return ret;
+	}
+	ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, &data);
+	if (ret == 0)
+		buf[0] = data.byte;
+	return ret;
+}
+
+/* Samples sensor d now. A read that fails leaves no sample: the sensor's
+ * signals are unavailable (fail closed) until a later read succeeds. Under
+ * ct_lock. */
+static void ct_sample_device(struct ct_policy *p, u16 d, const contego_device_info *info, u64 now)
+{
+	struct ct_sample *s = &p->samples[d];
+	struct ct_node *node = ct_node_for_bus(info->bus);
+	struct i2c_adapter *adap = node ? i2c_get_adapter(node->nr) : NULL;
+	int ret = -ENODEV;
+
+	s->valid = false;
+	if (adap) {
+		ret = ct_read_sample_bus(adap, info, s->bytes);
+		i2c_put_adapter(adap);
+	}
+	if (ret < 0) {
+		ct_stats.sample_errors++;
+		pr_warn_ratelimited("contego: sample of device %u (bus %u 0x%02x) failed: %d; its signals are unavailable\n",
+				    d, info->bus, info->addr, ret);
+		return;
+	}
+	ct_stats.samples++;
+	s->len = info->sample_len;
+	s->taken_us = now;
+	s->valid = true;
+}
+
+/* The core's read_sample host callback, inside contego_check or
+ * contego_safe_state (under ct_lock, process context: the bus may sleep).
+ * The sample is never older than the device's sample period, as with the
+ * monitor's periodic sampling: an older one is read again first. The
+ * core applies `max_age` to what it is given. */
+static u32 ct_read_sample(void *context, u16 device, u8 *buf, u32 capacity, u64 *taken_at_us)
+{
+	struct ct_policy *p = context;
+	contego_device_info info;
+	struct ct_sample *s;
+	u64 now = div_u64(ktime_get_ns(), 1000);
+	u32 n;
+
+	if (!p || device >= ARRAY_SIZE(p->samples) ||
+	    !contego_device_info_of(p->checker, device, &info) ||
+	    !(info.role & CONTEGO_ROLE_SENSOR) || info.sample_len == 0 ||
+	    info.sample_len > CT_MAX_SAMPLE)
+		return 0;
+	s = &p->samples[device];
+	if (!s->valid || now < s->taken_us || now - s->taken_us >= info.sample_period_us)
+		ct_sample_device(p, device, &info, now);
+	if (!s->valid)
+		return 0;
+	n = min_t(u32, capacity, s->len);
+	memcpy(buf, s->bytes, n);
+	if (taken_at_us)
+		*taken_at_us = s->taken_us;
+	return n;
+}
+
+struct ct_session;
+static void ct_session_record(struct contego_kmod_record *r, const struct ct_session *s);
+
 /* Device d's declared safe state, written and recorded (best effort: the
- * record may be lost, then counted in the gap). Under ct_lock. True if written. */
-static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
+ * record may be lost, then counted in the gap). `s`: the session whose end
+ * drives it (its task and process go into the record), or NULL. Under
+ * ct_lock. 1: written; 0: the write failed; -1: d has no safe state. */
+static int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s)
 {
 	struct contego_kmod_record r;
 	struct ct_node *node;
@@ -441,7 +592,7 @@ static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
 	bool done = false;
 
 	if (!contego_safe_state(p->checker, d, &ct_safe_verdict))
-		return false;
+		return -1;
 	node = ct_node_for_bus(ct_safe_verdict.bus);
 	adap = node ? i2c_get_adapter(node->nr) : NULL;
 	if (adap) {
@@ -459,8 +610,15 @@ static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
 	r.substitute_len = ct_safe_verdict.emit_bytes_used;
 	memcpy(r.substitute, ct_safe_verdict.emit_bytes,
 	       min_t(u32, ct_safe_verdict.emit_bytes_used, CONTEGO_KMOD_REC_BYTES));
+	if (s)
+		ct_session_record(&r, s);
 	ct_push(&r, true);
 	return done;
+}
+
+static bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
+{
+	return ct_drive_safe_state_of(p, d, why, NULL) > 0;
 }
 
 /* Every device's safe state. Under ct_lock. Returns how many were written. */
@@ -472,6 +630,250 @@ static u32 ct_drive_safe_states(struct ct_policy *p, u8 why)
 	for (d = 0; d < 32; d++)
 		n += ct_drive_safe_state(p, d, why);
 	return n;
+}
+
+/* ---- sessions (docs/kernel-client.md "Sessions") ------------------------- */
+
+/* A session of task T is a process (thread group) that made a call the core
+ * checked as T. It ends when the process exits -- not when it closes the
+ * node -- and its end drives T's actuators (the image's access matrix, as
+ * the monitor's task_exited) to their safe state. A process that exits with
+ * status 0 and is not its process group's leader, while that leader lives,
+ * hands its end to the leader: the i2cset runs of a shell script are one
+ * session, ended with the script. Killed by a signal, crashed, or exited
+ * with an error, a process ends its session at once.
+ *
+ * The exit is seen on the process's struct pid (the wait queue pidfds poll,
+ * woken by do_notify_pidfd() under tasklist_lock: atomic), which only queues
+ * the session's work; the safe state is driven from the work, in process
+ * context, under ct_lock. The unload takes every session off its wait queue
+ * and drains the work before the checker and the module go. */
+enum { CT_S_PROCESS = 0, CT_S_LEADER = 1 };
+
+struct ct_session {
+	struct list_head node; /* ct_sessions, under ct_lock */
+	u64 gen;               /* the load it was opened under */
+	u16 task;
+	u8 phase;   /* CT_S_*: whose exit ends it */
+	bool fired; /* its watch exited: the work owns it (under the wait queue's lock) */
+	u32 pid, uid; /* the process, as the records name it */
+	u32 status;   /* its wait status */
+	struct pid *proc;   /* the process (thread group) */
+	struct pid *watch;  /* whose exit ends it: proc, then perhaps its group's leader */
+	struct pid *leader; /* set when fired: hand the end to this leader */
+	struct wait_queue_entry wq;
+	struct work_struct work;
+};
+
+static LIST_HEAD(ct_sessions);
+static u32 ct_session_count;       /* under ct_lock */
+static struct workqueue_struct *ct_wq;
+static bool ct_unloading;          /* under ct_lock */
+
+static void ct_session_record(struct contego_kmod_record *r, const struct ct_session *s)
+{
+	r->task = s->task;
+	r->pid = s->pid;
+	r->uid = s->uid;
+	r->count = s->status;
+	r->index = s->phase == CT_S_LEADER;
+}
+
+/* do_notify_pidfd()'s wake-up of the watched pid: atomic context (the wait
+ * queue's lock and tasklist_lock are held). Notes how the process ended and
+ * queues the work; nothing here sleeps or touches the bus. */
+static int ct_session_wake(struct wait_queue_entry *wq, unsigned int mode, int sync, void *key)
+{
+	struct ct_session *s = container_of(wq, struct ct_session, wq);
+	struct task_struct *t;
+	struct pid *pg;
+
+	if (s->fired || !thread_group_exited(s->watch))
+		return 0;
+	s->fired = true;
+	list_del_init(&wq->entry);
+	if (s->phase == CT_S_PROCESS) {
+		rcu_read_lock();
+		t = pid_task(s->watch, PIDTYPE_TGID);
+		if (t) {
+			s->status = (t->signal->flags & SIGNAL_GROUP_EXIT) ?
+					    t->signal->group_exit_code : t->exit_code;
+			pg = task_pgrp(t);
+			if (s->status == 0 && pg && pg != s->watch && !thread_group_exited(pg))
+				s->leader = get_pid(pg);
+		}
+		rcu_read_unlock();
+	}
+	queue_work(ct_wq, &s->work);
+	return 1;
+}
+
+static void ct_session_arm(struct ct_session *s)
+{
+	s->fired = false;
+	init_waitqueue_func_entry(&s->wq, ct_session_wake);
+	add_wait_queue(&s->watch->wait_pidfd, &s->wq);
+}
+
+/* Takes s off its wait queue unless its wake-up came first. True: taken
+ * (nobody else will queue its work). */
+static bool ct_session_disarm(struct ct_session *s)
+{
+	unsigned long flags;
+	bool taken;
+
+	spin_lock_irqsave(&s->watch->wait_pidfd.lock, flags);
+	taken = !s->fired;
+	if (taken) {
+		s->fired = true;
+		list_del_init(&s->wq.entry);
+	}
+	spin_unlock_irqrestore(&s->watch->wait_pidfd.lock, flags);
+	return taken;
+}
+
+static void ct_session_free(struct ct_session *s)
+{
+	put_pid(s->leader);
+	put_pid(s->watch);
+	put_pid(s->proc);
+	kfree(s);
+}
+
+/* The end of s: its task's actuators to their safe state. Under ct_lock. */
+static void ct_session_end(struct ct_policy *p, struct ct_session *s)
+{
+	u32 mask = contego_task_actuates(p->checker, s->task), n = 0, tried = 0;
+	u16 d;
+	int r;
+
+	for (d = 0; d < 32; d++) {
+		if (!(mask & (1u << d)))
+			continue;
+		r = ct_drive_safe_state_of(p, d, CONTEGO_KMOD_SAFE_EXIT, s);
+		tried += r >= 0;
+		n += r > 0;
+	}
+	if (tried == 0) { /* nothing to drive: the end is recorded all the same */
+		struct contego_kmod_record rec;
+
+		ct_record_start(&rec, CONTEGO_KMOD_REC_SAFE_STATE, false);
+		rec.why = CONTEGO_KMOD_SAFE_EXIT;
+		ct_session_record(&rec, s);
+		ct_push(&rec, true);
+	}
+	ct_stats.session_ends++;
+	pr_info("contego: task %u: session of pid %u ended (wait status 0x%x%s): %u of %u devices driven to their safe state\n",
+		s->task, s->pid, s->status, s->phase == CT_S_LEADER ? ", with its group's leader" : "",
+		n, tried);
+}
+
+static void ct_session_work(struct work_struct *w)
+{
+	struct ct_session *s = container_of(w, struct ct_session, work), *o;
+	struct ct_policy *p;
+
+	mutex_lock(&ct_lock);
+	if (s->leader && !ct_unloading) {
+		struct pid *leader = s->leader;
+
+		s->leader = NULL;
+		/* One session per task and group leader: the runs of a script end once. */
+		list_for_each_entry(o, &ct_sessions, node) {
+			if (o != s && o->phase == CT_S_LEADER && o->watch == leader &&
+			    o->task == s->task && o->gen == s->gen) {
+				put_pid(leader);
+				goto drop;
+			}
+		}
+		put_pid(s->watch);
+		s->watch = leader;
+		s->phase = CT_S_LEADER;
+		ct_session_arm(s);
+		/* The leader may have gone meanwhile: then end now, unless its
+		 * wake-up already queued this work again. */
+		if (!thread_group_exited(leader) || !ct_session_disarm(s)) {
+			mutex_unlock(&ct_lock);
+			return;
+		}
+	}
+	p = ct_policy;
+	if (!ct_unloading && p && p->gen == s->gen)
+		ct_session_end(p, s);
+drop:
+	list_del(&s->node);
+	ct_session_count--;
+	ct_stats.sessions = ct_session_count;
+	mutex_unlock(&ct_lock);
+	ct_session_free(s);
+}
+
+/* The caller's open session of `task` (NULL: none). Under ct_lock. */
+static struct ct_session *ct_session_find(struct ct_policy *p, u16 task)
+{
+	struct pid *me = task_tgid(current);
+	struct ct_session *s;
+
+	list_for_each_entry(s, &ct_sessions, node) {
+		if (s->proc == me && s->task == task && s->gen == p->gen && s->phase == CT_S_PROCESS) {
+			list_move(&s->node, &ct_sessions); /* the next call finds it first */
+			return s;
+		}
+	}
+	return NULL;
+}
+
+/* A session for the caller, made before its call is decided so that a call
+ * that would act without one can be refused instead. Under ct_lock. NULL:
+ * no room (CT_MAX_SESSIONS) or no memory. */
+static struct ct_session *ct_session_prepare(struct ct_policy *p, u16 task)
+{
+	struct ct_session *s;
+
+	if (ct_session_count >= CT_MAX_SESSIONS)
+		return NULL;
+	s = kzalloc(sizeof(*s), GFP_KERNEL);
+	if (!s)
+		return NULL;
+	s->gen = p->gen;
+	s->task = task;
+	s->phase = CT_S_PROCESS;
+	s->pid = task_tgid_nr(current);
+	s->uid = from_kuid(&init_user_ns, current_euid());
+	s->proc = get_pid(task_tgid(current));
+	s->watch = get_pid(s->proc);
+	INIT_WORK(&s->work, ct_session_work);
+	return s;
+}
+
+/* Opens the prepared session: the caller's call acted. Under ct_lock. */
+static void ct_session_open(struct ct_session *s)
+{
+	list_add(&s->node, &ct_sessions);
+	ct_session_count++;
+	ct_stats.sessions = ct_session_count;
+	/* The caller runs: its thread group cannot have exited yet. */
+	ct_session_arm(s);
+}
+
+/* The unload: every session off its wait queue, their work drained; the
+ * safe state of every device is the unload's own. */
+static void ct_sessions_stop(void)
+{
+	struct ct_session *s, *n;
+
+	mutex_lock(&ct_lock);
+	ct_unloading = true;
+	list_for_each_entry(s, &ct_sessions, node)
+		ct_session_disarm(s);
+	mutex_unlock(&ct_lock);
+	destroy_workqueue(ct_wq); /* queued ends see ct_unloading and free themselves */
+	ct_wq = NULL;
+	list_for_each_entry_safe(s, n, &ct_sessions, node) {
+		list_del(&s->node);
+		ct_session_free(s);
+	}
+	ct_session_count = 0;
 }
 
 /* ---- the decision of one call ------------------------------------------- */
@@ -502,9 +904,22 @@ static u8 ct_fail_unrecorded(struct ct_policy *p, u32 *decider)
 	return CT_REFUSE;
 }
 
+/* Whether the call writes: its first `checked` transactions include a write. */
+static bool ct_call_writes(u32 checked)
+{
+	u32 i;
+
+	for (i = 0; i < checked; i++)
+		if (ct_txs[i].kind == CONTEGO_TX_WRITE)
+			return true;
+	return false;
+}
+
 static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 {
 	struct ct_policy *p = ct_policy;
+	struct ct_session *fresh = NULL;
+	u8 result;
 	contego_transaction tx;
 	u32 checked = 0, i, job;
 	u8 action;
@@ -520,6 +935,17 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		return CT_REFUSE;
 	}
 	task = ct_task_of_current(p);
+	if (task != CONTEGO_NONE && ct_call_writes(n) && !ct_session_find(p, task) &&
+	    !(fresh = ct_session_prepare(p, task))) {
+		/* No session, no safe state at its end: the call does not act. */
+		ct_verdicts[0].decision = CONTEGO_REJECT;
+		ct_verdicts[0].reply_errno = EAGAIN;
+		ct_stats.sessions_refused++;
+		ct_stats.refused++;
+		pr_warn_ratelimited("contego: %u sessions open: a call of task %u refused (EAGAIN)\n",
+				    ct_session_count, task);
+		return CT_REFUSE;
+	}
 	job = ct_job(p, task, now);
 	contego_begin_transfer(p->checker);
 	for (i = 0; i < n; i++) {
@@ -542,8 +968,10 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		contego_check(p->checker, &tx, v);
 		ct_stats.checks++;
 		checked = i + 1;
-		if (ct_audit_lost)
-			return ct_fail_unrecorded(p, decider);
+		if (ct_audit_lost) {
+			result = ct_fail_unrecorded(p, decider);
+			goto out;
+		}
 		if (trace)
 			pr_info("contego: task %u job %u bus %u addr 0x%02x kind %u len %u: %s (%s) emits %u\n",
 				task, job, tx.bus, tx.addr, tx.kind, tx.len,
@@ -583,7 +1011,15 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 			if (ct_verdicts[i].decision == CONTEGO_FAILSAFE)
 				ct_drive_safe_state(p, ct_verdicts[i].device, CONTEGO_KMOD_SAFE_TRANSFER);
 	}
-	return action;
+	result = action;
+out:
+	/* A session begins with the first call that acts as the task: a write
+	 * the core allowed or substituted (docs/kernel-client.md "Sessions"). */
+	if (fresh && (result == CT_PERFORM || result == CT_SUBSTITUTE) && ct_call_writes(checked))
+		ct_session_open(fresh);
+	else if (fresh)
+		ct_session_free(fresh);
+	return result;
 }
 
 static int ct_refusal(u32 decider)
@@ -1094,9 +1530,16 @@ static long ct_load(unsigned long arg)
 		ret = -EINVAL;
 		goto fail;
 	}
-	contego_set_host(p->checker, &ct_host);
+	{
+		/* The host, copied by the facade: samples for p, records to the ring. */
+		const contego_host host = { .context = p, .read_sample = ct_read_sample,
+					    .audit = ct_audit };
+
+		contego_set_host(p->checker, &host);
+	}
 	mutex_lock(&ct_lock);
 	old = ct_policy;
+	p->gen = ++ct_gen;
 	ct_policy = p;
 	ct_stats.loads++;
 	ct_stats.loaded = 1;
@@ -1317,9 +1760,15 @@ static int __init ct_init(void)
 	ct_ring = vmalloc_array(ct_ring_cap, sizeof(*ct_ring));
 	if (!ct_ring)
 		return -ENOMEM;
+	ct_wq = alloc_workqueue("contego", 0, 0);
+	if (!ct_wq) {
+		vfree(ct_ring);
+		return -ENOMEM;
+	}
 	ct_class = class_create(THIS_MODULE, "i2c-dev");
 	if (IS_ERR(ct_class)) {
 		pr_err("contego: cannot create class i2c-dev (is i2c-dev loaded? contego.ko replaces it)\n");
+		destroy_workqueue(ct_wq);
 		vfree(ct_ring);
 		return PTR_ERR(ct_class);
 	}
@@ -1375,6 +1824,7 @@ static int __init ct_init(void)
 fail:
 	ct_remove_nodes();
 	class_destroy(ct_class);
+	destroy_workqueue(ct_wq);
 	vfree(ct_ring);
 	return ret;
 }
@@ -1383,6 +1833,8 @@ static void __exit ct_exit(void)
 {
 	misc_deregister(&ct_audit_dev);
 	misc_deregister(&ct_ctl);
+	/* No session can end from here on (the unload drives every device). */
+	ct_sessions_stop();
 	/* No node is open (each open holds the module): the actuators go to
 	 * their safe state before the checker and the nodes go away. */
 	mutex_lock(&ct_lock);

@@ -121,6 +121,27 @@ uint32_t contego_worst_case_cost(const contego_checker* c);
  * the job grid (job k spans [phase + (k-1)*period, phase + k*period)) numbers
  * each transaction's job from it, as the user-space monitor does. */
 uint32_t contego_task_period_us(const contego_checker* c, uint16_t task);
+/* What a host needs of device `device` to sample it and to drive its safe
+ * state (contego::core::DeviceRecord's fields of that name). 0: no such device. */
+#define CONTEGO_ROLE_ACTUATOR 1
+#define CONTEGO_ROLE_SENSOR 2
+typedef struct contego_device_info {
+  uint8_t role; /* CONTEGO_ROLE_* bits */
+  uint8_t bus;
+  uint8_t ten_bit;
+  uint8_t sample_request_len; /* sensors: bytes written before a sample is read */
+  uint16_t addr;
+  uint8_t sample_len; /* sensors: bytes read per sample (0: not sampled) */
+  uint8_t pad;
+  uint8_t sample_request[8];
+  uint32_t sample_period_us;  /* sensors: how often the host samples */
+  uint32_t max_sample_age_us; /* sensors: older samples make signals unavailable */
+} contego_device_info;
+uint32_t contego_device_count(const contego_checker* c);
+int contego_device_info_of(const contego_checker* c, uint16_t device, contego_device_info* out);
+/* The access matrix's row of `task`: bit k, the task may actuate device k
+ * (0: no such task). What a task's exit drives to the safe state. */
+uint32_t contego_task_actuates(const contego_checker* c, uint16_t task);
 const char* contego_load_status_name(uint8_t status);
 const char* contego_reason_name(uint8_t reason);
 const char* contego_decision_name(uint8_t decision);

@@ -11,6 +11,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +22,8 @@
 #include <fmt/core.h>
 #include <sys/ioctl.h>
 #include <sys/signalfd.h>
+
+#include "contego/core_c.h"
 
 #include "base/unique_fd.h"
 #include "cli/stop_signals.h"
@@ -44,6 +47,8 @@ const char* safe_why(uint8_t why) {
       return "fail-safe inside a transfer of several messages";
     case CONTEGO_KMOD_SAFE_UNLOAD:
       return "module unloading";
+    case CONTEGO_KMOD_SAFE_EXIT:
+      return "session ended";
     default:
       return "unknown reason";
   }
@@ -55,11 +60,39 @@ std::string hex(const uint8_t* bytes, uint32_t len) {
   return s;
 }
 
+uint64_t clock_us(clockid_t id) {
+  timespec ts{};
+  clock_gettime(id, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
+}
+
 std::string caller(const contego_kmod_record& r) {
   return r.pid == 0 ? std::string("module") : fmt::format("pid {} uid {}", r.pid, r.uid);
 }
 
+// A session's end (CONTEGO_KMOD_SAFE_EXIT): which task, which process, how it
+// ended (`count` is its wait status), as the monitor's "task N exited".
+std::string session_end(const monitor::NameTable& names, const contego_kmod_record& r) {
+  const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+  const uint32_t status = r.count;
+  const std::string how = (status & 0x7f) != 0
+                              ? fmt::format("killed by signal {}{}", status & 0x7f,
+                                            (status & 0x80) ? " (core dumped)" : "")
+                              : fmt::format("exited with status {}", (status >> 8) & 0xff);
+  return fmt::format("task {} ({}) exited: pid {} uid {} {}{}", r.task, task, r.pid, r.uid, how,
+                     r.index ? ", then its process group's leader exited" : "");
+}
+
 }  // namespace
+
+uint64_t decision_wall_us(uint64_t mono_us) {
+  // The module's clock is CLOCK_MONOTONIC (ktime_get_ns): the same clock
+  // user space reads. Its distance to now, taken off the wall clock now.
+  const uint64_t mono_now = clock_us(CLOCK_MONOTONIC);
+  const uint64_t wall_now = clock_us(CLOCK_REALTIME);
+  const uint64_t ago = mono_now > mono_us ? mono_now - mono_us : 0;
+  return wall_now > ago ? wall_now - ago : 0;
+}
 
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        const contego_kmod_record& r) {
@@ -90,11 +123,28 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
       monitor::RecordNames named = names.of(a);
       named.pid = r.pid;
       named.uid = r.uid;
+      // The module's time of the decision, not the time the line is written.
+      named.mono_us = static_cast<int64_t>(r.time_us);
+      named.t_us = static_cast<int64_t>(decision_wall_us(r.time_us));
       return log.decision(a, named);
     }
     case CONTEGO_KMOD_REC_SAFE_STATE: {
       const char* device =
           r.device < names.devices.size() ? names.devices[r.device].c_str() : "(unknown)";
+      if ((r.why & ~CONTEGO_KMOD_SAFE_FAILED) == CONTEGO_KMOD_SAFE_EXIT) {
+        if (r.device == CONTEGO_NONE) {
+          return log.event("safe-state", fmt::format("contego.ko: {}; none of its actuators "
+                                                     "has a safe state",
+                                                     session_end(names, r)));
+        }
+        return log.event(
+            "safe-state",
+            fmt::format("contego.ko: {}; device {} ({}) at bus {} 0x{:02x} driven to its safe "
+                        "state [{}]{}",
+                        session_end(names, r), r.device, device, r.bus, r.addr,
+                        hex(r.substitute, std::min<uint32_t>(r.substitute_len, kKept)),
+                        (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
+      }
       return log.event(
           "safe-state",
           fmt::format("contego.ko: device {} ({}) at bus {} 0x{:02x}: {} [{}]; {}{}", r.device,

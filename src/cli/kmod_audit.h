@@ -3,6 +3,7 @@
 #ifndef CONTEGO_CLI_KMOD_AUDIT_H_
 #define CONTEGO_CLI_KMOD_AUDIT_H_
 
+#include <cstdint>
 #include <string>
 
 #include "contego_kmod.h"
@@ -18,8 +19,13 @@ struct KmodAuditOptions {
   bool quiet = false;
 };
 
+// The wall-clock time (CLOCK_REALTIME, µs) of an instant `mono_us` on
+// CLOCK_MONOTONIC -- the clock of contego.ko's records -- as of now.
+uint64_t decision_wall_us(uint64_t mono_us);
+
 // One module record as a line of `log` (a decision, or an event naming the
-// device and the caller). False: the line is not in the log.
+// device and the caller; a decision carries the module's time of it). False:
+// the line is not in the log.
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        const contego_kmod_record& record);
 

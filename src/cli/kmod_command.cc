@@ -188,9 +188,11 @@ int stats(const std::string& device) {
   }
   fmt::print(
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
-      "failsafe={} reader={} records={} unrecorded={} audit_refused={}\n",
+      "failsafe={} reader={} records={} unrecorded={} audit_refused={} sessions={} "
+      "session_ends={} sessions_refused={} samples={} sample_errors={}\n",
       s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
-      s.reader, s.records, s.unrecorded, s.audit_refused);
+      s.reader, s.records, s.unrecorded, s.audit_refused, s.sessions, s.session_ends,
+      s.sessions_refused, s.samples, s.sample_errors);
   return 0;
 }
 

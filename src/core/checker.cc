@@ -778,5 +778,6 @@ uint32_t Checker::task_count() const { return state().task_count_; }
 uint32_t Checker::device_count() const { return state().device_count_; }
 const TaskRecord& Checker::task(uint16_t id) const { return state().tasks_[id]; }
 const DeviceRecord& Checker::device(uint16_t id) const { return state().devices_[id]; }
+const AccessRecord& Checker::access(uint16_t task) const { return state().access_[task]; }
 
 }  // namespace contego::core

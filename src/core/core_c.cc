@@ -35,6 +35,8 @@ SAME_FIELDS(contego_audit_record, core::AuditRecord, time_us, job, task, device,
             substitute_len, original, substitute)
 
 static_assert(CONTEGO_MAX_EMITS == core::kMaxEmits);
+static_assert(CONTEGO_ROLE_ACTUATOR == core::kRoleActuator &&
+              CONTEGO_ROLE_SENSOR == core::kRoleSensor);
 static_assert(CONTEGO_MAX_EMIT_BYTES == core::kMaxEmitBytes);
 static_assert(CONTEGO_MAX_FIELDS == core::kMaxFieldsPerCommand);
 static_assert(CONTEGO_NONE == core::kNone);
@@ -177,6 +179,33 @@ uint32_t contego_task_period_us(const contego_checker* c, uint16_t task) {
   if (c == nullptr) return 0;
   const core::Checker* k = checker(c);
   return task < k->task_count() ? k->task(task).period_us : 0;
+}
+
+uint32_t contego_device_count(const contego_checker* c) {
+  return c != nullptr ? checker(c)->device_count() : 0;
+}
+
+int contego_device_info_of(const contego_checker* c, uint16_t device, contego_device_info* out) {
+  if (c == nullptr || out == nullptr || device >= checker(c)->device_count()) return 0;
+  const core::DeviceRecord& d = checker(c)->device(device);
+  __builtin_memset(out, 0, sizeof(*out));
+  out->role = d.role;
+  out->bus = d.bus;
+  out->ten_bit = d.ten_bit;
+  out->addr = d.addr;
+  out->sample_request_len = d.sample_request_len <= sizeof(out->sample_request)
+                                ? d.sample_request_len
+                                : static_cast<uint8_t>(sizeof(out->sample_request));
+  __builtin_memcpy(out->sample_request, d.sample_request, sizeof(out->sample_request));
+  out->sample_len = d.sample_len;
+  out->sample_period_us = d.sample_period_us;
+  out->max_sample_age_us = d.max_sample_age_us;
+  return 1;
+}
+
+uint32_t contego_task_actuates(const contego_checker* c, uint16_t task) {
+  if (c == nullptr || task >= checker(c)->task_count()) return 0;
+  return checker(c)->access(task).actuate_devices;
 }
 
 const char* contego_load_status_name(uint8_t status) {

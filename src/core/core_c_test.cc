@@ -54,6 +54,27 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   EXPECT_EQ(contego_task_period_us(c, 0), 200000u);  // follower
   EXPECT_EQ(contego_task_period_us(c, 1), 100000u);  // logger
   EXPECT_EQ(contego_task_period_us(c, CONTEGO_NONE), 0u);
+  // What a host needs to sample the sensors and drive a task's actuators.
+  EXPECT_EQ(contego_device_count(c), 2u);
+  EXPECT_EQ(contego_task_actuates(c, 0), 1u << rover::kGopigo);  // follower
+  EXPECT_EQ(contego_task_actuates(c, 1), 0u);                    // logger reads only
+  EXPECT_EQ(contego_task_actuates(c, CONTEGO_NONE), 0u);
+  contego_device_info info{};
+  ASSERT_EQ(contego_device_info_of(c, rover::kLine, &info), 1);
+  EXPECT_EQ(info.role, CONTEGO_ROLE_SENSOR);
+  EXPECT_EQ(info.bus, 1);
+  EXPECT_EQ(info.addr, 0x06);
+  EXPECT_EQ(info.sample_request_len, 5);
+  EXPECT_EQ(info.sample_request[0], 1);
+  EXPECT_EQ(info.sample_request[1], 3);
+  EXPECT_EQ(info.sample_len, 10);
+  EXPECT_EQ(info.sample_period_us, 10000u);
+  EXPECT_EQ(info.max_sample_age_us, 50000u);
+  ASSERT_EQ(contego_device_info_of(c, rover::kGopigo, &info), 1);
+  EXPECT_EQ(info.role, CONTEGO_ROLE_ACTUATOR);
+  EXPECT_EQ(info.sample_len, 0);
+  EXPECT_EQ(contego_device_info_of(c, 2, &info), 0);
+  EXPECT_EQ(contego_device_info_of(c, 0, nullptr), 0);
 
   CHost host;
   host.sample = rover::sample(rover::kLineLeft);
@@ -114,6 +135,10 @@ TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
   contego_abort_transfer(nullptr, CONTEGO_REJECT);
   contego_reset_latch(nullptr, 0);
   EXPECT_EQ(contego_latched(nullptr, 0), 0);
+  contego_device_info info{};
+  EXPECT_EQ(contego_device_info_of(nullptr, 0, &info), 0);
+  EXPECT_EQ(contego_device_count(nullptr), 0u);
+  EXPECT_EQ(contego_task_actuates(nullptr, 0), 0u);
   EXPECT_EQ(contego_worst_case_cost(nullptr), 0u);
   uint32_t decider = 7;
   EXPECT_EQ(contego_combine_transfer(nullptr, 2, &decider), 1);  // refuse

@@ -308,7 +308,7 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
 // Keys sorted as the earlier JSON writer had them, except "prev", which
 // comes last (it is appended when the rest of the line is known).
 bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
-  const uint64_t t = wall_us();
+  const uint64_t t = names.t_us >= 0 ? static_cast<uint64_t>(names.t_us) : wall_us();
   std::lock_guard lock(mu_);
   if (mode_ == Mode::kNone) {
     ++lines_;
@@ -334,6 +334,7 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
     fmt::format_to(Out(line_), "{}{}", i ? "," : "", r.fields[i]);
   }
   fmt::format_to(Out(line_), "],\"index\":{},\"job\":{},\"kind\":\"decision\"", r.index, r.job);
+  if (names.mono_us >= 0) fmt::format_to(Out(line_), ",\"mono_us\":{}", names.mono_us);
   if (names.pid >= 0) fmt::format_to(Out(line_), ",\"pid\":{}", names.pid);
   fmt::format_to(Out(line_), ",\"reason\":{},\"reason_name\":\"{}\",\"rule\":{},\"rule_kind\":{}",
                  static_cast<int>(r.reason), core::reason_name(r.reason), r.rule,

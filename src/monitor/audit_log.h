@@ -68,6 +68,12 @@ struct RecordNames {
   // carry it; the monitor binds a connection to a task instead): -1 = not written.
   int64_t pid = -1;
   int64_t uid = -1;
+  // When the decision was taken, when the writer is not the decider
+  // (contego.ko's records, written later by `contego kmod audit`): the
+  // decider's CLOCK_MONOTONIC (`mono_us`) and the wall-clock time it maps to
+  // (`t_us`). -1: the writer's own time is the decision's (t_us only).
+  int64_t mono_us = -1;
+  int64_t t_us = -1;
 };
 
 // The policy image's names, by id: what a decision record's numbers mean.

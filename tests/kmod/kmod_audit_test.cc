@@ -4,8 +4,10 @@
 // are what the line shows, never more.
 #include "cli/kmod_audit.h"
 
+#include <time.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -72,6 +74,15 @@ TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
   r.substitute_len = 5;
   r.substitute[0] = 0x1a;
   r.pid = 42;
+  // Taken by the module two seconds ago (its CLOCK_MONOTONIC): the line
+  // carries that instant, not the time it is written.
+  timespec mono{}, wall{};
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  clock_gettime(CLOCK_REALTIME, &wall);
+  const auto us = [](const timespec& t) {
+    return static_cast<uint64_t>(t.tv_sec) * 1000000u + static_cast<uint64_t>(t.tv_nsec) / 1000u;
+  };
+  r.time_us = us(mono) - 2000000;
   ASSERT_TRUE(write_kmod_record(log_, names_, r));
   auto l = lines();
   ASSERT_EQ(l.size(), 1u);
@@ -86,6 +97,10 @@ TEST_F(KmodAudit, DecisionCarriesTheNamesAndTheKeptBytes) {
   EXPECT_EQ(l[0]["substitute"], "1a 00 00 00 00");
   EXPECT_EQ(l[0]["pid"], 42);
   EXPECT_EQ(l[0]["uid"], 0);
+  EXPECT_EQ(l[0]["mono_us"].get<uint64_t>(), r.time_us);
+  const int64_t t = l[0]["t_us"].get<int64_t>();
+  const int64_t expected = static_cast<int64_t>(us(wall)) - 2000000;
+  EXPECT_LT(std::llabs(t - expected), 500000) << t << " vs " << expected;
 }
 
 TEST_F(KmodAudit, EventsNameDeviceCallerAndGap) {
@@ -121,6 +136,52 @@ TEST_F(KmodAudit, EventsNameDeviceCallerAndGap) {
   std::ifstream in(path_);
   const monitor::AuditCheck c = monitor::verify_audit(in);
   EXPECT_TRUE(c.ok) << c.error;
+}
+
+// A session's end (a bound process exited): the task, the process, how it
+// ended, and each actuator driven -- the monitor's "task N exited".
+TEST_F(KmodAudit, SessionEndNamesTaskProcessAndHowItEnded) {
+  contego_kmod_record killed = record(CONTEGO_KMOD_REC_SAFE_STATE);
+  killed.why = CONTEGO_KMOD_SAFE_EXIT;
+  killed.task = 1;  // gripper
+  killed.device = 0;
+  killed.bus = 1;
+  killed.addr = 0x40;
+  killed.pid = 321;
+  killed.uid = 990;
+  killed.count = 9;  // wait status: killed by SIGKILL
+  killed.substitute_len = 5;
+  killed.substitute[0] = 0x1a;
+  contego_kmod_record script = killed;
+  script.count = 0;  // exit 0, ended with its process group's leader
+  script.index = 1;
+  script.why |= CONTEGO_KMOD_SAFE_FAILED;
+  contego_kmod_record none = record(CONTEGO_KMOD_REC_SAFE_STATE);
+  none.why = CONTEGO_KMOD_SAFE_EXIT;
+  none.task = 0;
+  none.pid = 7;
+  none.count = 3 << 8;  // exit status 3
+  for (const auto* r : {&killed, &script, &none}) {
+    ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  }
+  auto l = lines();
+  ASSERT_EQ(l.size(), 3u);
+  const std::string a = l[0]["detail"], b = l[1]["detail"], c = l[2]["detail"];
+  EXPECT_EQ(l[0]["kind"], "safe-state");
+  EXPECT_NE(a.find("task 1 (" + names_.tasks[1] + ") exited: pid 321 uid 990 killed by signal 9"),
+            std::string::npos)
+      << a;
+  EXPECT_NE(a.find("device 0 (" + names_.devices[0] + ")"), std::string::npos) << a;
+  EXPECT_NE(a.find("[1a 00 00 00 00]"), std::string::npos) << a;
+  EXPECT_EQ(a.find("FAILED"), std::string::npos) << a;
+  EXPECT_NE(b.find("exited with status 0, then its process group's leader exited"),
+            std::string::npos)
+      << b;
+  EXPECT_NE(b.find("FAILED"), std::string::npos) << b;
+  EXPECT_NE(c.find("task 0 (" + names_.tasks[0] + ") exited: pid 7 uid 0 exited with status 3"),
+            std::string::npos)
+      << c;
+  EXPECT_NE(c.find("none of its actuators has a safe state"), std::string::npos) << c;
 }
 
 }  // namespace

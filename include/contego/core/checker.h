@@ -135,6 +135,7 @@ class Checker {
   uint32_t device_count() const;
   const TaskRecord& task(uint16_t id) const;
   const DeviceRecord& device(uint16_t id) const;
+  const AccessRecord& access(uint16_t task) const;  // the access matrix's row of `task`
 
  private:
   // The checker's tables and runtime state, defined in src/core (state.h):

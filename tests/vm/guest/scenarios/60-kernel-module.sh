@@ -3,9 +3,12 @@
 # and the module checks each call with the core against policies/arm.policy
 # (its bus 1 is adapter 0 here: buses=1). Every decision goes through the
 # module's audit ring to `contego kmod audit` and the hash-chained log; with
-# no reader, or the ring full, calls fail closed. What reached the chips is
-# read back at the end through the plain i2c-dev, after contego.ko is unloaded
-# (which drives the safe state).
+# no reader, or the ring full, calls fail closed. A process that acted as a
+# task is a session: its exit (SIGKILL too) drives the task's actuators to
+# their safe state; a script's i2cset runs are one session. The module
+# samples sensors itself (policies/tank.policy: the buzzer follows the tank's
+# level set on the stub). What reached the chips is read back through the
+# plain i2c-dev, after contego.ko is unloaded (which drives the safe state).
 . /vm/lib.sh
 KO=/lib/modules/contego.ko
 if [ ! -f $KO ]; then
@@ -68,8 +71,8 @@ grep -q "reader=0 .*audit_refused=1" "$OUT" && ok "module counters: reader=0, on
 
 AUDIT_LOG=$LOGDIR/kmod-audit.jsonl
 READER_PID=
-start_reader() {
-  contego kmod audit --policy $POLICIES/arm.policy --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
+start_reader() {  # start_reader [POLICY]: the policy whose names the log gets (arm.policy)
+  contego kmod audit --policy ${1:-$POLICIES/arm.policy} --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
   READER_PID=$!
   i=0
   until contego kmod stats 2>/dev/null | grep -q "reader=1"; do
@@ -127,6 +130,8 @@ with SMBus(0) as bus:
     time.sleep(1.2)
     bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])
     print("pulse sent", flush=True)
+    d = bus.read_i2c_block_data(0x40, 0x1C, 2)  # LED5 off, read back through contego.ko
+    print("led5", d[0] | d[1] << 8, flush=True)
 PY
 echo 1 >/sys/module/contego/parameters/trace  # the gripper's decisions in the kernel log
 run_logged grip su contego -s /bin/sh -c "cd /tmp && exec python3 /tmp/kmod_grip.py"
@@ -136,11 +141,56 @@ grep -q "pulse sent" "$OUT" && grep -q "prescale written" "$OUT" &&
 echo 0 >/sys/module/contego/parameters/trace
 dmesg | grep 'contego: task' >"$LOGDIR/grip-trace"
 
-# The gripper's pulse, read back through contego.ko (arm_init may read the
-# arm): the reader's crash below drives the safe state, LED5 off = 420.
-lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d)
-[ $(( (hi << 8) | lo )) = 577 ] && ok "the gripper's LED5 off = 420, then 577 next job, landed" ||
-  bad "LED5 off reads $lo $hi, expected 577"
+# The gripper's pulse, read back by the gripper itself through contego.ko;
+# its exit ends its session: the gripper's actuators (the arm) go to their
+# safe state, LED5 off = 420 (read by arm_init, which may read the arm; a
+# read opens no session).
+grep -q "led5 577" "$OUT" && ok "the gripper's LED5 off = 420, then 577 next job, landed" ||
+  bad "the gripper read LED5 back as '$(sed -n 's/^led5 //p' "$OUT")', expected 577"
+led5() {  # LED5 off as arm_init reads it through contego.ko
+  lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d) && echo $(( (hi << 8) | lo ))
+}
+led5_becomes() {  # led5_becomes VALUE: waits up to 5 s (a session ends from the module's work queue)
+  i=0
+  while [ "$(led5)" != "$1" ]; do
+    i=$((i + 1)); [ $i -gt 50 ] && return 1
+    usleep 100000
+  done
+}
+led5_becomes 420 && ok "the gripper exited: its session's end drove LED5 off = 420 (the safe state)" ||
+  bad "after the gripper exited LED5 off reads $(led5), expected the safe state 420"
+
+# A controller bound to the gripper holds LED5 at 577 and is killed
+# (SIGKILL): the end of its process ends its session, and the module drives
+# the gripper's actuators to their safe state from its work queue.
+cat >/tmp/kmod_ctl.py <<'PY'
+import time
+from smbus2 import SMBus
+bus = SMBus(0)
+bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 420 & 0xFF, 420 >> 8])
+time.sleep(1.2)
+bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])
+d = bus.read_i2c_block_data(0x40, 0x1C, 2)
+print("holding", d[0] | d[1] << 8, flush=True)
+time.sleep(600)
+PY
+rm -f /tmp/ctl.pid
+su contego -s /bin/sh -c 'cd /tmp && echo $$ >/tmp/ctl.pid && exec python3 /tmp/kmod_ctl.py' \
+  >"$LOGDIR/ctl.out" 2>&1 &
+i=0
+until grep -q holding "$LOGDIR/ctl.out" 2>/dev/null; do
+  i=$((i + 1)); [ $i -gt 150 ] && break
+  usleep 100000
+done
+show "$LOGDIR/ctl.out"
+CTL=$(cat /tmp/ctl.pid 2>/dev/null)
+grep -q "holding 577" "$LOGDIR/ctl.out" && [ "$(led5)" = 577 ] &&
+  ok "a gripper controller (pid $CTL) holds LED5 off = 577" || bad "the controller does not hold LED5 at 577"
+kill -KILL "$CTL"
+led5_becomes 420 && ok "controller killed (SIGKILL): its session's end drove LED5 off = 420" ||
+  bad "after SIGKILL of the controller LED5 off reads $(led5), expected the safe state 420"
+dmesg | grep -q "contego: task 1: session of pid $CTL ended (wait status 0x9)" &&
+  ok "the kernel log names the killed controller's session end" || bad "no session end of pid $CTL in the kernel log"
 
 # The reader dies (SIGKILL): calls fail closed until a new one attaches, and
 # the new reader is handed what the old one had not acknowledged.
@@ -201,13 +251,37 @@ else
   bad "bench rows did not complete: plain '$plain', contego.ko '$kmod'"
 fi
 
-# LED5 to 577 again, so that the unload's safe state shows on the chip. The
-# GRIP sequence goes on from the last command checked (577): 420, then 577.
-run_logged led420 as_task i2cset -y 0 $A 0x1a 0 0 0xa4 0x01 i
-run_logged led577 as_task i2cset -y 0 $A 0x1a 0 0 0x41 0x02 i
-lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d)
-[ $(( (hi << 8) | lo )) = 577 ] && ok "arm_init: LED5 off = 577 before the unload" ||
-  bad "LED5 off reads $lo $hi before the unload, expected 577"
+# A shell script's i2cset runs are one session: each i2cset exits 0 and is
+# not its process group's leader (the script is), so the arm is not reset
+# between them; the script's end ends the session. The script gets a process
+# group of its own as an interactive shell or systemd would give it: here
+# every process is in the group of the guest's init (no leader: each
+# process's exit would end its session), hence setsid. The GRIP sequence
+# goes on from the last command checked (577): 420, then 577.
+cat >/tmp/kmod_led.sh <<'SH'
+/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i
+/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i
+sleep 1
+lo=$(/usr/sbin/i2cget -y 0 0x40 0x1c) && hi=$(/usr/sbin/i2cget -y 0 0x40 0x1d)
+echo "led5 $(( (hi << 8) | lo ))"
+SH
+run_logged ledscript as_task setsid sh /tmp/kmod_led.sh
+grep -q "led5 577" "$OUT" &&
+  ok "a script's i2cset runs are one session: LED5 off = 577 a second after the last one exited" ||
+  bad "script: LED5 off read '$(sed -n 's/^led5 //p' "$OUT")' inside the script, expected 577"
+led5_becomes 420 && ok "the script's end ended its session: LED5 off = 420" ||
+  bad "after the script LED5 off reads $(led5), expected the safe state 420"
+
+# LED5 to 577 again, held by a live session (a script still running), so
+# that the unload's safe state shows on the chip and the unload meets a
+# session it must take off its wait queue.
+rm -f /tmp/holder.pid
+as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
+  >"$LOGDIR/holder.out" 2>&1 &
+wait_for /tmp/holder.pid 10
+HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+[ "$(led5)" = 577 ] && ok "arm_init: LED5 off = 577 before the unload, its session live (pid $HOLDER)" ||
+  bad "LED5 off reads $(led5) before the unload, expected 577"
 
 # The log: one chain, every decision and event of the module in it.
 stop_reader && ok "contego kmod audit stops on SIGTERM (exit 0)" || bad "contego kmod audit exit $rc"
@@ -215,7 +289,9 @@ show "$LOGDIR/reader.log"
 run_logged verify contego audit $AUDIT_LOG
 [ $RC = 0 ] && ok "contego audit verifies the module's log" || bad "contego audit exit $RC"
 for what in '"kind":"audit-gap"' '"kind":"policy-load-refused"' \
-    '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"'; do
+    '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"' '"mono_us":' \
+    "task 1 (gripper) exited: pid $CTL uid 990 killed by signal 9; device 0 (arm)" \
+    "task 0 (arm_init) exited: pid [0-9]* uid 1000 exited with status 0, then its process group's leader exited"; do
   grep -q "$what" $AUDIT_LOG && ok "the module's log has $what" || bad "the module's log lacks $what"
 done
 kbench_lines=$(grep -c '"task_name":"arm_init"' $AUDIT_LOG)
@@ -223,9 +299,16 @@ kbench_lines=$(grep -c '"task_name":"arm_init"' $AUDIT_LOG)
   bad "only $kbench_lines arm_init records for $N bench commands"
 
 # What reached the chips, through the plain i2c-dev.
+klog_lines=$(dmesg | wc -l)
 rmmod contego && ok "contego.ko unloads" || bad "rmmod contego"
 dmesg | grep -q "contego: unloading: 1 devices driven to their safe state" &&
   ok "the unload drove the arm's safe state" || bad "no safe state at unload in the kernel log"
+# The session the unload took off its wait queue: its process ends after the module.
+[ -n "$HOLDER" ] && kill -KILL "$HOLDER"
+sleep 1
+dmesg | tail -n +$((klog_lines + 1)) | grep -E "BUG|Oops|WARNING|general protection" >/tmp/klog.bad
+[ -s /tmp/klog.bad ] && bad "kernel log after the unload and the held session's end: $(head -n 1 /tmp/klog.bad)" ||
+  ok "a session live at the unload ends after it without a kernel warning"
 back_to_i2c_dev
 expect_reg $A 0xfe 101 "PRE_SCALE=101 landed; PRE_SCALE=3 (arm_init, gripper) did not"
 expect_reg $A 0x01 0x04 "MODE2=0x04 landed; root's MODE2=0 did not"
@@ -284,5 +367,56 @@ run_logged verify2 contego audit $AUDIT_LOG
 [ $RC = 0 ] && grep -q '"kind":"audit-gap"' $AUDIT_LOG &&
   ok "the log still verifies, the lost records are an audit-gap record" || bad "log after the full ring"
 back_to_i2c_dev
+
+# Sensors: policies/tank.policy lets the buzzer sound (tone 1) only while the
+# tank's level is above 800 mm or its temperature out of 5..40 degC (INV_W);
+# the module samples the tank itself on the bus ([0x00], then 4 bytes:
+# big-endian level and temperature; an I2C block read on i2c-stub). Each
+# round sets the level on the stub through the plain i2c-dev, loads
+# contego.ko, and for each policy given loads it and sends the monitor
+# task's tone(1); the buzzer is read back after the unload. Their records go
+# to a log of their own (tank.policy's names).
+AUDIT_LOG=$LOGDIR/kmod-tank.jsonl
+tank_round() {  # tank_round LABEL LEVEL POLICY...
+  round=$1 level=$2; shift 2  # not `label`: run_logged sets that
+  stub_set 0x48 0x00 $((level >> 8)); stub_set 0x48 0x01 $((level & 0xff))
+  stub_set 0x48 0x02 0; stub_set 0x48 0x03 200  # 20.0 degC
+  stub_set 0x20 0x01 0
+  rmmod i2c_dev
+  run_logged ${round}_insmod insmod $KO adapters=0 buses=1
+  wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+  start_reader $POLICIES/tank.policy
+  n=0
+  for policy in "$@"; do
+    n=$((n + 1))
+    run_logged ${round}_load$n contego kmod load --policy $policy --bind monitor=task
+    run_logged ${round}_tone$n as_task i2cset -y 0 0x20 0x01 1
+    eval TONE_RC$n=$RC
+    run_logged ${round}_stats$n contego kmod stats
+  done
+  stop_reader
+  back_to_i2c_dev
+}
+tank_round tank500 500 $POLICIES/tank.policy
+[ $TONE_RC1 = 0 ] && grep -q "samples=[1-9].* sample_errors=0" "$LOGDIR/tank500_stats1.out" &&
+  ok "level 500 mm: the module sampled the tank; tone(1) exits 0 (ignored, INV_W)" ||
+  bad "level 500: tone(1) exit $TONE_RC1, $(cat "$LOGDIR/tank500_stats1.out")"
+expect_reg 0x20 0x01 0 "level 500 mm (normal): the buzzer's tone(1) did not land"
+# Level 900, first with the tank moved to an address where nothing answers:
+# its sample fails, its signals are unavailable, and tone(1) is ignored
+# (fail closed, recorded as signal-unavailable); then with tank.policy
+# itself: tone(1) lands.
+sed 's/^device tank : regmap at i2c-1 0x48/device tank : regmap at i2c-1 0x49/' \
+  $POLICIES/tank.policy >/tmp/tank-missing.policy
+tank_round tank900 900 /tmp/tank-missing.policy $POLICIES/tank.policy
+grep -q "sample_errors=[1-9]" "$LOGDIR/tank900_stats1.out" &&
+  grep -q '"reason_name":"signal-unavailable".*"rule_name":"INV_W"' $AUDIT_LOG &&
+  ok "a tank that does not answer: the failed sample is counted, tone(1) ignored as signal-unavailable" ||
+  bad "the unreadable tank: $(cat "$LOGDIR/tank900_stats1.out")"
+[ $TONE_RC2 = 0 ] && ok "level 900 mm: tone(1) exits 0" || bad "level 900: tone(1) exit $TONE_RC2"
+expect_reg 0x20 0x01 1 "level 900 mm (high): the buzzer's tone(1) landed"
+run_logged verify3 contego audit $AUDIT_LOG
+[ $RC = 0 ] && grep -q '"rule_name":"INV_W"' $AUDIT_LOG &&
+  ok "the log verifies and has the INV_W decisions" || bad "the log after the tank rounds"
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
