@@ -218,6 +218,31 @@ Base base_of(const Model& m, size_t p, Sweep<1>& sweep) {
   return b;
 }
 
+// The largest x = (b - a) / c over the right ends b of p's intervals in
+// [lo, hi], or `best` if none is larger: a branch and bound over time
+// like IntervalTree's (the demand at a range's start bounds what any
+// interval in it admits), for max_uniform_overhead when its iteration
+// would crawl (see there). c counts the commands per unit of C^o.
+Nanos best_uniform_over(const Model& m, size_t p, Nanos lo, Nanos hi, Nanos best,
+                        Nanos own_commands) {
+  if (lo > hi) return best;
+  Nanos a = m.wcet[p], c = own_commands, next = m.deadline[p];
+  for (size_t q = 0; q < m.group_end[p]; ++q) {
+    if (q == p) continue;
+    const Nanos jobs = ceil_div(lo, m.period[q]);
+    a = sat_add(a, sat_mul(jobs, m.wcet[q]));
+    c = sat_add(c, sat_mul(jobs, m.actuations[q]));
+    next = std::min(next, jobs * m.period[q]);
+  }
+  auto admits = [&](Nanos b) { return b >= a ? (b - a) / c : Nanos{-1}; };
+  if (admits(hi) <= best) return best;
+  if (next <= hi) best = std::max(best, admits(next));
+  if (next >= hi) return best;
+  const Nanos mid = next + (hi - next) / 2;
+  best = best_uniform_over(m, p, mid + 1, hi, best, own_commands);  // larger values lie late
+  return best_uniform_over(m, p, next + 1, mid, best, own_commands);
+}
+
 // Largest uniform C^o at which position p meets its deadline: over an
 // interval ending at b, W = a + x c, so x <= (b - a) / c.
 // `base`: p's response at the original overheads, a start for every C^o
@@ -237,6 +262,13 @@ Nanos max_uniform_overhead(const Model& m, size_t p, bool any_checks, const Base
   if (r > d) return kInfeasible;
   if (base.ok && best + 1 >= largest_overhead) r = base.response;
   sweep.start(m, p, kNoTask, {&m.wcet, &m.actuations}, r);
+  // Each fixed point moves past at least one interval and raises the
+  // figure by at least 1. When the best interval lies far from D among
+  // very many (a deadline of days beside a period of milliseconds), that
+  // can mean millions of fixed points: after kFixedPoints, the rest of
+  // [R, D] is left to a branch and bound.
+  constexpr int kFixedPoints = 64;
+  int fixed_points = 0;
   while (true) {
     const Nanos a = sat_add(m.wcet[p], sweep.sum(0));
     const Nanos c = sat_add(own_commands, sweep.sum(1));
@@ -251,6 +283,9 @@ Nanos max_uniform_overhead(const Model& m, size_t p, bool any_checks, const Base
     // C^o cannot matter.
     if (!any_checks) return kUnbounded;
     best = (sweep.next() - a) / c;  // what r's interval admits
+    if (++fixed_points == kFixedPoints) {
+      return best_uniform_over(m, p, sweep.next() + 1, d, best, own_commands);
+    }
   }
 }
 
