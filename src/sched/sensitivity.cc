@@ -50,6 +50,9 @@ class Model {
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
       return set.tasks[a].priority > set.tasks[b].priority;
     });
+    for (auto* v : {&wcet, &period, &deadline, &actuations, &overhead, &c_tee, &priority}) {
+      v->reserve(n);
+    }
     for (size_t p = 0; p < n; ++p) {
       const Task& t = set.tasks[order[p]];
       wcet.push_back(t.wcet);
@@ -308,7 +311,9 @@ class IntervalTree {
   };
 
   IntervalTree(const Model& m, const std::vector<Base>& base)
-      : m_(m), base_(base), root_(m.n, kNone) {}
+      : m_(m), base_(base), root_(m.n, kNone) {
+    nodes_.reserve(8 * m.n);  // about what the bench's sets use
+  }
 
   // The largest value(x) over the interval ends x.next of p's intervals in
   // [R, D], or `best` if none is larger; some value at least `enough`
