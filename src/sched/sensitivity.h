@@ -7,10 +7,12 @@
 // sensitivity() finds each figure over the scheduling intervals of the
 // tasks it affects: a task's demand is constant between scheduling points,
 // and over one interval linear in C^o and N_i and a step function of T_i,
-// so what an interval admits is one division; a branch and bound over time
-// finds the best interval (sensitivity.cc). sensitivity_by_search() is the
-// plain binary search on whole-set analyses
-// (the reference the tests compare against, hundreds of analyses per set).
+// so what an interval admits is one division. The best interval is found
+// by the response-time iteration itself, or by a branch and bound over time
+// whose evaluations every search over the same task shares
+// (sensitivity.cc); about 10-20 analyses per set. sensitivity_by_search()
+// is the plain binary search on whole-set analyses (the reference the tests
+// compare against, thousands of analyses per set).
 //
 // Host code.
 #ifndef CONTEGO_SCHED_SENSITIVITY_H_

@@ -1,5 +1,6 @@
 #include "sched/sensitivity.h"
 
+#include <algorithm>
 #include <gtest/gtest.h>
 #include <random>
 
@@ -111,6 +112,43 @@ TEST(SensitivityTest, HandExamplesMatchTheSearch) {
                 task("mid", us(40), us(170), us(150), 2, 2, us(2)),
                 task("slow", ms(20), ms(100), ms(90), 1, 3, us(5))};
   expect_same(many, "many points");
+}
+
+// Durations near kMaxDuration, periods of a few nanoseconds below long
+// deadlines and N C^o that saturates C^TEE: the incremental demand caps its
+// sums just above kMaxDuration and counts many releases at once when an
+// iterate jumps several periods, and the uniform C^o search hands over to
+// a branch and bound after many fixed points; none of it may change a
+// figure.
+TEST(SensitivityTest, ExtremeValuesMatchTheSearch) {
+  std::mt19937_64 rng(151);
+  const Nanos scales[] = {1, 1'000, 1'000'000, kMaxDuration / 4};
+  int feasible = 0, jumps = 0;
+  for (int k = 0; k < 400; ++k) {
+    TaskSet s;
+    const size_t n = 1 + rng() % 5;
+    for (size_t i = 0; i < n; ++i) {
+      const Nanos scale = scales[rng() % 4];
+      const Nanos period = std::min(kMaxDuration, scale + static_cast<Nanos>(rng() % 4) * scale);
+      const Nanos deadline =
+          std::max<Nanos>(1, period - static_cast<Nanos>(rng() % 2) * period / 3);
+      const Nanos wcet = std::max<Nanos>(1, deadline / static_cast<Nanos>(2 + rng() % 50));
+      const int64_t actuations = rng() % 8 == 0 ? 1'000'000 : static_cast<int64_t>(rng() % 4);
+      const Nanos overhead = rng() % 8 == 0 ? kMaxDuration : static_cast<Nanos>(rng() % 1000);
+      s.tasks.push_back(task("t" + std::to_string(i), wcet, period, deadline,
+                             static_cast<int64_t>(rng() % 4), actuations, overhead));
+    }
+    ASSERT_TRUE(validate(s).ok()) << validate(s).error();
+    feasible += is_schedulable(s) ? 1 : 0;
+    const auto [shortest, longest] =
+        std::minmax_element(s.tasks.begin(), s.tasks.end(),
+                            [](const Task& a, const Task& b) { return a.period < b.period; });
+    jumps += longest->deadline > 1000 * shortest->period ? 1 : 0;
+    expect_same(s, "extreme set " + std::to_string(k));
+    if (::testing::Test::HasFailure()) return;
+  }
+  EXPECT_GT(feasible, 60);
+  EXPECT_GT(jumps, 80);  // a deadline spans a thousand periods of another task
 }
 
 // The interval search against the binary search of whole-set analyses, over
