@@ -8,6 +8,8 @@
 #   vmlinuz            the kernel image
 #   modules/           i2c-stub.ko and i2c-dev.ko, decompressed if shipped compressed
 #   version            the kernel release (e.g. 6.1.0-NN-amd64)
+#   headers/           arm64 only: the kernel's linux-headers (unpacked, with the
+#                      host's kbuild tools), for building contego.ko
 #
 # Debian's arm64 kernel is built without i2c-stub: for arm64 the module is
 # cross-built here from Debian's own kernel source (linux-source-6.1,
@@ -43,7 +45,9 @@ version=$(apt-cache policy "$pkg$qual" | awk '/Candidate:/ { print $2 }')
 [[ -n "$version" && "$version" != "(none)" ]] || die "no installable candidate for $pkg$qual"
 dir="$cache_root/$release/$version"
 
-if [[ -f "$dir/.complete" ]]; then
+# An arm64 cache also keeps the kernel's headers (for contego.ko); one made
+# before it did is fetched again.
+if [[ -f "$dir/.complete" && ( "$arch" != arm64 || -f "$dir/headers/Makefile" ) ]]; then
   echo "$dir"
   exit 0
 fi
@@ -68,8 +72,14 @@ mkdir -p "$tmp/modules"
 shipped=(i2c-stub i2c-dev)
 if [[ "$arch" == arm64 ]]; then
   shipped=(i2c-dev)
-  bash "$(dirname "$0")/build-i2c-stub.sh" "$tmp" "$pkg" "$version" "$release" "$tmp/modules/i2c-stub.ko" >&2 ||
+  # In the cache, not in $tmp: the headers it unpacks stay (contego.ko is
+  # built against them: kernel/build.sh with ARCH=arm64) and name their own
+  # absolute path, so they are unpacked where they are kept.
+  rm -rf "$dir/kbuild"
+  bash "$(dirname "$0")/build-i2c-stub.sh" "$dir/kbuild" "$pkg" "$version" "$release" "$tmp/modules/i2c-stub.ko" >&2 ||
     die "cannot build i2c-stub.ko for $release (see above)"
+  rm -rf "$dir/kbuild/stub-build/debs" "$dir/kbuild/stub-build/module"
+  ln -sfn "kbuild/stub-build/root/usr/src/linux-headers-$release" "$dir/headers"
 fi
 # Debian 12 ships plain .ko files; later kernels may compress them (.ko.xz,
 # .ko.zst). busybox insmod wants plain ones, so decompress on the host.

@@ -88,7 +88,12 @@ t_kernel=$(date +%s.%N)
 # this kernel; without them the module's scenario reports a skip.
 kmod=
 set +e
-bash "$src/kernel/build.sh" "$workdir/kmod" "/usr/src/linux-headers-$(cat "$kdir/version")"
+if [[ -d "$kdir/headers" ]]; then
+  # arm64: the headers the kernel cache keeps (fetch-kernel.sh)
+  bash "$src/kernel/build.sh" --arch "$arch" "$workdir/kmod" "$kdir/headers/"
+else
+  bash "$src/kernel/build.sh" --arch "$arch" "$workdir/kmod" "/usr/src/linux-headers-$(cat "$kdir/version")"
+fi
 kmod_rc=$?
 set -e
 case $kmod_rc in

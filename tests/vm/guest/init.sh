@@ -12,7 +12,7 @@
 # Kernel command line:
 #   contego.scenarios=a,b,c   run only these (names without .sh); default all
 #   contego.shell=1           no scenarios: an interactive shell on the console
-#   contego.timeout=N         per-scenario limit in seconds (default 240)
+#   contego.timeout=N         per-scenario limit in seconds (default 420)
 export PATH=/usr/sbin:/usr/bin:/sbin:/bin
 export HOME=/root
 mount -t proc proc /proc
@@ -24,7 +24,7 @@ mount -t tmpfs -o mode=0755 tmpfs /run
 # port (console=ttyS0, or ttyAMA0 on arm64), where every line below goes.
 exec </dev/console >/dev/console 2>&1
 
-scenarios=all shell=0 timeout=240
+scenarios=all shell=0 timeout=420
 for arg in $(cat /proc/cmdline); do
   case "$arg" in
     contego.scenarios=*) scenarios=${arg#contego.scenarios=} ;;
