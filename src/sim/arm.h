@@ -45,12 +45,8 @@ class GripperController : public Controller {
 class ArmWorld : public World {
  public:
   ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
-  void attach(bus::VirtualBus& bus) override;
   void on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) override;
-  std::vector<Controller*> controllers() override { return {&init_, &gripper_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
   std::vector<double> sample() const override;
   std::vector<Metric> metrics() const override;
 
@@ -64,7 +60,6 @@ class ArmWorld : public World {
   ArmInitController init_;
   GripperController gripper_;
   std::shared_ptr<bus::Pca9685> pca_;
-  Noise noise_;
   uint64_t period_us_;
   uint64_t now_us_ = 0;
   Grip grip_ = Grip::kLimp;

@@ -79,26 +79,21 @@ void SirenController::release(const Job& job, Port& port, std::vector<TimedOp>& 
 }
 
 CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : tracker_(setting_string(settings, "task", "tracker"),
+    : World("camera", derive_seed(seed, 5), {"pan_deg", "tilt_deg", "object", "siren"}),
+      tracker_(setting_string(settings, "task", "tracker"),
                setting_duration_us(settings, "period", 100'000)),
       alarm_(setting_string(settings, "alarm_task", "alarm"),
              setting_duration_us(settings, "alarm_period", 1'000'000)),
-      servos_(std::make_shared<bus::Pca9685>(kServoAddr)),
-      motion_(std::make_shared<RegisterFile>(kMotionAddr)),
-      siren_(std::make_shared<RegisterFile>(kSirenAddr)),
-      noise_(derive_seed(seed, 5)) {}
-
-void CameraWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(servos_);
-  bus.attach(motion_);
-  bus.attach(siren_);
-}
-
-std::unique_ptr<Attack> CameraWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "beyond_range") return std::make_unique<BeyondRange>(spec, tracker_.task());
-  if (spec.kind == "false_siren") return std::make_unique<FalseSiren>(spec, alarm_.task());
-  *error = "unknown camera attack '" + spec.kind + "' (expected beyond_range, false_siren)";
-  return nullptr;
+      servos_(add_device(std::make_shared<bus::Pca9685>(kServoAddr))),
+      motion_(add_device(std::make_shared<RegisterFile>(kMotionAddr))),
+      siren_(add_device(std::make_shared<RegisterFile>(kSirenAddr))) {
+  set_controllers({&tracker_, &alarm_});
+  add_attack("beyond_range", [tracker = tracker_.task()](const AttackSpec& spec) {
+    return std::make_unique<BeyondRange>(spec, tracker);
+  });
+  add_attack("false_siren", [alarm = alarm_.task()](const AttackSpec& spec) {
+    return std::make_unique<FalseSiren>(spec, alarm);
+  });
 }
 
 void CameraWorld::step(uint64_t now_us, uint64_t dt_us) {
@@ -123,10 +118,6 @@ void CameraWorld::step(uint64_t now_us, uint64_t dt_us) {
   const bool present = in_slot >= 5'000'000 && in_slot < 8'000'000 && slot % 2 == 1;
   motion_->set_reg(0, present ? 1 : 0);
   if (siren_->reg(0x01) != 0 && !present) false_siren_s_ += dt;
-}
-
-std::vector<std::string> CameraWorld::columns() const {
-  return {"pan_deg", "tilt_deg", "object", "siren"};
 }
 
 std::vector<double> CameraWorld::sample() const {

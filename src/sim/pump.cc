@@ -48,26 +48,17 @@ void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp
 }
 
 PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : infusion_(setting_string(settings, "task", "infusion"),
+    : World("pump", derive_seed(seed, 4), {"delivered_ul", "rate_ul_h", "screen_ul"}),
+      infusion_(setting_string(settings, "task", "infusion"),
                 setting_duration_us(settings, "period", 60'000'000),
                 static_cast<int>(setting_int(settings, "rate", 200)),
                 static_cast<int>(setting_int(settings, "dose", 5000))),
-      pump_(std::make_shared<RegisterFile>(kPumpAddr)),
-      encoder_(std::make_shared<RegisterFile>(kEncoderAddr)),
-      screen_(std::make_shared<RegisterFile>(kScreenAddr)),
-      noise_(derive_seed(seed, 4)),
-      dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {}
-
-void PumpWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(pump_);
-  bus.attach(encoder_);
-  bus.attach(screen_);
-}
-
-std::unique_ptr<Attack> PumpWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "overdose") return std::make_unique<Overdose>(spec);
-  *error = "unknown pump attack '" + spec.kind + "' (expected overdose)";
-  return nullptr;
+      pump_(add_device(std::make_shared<RegisterFile>(kPumpAddr))),
+      encoder_(add_device(std::make_shared<RegisterFile>(kEncoderAddr))),
+      screen_(add_device(std::make_shared<RegisterFile>(kScreenAddr))),
+      dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {
+  set_controllers({&infusion_});
+  add_attack("overdose", [](const AttackSpec& spec) { return std::make_unique<Overdose>(spec); });
 }
 
 int PumpWorld::rate() const { return pump_->reg(0x01) | (pump_->reg(0x02) << 8); }
@@ -84,10 +75,6 @@ void PumpWorld::step(uint64_t now_us, uint64_t dt_us) {
   const auto counted = static_cast<uint16_t>(std::min(60000.0, std::floor(delivered_ul_)));
   encoder_->set_reg(0, static_cast<uint8_t>(counted >> 8));
   encoder_->set_reg(1, static_cast<uint8_t>(counted & 0xFF));
-}
-
-std::vector<std::string> PumpWorld::columns() const {
-  return {"delivered_ul", "rate_ul_h", "screen_ul"};
 }
 
 std::vector<double> PumpWorld::sample() const {

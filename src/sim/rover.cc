@@ -179,13 +179,24 @@ void LineFollowerController::release(const Job& job, Port& port, std::vector<Tim
 }
 
 RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : controller_(LineFollowerController::Options{
+    : World("rover", derive_seed(seed, 1),
+            {"x_m", "y_m", "offset_cm", "left_cmd", "right_cmd", "distance_cm", "speed_cm_s",
+             "line_position", "progress_cm"}),
+      controller_(LineFollowerController::Options{
           setting_string(settings, "task", "follower"),
           setting_duration_us(settings, "period", 200'000),
           static_cast<uint8_t>(setting_int(settings, "fwd_opcode", 105))}),
-      gopigo_(std::make_shared<bus::GoPiGo2>(kGopigoAddr)),
-      line_(std::make_shared<bus::LineFollower>(kLineFollowerAddr)),
-      noise_(derive_seed(seed, 1)) {
+      gopigo_(add_device(std::make_shared<bus::GoPiGo2>(kGopigoAddr))),
+      line_(add_device(std::make_shared<bus::LineFollower>(kLineFollowerAddr))) {
+  set_controllers({&controller_});
+  add_attack("spoof",
+             [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, false); });
+  add_attack("wrong_direction",
+             [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, true); });
+  add_attack("dos", [](const AttackSpec& spec) { return std::make_unique<RoverDos>(spec); });
+  add_attack("replay", [](const AttackSpec& spec) { return std::make_unique<RoverReplay>(spec); });
+  add_attack("unauthorised",
+             [](const AttackSpec& spec) { return std::make_unique<RoverIntruder>(spec); });
   straight_m_ = setting_double(settings, "straight", 2.0);
   radius_m_ = setting_double(settings, "radius", 1.0);
   speed_noise_ = setting_double(settings, "speed_noise", 0.03);
@@ -197,11 +208,6 @@ RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint6
   y_ = -radius_m_;
   heading_ = 0.0;
   update_sensor();
-}
-
-void RoverWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(gopigo_);
-  bus.attach(line_);
 }
 
 namespace {
@@ -239,17 +245,6 @@ int RoverWorld::left_command() const {
 
 int RoverWorld::right_command() const {
   return gopigo_->right_speed() * wheel_sign(gopigo_->motion(), false);
-}
-
-std::unique_ptr<Attack> RoverWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "spoof") return std::make_unique<RoverSpoof>(spec, false);
-  if (spec.kind == "wrong_direction") return std::make_unique<RoverSpoof>(spec, true);
-  if (spec.kind == "dos") return std::make_unique<RoverDos>(spec);
-  if (spec.kind == "replay") return std::make_unique<RoverReplay>(spec);
-  if (spec.kind == "unauthorised") return std::make_unique<RoverIntruder>(spec);
-  *error = "unknown rover attack '" + spec.kind +
-           "' (expected spoof, wrong_direction, dos, replay, unauthorised)";
-  return nullptr;
 }
 
 double RoverWorld::line_offset(double x, double y) const {
@@ -343,11 +338,6 @@ void RoverWorld::step(uint64_t now_us, uint64_t dt_us) {
 double RoverWorld::distance_cm() const {
   const double per_tick = kTwoPi * kWheelRadiusM * 100.0 / kTicksPerRev;
   return static_cast<double>(ticks_left_ + ticks_right_) / 2.0 * per_tick;
-}
-
-std::vector<std::string> RoverWorld::columns() const {
-  return {"x_m",         "y_m",        "offset_cm",     "left_cmd",   "right_cmd",
-          "distance_cm", "speed_cm_s", "line_position", "progress_cm"};
 }
 
 std::vector<double> RoverWorld::sample() const {

@@ -57,11 +57,7 @@ class RoverWorld : public World {
   // straight (m), radius (m), speed_noise, sensor_noise.
   RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
 
-  void attach(bus::VirtualBus& bus) override;
-  std::vector<Controller*> controllers() override { return {&controller_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
   std::vector<double> sample() const override;
   std::vector<Metric> metrics() const override;
 
@@ -81,7 +77,6 @@ class RoverWorld : public World {
   LineFollowerController controller_;
   std::shared_ptr<bus::GoPiGo2> gopigo_;
   std::shared_ptr<bus::LineFollower> line_;
-  Noise noise_;
   double straight_m_ = 2.0;
   double radius_m_ = 1.0;
   double speed_noise_ = 0.03;

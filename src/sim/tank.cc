@@ -52,25 +52,16 @@ void TankMonitor::release(const Job& job, Port& port, std::vector<TimedOp>& ops)
 }
 
 TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : monitor_(setting_string(settings, "task", "monitor"),
+    : World("tank", derive_seed(seed, 3), {"level_mm", "temp_c", "abnormal", "buzzer", "alert"}),
+      monitor_(setting_string(settings, "task", "monitor"),
                setting_duration_us(settings, "period", 500'000)),
-      sensor_(std::make_shared<RegisterFile>(kSensorAddr)),
-      buzzer_(std::make_shared<RegisterFile>(kBuzzerAddr)),
-      display_(std::make_shared<RegisterFile>(kDisplayAddr)),
-      noise_(derive_seed(seed, 3)) {
+      sensor_(add_device(std::make_shared<RegisterFile>(kSensorAddr))),
+      buzzer_(add_device(std::make_shared<RegisterFile>(kBuzzerAddr))),
+      display_(add_device(std::make_shared<RegisterFile>(kDisplayAddr))) {
+  set_controllers({&monitor_});
+  add_attack("false_alarm",
+             [](const AttackSpec& spec) { return std::make_unique<FalseAlarm>(spec); });
   step(0, 0);
-}
-
-void TankWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(sensor_);
-  bus.attach(buzzer_);
-  bus.attach(display_);
-}
-
-std::unique_ptr<Attack> TankWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "false_alarm") return std::make_unique<FalseAlarm>(spec);
-  *error = "unknown tank attack '" + spec.kind + "' (expected false_alarm)";
-  return nullptr;
 }
 
 bool TankWorld::abnormal() const {
@@ -96,10 +87,6 @@ void TankWorld::step(uint64_t now_us, uint64_t dt_us) {
   if (sounding) alarm_s_ += dt;
   if (sounding && !abnormal()) false_alarm_s_ += dt;
   if (!sounding && abnormal()) missed_alarm_s_ += dt;
-}
-
-std::vector<std::string> TankWorld::columns() const {
-  return {"level_mm", "temp_c", "abnormal", "buzzer", "alert"};
 }
 
 std::vector<double> TankWorld::sample() const {

@@ -30,4 +30,18 @@ int64_t AttackSpec::param_int(const std::string& key, int64_t fallback) const {
   return v;
 }
 
+void World::attach(bus::VirtualBus& bus) const {
+  for (const auto& device : devices_) bus.attach(device);
+}
+
+std::unique_ptr<Attack> World::make_attack(const AttackSpec& spec, std::string* error) const {
+  std::string kinds;
+  for (const auto& [kind, make] : attacks_) {
+    if (kind == spec.kind) return make(spec);
+    kinds += (kinds.empty() ? "" : ", ") + kind;
+  }
+  *error = "unknown " + name_ + " attack '" + spec.kind + "' (expected " + kinds + ")";
+  return nullptr;
+}
+
 }  // namespace contego::sim
