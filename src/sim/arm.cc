@@ -151,8 +151,7 @@ void GripperController::release(const Job& job, Port&, std::vector<TimedOp>& ops
 }
 
 ArmWorld::ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : World("arm", derive_seed(seed, 2),
-            {"grip_pulse", "grip_state", "base_pulse", "holding", "handled", "lost", "missed"}),
+    : World("arm", derive_seed(seed, 2)),
       init_(setting_string(settings, "init_task", "arm_init"), 10'000'000),
       gripper_(setting_string(settings, "task", "gripper"),
                setting_duration_us(settings, "period", 1'000'000), 50'000),
@@ -161,6 +160,18 @@ ArmWorld::ArmWorld(const std::map<std::string, std::string>& settings, uint64_t 
       // One object per four-job cycle, half a period before the base turns to pick it.
       next_arrival_us_(50'000 + period_us_ / 2) {
   set_controllers({&init_, &gripper_});
+  add_column("grip_pulse", [this] { return effective_pulse(kGripChannel); });
+  add_column("grip_state", [this] { return static_cast<double>(grip_); });
+  add_column("base_pulse", [this] { return effective_pulse(0); });
+  add_column("holding", [this] { return holding_ ? 1.0 : 0.0; });
+  add_column("handled", [this] { return static_cast<double>(handled_); });
+  add_column("lost", [this] { return static_cast<double>(lost_); });
+  add_column("missed", [this] { return static_cast<double>(missed_); });
+  add_metric("objects_handled", "", [this] { return static_cast<double>(handled_); });
+  add_metric("objects_lost", "", [this] { return static_cast<double>(lost_); });
+  add_metric("objects_missed", "", [this] { return static_cast<double>(missed_); });
+  add_metric("spoofed_grip_pulses", "", [this] { return static_cast<double>(bad_pulses_); });
+  add_metric("gripper_jammed_time", "s", [this] { return jammed_s_; });
   using Writes = std::vector<std::vector<uint8_t>>;
   auto tamper = [victim = gripper_.task()](Writes writes) {
     return [victim, writes](const AttackSpec& spec) {
@@ -248,20 +259,6 @@ void ArmWorld::step(uint64_t now_us, uint64_t dt_us) {
     grip_ = g;
   }
   if (grip_ == Grip::kJammed) jammed_s_ += static_cast<double>(dt_us) * 1e-6;
-}
-
-std::vector<double> ArmWorld::sample() const {
-  return {effective_pulse(kGripChannel), static_cast<double>(grip_),    effective_pulse(0),
-          holding_ ? 1.0 : 0.0,          static_cast<double>(handled_), static_cast<double>(lost_),
-          static_cast<double>(missed_)};
-}
-
-std::vector<Metric> ArmWorld::metrics() const {
-  return {{"objects_handled", static_cast<double>(handled_), ""},
-          {"objects_lost", static_cast<double>(lost_), ""},
-          {"objects_missed", static_cast<double>(missed_), ""},
-          {"spoofed_grip_pulses", static_cast<double>(bad_pulses_), ""},
-          {"gripper_jammed_time", jammed_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -47,8 +47,6 @@ class ArmWorld : public World {
   ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
   void on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
   enum class Grip : uint8_t { kLimp, kOpen, kClosed, kBetween, kJammed };
   Grip grip() const { return grip_; }

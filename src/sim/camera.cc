@@ -79,7 +79,7 @@ void SirenController::release(const Job& job, Port& port, std::vector<TimedOp>& 
 }
 
 CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : World("camera", derive_seed(seed, 5), {"pan_deg", "tilt_deg", "object", "siren"}),
+    : World("camera", derive_seed(seed, 5)),
       tracker_(setting_string(settings, "task", "tracker"),
                setting_duration_us(settings, "period", 100'000)),
       alarm_(setting_string(settings, "alarm_task", "alarm"),
@@ -88,6 +88,13 @@ CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uin
       motion_(add_device(std::make_shared<RegisterFile>(kMotionAddr))),
       siren_(add_device(std::make_shared<RegisterFile>(kSirenAddr))) {
   set_controllers({&tracker_, &alarm_});
+  add_column("pan_deg", [this] { return pan_deg_; });
+  add_column("tilt_deg", [this] { return tilt_deg_; });
+  add_column("object", [this] { return static_cast<double>(motion_->reg(0)); });
+  add_column("siren", [this] { return static_cast<double>(siren_->reg(0x01)); });
+  add_metric("max_pan_angle", "deg", [this] { return max_abs_pan_; });
+  add_metric("time_beyond_range", "s", [this] { return outside_s_; });
+  add_metric("false_siren_time", "s", [this] { return false_siren_s_; });
   add_attack("beyond_range", [tracker = tracker_.task()](const AttackSpec& spec) {
     return std::make_unique<BeyondRange>(spec, tracker);
   });
@@ -118,17 +125,6 @@ void CameraWorld::step(uint64_t now_us, uint64_t dt_us) {
   const bool present = in_slot >= 5'000'000 && in_slot < 8'000'000 && slot % 2 == 1;
   motion_->set_reg(0, present ? 1 : 0);
   if (siren_->reg(0x01) != 0 && !present) false_siren_s_ += dt;
-}
-
-std::vector<double> CameraWorld::sample() const {
-  return {pan_deg_, tilt_deg_, static_cast<double>(motion_->reg(0)),
-          static_cast<double>(siren_->reg(0x01))};
-}
-
-std::vector<Metric> CameraWorld::metrics() const {
-  return {{"max_pan_angle", max_abs_pan_, "deg"},
-          {"time_beyond_range", outside_s_, "s"},
-          {"false_siren_time", false_siren_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -33,8 +33,6 @@ class CameraWorld : public World {
  public:
   CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
  private:
   PatrolController tracker_;

@@ -48,7 +48,7 @@ void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp
 }
 
 PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : World("pump", derive_seed(seed, 4), {"delivered_ul", "rate_ul_h", "screen_ul"}),
+    : World("pump", derive_seed(seed, 4)),
       infusion_(setting_string(settings, "task", "infusion"),
                 setting_duration_us(settings, "period", 60'000'000),
                 static_cast<int>(setting_int(settings, "rate", 200)),
@@ -58,6 +58,16 @@ PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_
       screen_(add_device(std::make_shared<RegisterFile>(kScreenAddr))),
       dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {
   set_controllers({&infusion_});
+  add_column("delivered_ul", [this] { return delivered_ul_; });
+  add_column("rate_ul_h", [this] { return static_cast<double>(rate()); });
+  add_column("screen_ul", [this] {
+    return static_cast<double>(screen_->reg(0x00) | (screen_->reg(0x01) << 8));
+  });
+  add_metric("dose_delivered", "uL", [this] { return delivered_ul_; });
+  add_metric("overdose", "uL", [this] { return std::max(0.0, delivered_ul_ - dose_); });
+  add_metric("max_rate", "uL/h", [this] { return max_rate_; });
+  add_metric("dose_reached_at", "h",
+             [this] { return dose_reached_s_ < 0 ? -1.0 : dose_reached_s_ / 3600.0; });
   add_attack("overdose", [](const AttackSpec& spec) { return std::make_unique<Overdose>(spec); });
 }
 
@@ -75,18 +85,6 @@ void PumpWorld::step(uint64_t now_us, uint64_t dt_us) {
   const auto counted = static_cast<uint16_t>(std::min(60000.0, std::floor(delivered_ul_)));
   encoder_->set_reg(0, static_cast<uint8_t>(counted >> 8));
   encoder_->set_reg(1, static_cast<uint8_t>(counted & 0xFF));
-}
-
-std::vector<double> PumpWorld::sample() const {
-  return {delivered_ul_, static_cast<double>(rate()),
-          static_cast<double>(screen_->reg(0x00) | (screen_->reg(0x01) << 8))};
-}
-
-std::vector<Metric> PumpWorld::metrics() const {
-  return {{"dose_delivered", delivered_ul_, "uL"},
-          {"overdose", std::max(0.0, delivered_ul_ - dose_), "uL"},
-          {"max_rate", max_rate_, "uL/h"},
-          {"dose_reached_at", dose_reached_s_ < 0 ? -1.0 : dose_reached_s_ / 3600.0, "h"}};
 }
 
 }  // namespace contego::sim

@@ -34,8 +34,6 @@ class PumpWorld : public World {
  public:
   PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
  private:
   int rate() const;

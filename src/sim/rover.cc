@@ -179,9 +179,7 @@ void LineFollowerController::release(const Job& job, Port& port, std::vector<Tim
 }
 
 RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : World("rover", derive_seed(seed, 1),
-            {"x_m", "y_m", "offset_cm", "left_cmd", "right_cmd", "distance_cm", "speed_cm_s",
-             "line_position", "progress_cm"}),
+    : World("rover", derive_seed(seed, 1)),
       controller_(LineFollowerController::Options{
           setting_string(settings, "task", "follower"),
           setting_duration_us(settings, "period", 200'000),
@@ -189,6 +187,19 @@ RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint6
       gopigo_(add_device(std::make_shared<bus::GoPiGo2>(kGopigoAddr))),
       line_(add_device(std::make_shared<bus::LineFollower>(kLineFollowerAddr))) {
   set_controllers({&controller_});
+  add_column("x_m", [this] { return x_; });
+  add_column("y_m", [this] { return y_; });
+  add_column("offset_cm", [this] { return line_offset(x_, y_) * 100.0; });
+  add_column("left_cmd", [this] { return static_cast<double>(left_command()); });
+  add_column("right_cmd", [this] { return static_cast<double>(right_command()); });
+  add_column("distance_cm", [this] { return distance_cm(); });
+  add_column("speed_cm_s", [this] { return speed_cm_s(); });
+  add_column("line_position", [this] { return controller_.last_position(); });
+  add_column("progress_cm", [this] { return progress_m_ * 100.0; });
+  add_metric("distance", "cm", [this] { return distance_cm(); });
+  add_metric("track_progress", "cm", [this] { return progress_m_ * 100.0; });
+  add_metric("max_speed", "cm/s", [this] { return max_speed_; });
+  add_metric("off_line_time", "s", [this] { return off_line_s_; });
   add_attack("spoof",
              [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, false); });
   add_attack("wrong_direction",
@@ -340,28 +351,10 @@ double RoverWorld::distance_cm() const {
   return static_cast<double>(ticks_left_ + ticks_right_) / 2.0 * per_tick;
 }
 
-std::vector<double> RoverWorld::sample() const {
-  double speed = 0.0;
-  if (history_.size() > 1 && history_.back().first > history_.front().first) {
-    speed = (history_.back().second - history_.front().second) /
-            (static_cast<double>(history_.back().first - history_.front().first) * 1e-6);
-  }
-  return {x_,
-          y_,
-          line_offset(x_, y_) * 100.0,
-          static_cast<double>(left_command()),
-          static_cast<double>(right_command()),
-          distance_cm(),
-          speed,
-          controller_.last_position(),
-          progress_m_ * 100.0};
-}
-
-std::vector<Metric> RoverWorld::metrics() const {
-  return {{"distance", distance_cm(), "cm"},
-          {"track_progress", progress_m_ * 100.0, "cm"},
-          {"max_speed", max_speed_, "cm/s"},
-          {"off_line_time", off_line_s_, "s"}};
+double RoverWorld::speed_cm_s() const {
+  if (history_.size() < 2 || history_.back().first <= history_.front().first) return 0.0;
+  return (history_.back().second - history_.front().second) /
+         (static_cast<double>(history_.back().first - history_.front().first) * 1e-6);
 }
 
 }  // namespace contego::sim

@@ -58,10 +58,10 @@ class RoverWorld : public World {
   RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
 
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
   double distance_cm() const;
+  // Over the recent history (the trace's speed column).
+  double speed_cm_s() const;
   // Signed wheel commands (-255..255) the firmware drives, from its motion
   // and speeds: the firmware's speed2 / motor2 is the left wheel.
   int left_command() const;

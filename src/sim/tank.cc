@@ -52,7 +52,7 @@ void TankMonitor::release(const Job& job, Port& port, std::vector<TimedOp>& ops)
 }
 
 TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : World("tank", derive_seed(seed, 3), {"level_mm", "temp_c", "abnormal", "buzzer", "alert"}),
+    : World("tank", derive_seed(seed, 3)),
       monitor_(setting_string(settings, "task", "monitor"),
                setting_duration_us(settings, "period", 500'000)),
       sensor_(add_device(std::make_shared<RegisterFile>(kSensorAddr))),
@@ -61,6 +61,14 @@ TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_
   set_controllers({&monitor_});
   add_attack("false_alarm",
              [](const AttackSpec& spec) { return std::make_unique<FalseAlarm>(spec); });
+  add_column("level_mm", [this] { return level_mm_; });
+  add_column("temp_c", [this] { return temp_dc_ / 10.0; });
+  add_column("abnormal", [this] { return abnormal() ? 1.0 : 0.0; });
+  add_column("buzzer", [this] { return static_cast<double>(buzzer_->reg(0x01)); });
+  add_column("alert", [this] { return static_cast<double>(display_->reg(0x00)); });
+  add_metric("buzzer_on_time", "s", [this] { return alarm_s_; });
+  add_metric("false_alarm_time", "s", [this] { return false_alarm_s_; });
+  add_metric("missed_alarm_time", "s", [this] { return missed_alarm_s_; });
   step(0, 0);
 }
 
@@ -87,17 +95,6 @@ void TankWorld::step(uint64_t now_us, uint64_t dt_us) {
   if (sounding) alarm_s_ += dt;
   if (sounding && !abnormal()) false_alarm_s_ += dt;
   if (!sounding && abnormal()) missed_alarm_s_ += dt;
-}
-
-std::vector<double> TankWorld::sample() const {
-  return {level_mm_, temp_dc_ / 10.0, abnormal() ? 1.0 : 0.0,
-          static_cast<double>(buzzer_->reg(0x01)), static_cast<double>(display_->reg(0x00))};
-}
-
-std::vector<Metric> TankWorld::metrics() const {
-  return {{"buzzer_on_time", alarm_s_, "s"},
-          {"false_alarm_time", false_alarm_s_, "s"},
-          {"missed_alarm_time", missed_alarm_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -34,6 +34,18 @@ void World::attach(bus::VirtualBus& bus) const {
   for (const auto& device : devices_) bus.attach(device);
 }
 
+std::vector<double> World::sample() const {
+  std::vector<double> values;
+  for (const auto& value : column_values_) values.push_back(value());
+  return values;
+}
+
+std::vector<Metric> World::metrics() const {
+  std::vector<Metric> out;
+  for (const auto& m : metrics_) out.push_back({m.name, m.value(), m.unit});
+  return out;
+}
+
 std::unique_ptr<Attack> World::make_attack(const AttackSpec& spec, std::string* error) const {
   std::string kinds;
   for (const auto& [kind, make] : attacks_) {

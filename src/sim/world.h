@@ -165,15 +165,14 @@ class World {
   virtual void step(uint64_t now_us, uint64_t dt_us) = 0;
   // Trace columns (after time) and their current values.
   const std::vector<std::string>& columns() const { return columns_; }
-  virtual std::vector<double> sample() const = 0;
-  virtual std::vector<Metric> metrics() const = 0;
+  std::vector<double> sample() const;
+  std::vector<Metric> metrics() const;
   const std::vector<Event>& events() const { return events_; }
 
  protected:
   // `name`: the plant in messages ("rover"); `noise_seed`: the seed of the
   // plant's noise stream.
-  World(std::string name, uint64_t noise_seed, std::vector<std::string> columns)
-      : noise_(noise_seed), name_(std::move(name)), columns_(std::move(columns)) {}
+  World(std::string name, uint64_t noise_seed) : noise_(noise_seed), name_(std::move(name)) {}
 
   // Registers a device model (attached in registration order) and returns it.
   template <typename Device>
@@ -183,6 +182,17 @@ class World {
   }
   void set_controllers(std::vector<Controller*> controllers) {
     controllers_ = std::move(controllers);
+  }
+  // A measurement of the plant's current state.
+  using Probe = std::function<double()>;
+  // Adds a trace column (in registration order) and what it samples.
+  void add_column(std::string name, Probe value) {
+    columns_.push_back(std::move(name));
+    column_values_.push_back(std::move(value));
+  }
+  // Adds a metric of the run (reported in registration order).
+  void add_metric(std::string name, std::string unit, Probe value) {
+    metrics_.push_back({std::move(name), std::move(unit), std::move(value)});
   }
   using AttackMaker = std::function<std::unique_ptr<Attack>(const AttackSpec&)>;
   // Registers the attack `kind` (listed in messages in registration order).
@@ -196,6 +206,12 @@ class World {
  private:
   std::string name_;
   std::vector<std::string> columns_;
+  std::vector<Probe> column_values_;
+  struct MetricProbe {
+    std::string name, unit;
+    Probe value;
+  };
+  std::vector<MetricProbe> metrics_;
   std::vector<std::shared_ptr<bus::DeviceModel>> devices_;
   std::vector<Controller*> controllers_;
   std::vector<std::pair<std::string, AttackMaker>> attacks_;
