@@ -18,8 +18,7 @@ constexpr double kServoMax = 600.0;
 constexpr double kTickUs60Hz = 1e6 / 60.0 / 4096.0;  // nominal tick at set_pwm_freq(60)
 
 bool is_grip_write(const TimedOp& op, const std::string& task) {
-  return op.task == task && op.op.kind == BusOp::Kind::kWrite && op.op.addr == kArmAddr &&
-         op.op.bytes.size() == 2 && op.op.bytes[0] >= 0x06 + 4 * kGripChannel &&
+  return op.is_write(task, kArmAddr, 2) && op.op.bytes[0] >= 0x06 + 4 * kGripChannel &&
          op.op.bytes[0] <= 0x09 + 4 * kGripChannel;
 }
 

@@ -32,7 +32,7 @@ class BeyondRange : public Attack {
     if (!hits(job, task)) return;
     const auto pulse = static_cast<uint16_t>(spec().param_int("pulse", 620));
     for (auto& op : ops) {
-      if (op.task != task || op.op.addr != kServoAddr || op.op.bytes.size() != 2) continue;
+      if (!op.is_write(task, kServoAddr, 2)) continue;
       if (op.op.bytes[0] == 0x08) op.op.bytes[1] = static_cast<uint8_t>(pulse & 0xFF);
       if (op.op.bytes[0] == 0x09) op.op.bytes[1] = static_cast<uint8_t>(pulse >> 8);
       if (op.op.bytes[0] == 0x08 || op.op.bytes[0] == 0x09) op.injected = true;
@@ -47,7 +47,7 @@ class FalseSiren : public Attack {
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
     if (!hits(job, task)) return;
     for (auto& op : ops) {
-      if (op.task == task && op.op.addr == kSirenAddr && op.op.bytes.size() == 2) {
+      if (op.is_write(task, kSirenAddr, 2)) {
         op.op.bytes[1] = 1;
         op.injected = true;
       }

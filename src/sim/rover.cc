@@ -45,8 +45,7 @@ bool is_direction(uint8_t cmd) {
 
 // A motion frame of the victim task, as the library frames it: 01 cmd v1 v2 v3.
 bool is_rover_frame(const TimedOp& op, const std::string& task) {
-  return op.task == task && op.op.kind == BusOp::Kind::kWrite && op.op.addr == kGopigoAddr &&
-         op.op.bytes.size() == 5;
+  return op.is_write(task, kGopigoAddr, 5);
 }
 
 // Control spoofing: the compromised loop turns a motor off (set_right_speed(0)

@@ -24,9 +24,8 @@ class FalseAlarm : public Attack {
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
     if (!spec().active(job.release_us)) return;
     for (auto& op : ops) {
-      if (op.task != task || op.op.kind != BusOp::Kind::kWrite || op.op.bytes.size() != 2) continue;
-      const bool buzzer = op.op.addr == kBuzzerAddr && op.op.bytes[0] == 0x01;
-      const bool alert = op.op.addr == kDisplayAddr && op.op.bytes[0] == 0x00;
+      const bool buzzer = op.is_write(task, kBuzzerAddr, 2) && op.op.bytes[0] == 0x01;
+      const bool alert = op.is_write(task, kDisplayAddr, 2) && op.op.bytes[0] == 0x00;
       if (buzzer || alert) {
         op.op.bytes[1] = 1;
         op.injected = true;

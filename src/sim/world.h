@@ -8,6 +8,7 @@
 #ifndef CONTEGO_SIM_WORLD_H_
 #define CONTEGO_SIM_WORLD_H_
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -41,6 +42,12 @@ struct TimedOp {
   std::string task;  // the policy's task name of the sender
   BusOp op;
   bool injected = false;  // added or rewritten by an attack (for the event log)
+
+  // A write of `of_task` of `len` bytes to the device at `to_addr`.
+  bool is_write(const std::string& of_task, uint16_t to_addr, size_t len) const {
+    return task == of_task && op.kind == BusOp::Kind::kWrite && op.addr == to_addr &&
+           op.bytes.size() == len;
+  }
 };
 
 // What a task sees of the bus: reads and writes go through the guard.
