@@ -52,6 +52,20 @@ const Sema::Sym* Sema::lookup(const std::string& name) const {
   return it == names_.end() ? nullptr : &it->second;
 }
 
+const Sema::Sym* Sema::lookup_as(const std::string& name, Span at, SymKind kind,
+                                 const std::string& phrase) {
+  const Sym* sym = lookup(name);
+  if (!sym) {
+    diags_.emit(DiagKind::kUnknownName, at, name, phrase);
+    return nullptr;
+  }
+  if (sym->kind != kind) {
+    diags_.emit(DiagKind::kTypeMismatch, at, "`" + name + "`", sym_phrase(sym->kind), phrase);
+    return nullptr;
+  }
+  return sym;
+}
+
 // A sensor without `max_age` gets the documented default: twice its sample
 // period, or the longest period of a task that may read it when that is
 // longer (a controller reads at the start of its job and commands within
