@@ -9,6 +9,11 @@
 namespace contego::sim {
 namespace {
 
+constexpr uint16_t kArmAddr = 0x40;
+constexpr int kGripChannel = 5;
+constexpr uint16_t kGripOpen = 420;
+constexpr uint16_t kGripClose = 577;
+
 // Joint pulses (60 Hz ticks) of the two poses; only the base turns.
 constexpr std::array<uint16_t, 5> kPickPose = {250, 285, 200, 307, 375};
 constexpr std::array<uint16_t, 5> kDropPose = {500, 285, 200, 307, 375};

@@ -7,7 +7,6 @@
 #ifndef CONTEGO_SIM_ARM_H_
 #define CONTEGO_SIM_ARM_H_
 
-#include <array>
 #include <map>
 #include <memory>
 #include <string>
@@ -15,11 +14,6 @@
 #include "sim/world.h"
 
 namespace contego::sim {
-
-inline constexpr uint16_t kArmAddr = 0x40;
-inline constexpr int kGripChannel = 5;
-inline constexpr uint16_t kGripOpen = 420;
-inline constexpr uint16_t kGripClose = 577;
 
 // The four writes of Adafruit's set_pwm(channel, on, off).
 std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint16_t off);

@@ -10,6 +10,17 @@
 namespace contego::sim {
 namespace {
 
+constexpr uint16_t kGopigoAddr = 0x08;
+constexpr uint16_t kLineFollowerAddr = 0x06;
+constexpr double kWheelRadiusM = 0.0325;
+constexpr int kTicksPerRev = 18;
+
+// The vendor's hard-coded calibration and weights.
+constexpr std::array<int, 5> kLineWhite = {767, 815, 859, 710, 700};
+constexpr std::array<int, 5> kLineBlack = {1012, 1013, 1015, 1003, 1004};
+constexpr std::array<int, 5> kLineWeights = {-100, -50, 0, 50, 100};
+constexpr double kLineThreshold = 2500.0;
+
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kWheelBaseM = 0.117;
 constexpr double sensor_ahead_m_ = 0.07;  // sensor bar ahead of the axle

@@ -18,17 +18,6 @@
 
 namespace contego::sim {
 
-inline constexpr uint16_t kGopigoAddr = 0x08;
-inline constexpr uint16_t kLineFollowerAddr = 0x06;
-inline constexpr double kWheelRadiusM = 0.0325;
-inline constexpr int kTicksPerRev = 18;
-
-// The vendor's hard-coded calibration and weights.
-inline constexpr std::array<int, 5> kLineWhite = {767, 815, 859, 710, 700};
-inline constexpr std::array<int, 5> kLineBlack = {1012, 1013, 1015, 1003, 1004};
-inline constexpr std::array<int, 5> kLineWeights = {-100, -50, 0, 50, 100};
-inline constexpr double kLineThreshold = 2500.0;
-
 // pos = sum (raw_i - white_i) * 100 / (black_i - white_i) * w_i, float as the vendor.
 double line_position(const std::array<uint16_t, 5>& raw);
 
