@@ -455,22 +455,17 @@ void register_sched(CLI::App& app) {
   auto ex = std::make_shared<ExperimentArgs>();
   auto* exp = cmd->add_subcommand(
       "experiment", "Schedulability ratio of random task sets against utilisation, per C^o");
-  exp->add_option("--tasks", ex->tasks, "Tasks per set")->capture_default_str();
-  exp->add_option("--sets", ex->sets, "Task sets per utilisation point")->capture_default_str();
-  exp->add_option("--utilisation", ex->utilisation, "MIN:MAX:STEP (checking-free utilisation)")
-      ->capture_default_str();
-  exp->add_option("--overheads", ex->overheads, "Comma-separated C^o values, one curve each")
-      ->capture_default_str();
-  exp->add_option("--periods", ex->periods, "MIN:MAX, log-uniform")->capture_default_str();
-  exp->add_option("--actuations", ex->actuations, "MIN:MAX checked commands per job, uniform")
-      ->capture_default_str();
-  exp->add_option("--deadlines", ex->deadlines, "implicit (D = T) or constrained (D in [C, T])")
-      ->capture_default_str();
-  exp->add_option("--assign", ex->assign, "Priority assignment: rm, dm or audsley")
-      ->capture_default_str();
-  exp->add_option("--seed", ex->seed, "Random seed")->capture_default_str();
-  exp->add_option("--out", ex->out, "Output prefix: PREFIX.csv, .gp, .svg, .png")
-      ->capture_default_str();
+  exp->option_defaults()->always_capture_default();  // every option shows its default
+  exp->add_option("--tasks", ex->tasks, "Tasks per set");
+  exp->add_option("--sets", ex->sets, "Task sets per utilisation point");
+  exp->add_option("--utilisation", ex->utilisation, "MIN:MAX:STEP (checking-free utilisation)");
+  exp->add_option("--overheads", ex->overheads, "Comma-separated C^o values, one curve each");
+  exp->add_option("--periods", ex->periods, "MIN:MAX, log-uniform");
+  exp->add_option("--actuations", ex->actuations, "MIN:MAX checked commands per job, uniform");
+  exp->add_option("--deadlines", ex->deadlines, "implicit (D = T) or constrained (D in [C, T])");
+  exp->add_option("--assign", ex->assign, "Priority assignment: rm, dm or audsley");
+  exp->add_option("--seed", ex->seed, "Random seed");
+  exp->add_option("--out", ex->out, "Output prefix: PREFIX.csv, .gp, .svg, .png");
   exp->add_flag("--no-plot", ex->no_plot, "Write CSV and gnuplot script, do not run gnuplot");
   exp->callback([ex] { run_experiment(*ex); });
 

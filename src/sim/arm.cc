@@ -9,6 +9,11 @@
 namespace contego::sim {
 namespace {
 
+constexpr uint16_t kArmAddr = 0x40;
+constexpr int kGripChannel = 5;
+constexpr uint16_t kGripOpen = 420;
+constexpr uint16_t kGripClose = 577;
+
 // Joint pulses (60 Hz ticks) of the two poses; only the base turns.
 constexpr std::array<uint16_t, 5> kPickPose = {250, 285, 200, 307, 375};
 constexpr std::array<uint16_t, 5> kDropPose = {500, 285, 200, 307, 375};
@@ -18,8 +23,7 @@ constexpr double kServoMax = 600.0;
 constexpr double kTickUs60Hz = 1e6 / 60.0 / 4096.0;  // nominal tick at set_pwm_freq(60)
 
 bool is_grip_write(const TimedOp& op, const std::string& task) {
-  return op.task == task && op.op.kind == BusOp::Kind::kWrite && op.op.addr == kArmAddr &&
-         op.op.bytes.size() == 2 && op.op.bytes[0] >= 0x06 + 4 * kGripChannel &&
+  return op.is_write(task, kArmAddr, 2) && op.op.bytes[0] >= 0x06 + 4 * kGripChannel &&
          op.op.bytes[0] <= 0x09 + 4 * kGripChannel;
 }
 
@@ -151,35 +155,43 @@ void GripperController::release(const Job& job, Port&, std::vector<TimedOp>& ops
 }
 
 ArmWorld::ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : init_(setting_string(settings, "init_task", "arm_init"), 10'000'000),
+    : World("arm", derive_seed(seed, 2)),
+      init_(setting_string(settings, "init_task", "arm_init"), 10'000'000),
       gripper_(setting_string(settings, "task", "gripper"),
                setting_duration_us(settings, "period", 1'000'000), 50'000),
-      pca_(std::make_shared<bus::Pca9685>(kArmAddr)),
-      noise_(derive_seed(seed, 2)),
+      pca_(add_device(std::make_shared<bus::Pca9685>(kArmAddr))),
       period_us_(setting_duration_us(settings, "period", 1'000'000)),
       // One object per four-job cycle, half a period before the base turns to pick it.
-      next_arrival_us_(50'000 + period_us_ / 2) {}
-
-void ArmWorld::attach(bus::VirtualBus& bus) { bus.attach(pca_); }
-
-std::unique_ptr<Attack> ArmWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  const std::string& victim = gripper_.task();
+      next_arrival_us_(50'000 + period_us_ / 2) {
+  set_controllers({&init_, &gripper_});
+  add_column("grip_pulse", [this] { return effective_pulse(kGripChannel); });
+  add_column("grip_state", [this] { return static_cast<double>(grip_); });
+  add_column("base_pulse", [this] { return effective_pulse(0); });
+  add_column("holding", [this] { return holding_ ? 1.0 : 0.0; });
+  add_column("handled", [this] { return static_cast<double>(handled_); });
+  add_column("lost", [this] { return static_cast<double>(lost_); });
+  add_column("missed", [this] { return static_cast<double>(missed_); });
+  add_metric("objects_handled", "", [this] { return static_cast<double>(handled_); });
+  add_metric("objects_lost", "", [this] { return static_cast<double>(lost_); });
+  add_metric("objects_missed", "", [this] { return static_cast<double>(missed_); });
+  add_metric("spoofed_grip_pulses", "", [this] { return static_cast<double>(bad_pulses_); });
+  add_metric("gripper_jammed_time", "s", [this] { return jammed_s_; });
   using Writes = std::vector<std::vector<uint8_t>>;
-  if (spec.kind == "high_pulse") return std::make_unique<HighPulse>(spec, victim);
-  if (spec.kind == "sleep")
-    return std::make_unique<ConfigTamper>(spec, victim, Writes{{0x00, 0x11}});
-  if (spec.kind == "prescale") {
-    // Sleep, a 1526 Hz prescale, wake: the servo pulses lose their meaning.
-    return std::make_unique<ConfigTamper>(spec, victim,
-                                          Writes{{0x00, 0x11}, {0xFE, 0x03}, {0x00, 0x01}});
-  }
-  if (spec.kind == "all_led") {
-    return std::make_unique<ConfigTamper>(spec, victim, Writes{{0xFB, 0x10}});  // all full on
-  }
-  if (spec.kind == "unauthorised") return std::make_unique<ArmIntruder>(spec, victim);
-  *error = "unknown arm attack '" + spec.kind +
-           "' (expected high_pulse, sleep, prescale, all_led, unauthorised)";
-  return nullptr;
+  auto tamper = [victim = gripper_.task()](Writes writes) {
+    return [victim, writes](const AttackSpec& spec) {
+      return std::make_unique<ConfigTamper>(spec, victim, writes);
+    };
+  };
+  add_attack("high_pulse", [victim = gripper_.task()](const AttackSpec& spec) {
+    return std::make_unique<HighPulse>(spec, victim);
+  });
+  add_attack("sleep", tamper({{0x00, 0x11}}));
+  // Sleep, a 1526 Hz prescale, wake: the servo pulses lose their meaning.
+  add_attack("prescale", tamper({{0x00, 0x11}, {0xFE, 0x03}, {0x00, 0x01}}));
+  add_attack("all_led", tamper({{0xFB, 0x10}}));  // all full on
+  add_attack("unauthorised", [victim = gripper_.task()](const AttackSpec& spec) {
+    return std::make_unique<ArmIntruder>(spec, victim);
+  });
 }
 
 double ArmWorld::effective_pulse(int channel) const {
@@ -251,24 +263,6 @@ void ArmWorld::step(uint64_t now_us, uint64_t dt_us) {
     grip_ = g;
   }
   if (grip_ == Grip::kJammed) jammed_s_ += static_cast<double>(dt_us) * 1e-6;
-}
-
-std::vector<std::string> ArmWorld::columns() const {
-  return {"grip_pulse", "grip_state", "base_pulse", "holding", "handled", "lost", "missed"};
-}
-
-std::vector<double> ArmWorld::sample() const {
-  return {effective_pulse(kGripChannel), static_cast<double>(grip_),    effective_pulse(0),
-          holding_ ? 1.0 : 0.0,          static_cast<double>(handled_), static_cast<double>(lost_),
-          static_cast<double>(missed_)};
-}
-
-std::vector<Metric> ArmWorld::metrics() const {
-  return {{"objects_handled", static_cast<double>(handled_), ""},
-          {"objects_lost", static_cast<double>(lost_), ""},
-          {"objects_missed", static_cast<double>(missed_), ""},
-          {"spoofed_grip_pulses", static_cast<double>(bad_pulses_), ""},
-          {"gripper_jammed_time", jammed_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -7,7 +7,6 @@
 #ifndef CONTEGO_SIM_ARM_H_
 #define CONTEGO_SIM_ARM_H_
 
-#include <array>
 #include <map>
 #include <memory>
 #include <string>
@@ -15,11 +14,6 @@
 #include "sim/world.h"
 
 namespace contego::sim {
-
-inline constexpr uint16_t kArmAddr = 0x40;
-inline constexpr int kGripChannel = 5;
-inline constexpr uint16_t kGripOpen = 420;
-inline constexpr uint16_t kGripClose = 577;
 
 // The four writes of Adafruit's set_pwm(channel, on, off).
 std::vector<BusOp> pca9685_set_pwm(uint16_t addr, int channel, uint16_t on, uint16_t off);
@@ -45,14 +39,8 @@ class GripperController : public Controller {
 class ArmWorld : public World {
  public:
   ArmWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
-  void attach(bus::VirtualBus& bus) override;
   void on_write(uint64_t now_us, uint16_t addr, std::span<const uint8_t> bytes) override;
-  std::vector<Controller*> controllers() override { return {&init_, &gripper_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
   enum class Grip : uint8_t { kLimp, kOpen, kClosed, kBetween, kJammed };
   Grip grip() const { return grip_; }
@@ -64,7 +52,6 @@ class ArmWorld : public World {
   ArmInitController init_;
   GripperController gripper_;
   std::shared_ptr<bus::Pca9685> pca_;
-  Noise noise_;
   uint64_t period_us_;
   uint64_t now_us_ = 0;
   Grip grip_ = Grip::kLimp;

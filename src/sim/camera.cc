@@ -32,7 +32,7 @@ class BeyondRange : public Attack {
     if (!hits(job, task)) return;
     const auto pulse = static_cast<uint16_t>(spec().param_int("pulse", 620));
     for (auto& op : ops) {
-      if (op.task != task || op.op.addr != kServoAddr || op.op.bytes.size() != 2) continue;
+      if (!op.is_write(task, kServoAddr, 2)) continue;
       if (op.op.bytes[0] == 0x08) op.op.bytes[1] = static_cast<uint8_t>(pulse & 0xFF);
       if (op.op.bytes[0] == 0x09) op.op.bytes[1] = static_cast<uint8_t>(pulse >> 8);
       if (op.op.bytes[0] == 0x08 || op.op.bytes[0] == 0x09) op.injected = true;
@@ -47,7 +47,7 @@ class FalseSiren : public Attack {
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
     if (!hits(job, task)) return;
     for (auto& op : ops) {
-      if (op.task == task && op.op.addr == kSirenAddr && op.op.bytes.size() == 2) {
+      if (op.is_write(task, kSirenAddr, 2)) {
         op.op.bytes[1] = 1;
         op.injected = true;
       }
@@ -79,26 +79,28 @@ void SirenController::release(const Job& job, Port& port, std::vector<TimedOp>& 
 }
 
 CameraWorld::CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : tracker_(setting_string(settings, "task", "tracker"),
+    : World("camera", derive_seed(seed, 5)),
+      tracker_(setting_string(settings, "task", "tracker"),
                setting_duration_us(settings, "period", 100'000)),
       alarm_(setting_string(settings, "alarm_task", "alarm"),
              setting_duration_us(settings, "alarm_period", 1'000'000)),
-      servos_(std::make_shared<bus::Pca9685>(kServoAddr)),
-      motion_(std::make_shared<RegisterFile>(kMotionAddr)),
-      siren_(std::make_shared<RegisterFile>(kSirenAddr)),
-      noise_(derive_seed(seed, 5)) {}
-
-void CameraWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(servos_);
-  bus.attach(motion_);
-  bus.attach(siren_);
-}
-
-std::unique_ptr<Attack> CameraWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "beyond_range") return std::make_unique<BeyondRange>(spec, tracker_.task());
-  if (spec.kind == "false_siren") return std::make_unique<FalseSiren>(spec, alarm_.task());
-  *error = "unknown camera attack '" + spec.kind + "' (expected beyond_range, false_siren)";
-  return nullptr;
+      servos_(add_device(std::make_shared<bus::Pca9685>(kServoAddr))),
+      motion_(add_device(std::make_shared<RegisterFile>(kMotionAddr))),
+      siren_(add_device(std::make_shared<RegisterFile>(kSirenAddr))) {
+  set_controllers({&tracker_, &alarm_});
+  add_column("pan_deg", [this] { return pan_deg_; });
+  add_column("tilt_deg", [this] { return tilt_deg_; });
+  add_column("object", [this] { return static_cast<double>(motion_->reg(0)); });
+  add_column("siren", [this] { return static_cast<double>(siren_->reg(0x01)); });
+  add_metric("max_pan_angle", "deg", [this] { return max_abs_pan_; });
+  add_metric("time_beyond_range", "s", [this] { return outside_s_; });
+  add_metric("false_siren_time", "s", [this] { return false_siren_s_; });
+  add_attack("beyond_range", [tracker = tracker_.task()](const AttackSpec& spec) {
+    return std::make_unique<BeyondRange>(spec, tracker);
+  });
+  add_attack("false_siren", [alarm = alarm_.task()](const AttackSpec& spec) {
+    return std::make_unique<FalseSiren>(spec, alarm);
+  });
 }
 
 void CameraWorld::step(uint64_t now_us, uint64_t dt_us) {
@@ -123,21 +125,6 @@ void CameraWorld::step(uint64_t now_us, uint64_t dt_us) {
   const bool present = in_slot >= 5'000'000 && in_slot < 8'000'000 && slot % 2 == 1;
   motion_->set_reg(0, present ? 1 : 0);
   if (siren_->reg(0x01) != 0 && !present) false_siren_s_ += dt;
-}
-
-std::vector<std::string> CameraWorld::columns() const {
-  return {"pan_deg", "tilt_deg", "object", "siren"};
-}
-
-std::vector<double> CameraWorld::sample() const {
-  return {pan_deg_, tilt_deg_, static_cast<double>(motion_->reg(0)),
-          static_cast<double>(siren_->reg(0x01))};
-}
-
-std::vector<Metric> CameraWorld::metrics() const {
-  return {{"max_pan_angle", max_abs_pan_, "deg"},
-          {"time_beyond_range", outside_s_, "s"},
-          {"false_siren_time", false_siren_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -32,20 +32,13 @@ class SirenController : public Controller {
 class CameraWorld : public World {
  public:
   CameraWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
-  void attach(bus::VirtualBus& bus) override;
-  std::vector<Controller*> controllers() override { return {&tracker_, &alarm_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
  private:
   PatrolController tracker_;
   SirenController alarm_;
   std::shared_ptr<bus::Pca9685> servos_;
   std::shared_ptr<RegisterFile> motion_, siren_;
-  Noise noise_;
   double pan_deg_ = 0.0, tilt_deg_ = 0.0;
   double max_abs_pan_ = 0.0, outside_s_ = 0.0, false_siren_s_ = 0.0;
 };

@@ -20,10 +20,7 @@ class Overdose : public Attack {
     if (!spec().active(job.release_us)) return;
     const auto rate = static_cast<uint16_t>(spec().param_int("rate", 1000));
     for (auto& op : ops) {
-      if (op.task != task || op.op.addr != kPumpAddr || op.op.kind != BusOp::Kind::kWrite ||
-          op.op.bytes.size() != 2) {
-        continue;
-      }
+      if (!op.is_write(task, kPumpAddr, 2)) continue;
       if (op.op.bytes[0] == 0x01) op.op.bytes[1] = static_cast<uint8_t>(rate & 0xFF);
       if (op.op.bytes[0] == 0x02) op.op.bytes[1] = static_cast<uint8_t>(rate >> 8);
       op.injected = true;
@@ -48,26 +45,27 @@ void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp
 }
 
 PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : infusion_(setting_string(settings, "task", "infusion"),
+    : World("pump", derive_seed(seed, 4)),
+      infusion_(setting_string(settings, "task", "infusion"),
                 setting_duration_us(settings, "period", 60'000'000),
                 static_cast<int>(setting_int(settings, "rate", 200)),
                 static_cast<int>(setting_int(settings, "dose", 5000))),
-      pump_(std::make_shared<RegisterFile>(kPumpAddr)),
-      encoder_(std::make_shared<RegisterFile>(kEncoderAddr)),
-      screen_(std::make_shared<RegisterFile>(kScreenAddr)),
-      noise_(derive_seed(seed, 4)),
-      dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {}
-
-void PumpWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(pump_);
-  bus.attach(encoder_);
-  bus.attach(screen_);
-}
-
-std::unique_ptr<Attack> PumpWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "overdose") return std::make_unique<Overdose>(spec);
-  *error = "unknown pump attack '" + spec.kind + "' (expected overdose)";
-  return nullptr;
+      pump_(add_device(std::make_shared<RegisterFile>(kPumpAddr))),
+      encoder_(add_device(std::make_shared<RegisterFile>(kEncoderAddr))),
+      screen_(add_device(std::make_shared<RegisterFile>(kScreenAddr))),
+      dose_(static_cast<int>(setting_int(settings, "dose", 5000))) {
+  set_controllers({&infusion_});
+  add_column("delivered_ul", [this] { return delivered_ul_; });
+  add_column("rate_ul_h", [this] { return static_cast<double>(rate()); });
+  add_column("screen_ul", [this] {
+    return static_cast<double>(screen_->reg(0x00) | (screen_->reg(0x01) << 8));
+  });
+  add_metric("dose_delivered", "uL", [this] { return delivered_ul_; });
+  add_metric("overdose", "uL", [this] { return std::max(0.0, delivered_ul_ - dose_); });
+  add_metric("max_rate", "uL/h", [this] { return max_rate_; });
+  add_metric("dose_reached_at", "h",
+             [this] { return dose_reached_s_ < 0 ? -1.0 : dose_reached_s_ / 3600.0; });
+  add_attack("overdose", [](const AttackSpec& spec) { return std::make_unique<Overdose>(spec); });
 }
 
 int PumpWorld::rate() const { return pump_->reg(0x01) | (pump_->reg(0x02) << 8); }
@@ -84,22 +82,6 @@ void PumpWorld::step(uint64_t now_us, uint64_t dt_us) {
   const auto counted = static_cast<uint16_t>(std::min(60000.0, std::floor(delivered_ul_)));
   encoder_->set_reg(0, static_cast<uint8_t>(counted >> 8));
   encoder_->set_reg(1, static_cast<uint8_t>(counted & 0xFF));
-}
-
-std::vector<std::string> PumpWorld::columns() const {
-  return {"delivered_ul", "rate_ul_h", "screen_ul"};
-}
-
-std::vector<double> PumpWorld::sample() const {
-  return {delivered_ul_, static_cast<double>(rate()),
-          static_cast<double>(screen_->reg(0x00) | (screen_->reg(0x01) << 8))};
-}
-
-std::vector<Metric> PumpWorld::metrics() const {
-  return {{"dose_delivered", delivered_ul_, "uL"},
-          {"overdose", std::max(0.0, delivered_ul_ - dose_), "uL"},
-          {"max_rate", max_rate_, "uL/h"},
-          {"dose_reached_at", dose_reached_s_ < 0 ? -1.0 : dose_reached_s_ / 3600.0, "h"}};
 }
 
 }  // namespace contego::sim

@@ -33,19 +33,12 @@ class InfusionController : public Controller {
 class PumpWorld : public World {
  public:
   PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
-  void attach(bus::VirtualBus& bus) override;
-  std::vector<Controller*> controllers() override { return {&infusion_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
  private:
   int rate() const;
   InfusionController infusion_;
   std::shared_ptr<RegisterFile> pump_, encoder_, screen_;
-  Noise noise_;
   int dose_;
   double delivered_ul_ = 0.0;
   double max_rate_ = 0.0;

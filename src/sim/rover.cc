@@ -10,6 +10,17 @@
 namespace contego::sim {
 namespace {
 
+constexpr uint16_t kGopigoAddr = 0x08;
+constexpr uint16_t kLineFollowerAddr = 0x06;
+constexpr double kWheelRadiusM = 0.0325;
+constexpr int kTicksPerRev = 18;
+
+// The vendor's hard-coded calibration and weights.
+constexpr std::array<int, 5> kLineWhite = {767, 815, 859, 710, 700};
+constexpr std::array<int, 5> kLineBlack = {1012, 1013, 1015, 1003, 1004};
+constexpr std::array<int, 5> kLineWeights = {-100, -50, 0, 50, 100};
+constexpr double kLineThreshold = 2500.0;
+
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kWheelBaseM = 0.117;
 constexpr double sensor_ahead_m_ = 0.07;  // sensor bar ahead of the axle
@@ -45,8 +56,7 @@ bool is_direction(uint8_t cmd) {
 
 // A motion frame of the victim task, as the library frames it: 01 cmd v1 v2 v3.
 bool is_rover_frame(const TimedOp& op, const std::string& task) {
-  return op.task == task && op.op.kind == BusOp::Kind::kWrite && op.op.addr == kGopigoAddr &&
-         op.op.bytes.size() == 5;
+  return op.is_write(task, kGopigoAddr, 5);
 }
 
 // Control spoofing: the compromised loop turns a motor off (set_right_speed(0)
@@ -179,13 +189,35 @@ void LineFollowerController::release(const Job& job, Port& port, std::vector<Tim
 }
 
 RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : controller_(LineFollowerController::Options{
+    : World("rover", derive_seed(seed, 1)),
+      controller_(LineFollowerController::Options{
           setting_string(settings, "task", "follower"),
           setting_duration_us(settings, "period", 200'000),
           static_cast<uint8_t>(setting_int(settings, "fwd_opcode", 105))}),
-      gopigo_(std::make_shared<bus::GoPiGo2>(kGopigoAddr)),
-      line_(std::make_shared<bus::LineFollower>(kLineFollowerAddr)),
-      noise_(derive_seed(seed, 1)) {
+      gopigo_(add_device(std::make_shared<bus::GoPiGo2>(kGopigoAddr))),
+      line_(add_device(std::make_shared<bus::LineFollower>(kLineFollowerAddr))) {
+  set_controllers({&controller_});
+  add_column("x_m", [this] { return x_; });
+  add_column("y_m", [this] { return y_; });
+  add_column("offset_cm", [this] { return line_offset(x_, y_) * 100.0; });
+  add_column("left_cmd", [this] { return static_cast<double>(left_command()); });
+  add_column("right_cmd", [this] { return static_cast<double>(right_command()); });
+  add_column("distance_cm", [this] { return distance_cm(); });
+  add_column("speed_cm_s", [this] { return speed_cm_s(); });
+  add_column("line_position", [this] { return controller_.last_position(); });
+  add_column("progress_cm", [this] { return progress_m_ * 100.0; });
+  add_metric("distance", "cm", [this] { return distance_cm(); });
+  add_metric("track_progress", "cm", [this] { return progress_m_ * 100.0; });
+  add_metric("max_speed", "cm/s", [this] { return max_speed_; });
+  add_metric("off_line_time", "s", [this] { return off_line_s_; });
+  add_attack("spoof",
+             [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, false); });
+  add_attack("wrong_direction",
+             [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, true); });
+  add_attack("dos", [](const AttackSpec& spec) { return std::make_unique<RoverDos>(spec); });
+  add_attack("replay", [](const AttackSpec& spec) { return std::make_unique<RoverReplay>(spec); });
+  add_attack("unauthorised",
+             [](const AttackSpec& spec) { return std::make_unique<RoverIntruder>(spec); });
   straight_m_ = setting_double(settings, "straight", 2.0);
   radius_m_ = setting_double(settings, "radius", 1.0);
   speed_noise_ = setting_double(settings, "speed_noise", 0.03);
@@ -197,11 +229,6 @@ RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint6
   y_ = -radius_m_;
   heading_ = 0.0;
   update_sensor();
-}
-
-void RoverWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(gopigo_);
-  bus.attach(line_);
 }
 
 namespace {
@@ -239,17 +266,6 @@ int RoverWorld::left_command() const {
 
 int RoverWorld::right_command() const {
   return gopigo_->right_speed() * wheel_sign(gopigo_->motion(), false);
-}
-
-std::unique_ptr<Attack> RoverWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "spoof") return std::make_unique<RoverSpoof>(spec, false);
-  if (spec.kind == "wrong_direction") return std::make_unique<RoverSpoof>(spec, true);
-  if (spec.kind == "dos") return std::make_unique<RoverDos>(spec);
-  if (spec.kind == "replay") return std::make_unique<RoverReplay>(spec);
-  if (spec.kind == "unauthorised") return std::make_unique<RoverIntruder>(spec);
-  *error = "unknown rover attack '" + spec.kind +
-           "' (expected spoof, wrong_direction, dos, replay, unauthorised)";
-  return nullptr;
 }
 
 double RoverWorld::line_offset(double x, double y) const {
@@ -345,33 +361,10 @@ double RoverWorld::distance_cm() const {
   return static_cast<double>(ticks_left_ + ticks_right_) / 2.0 * per_tick;
 }
 
-std::vector<std::string> RoverWorld::columns() const {
-  return {"x_m",         "y_m",        "offset_cm",     "left_cmd",   "right_cmd",
-          "distance_cm", "speed_cm_s", "line_position", "progress_cm"};
-}
-
-std::vector<double> RoverWorld::sample() const {
-  double speed = 0.0;
-  if (history_.size() > 1 && history_.back().first > history_.front().first) {
-    speed = (history_.back().second - history_.front().second) /
-            (static_cast<double>(history_.back().first - history_.front().first) * 1e-6);
-  }
-  return {x_,
-          y_,
-          line_offset(x_, y_) * 100.0,
-          static_cast<double>(left_command()),
-          static_cast<double>(right_command()),
-          distance_cm(),
-          speed,
-          controller_.last_position(),
-          progress_m_ * 100.0};
-}
-
-std::vector<Metric> RoverWorld::metrics() const {
-  return {{"distance", distance_cm(), "cm"},
-          {"track_progress", progress_m_ * 100.0, "cm"},
-          {"max_speed", max_speed_, "cm/s"},
-          {"off_line_time", off_line_s_, "s"}};
+double RoverWorld::speed_cm_s() const {
+  if (history_.size() < 2 || history_.back().first <= history_.front().first) return 0.0;
+  return (history_.back().second - history_.front().second) /
+         (static_cast<double>(history_.back().first - history_.front().first) * 1e-6);
 }
 
 }  // namespace contego::sim

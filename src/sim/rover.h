@@ -18,17 +18,6 @@
 
 namespace contego::sim {
 
-inline constexpr uint16_t kGopigoAddr = 0x08;
-inline constexpr uint16_t kLineFollowerAddr = 0x06;
-inline constexpr double kWheelRadiusM = 0.0325;
-inline constexpr int kTicksPerRev = 18;
-
-// The vendor's hard-coded calibration and weights.
-inline constexpr std::array<int, 5> kLineWhite = {767, 815, 859, 710, 700};
-inline constexpr std::array<int, 5> kLineBlack = {1012, 1013, 1015, 1003, 1004};
-inline constexpr std::array<int, 5> kLineWeights = {-100, -50, 0, 50, 100};
-inline constexpr double kLineThreshold = 2500.0;
-
 // pos = sum (raw_i - white_i) * 100 / (black_i - white_i) * w_i, float as the vendor.
 double line_position(const std::array<uint16_t, 5>& raw);
 
@@ -57,15 +46,11 @@ class RoverWorld : public World {
   // straight (m), radius (m), speed_noise, sensor_noise.
   RoverWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
 
-  void attach(bus::VirtualBus& bus) override;
-  std::vector<Controller*> controllers() override { return {&controller_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
   double distance_cm() const;
+  // Over the recent history (the trace's speed column).
+  double speed_cm_s() const;
   // Signed wheel commands (-255..255) the firmware drives, from its motion
   // and speeds: the firmware's speed2 / motor2 is the left wheel.
   int left_command() const;
@@ -81,7 +66,6 @@ class RoverWorld : public World {
   LineFollowerController controller_;
   std::shared_ptr<bus::GoPiGo2> gopigo_;
   std::shared_ptr<bus::LineFollower> line_;
-  Noise noise_;
   double straight_m_ = 2.0;
   double radius_m_ = 1.0;
   double speed_noise_ = 0.03;

@@ -24,9 +24,8 @@ class FalseAlarm : public Attack {
   void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
     if (!spec().active(job.release_us)) return;
     for (auto& op : ops) {
-      if (op.task != task || op.op.kind != BusOp::Kind::kWrite || op.op.bytes.size() != 2) continue;
-      const bool buzzer = op.op.addr == kBuzzerAddr && op.op.bytes[0] == 0x01;
-      const bool alert = op.op.addr == kDisplayAddr && op.op.bytes[0] == 0x00;
+      const bool buzzer = op.is_write(task, kBuzzerAddr, 2) && op.op.bytes[0] == 0x01;
+      const bool alert = op.is_write(task, kDisplayAddr, 2) && op.op.bytes[0] == 0x00;
       if (buzzer || alert) {
         op.op.bytes[1] = 1;
         op.injected = true;
@@ -52,25 +51,24 @@ void TankMonitor::release(const Job& job, Port& port, std::vector<TimedOp>& ops)
 }
 
 TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed)
-    : monitor_(setting_string(settings, "task", "monitor"),
+    : World("tank", derive_seed(seed, 3)),
+      monitor_(setting_string(settings, "task", "monitor"),
                setting_duration_us(settings, "period", 500'000)),
-      sensor_(std::make_shared<RegisterFile>(kSensorAddr)),
-      buzzer_(std::make_shared<RegisterFile>(kBuzzerAddr)),
-      display_(std::make_shared<RegisterFile>(kDisplayAddr)),
-      noise_(derive_seed(seed, 3)) {
+      sensor_(add_device(std::make_shared<RegisterFile>(kSensorAddr))),
+      buzzer_(add_device(std::make_shared<RegisterFile>(kBuzzerAddr))),
+      display_(add_device(std::make_shared<RegisterFile>(kDisplayAddr))) {
+  set_controllers({&monitor_});
+  add_attack("false_alarm",
+             [](const AttackSpec& spec) { return std::make_unique<FalseAlarm>(spec); });
+  add_column("level_mm", [this] { return level_mm_; });
+  add_column("temp_c", [this] { return temp_dc_ / 10.0; });
+  add_column("abnormal", [this] { return abnormal() ? 1.0 : 0.0; });
+  add_column("buzzer", [this] { return static_cast<double>(buzzer_->reg(0x01)); });
+  add_column("alert", [this] { return static_cast<double>(display_->reg(0x00)); });
+  add_metric("buzzer_on_time", "s", [this] { return alarm_s_; });
+  add_metric("false_alarm_time", "s", [this] { return false_alarm_s_; });
+  add_metric("missed_alarm_time", "s", [this] { return missed_alarm_s_; });
   step(0, 0);
-}
-
-void TankWorld::attach(bus::VirtualBus& bus) {
-  bus.attach(sensor_);
-  bus.attach(buzzer_);
-  bus.attach(display_);
-}
-
-std::unique_ptr<Attack> TankWorld::make_attack(const AttackSpec& spec, std::string* error) {
-  if (spec.kind == "false_alarm") return std::make_unique<FalseAlarm>(spec);
-  *error = "unknown tank attack '" + spec.kind + "' (expected false_alarm)";
-  return nullptr;
 }
 
 bool TankWorld::abnormal() const {
@@ -96,21 +94,6 @@ void TankWorld::step(uint64_t now_us, uint64_t dt_us) {
   if (sounding) alarm_s_ += dt;
   if (sounding && !abnormal()) false_alarm_s_ += dt;
   if (!sounding && abnormal()) missed_alarm_s_ += dt;
-}
-
-std::vector<std::string> TankWorld::columns() const {
-  return {"level_mm", "temp_c", "abnormal", "buzzer", "alert"};
-}
-
-std::vector<double> TankWorld::sample() const {
-  return {level_mm_, temp_dc_ / 10.0, abnormal() ? 1.0 : 0.0,
-          static_cast<double>(buzzer_->reg(0x01)), static_cast<double>(display_->reg(0x00))};
-}
-
-std::vector<Metric> TankWorld::metrics() const {
-  return {{"buzzer_on_time", alarm_s_, "s"},
-          {"false_alarm_time", false_alarm_s_, "s"},
-          {"missed_alarm_time", missed_alarm_s_, "s"}};
 }
 
 }  // namespace contego::sim

@@ -24,19 +24,12 @@ class TankMonitor : public Controller {
 class TankWorld : public World {
  public:
   TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed);
-  void attach(bus::VirtualBus& bus) override;
-  std::vector<Controller*> controllers() override { return {&monitor_}; }
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) override;
   void step(uint64_t now_us, uint64_t dt_us) override;
-  std::vector<std::string> columns() const override;
-  std::vector<double> sample() const override;
-  std::vector<Metric> metrics() const override;
 
  private:
   bool abnormal() const;
   TankMonitor monitor_;
   std::shared_ptr<RegisterFile> sensor_, buzzer_, display_;
-  Noise noise_;
   double level_mm_ = 600.0;
   double temp_dc_ = 200.0;  // 0.1 degC
   double false_alarm_s_ = 0.0, missed_alarm_s_ = 0.0, alarm_s_ = 0.0;

@@ -30,4 +30,30 @@ int64_t AttackSpec::param_int(const std::string& key, int64_t fallback) const {
   return v;
 }
 
+void World::attach(bus::VirtualBus& bus) const {
+  for (const auto& device : devices_) bus.attach(device);
+}
+
+std::vector<double> World::sample() const {
+  std::vector<double> values;
+  for (const auto& value : column_values_) values.push_back(value());
+  return values;
+}
+
+std::vector<Metric> World::metrics() const {
+  std::vector<Metric> out;
+  for (const auto& m : metrics_) out.push_back({m.name, m.value(), m.unit});
+  return out;
+}
+
+std::unique_ptr<Attack> World::make_attack(const AttackSpec& spec, std::string* error) const {
+  std::string kinds;
+  for (const auto& [kind, make] : attacks_) {
+    if (kind == spec.kind) return make(spec);
+    kinds += (kinds.empty() ? "" : ", ") + kind;
+  }
+  *error = "unknown " + name_ + " attack '" + spec.kind + "' (expected " + kinds + ")";
+  return nullptr;
+}
+
 }  // namespace contego::sim

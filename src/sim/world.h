@@ -8,12 +8,15 @@
 #ifndef CONTEGO_SIM_WORLD_H_
 #define CONTEGO_SIM_WORLD_H_
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bus/virtual_bus.h"
@@ -39,6 +42,12 @@ struct TimedOp {
   std::string task;  // the policy's task name of the sender
   BusOp op;
   bool injected = false;  // added or rewritten by an attack (for the event log)
+
+  // A write of `of_task` of `len` bytes to the device at `to_addr`.
+  bool is_write(const std::string& of_task, uint16_t to_addr, size_t len) const {
+    return task == of_task && op.kind == BusOp::Kind::kWrite && op.addr == to_addr &&
+           op.bytes.size() == len;
+  }
 };
 
 // What a task sees of the bus: reads and writes go through the guard.
@@ -140,30 +149,79 @@ struct Metric {
   std::string unit;  // "cm", "", "mL" ...
 };
 
-// A plant with its device models, controllers and measurements.
+// A plant with its device models, controllers and measurements. A plant
+// registers in its constructor what it is made of (device models,
+// controllers, trace columns, attacks) and overrides only its physics and
+// measurements.
 class World {
  public:
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
   virtual ~World() = default;
   // Puts the world's device models on `bus`.
-  virtual void attach(bus::VirtualBus& bus) = 0;
+  void attach(bus::VirtualBus& bus) const;
   // Called after a write reached the bus (a logic-analyser tap): lets the
   // world log what the devices actually received.
   virtual void on_write(uint64_t /*now_us*/, uint16_t /*addr*/,
                         std::span<const uint8_t> /*bytes*/) {}
-  virtual std::vector<Controller*> controllers() = 0;
+  const std::vector<Controller*>& controllers() const { return controllers_; }
   // Builds the attack of `spec` or returns null with a message in `error`.
-  virtual std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) = 0;
+  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) const;
   // Advances the physics by `dt_us` ending at `now_us` and refreshes the
   // sensor device models.
   virtual void step(uint64_t now_us, uint64_t dt_us) = 0;
   // Trace columns (after time) and their current values.
-  virtual std::vector<std::string> columns() const = 0;
-  virtual std::vector<double> sample() const = 0;
-  virtual std::vector<Metric> metrics() const = 0;
+  const std::vector<std::string>& columns() const { return columns_; }
+  std::vector<double> sample() const;
+  std::vector<Metric> metrics() const;
   const std::vector<Event>& events() const { return events_; }
 
  protected:
+  // `name`: the plant in messages ("rover"); `noise_seed`: the seed of the
+  // plant's noise stream.
+  World(std::string name, uint64_t noise_seed) : noise_(noise_seed), name_(std::move(name)) {}
+
+  // Registers a device model (attached in registration order) and returns it.
+  template <typename Device>
+  std::shared_ptr<Device> add_device(std::shared_ptr<Device> device) {
+    devices_.push_back(device);
+    return device;
+  }
+  void set_controllers(std::vector<Controller*> controllers) {
+    controllers_ = std::move(controllers);
+  }
+  // A measurement of the plant's current state.
+  using Probe = std::function<double()>;
+  // Adds a trace column (in registration order) and what it samples.
+  void add_column(std::string name, Probe value) {
+    columns_.push_back(std::move(name));
+    column_values_.push_back(std::move(value));
+  }
+  // Adds a metric of the run (reported in registration order).
+  void add_metric(std::string name, std::string unit, Probe value) {
+    metrics_.push_back({std::move(name), std::move(unit), std::move(value)});
+  }
+  using AttackMaker = std::function<std::unique_ptr<Attack>(const AttackSpec&)>;
+  // Registers the attack `kind` (listed in messages in registration order).
+  void add_attack(std::string kind, AttackMaker make) {
+    attacks_.emplace_back(std::move(kind), std::move(make));
+  }
+
+  Noise noise_;
   std::vector<Event> events_;
+
+ private:
+  std::string name_;
+  std::vector<std::string> columns_;
+  std::vector<Probe> column_values_;
+  struct MetricProbe {
+    std::string name, unit;
+    Probe value;
+  };
+  std::vector<MetricProbe> metrics_;
+  std::vector<std::shared_ptr<bus::DeviceModel>> devices_;
+  std::vector<Controller*> controllers_;
+  std::vector<std::pair<std::string, AttackMaker>> attacks_;
 };
 
 }  // namespace contego::sim

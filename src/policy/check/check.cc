@@ -1,21 +1,14 @@
 #include "policy/check/check.h"
 
+#include "base/phrase.h"
 #include "policy/check/context.h"
 
 namespace contego::policy {
 
 std::string_view type_phrase(Type type) {
-  switch (type) {
-    case Type::kInt:
-      return "a plain number";
-    case Type::kDuration:
-      return "a duration";
-    case Type::kBool:
-      return "a boolean";
-    case Type::kError:
-      return "invalid";
-  }
-  return "invalid";
+  static constexpr PhraseTable<Type> kPhrases[] = {
+      {Type::kInt, "a plain number"}, {Type::kDuration, "a duration"}, {Type::kBool, "a boolean"}};
+  return phrase_of(type, kPhrases, "invalid");
 }
 
 bool CommandValue::constant() const {

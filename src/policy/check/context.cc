@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "base/phrase.h"
+
 namespace contego::policy::check_internal {
 
 CheckedPolicy Sema::run() {
@@ -28,21 +30,11 @@ CheckedPolicy Sema::run() {
 }
 
 std::string Sema::sym_phrase(SymKind k) {
-  switch (k) {
-    case SymKind::kConst:
-      return "a constant";
-    case SymKind::kDevice:
-      return "a device";
-    case SymKind::kSignal:
-      return "a signal";
-    case SymKind::kListSignal:
-      return "a list signal";
-    case SymKind::kTask:
-      return "a task";
-    case SymKind::kInvariant:
-      return "an invariant";
-  }
-  return "a name";
+  static constexpr PhraseTable<SymKind> kPhrases[] = {
+      {SymKind::kConst, "a constant"}, {SymKind::kDevice, "a device"},
+      {SymKind::kSignal, "a signal"},  {SymKind::kListSignal, "a list signal"},
+      {SymKind::kTask, "a task"},      {SymKind::kInvariant, "an invariant"}};
+  return std::string(phrase_of(k, kPhrases, "a name"));
 }
 
 bool Sema::declare(const std::string& name, SymKind kind, size_t index, Span span) {
@@ -58,6 +50,20 @@ bool Sema::declare(const std::string& name, SymKind kind, size_t index, Span spa
 const Sema::Sym* Sema::lookup(const std::string& name) const {
   auto it = names_.find(name);
   return it == names_.end() ? nullptr : &it->second;
+}
+
+const Sema::Sym* Sema::lookup_as(const std::string& name, Span at, SymKind kind,
+                                 const std::string& phrase) {
+  const Sym* sym = lookup(name);
+  if (!sym) {
+    diags_.emit(DiagKind::kUnknownName, at, name, phrase);
+    return nullptr;
+  }
+  if (sym->kind != kind) {
+    diags_.emit(DiagKind::kTypeMismatch, at, "`" + name + "`", sym_phrase(sym->kind), phrase);
+    return nullptr;
+  }
+  return sym;
 }
 
 // A sensor without `max_age` gets the documented default: twice its sample

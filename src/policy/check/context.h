@@ -86,6 +86,10 @@ class Sema {
   static std::string sym_phrase(SymKind k);
   bool declare(const std::string& name, SymKind kind, size_t index, Span span);
   const Sym* lookup(const std::string& name) const;
+  // `name` (written at `at`) as a symbol of `kind`; reports an unknown name
+  // or a symbol of another kind (`phrase`: what was expected, "a task") and
+  // returns null.
+  const Sym* lookup_as(const std::string& name, Span at, SymKind kind, const std::string& phrase);
 
   // --- constants and expressions -------------------------------------------
   static IExprPtr make_const(int64_t v, Type t, Span span);

@@ -525,17 +525,8 @@ std::vector<uint16_t> Sema::all_actuation(const Device& dev) const {
 // Looks up a device by name for a rule; reports and returns nullopt if bad.
 std::optional<uint16_t> Sema::rule_device(const ast::Ident& id, const std::string& what,
                                           bool need_actuator) {
-  const Sym* sym = lookup(id.name);
-  if (!sym) {
-    diags_.emit(DiagKind::kUnknownName, id.span, id.name, "a device");
-    return std::nullopt;
-  }
-  if (sym->kind != SymKind::kDevice) {
-    diags_.emit(DiagKind::kTypeMismatch, id.span, "`" + id.name + "`", sym_phrase(sym->kind),
-                "a device");
-    return std::nullopt;
-  }
-  if (!dev_ok_[sym->index]) return std::nullopt;
+  const Sym* sym = lookup_as(id.name, id.span, SymKind::kDevice, "a device");
+  if (!sym || !dev_ok_[sym->index]) return std::nullopt;
   const Device& dev = out_.devices[sym->index];
   if (need_actuator && !(dev.role & core::kRoleActuator)) {
     diags_.emit(DiagKind::kNotAnActuator, id.span, id.name, what);
@@ -545,16 +536,8 @@ std::optional<uint16_t> Sema::rule_device(const ast::Ident& id, const std::strin
 }
 
 std::optional<uint16_t> Sema::rule_task(const ast::Ident& id) {
-  const Sym* sym = lookup(id.name);
-  if (!sym) {
-    diags_.emit(DiagKind::kUnknownName, id.span, id.name, "a task");
-    return std::nullopt;
-  }
-  if (sym->kind != SymKind::kTask) {
-    diags_.emit(DiagKind::kTypeMismatch, id.span, "`" + id.name + "`", sym_phrase(sym->kind),
-                "a task");
-    return std::nullopt;
-  }
+  const Sym* sym = lookup_as(id.name, id.span, SymKind::kTask, "a task");
+  if (!sym) return std::nullopt;
   return static_cast<uint16_t>(sym->index);
 }
 

@@ -207,22 +207,14 @@ std::optional<std::vector<uint16_t>> Sema::resolve_member(const ast::Expr& e, co
                 "`" + source_text(base.span) + "`");
     return std::nullopt;
   }
-  const Sym* sym = lookup(base.name);
-  if (!sym && c.constant &&
+  if (!lookup(base.name) && c.constant &&
       std::any_of(file_.devices.begin(), file_.devices.end(),
                   [&](const ast::DeviceDecl& d) { return d.name.name == base.name; })) {
     diags_.emit(DiagKind::kNotConstant, e.span, c.what, "sensor `" + base.name + "`");
     return std::nullopt;
   }
-  if (!sym) {
-    diags_.emit(DiagKind::kUnknownName, base.span, base.name, "a sensor");
-    return std::nullopt;
-  }
-  if (sym->kind != SymKind::kDevice) {
-    diags_.emit(DiagKind::kTypeMismatch, base.span, "`" + base.name + "`", sym_phrase(sym->kind),
-                "a sensor");
-    return std::nullopt;
-  }
+  const Sym* sym = lookup_as(base.name, base.span, SymKind::kDevice, "a sensor");
+  if (!sym) return std::nullopt;
   const auto dev_id = static_cast<uint16_t>(sym->index);
   const Device& dev = out_.devices[dev_id];
   if (!(dev.role & core::kRoleSensor)) {

@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "base/json_text.h"
+#include "base/phrase.h"
 
 namespace contego::policy {
 namespace {
@@ -38,15 +39,9 @@ nlohmann::json to_json(const Diagnostic& d) {
 const DiagKindInfo& diag_info(DiagKind kind) { return kInfos[static_cast<size_t>(kind)]; }
 
 std::string_view severity_name(Severity severity) {
-  switch (severity) {
-    case Severity::kError:
-      return "error";
-    case Severity::kWarning:
-      return "warning";
-    case Severity::kNote:
-      return "note";
-  }
-  return "error";
+  static constexpr PhraseTable<Severity> kNames[] = {
+      {Severity::kError, "error"}, {Severity::kWarning, "warning"}, {Severity::kNote, "note"}};
+  return phrase_of(severity, kNames, "error");
 }
 
 std::vector<DiagKind> all_diag_kinds() {

@@ -130,29 +130,22 @@ class Lowerer {
 
  private:
   bool limits() {
-    auto too_many = [&](size_t n, size_t max, const char* what, Span at) {
-      if (n <= max) return false;
+    bool bad = false;
+    auto check = [&](size_t n, size_t max, const char* what, Span at) {
+      if (n <= max) return;
       diags_.emit(DiagKind::kTooMany, at, n, what, max);
-      return true;
+      bad = true;
     };
+    // Too many items are reported at the last of them.
+    auto last_span = [](const auto& items) { return items.empty() ? Span{} : items.back().span; };
     size_t commands = 0;
     for (const Device& d : p_.devices) commands += d.profile.commands.size();
-    const Span first_dev = p_.devices.empty() ? Span{} : p_.devices.back().span;
-    bool bad = too_many(p_.devices.size(), core::kMaxDevices, "devices", first_dev);
-    bad = too_many(commands, core::kMaxCommandDefs, "device commands (all profiles)", first_dev) ||
-          bad;
-    bad = too_many(p_.tasks.size(), core::kMaxTasks, "tasks",
-                   p_.tasks.empty() ? Span{} : p_.tasks.back().span) ||
-          bad;
-    bad = too_many(p_.signals.size(), core::kMaxSignals, "signals",
-                   p_.signals.empty() ? Span{} : p_.signals.back().span) ||
-          bad;
-    bad = too_many(p_.rates.size(), core::kMaxRateLimits, "rate limits",
-                   p_.rates.empty() ? Span{} : p_.rates.back().span) ||
-          bad;
-    bad = too_many(p_.invariants.size(), core::kMaxInvariants, "invariants",
-                   p_.invariants.empty() ? Span{} : p_.invariants.back().span) ||
-          bad;
+    check(p_.devices.size(), core::kMaxDevices, "devices", last_span(p_.devices));
+    check(commands, core::kMaxCommandDefs, "device commands (all profiles)", last_span(p_.devices));
+    check(p_.tasks.size(), core::kMaxTasks, "tasks", last_span(p_.tasks));
+    check(p_.signals.size(), core::kMaxSignals, "signals", last_span(p_.signals));
+    check(p_.rates.size(), core::kMaxRateLimits, "rate limits", last_span(p_.rates));
+    check(p_.invariants.size(), core::kMaxInvariants, "invariants", last_span(p_.invariants));
     return !bad;
   }
 

@@ -561,6 +561,14 @@ class Parser {
     }
   }
 
+  // The prefix operator `op` (the current token) applied to what `operand` parses.
+  ExprPtr prefix(std::string op, ExprPtr (Parser::*operand)()) {
+    const uint32_t begin = advance().span.begin;
+    ExprPtr inner = (this->*operand)();
+    auto e = make(ExprKind::kUnary, {begin, inner->span.end}, std::move(op));
+    adopt(*e, std::move(inner));
+    return e;
+  }
   ExprPtr binary(std::string op, ExprPtr l, ExprPtr r) {
     auto e = make(ExprKind::kBinary, {l->span.begin, r->span.end}, std::move(op));
     adopt(*e, std::move(l));
@@ -585,13 +593,7 @@ class Parser {
   ExprPtr not_expr() {
     DepthGuard g(*this);
     if (too_deep()) return error_expr();
-    if (at_word("not")) {
-      const uint32_t begin = advance().span.begin;
-      ExprPtr inner = not_expr();
-      auto e = make(ExprKind::kUnary, {begin, inner->span.end}, "not");
-      adopt(*e, std::move(inner));
-      return e;
-    }
+    if (at_word("not")) return prefix("not", &Parser::not_expr);
     return comparison();
   }
   ExprPtr comparison() {
@@ -655,13 +657,7 @@ class Parser {
   ExprPtr unary() {
     DepthGuard g(*this);
     if (too_deep()) return error_expr();
-    if (at(Tok::kMinus)) {
-      const uint32_t begin = advance().span.begin;
-      ExprPtr inner = unary();
-      auto e = make(ExprKind::kUnary, {begin, inner->span.end}, "-");
-      adopt(*e, std::move(inner));
-      return e;
-    }
+    if (at(Tok::kMinus)) return prefix("-", &Parser::unary);
     return postfix();
   }
   ExprPtr postfix() {
