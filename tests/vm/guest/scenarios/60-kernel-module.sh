@@ -163,10 +163,15 @@ led5_becomes 420 && ok "the gripper exited: its session's end drove LED5 off = 4
 # A controller bound to the gripper holds LED5 at 577 and is killed
 # (SIGKILL): the end of its process ends its session, and the module drives
 # the gripper's actuators to their safe state from its work queue.
+# The gripper's jobs run on its period grid across its processes (as in the
+# monitor): the pulse of kmod_grip.py spent the current job's one LED write,
+# so the controller waits for the next job before its first pulse (on a fast
+# host it starts within that job and its 420 would be ignored, rate-exceeded).
 cat >/tmp/kmod_ctl.py <<'PY'
 import time
 from smbus2 import SMBus
 bus = SMBus(0)
+time.sleep(1.2)
 bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 420 & 0xFF, 420 >> 8])
 time.sleep(1.2)
 bus.write_i2c_block_data(0x40, 0x1A, [0, 0, 577 & 0xFF, 577 >> 8])
