@@ -10,6 +10,8 @@
 #include <string>
 #include <sys/wait.h>
 
+#include "base/test_temp.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -35,11 +37,13 @@ bool non_empty(const fs::path& p) { return fs::exists(p) && fs::file_size(p) > 0
 class SimCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("contego_sim_cli_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    // Unique per run: two test runs at once must not share (or clear) a folder.
+    std::string dir;
+    ASSERT_NO_FATAL_FAILURE(contego::test_support::make_temp_dir(
+        std::string("contego-sim-cli-") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name(),
+        &dir));
+    dir_ = dir;
   }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;

@@ -15,6 +15,8 @@
 #include <sys/wait.h>
 #include <vector>
 
+#include "base/test_temp.h"
+
 namespace {
 
 std::string source(const std::string& rel) { return std::string(CONTEGO_SOURCE_DIR) + "/" + rel; }
@@ -43,8 +45,11 @@ double distance_at(const std::string& path, double t) {
 }
 
 TEST(SimRealtimeTest, SeparateControllerProgramUnderContegoKeepsTheRoverDriving) {
-  const auto out = std::filesystem::temp_directory_path() / "contego_sim_realtime_test";
-  std::filesystem::remove_all(out);
+  // A folder of its own: two test runs at once (two checkouts) must not
+  // share an audit log, whose lock would refuse the second monitor.
+  std::string out_dir;
+  ASSERT_NO_FATAL_FAILURE(contego::test_support::make_temp_dir("contego-sim-realtime", &out_dir));
+  const std::filesystem::path out = out_dir;
   const std::string cmd = std::string(CONTEGO_BINARY) + " sim " +
                           source("scenarios/rover_rt_spoof.scn") + " --realtime --no-plots --out " +
                           out.string() + " -- " + CONTEGO_PYTHON3 + " " +
@@ -66,6 +71,7 @@ TEST(SimRealtimeTest, SeparateControllerProgramUnderContegoKeepsTheRoverDriving)
   EXPECT_LT(distance_at(off, 7.0) - distance_at(off, 3.6), 3.0);
   EXPECT_GT(distance_at(on, 7.0) - distance_at(on, 3.6), 15.0);
   std::filesystem::remove_all(out);
+  std::filesystem::remove(out.string() + ".log");
 }
 
 }  // namespace
