@@ -72,6 +72,13 @@ std::vector<uint8_t> seq(size_t n, uint8_t first = 0x10) {
   return v;
 }
 
+// seq(n) shaped as a block: [command, count, data...] with byte 1 = `count`.
+std::vector<uint8_t> counted(size_t n, uint8_t count, uint8_t first = 0x10) {
+  auto v = seq(n, first);
+  v[1] = count;
+  return v;
+}
+
 // The constants are the kernel's.
 static_assert(kFuncI2c == I2C_FUNC_I2C && kFunc10BitAddr == I2C_FUNC_10BIT_ADDR);
 static_assert(kFuncSmbusQuick == I2C_FUNC_SMBUS_QUICK &&
@@ -279,12 +286,8 @@ TEST(SmbusPlan, EveryMappingOnAFullSmbusAdapter) {
       {"write word data", Xfer().write({0x06, 0x34, 0x12}), f, SmbusSize::kWordData, false},
       {"I2C block write 3", Xfer().write(seq(4)), f, SmbusSize::kI2cBlockData, false},
       {"I2C block write 32", Xfer().write(seq(33)), f, SmbusSize::kI2cBlockData, false},
-      {"SMBus block write of 32 (34 bytes)", Xfer().write([] {
-         auto v = seq(34);
-         v[1] = 32;
-         return v;
-       }()),
-       f, SmbusSize::kBlockData, false},
+      {"SMBus block write of 32 (34 bytes)", Xfer().write(counted(34, 32)), f,
+       SmbusSize::kBlockData, false},
       {"read byte data", Xfer().write({0x05}).read(1), f, SmbusSize::kByteData, true},
       {"read word data", Xfer().write({0x05}).read(2), f, SmbusSize::kWordData, true},
       {"I2C block read 3", Xfer().write({0x05}).read(3), f, SmbusSize::kI2cBlockData, true},
@@ -293,15 +296,8 @@ TEST(SmbusPlan, EveryMappingOnAFullSmbusAdapter) {
       {"process call", Xfer().write({0x05, 0x34, 0x12}).read(2), f, SmbusSize::kProcCall, false},
       {"block process call", Xfer().write({0x05, 2, 0xAA, 0xBB}).block_read(), f,
        SmbusSize::kBlockProcCall, false},
-      {"block process call of 32",
-       Xfer()
-           .write([] {
-             auto v = seq(34);
-             v[1] = 32;
-             return v;
-           }())
-           .block_read(),
-       f, SmbusSize::kBlockProcCall, false},
+      {"block process call of 32", Xfer().write(counted(34, 32)).block_read(), f,
+       SmbusSize::kBlockProcCall, false},
       {"general call send byte (reset)", Xfer().write({0x06}, 0x00), f, SmbusSize::kByte, false},
   };
   for (const Row& row : rows) expect_row(row);
@@ -363,12 +359,7 @@ TEST(SmbusPlan, LengthEdges) {
   const Row rows[] = {
       {"write 33 = I2C block of 32", Xfer().write(seq(33)), f, SmbusSize::kI2cBlockData, false},
       {"write 34 not counted", Xfer().write(seq(34)), f, std::nullopt},
-      {"write 35 counted 33", Xfer().write([] {
-         auto v = seq(35);
-         v[1] = 33;
-         return v;
-       }()),
-       f, std::nullopt},
+      {"write 35 counted 33", Xfer().write(counted(35, 33)), f, std::nullopt},
       {"write 2 with count 0 is byte data, never a block", Xfer().write({0x06, 0x00}),
        kFuncSmbusWriteBlock, std::nullopt},
       {"read 2 without register", Xfer().read(2), f, std::nullopt},
@@ -384,15 +375,7 @@ TEST(SmbusPlan, LengthEdges) {
       {"block proc call with count 0", Xfer().write({0x05, 0}).block_read(), f, std::nullopt},
       {"block proc call count mismatch", Xfer().write({0x05, 3, 1, 2}).block_read(), f,
        std::nullopt},
-      {"block proc call of 33",
-       Xfer()
-           .write([] {
-             auto v = seq(35);
-             v[1] = 33;
-             return v;
-           }())
-           .block_read(),
-       f, std::nullopt},
+      {"block proc call of 33", Xfer().write(counted(35, 33)).block_read(), f, std::nullopt},
       {"[c 1 d] + RECV_LEN is a block process call of one byte",
        Xfer().write({0x05, 1, 2}).block_read(), f, SmbusSize::kBlockProcCall, false},
       {"[c lo hi] + RECV_LEN is not a process call", Xfer().write({0x05, 7, 2}).block_read(), f,
@@ -478,9 +461,7 @@ std::vector<Xfer> shapes() {
   for (size_t n = 0; n <= 36; ++n) {
     out.push_back(Xfer().write(seq(n, 0x80)));  // never count-shaped (byte 1 >= 0x81)
     if (n >= 2) {
-      auto v = seq(n, 0x80);
-      v[1] = static_cast<uint8_t>(n - 2);  // count-shaped
-      out.push_back(Xfer().write(v));
+      out.push_back(Xfer().write(counted(n, static_cast<uint8_t>(n - 2), 0x80)));
     }
   }
   for (int n : {0, 1, 2, 3, 31, 32, 33, 34}) out.push_back(Xfer().read(static_cast<uint16_t>(n)));
