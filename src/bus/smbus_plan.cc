@@ -3,6 +3,7 @@
 #include <errno.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <initializer_list>
 
@@ -46,7 +47,7 @@ std::string describe(std::span<const Msg> msgs) {
 
 // The first candidate the adapter supports, or a refusal naming them all.
 Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
-            std::initializer_list<Candidate> candidates, SmbusOp* op) {
+            std::span<const Candidate> candidates, SmbusOp* op) {
   for (const Candidate& c : candidates) {
     if (funcs & c.func) {
       Plan p;
@@ -66,6 +67,27 @@ Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
                 ")");
 }
 
+Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
+            std::initializer_list<Candidate> candidates, SmbusOp* op) {
+  return choose(msgs, funcs, read, std::span(candidates.begin(), candidates.size()), op);
+}
+
+// The forms that carry `len` data bytes after the command byte, preferred
+// first: byte or word data (1 or 2 bytes), the I2C block, then the SMBus
+// block if `counted` (a write whose byte 1 counts the bytes after it).
+std::span<const Candidate> data_forms(bool read, size_t len, bool counted,
+                                      std::array<Candidate, 3>& out) {
+  size_t k = 0;
+  if (len == 1) {
+    out[k++] = {read ? kFuncSmbusReadByteData : kFuncSmbusWriteByteData, SmbusSize::kByteData};
+  } else if (len == 2) {
+    out[k++] = {read ? kFuncSmbusReadWordData : kFuncSmbusWriteWordData, SmbusSize::kWordData};
+  }
+  out[k++] = {read ? kFuncSmbusReadI2cBlock : kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData};
+  if (counted) out[k++] = {kFuncSmbusWriteBlock, SmbusSize::kBlockData};
+  return std::span<const Candidate>(out.data(), k);
+}
+
 Plan plan_write(std::span<const Msg> msgs, uint64_t funcs) {
   const Msg& m = msgs[0];
   const uint8_t* b = m.buf;
@@ -79,36 +101,10 @@ Plan plan_write(std::span<const Msg> msgs, uint64_t funcs) {
   // byte 1 is the number of bytes after it (1..32).
   const bool counted = b[1] == n - 2 && n - 2 >= 1 && n - 2 <= kBlockMax;
   Plan p;
-  if (n == 2) {
-    op.data[0] = b[1];
-    p = choose(msgs, funcs, false,
-               {{kFuncSmbusWriteByteData, SmbusSize::kByteData},
-                {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}},
-               &op);
-  } else if (n == 3) {
-    op.data[0] = b[1];
-    op.data[1] = b[2];
-    if (counted) {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteWordData, SmbusSize::kWordData},
-                  {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData},
-                  {kFuncSmbusWriteBlock, SmbusSize::kBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteWordData, SmbusSize::kWordData},
-                  {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    }
-  } else if (n <= 1 + kBlockMax) {
-    if (counted) {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData},
-                  {kFuncSmbusWriteBlock, SmbusSize::kBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, false, {{kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}}, &op);
-    }
+  if (n <= 1 + kBlockMax) {
+    if (n <= 3) std::copy_n(b + 1, n - 1, op.data.begin());  // byte or word data
+    std::array<Candidate, 3> forms;
+    p = choose(msgs, funcs, false, data_forms(false, n - 1u, counted, forms), &op);
   } else if (n == 2 + kBlockMax && counted) {
     p = choose(msgs, funcs, false, {{kFuncSmbusWriteBlock, SmbusSize::kBlockData}}, &op);
   } else {
@@ -170,20 +166,8 @@ Plan plan_write_read(std::span<const Msg> msgs, uint64_t funcs) {
                     ": an SMBus read after a command byte returns 1 to 32 bytes, and the "
                     "adapter has no plain I2C");
     }
-    Plan p;
-    if (r.len == 1) {
-      p = choose(msgs, funcs, true,
-                 {{kFuncSmbusReadByteData, SmbusSize::kByteData},
-                  {kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    } else if (r.len == 2) {
-      p = choose(msgs, funcs, true,
-                 {{kFuncSmbusReadWordData, SmbusSize::kWordData},
-                  {kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, true, {{kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}}, &op);
-    }
+    std::array<Candidate, 3> forms;
+    Plan p = choose(msgs, funcs, true, data_forms(true, r.len, false, forms), &op);
     if (p.form == Plan::Form::kSmbus && p.op.size == SmbusSize::kI2cBlockData) {
       p.op.data[0] = static_cast<uint8_t>(r.len);
     }
