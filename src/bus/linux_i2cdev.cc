@@ -40,7 +40,7 @@ int LinuxI2cDev::transfer(std::span<Msg> msgs) {
     raw[i].flags = msgs[i].flags;
     raw[i].len = msgs[i].len;
     raw[i].buf = msgs[i].buf;
-    if (msgs[i].flags & I2C_M_RECV_LEN) {
+    if (msgs[i].flags & kMsgRecvLen) {
       // The kernel wants the extra-byte count preset in buf[0] (1 for SMBus).
       if (msgs[i].len < 1 + I2C_SMBUS_BLOCK_MAX) return EINVAL;
       msgs[i].buf[0] = 1;

@@ -10,9 +10,6 @@
 namespace contego::bus {
 namespace {
 
-constexpr uint16_t kRead = 0x0001;
-constexpr uint16_t kTen = 0x0010;
-constexpr uint16_t kRecvLen = 0x0400;
 constexpr uint16_t kBlockMax = 32;
 
 struct Candidate {
@@ -38,8 +35,8 @@ std::string describe(std::span<const Msg> msgs) {
   std::string out;
   for (const Msg& m : msgs) {
     if (!out.empty()) out += " + ";
-    out += (m.flags & kRead) ? "read " : "write ";
-    out += (m.flags & kRecvLen) ? std::string("RECV_LEN") : std::to_string(m.len);
+    out += (m.flags & kMsgRead) ? "read " : "write ";
+    out += (m.flags & kMsgRecvLen) ? std::string("RECV_LEN") : std::to_string(m.len);
   }
   return (msgs.size() == 1 ? "" : "[") + out + (msgs.size() == 1 ? "" : "]") + " at " +
          hex(msgs.empty() ? 0 : msgs[0].addr);
@@ -130,7 +127,7 @@ Plan plan_read(std::span<const Msg> msgs, uint64_t funcs) {
   SmbusOp op;
   op.addr = r.addr;
   op.read = true;
-  if (r.flags & kRecvLen) {
+  if (r.flags & kMsgRecvLen) {
     return refuse(describe(msgs) +
                   ": a count-prefixed read without a command byte has no SMBus form, and the "
                   "adapter has no plain I2C");
@@ -148,7 +145,7 @@ Plan plan_read(std::span<const Msg> msgs, uint64_t funcs) {
 Plan plan_write_read(std::span<const Msg> msgs, uint64_t funcs) {
   const Msg& w = msgs[0];
   const Msg& r = msgs[1];
-  const bool recv_len = (r.flags & kRecvLen) != 0;
+  const bool recv_len = (r.flags & kMsgRecvLen) != 0;
   SmbusOp op;
   op.addr = w.addr;
   op.reply = 1;
@@ -222,7 +219,7 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     // (I2C_FUNC_SMBUS_EMUL & ~I2C_FUNC_SMBUS_QUICK); the kernel would refuse
     // such a message only when the transfer is already under way.
     for (const Msg& m : msgs) {
-      if (m.len == 0 && !(m.flags & kRecvLen) && !(funcs & kFuncSmbusQuick)) {
+      if (m.len == 0 && !(m.flags & kMsgRecvLen) && !(funcs & kFuncSmbusQuick)) {
         return refuse(describe(msgs) +
                       ": the adapter cannot send a zero-length message (no quick command in "
                       "I2C_FUNCS " +
@@ -234,24 +231,24 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     return p;
   }
   for (const Msg& m : msgs) {
-    if (m.flags & kTen) {
+    if (m.flags & kMsgTen) {
       return refuse(describe(msgs) + ": a ten-bit address needs an adapter with plain I2C");
     }
-    if (m.flags & ~(kRead | kRecvLen)) {
+    if (m.flags & ~(kMsgRead | kMsgRecvLen)) {
       return refuse(describe(msgs) + ": message flags " + hex(m.flags, 4) +
                     " need an adapter with plain I2C");
     }
-    if ((m.flags & kRecvLen) && (!(m.flags & kRead) || m.len < 1 + kBlockMax)) {
+    if ((m.flags & kMsgRecvLen) && (!(m.flags & kMsgRead) || m.len < 1 + kBlockMax)) {
       return refuse(describe(msgs) + ": RECV_LEN only on a read of a 33-byte buffer");
     }
-    if (!(m.flags & kRead) && m.len != 0 && m.buf == nullptr) {
+    if (!(m.flags & kMsgRead) && m.len != 0 && m.buf == nullptr) {
       return refuse(describe(msgs) + ": a write without its bytes");
     }
   }
   if (msgs.size() == 1) {
-    return (msgs[0].flags & kRead) ? plan_read(msgs, funcs) : plan_write(msgs, funcs);
+    return (msgs[0].flags & kMsgRead) ? plan_read(msgs, funcs) : plan_write(msgs, funcs);
   }
-  if (msgs.size() == 2 && !(msgs[0].flags & kRead) && (msgs[1].flags & kRead) &&
+  if (msgs.size() == 2 && !(msgs[0].flags & kMsgRead) && (msgs[1].flags & kMsgRead) &&
       msgs[0].addr == msgs[1].addr) {
     return plan_write_read(msgs, funcs);
   }
