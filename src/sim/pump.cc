@@ -21,8 +21,7 @@ class Overdose : public Attack {
     const auto rate = static_cast<uint16_t>(spec().param_int("rate", 1000));
     for (auto& op : ops) {
       if (!op.is_write(task, kPumpAddr, 2)) continue;
-      if (op.op.bytes[0] == 0x01) op.op.bytes[1] = static_cast<uint8_t>(rate & 0xFF);
-      if (op.op.bytes[0] == 0x02) op.op.bytes[1] = static_cast<uint8_t>(rate >> 8);
+      op.rewrite_word(0x01, rate);
       op.injected = true;
     }
   }

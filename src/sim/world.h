@@ -48,6 +48,20 @@ struct TimedOp {
     return task == of_task && op.kind == BusOp::Kind::kWrite && op.addr == to_addr &&
            op.bytes.size() == len;
   }
+  // For a one-register write [reg, byte] of the low (`reg`) or the high
+  // (`reg + 1`) byte of a 16-bit register pair: puts that byte of `value` in
+  // it. True if the write was one of the two.
+  bool rewrite_word(uint8_t reg, uint16_t value) {
+    if (op.bytes[0] == reg) {
+      op.bytes[1] = static_cast<uint8_t>(value & 0xFF);
+      return true;
+    }
+    if (op.bytes[0] == reg + 1) {
+      op.bytes[1] = static_cast<uint8_t>(value >> 8);
+      return true;
+    }
+    return false;
+  }
 };
 
 // What a task sees of the bus: reads and writes go through the guard.
