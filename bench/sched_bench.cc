@@ -19,7 +19,6 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -69,20 +68,6 @@ std::vector<TaskSet> mixed_sets(size_t count) {
     sets.push_back(assign_priorities(s, Assignment::kDeadlineMonotonic).set);
   }
   return sets;
-}
-
-std::string json_line(const TaskSet& s) {
-  nlohmann::json j;
-  for (const Task& t : s.tasks) {
-    j["tasks"].push_back({{"name", t.name},
-                          {"wcet", std::to_string(t.wcet) + "ns"},
-                          {"period", std::to_string(t.period) + "ns"},
-                          {"deadline", std::to_string(t.deadline) + "ns"},
-                          {"priority", t.priority},
-                          {"actuations", t.actuations},
-                          {"overhead", std::to_string(t.overhead) + "ns"}});
-  }
-  return j.dump() + "\n";
 }
 
 // The plain response-time test with the full model, written here without
@@ -149,7 +134,7 @@ int compare(size_t count) {
   std::string stream;
   std::vector<std::string> lines;
   for (const TaskSet& s : sets) {
-    lines.push_back(json_line(s));
+    lines.push_back(contego::sched::to_json_line(s));
     stream += lines.back();
   }
   Analyzer analyzer;

@@ -20,6 +20,7 @@
 
 #include "contego/core/checker.h"
 
+#include "core/test_fixtures.h"
 #include "devices/codec.h"
 #include "devices/lower.h"
 #include "image/image_model.h"
@@ -69,14 +70,7 @@ const Fixture& fixture() {
       if (!id) die(id.error().c_str());
       f.profiles.push_back(e.profile);
     }
-    image::Named<core::TaskRecord> task;
-    task.name = "t";
-    task.record.period_us = 100000;
-    task.record.deadline_us = 100000;
-    task.record.wcet_us = 1000;
-    task.record.priority = 1;
-    task.record.actuations_per_job = 1;
-    f.model.tasks.push_back(task);
+    f.model.tasks.push_back(core::testing::task_rec("t", 100000, 1000, 1, 1));
     core::AccessRecord access{};
     access.actuate_devices = 0xF;
     access.read_devices = 0xF;

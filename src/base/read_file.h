@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 
 namespace contego {
 
@@ -37,14 +38,12 @@ namespace detail {
 
 // Opens `path` for reading if it is a regular file. O_NONBLOCK so that
 // opening a FIFO does not wait for a writer before it can be refused.
-inline Result<int> open_regular(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
-  if (fd < 0) return make_error(path + ": cannot open: " + std::strerror(errno));
+inline Result<base::UniqueFd> open_regular(const std::string& path) {
+  base::UniqueFd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY));
+  if (!fd.valid()) return make_error(path + ": cannot open: " + std::strerror(errno));
   struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    const std::string kind = file_kind(st.st_mode);
-    ::close(fd);
-    return make_error(path + ": is " + kind + "; expected a regular file");
+  if (::fstat(fd.get(), &st) != 0 || !S_ISREG(st.st_mode)) {
+    return make_error(path + ": is " + file_kind(st.st_mode) + "; expected a regular file");
   }
   return fd;
 }
@@ -54,36 +53,28 @@ inline Result<int> open_regular(const std::string& path) {
 // Ok when `path` names a regular file this process can open for reading;
 // otherwise a message naming the path and what it is.
 inline Status require_regular_file(const std::string& path) {
-  Result<int> fd = detail::open_regular(path);
-  if (!fd) return make_error(fd.error());
-  ::close(*fd);
+  if (Result<base::UniqueFd> fd = detail::open_regular(path); !fd) return make_error(fd.error());
   return {};
 }
 
 // The whole of a regular file of at most `max_bytes` bytes.
 inline Result<std::string> read_input_file(const std::string& path,
                                            size_t max_bytes = kMaxInputFileBytes) {
-  Result<int> fd = detail::open_regular(path);
+  Result<base::UniqueFd> fd = detail::open_regular(path);
   if (!fd) return make_error(fd.error());
   std::string text;
   char buf[65536];
   for (;;) {
-    const ssize_t n = ::read(*fd, buf, sizeof buf);
+    const ssize_t n = ::read(fd->get(), buf, sizeof buf);
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      const int e = errno;
-      ::close(*fd);
-      return make_error(path + ": read error: " + std::strerror(e));
-    }
+    if (n < 0) return make_error(path + ": read error: " + std::strerror(errno));
     if (n == 0) break;
     if (text.size() + static_cast<size_t>(n) > max_bytes) {
-      ::close(*fd);
       return make_error(path + ": larger than " + std::to_string(max_bytes) +
                         " bytes; expected a smaller file");
     }
     text.append(buf, static_cast<size_t>(n));
   }
-  ::close(*fd);
   return text;
 }
 

@@ -41,11 +41,17 @@ inline constexpr uint64_t kI2cStubFuncs =
     kFuncSmbusQuick | kFuncSmbusReadByte | kFuncSmbusWriteByte | kFuncSmbusReadByteData |
     kFuncSmbusWriteByteData | kFuncSmbusReadWordData | kFuncSmbusWriteWordData | kFuncSmbusI2cBlock;
 
+// Message flags (<linux/i2c.h> i2c_msg.flags): a read, a ten-bit address,
+// and a read whose first byte counts the bytes after it.
+inline constexpr uint16_t kMsgRead = 0x0001;     // I2C_M_RD
+inline constexpr uint16_t kMsgTen = 0x0010;      // I2C_M_TEN
+inline constexpr uint16_t kMsgRecvLen = 0x0400;  // I2C_M_RECV_LEN
+
 // One message of a combined transfer. For a read, `buf` receives up to `len`
 // bytes and `len` is updated to the number received (RECV_LEN: 1 + count).
 struct Msg {
   uint16_t addr = 0;
-  uint16_t flags = 0;  // 0x0001 read, 0x0010 ten-bit, 0x0400 RECV_LEN
+  uint16_t flags = 0;  // kMsgRead, kMsgTen, kMsgRecvLen
   uint16_t len = 0;
   uint8_t* buf = nullptr;
 };

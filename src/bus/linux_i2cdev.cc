@@ -16,18 +16,17 @@
 namespace contego::bus {
 
 Result<std::unique_ptr<LinuxI2cDev>> LinuxI2cDev::open(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDWR | O_CLOEXEC);
-  if (fd < 0) return make_error("cannot open " + path + ": " + std::strerror(errno));
+  base::UniqueFd fd(::open(path.c_str(), O_RDWR | O_CLOEXEC));
+  if (!fd.valid()) return make_error("cannot open " + path + ": " + std::strerror(errno));
   unsigned long funcs = 0;
-  if (::ioctl(fd, I2C_FUNCS, &funcs) != 0) {
-    const int e = errno;
-    ::close(fd);
-    return make_error(path + " is not an i2c-dev adapter (I2C_FUNCS: " + std::strerror(e) + ")");
+  if (::ioctl(fd.get(), I2C_FUNCS, &funcs) != 0) {
+    return make_error(path + " is not an i2c-dev adapter (I2C_FUNCS: " + std::strerror(errno) +
+                      ")");
   }
-  return std::unique_ptr<LinuxI2cDev>(new LinuxI2cDev(fd, funcs));
+  return std::unique_ptr<LinuxI2cDev>(new LinuxI2cDev(std::move(fd), funcs));
 }
 
-LinuxI2cDev::~LinuxI2cDev() { ::close(fd_); }
+LinuxI2cDev::~LinuxI2cDev() = default;
 
 int LinuxI2cDev::transfer(std::span<Msg> msgs) {
   if (msgs.empty() || msgs.size() > I2C_RDWR_IOCTL_MAX_MSGS) return EINVAL;
@@ -40,7 +39,7 @@ int LinuxI2cDev::transfer(std::span<Msg> msgs) {
     raw[i].flags = msgs[i].flags;
     raw[i].len = msgs[i].len;
     raw[i].buf = msgs[i].buf;
-    if (msgs[i].flags & I2C_M_RECV_LEN) {
+    if (msgs[i].flags & kMsgRecvLen) {
       // The kernel wants the extra-byte count preset in buf[0] (1 for SMBus).
       if (msgs[i].len < 1 + I2C_SMBUS_BLOCK_MAX) return EINVAL;
       msgs[i].buf[0] = 1;
@@ -48,7 +47,7 @@ int LinuxI2cDev::transfer(std::span<Msg> msgs) {
   }
   i2c_rdwr_ioctl_data arg{raw.data(), static_cast<uint32_t>(raw.size())};
   std::lock_guard lock(mu_);
-  if (::ioctl(fd_, I2C_RDWR, &arg) < 0) return errno;
+  if (::ioctl(fd_.get(), I2C_RDWR, &arg) < 0) return errno;
   for (size_t i = 0; i < msgs.size(); ++i) msgs[i].len = raw[i].len;
   return 0;
 }
@@ -77,8 +76,8 @@ int LinuxI2cDev::smbus(const SmbusOp& op, std::span<Msg> msgs) {
     std::lock_guard lock(mu_);
     // The monitor owns the adapter: FORCE, so a kernel driver bound to the
     // address does not make the transfer fail differently from I2C_RDWR.
-    if (::ioctl(fd_, I2C_SLAVE_FORCE, static_cast<unsigned long>(op.addr)) < 0) return errno;
-    if (::ioctl(fd_, I2C_SMBUS, &arg) < 0) return errno;
+    if (::ioctl(fd_.get(), I2C_SLAVE_FORCE, static_cast<unsigned long>(op.addr)) < 0) return errno;
+    if (::ioctl(fd_.get(), I2C_SMBUS, &arg) < 0) return errno;
   }
   std::array<uint8_t, 34> out{};
   switch (op.size) {
@@ -101,11 +100,11 @@ int LinuxI2cDev::smbus(const SmbusOp& op, std::span<Msg> msgs) {
 int LinuxI2cDev::quick(uint16_t addr, bool read) {
   if (!(funcs_ & kFuncSmbusQuick)) return EOPNOTSUPP;
   std::lock_guard lock(mu_);
-  if (::ioctl(fd_, I2C_SLAVE_FORCE, static_cast<unsigned long>(addr)) < 0) return errno;
+  if (::ioctl(fd_.get(), I2C_SLAVE_FORCE, static_cast<unsigned long>(addr)) < 0) return errno;
   i2c_smbus_ioctl_data arg{};
   arg.read_write = read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE;
   arg.size = I2C_SMBUS_QUICK;
-  if (::ioctl(fd_, I2C_SMBUS, &arg) < 0) return errno;
+  if (::ioctl(fd_.get(), I2C_SMBUS, &arg) < 0) return errno;
   return 0;
 }
 

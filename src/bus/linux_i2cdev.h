@@ -13,6 +13,7 @@
 #include <string>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 #include "bus/bus.h"
 #include "bus/smbus_plan.h"
 
@@ -30,10 +31,10 @@ class LinuxI2cDev final : public Bus {
   int quick(uint16_t addr, bool read) override;
 
  private:
-  LinuxI2cDev(int fd, uint64_t funcs) : fd_(fd), funcs_(funcs) {}
+  LinuxI2cDev(base::UniqueFd fd, uint64_t funcs) : fd_(std::move(fd)), funcs_(funcs) {}
   int smbus(const SmbusOp& op, std::span<Msg> msgs);
   std::mutex mu_;
-  int fd_;
+  base::UniqueFd fd_;
   uint64_t funcs_;
 };
 

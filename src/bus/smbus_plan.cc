@@ -3,15 +3,13 @@
 #include <errno.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 #include <initializer_list>
 
 namespace contego::bus {
 namespace {
 
-constexpr uint16_t kRead = 0x0001;
-constexpr uint16_t kTen = 0x0010;
-constexpr uint16_t kRecvLen = 0x0400;
 constexpr uint16_t kBlockMax = 32;
 
 struct Candidate {
@@ -37,8 +35,8 @@ std::string describe(std::span<const Msg> msgs) {
   std::string out;
   for (const Msg& m : msgs) {
     if (!out.empty()) out += " + ";
-    out += (m.flags & kRead) ? "read " : "write ";
-    out += (m.flags & kRecvLen) ? std::string("RECV_LEN") : std::to_string(m.len);
+    out += (m.flags & kMsgRead) ? "read " : "write ";
+    out += (m.flags & kMsgRecvLen) ? std::string("RECV_LEN") : std::to_string(m.len);
   }
   return (msgs.size() == 1 ? "" : "[") + out + (msgs.size() == 1 ? "" : "]") + " at " +
          hex(msgs.empty() ? 0 : msgs[0].addr);
@@ -46,7 +44,7 @@ std::string describe(std::span<const Msg> msgs) {
 
 // The first candidate the adapter supports, or a refusal naming them all.
 Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
-            std::initializer_list<Candidate> candidates, SmbusOp* op) {
+            std::span<const Candidate> candidates, SmbusOp* op) {
   for (const Candidate& c : candidates) {
     if (funcs & c.func) {
       Plan p;
@@ -66,6 +64,27 @@ Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
                 ")");
 }
 
+Plan choose(std::span<const Msg> msgs, uint64_t funcs, bool read,
+            std::initializer_list<Candidate> candidates, SmbusOp* op) {
+  return choose(msgs, funcs, read, std::span(candidates.begin(), candidates.size()), op);
+}
+
+// The forms that carry `len` data bytes after the command byte, preferred
+// first: byte or word data (1 or 2 bytes), the I2C block, then the SMBus
+// block if `counted` (a write whose byte 1 counts the bytes after it).
+std::span<const Candidate> data_forms(bool read, size_t len, bool counted,
+                                      std::array<Candidate, 3>& out) {
+  size_t k = 0;
+  if (len == 1) {
+    out[k++] = {read ? kFuncSmbusReadByteData : kFuncSmbusWriteByteData, SmbusSize::kByteData};
+  } else if (len == 2) {
+    out[k++] = {read ? kFuncSmbusReadWordData : kFuncSmbusWriteWordData, SmbusSize::kWordData};
+  }
+  out[k++] = {read ? kFuncSmbusReadI2cBlock : kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData};
+  if (counted) out[k++] = {kFuncSmbusWriteBlock, SmbusSize::kBlockData};
+  return std::span<const Candidate>(out.data(), k);
+}
+
 Plan plan_write(std::span<const Msg> msgs, uint64_t funcs) {
   const Msg& m = msgs[0];
   const uint8_t* b = m.buf;
@@ -79,36 +98,10 @@ Plan plan_write(std::span<const Msg> msgs, uint64_t funcs) {
   // byte 1 is the number of bytes after it (1..32).
   const bool counted = b[1] == n - 2 && n - 2 >= 1 && n - 2 <= kBlockMax;
   Plan p;
-  if (n == 2) {
-    op.data[0] = b[1];
-    p = choose(msgs, funcs, false,
-               {{kFuncSmbusWriteByteData, SmbusSize::kByteData},
-                {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}},
-               &op);
-  } else if (n == 3) {
-    op.data[0] = b[1];
-    op.data[1] = b[2];
-    if (counted) {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteWordData, SmbusSize::kWordData},
-                  {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData},
-                  {kFuncSmbusWriteBlock, SmbusSize::kBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteWordData, SmbusSize::kWordData},
-                  {kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    }
-  } else if (n <= 1 + kBlockMax) {
-    if (counted) {
-      p = choose(msgs, funcs, false,
-                 {{kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData},
-                  {kFuncSmbusWriteBlock, SmbusSize::kBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, false, {{kFuncSmbusWriteI2cBlock, SmbusSize::kI2cBlockData}}, &op);
-    }
+  if (n <= 1 + kBlockMax) {
+    if (n <= 3) std::copy_n(b + 1, n - 1, op.data.begin());  // byte or word data
+    std::array<Candidate, 3> forms;
+    p = choose(msgs, funcs, false, data_forms(false, n - 1u, counted, forms), &op);
   } else if (n == 2 + kBlockMax && counted) {
     p = choose(msgs, funcs, false, {{kFuncSmbusWriteBlock, SmbusSize::kBlockData}}, &op);
   } else {
@@ -134,7 +127,7 @@ Plan plan_read(std::span<const Msg> msgs, uint64_t funcs) {
   SmbusOp op;
   op.addr = r.addr;
   op.read = true;
-  if (r.flags & kRecvLen) {
+  if (r.flags & kMsgRecvLen) {
     return refuse(describe(msgs) +
                   ": a count-prefixed read without a command byte has no SMBus form, and the "
                   "adapter has no plain I2C");
@@ -152,7 +145,7 @@ Plan plan_read(std::span<const Msg> msgs, uint64_t funcs) {
 Plan plan_write_read(std::span<const Msg> msgs, uint64_t funcs) {
   const Msg& w = msgs[0];
   const Msg& r = msgs[1];
-  const bool recv_len = (r.flags & kRecvLen) != 0;
+  const bool recv_len = (r.flags & kMsgRecvLen) != 0;
   SmbusOp op;
   op.addr = w.addr;
   op.reply = 1;
@@ -170,20 +163,8 @@ Plan plan_write_read(std::span<const Msg> msgs, uint64_t funcs) {
                     ": an SMBus read after a command byte returns 1 to 32 bytes, and the "
                     "adapter has no plain I2C");
     }
-    Plan p;
-    if (r.len == 1) {
-      p = choose(msgs, funcs, true,
-                 {{kFuncSmbusReadByteData, SmbusSize::kByteData},
-                  {kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    } else if (r.len == 2) {
-      p = choose(msgs, funcs, true,
-                 {{kFuncSmbusReadWordData, SmbusSize::kWordData},
-                  {kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}},
-                 &op);
-    } else {
-      p = choose(msgs, funcs, true, {{kFuncSmbusReadI2cBlock, SmbusSize::kI2cBlockData}}, &op);
-    }
+    std::array<Candidate, 3> forms;
+    Plan p = choose(msgs, funcs, true, data_forms(true, r.len, false, forms), &op);
     if (p.form == Plan::Form::kSmbus && p.op.size == SmbusSize::kI2cBlockData) {
       p.op.data[0] = static_cast<uint8_t>(r.len);
     }
@@ -238,7 +219,7 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     // (I2C_FUNC_SMBUS_EMUL & ~I2C_FUNC_SMBUS_QUICK); the kernel would refuse
     // such a message only when the transfer is already under way.
     for (const Msg& m : msgs) {
-      if (m.len == 0 && !(m.flags & kRecvLen) && !(funcs & kFuncSmbusQuick)) {
+      if (m.len == 0 && !(m.flags & kMsgRecvLen) && !(funcs & kFuncSmbusQuick)) {
         return refuse(describe(msgs) +
                       ": the adapter cannot send a zero-length message (no quick command in "
                       "I2C_FUNCS " +
@@ -250,24 +231,24 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     return p;
   }
   for (const Msg& m : msgs) {
-    if (m.flags & kTen) {
+    if (m.flags & kMsgTen) {
       return refuse(describe(msgs) + ": a ten-bit address needs an adapter with plain I2C");
     }
-    if (m.flags & ~(kRead | kRecvLen)) {
+    if (m.flags & ~(kMsgRead | kMsgRecvLen)) {
       return refuse(describe(msgs) + ": message flags " + hex(m.flags, 4) +
                     " need an adapter with plain I2C");
     }
-    if ((m.flags & kRecvLen) && (!(m.flags & kRead) || m.len < 1 + kBlockMax)) {
+    if ((m.flags & kMsgRecvLen) && (!(m.flags & kMsgRead) || m.len < 1 + kBlockMax)) {
       return refuse(describe(msgs) + ": RECV_LEN only on a read of a 33-byte buffer");
     }
-    if (!(m.flags & kRead) && m.len != 0 && m.buf == nullptr) {
+    if (!(m.flags & kMsgRead) && m.len != 0 && m.buf == nullptr) {
       return refuse(describe(msgs) + ": a write without its bytes");
     }
   }
   if (msgs.size() == 1) {
-    return (msgs[0].flags & kRead) ? plan_read(msgs, funcs) : plan_write(msgs, funcs);
+    return (msgs[0].flags & kMsgRead) ? plan_read(msgs, funcs) : plan_write(msgs, funcs);
   }
-  if (msgs.size() == 2 && !(msgs[0].flags & kRead) && (msgs[1].flags & kRead) &&
+  if (msgs.size() == 2 && !(msgs[0].flags & kMsgRead) && (msgs[1].flags & kMsgRead) &&
       msgs[0].addr == msgs[1].addr) {
     return plan_write_read(msgs, funcs);
   }

@@ -25,10 +25,6 @@
 namespace contego::bus {
 namespace {
 
-constexpr uint16_t kRd = 0x0001;
-constexpr uint16_t kTen = 0x0010;
-constexpr uint16_t kRecvLen = 0x0400;
-
 constexpr uint64_t kAllSmbus = kFuncSmbusQuick | kFuncSmbusAllByteWord | kFuncSmbusReadBlock |
                                kFuncSmbusWriteBlock | kFuncSmbusI2cBlock | kFuncSmbusBlockProcCall;
 
@@ -55,10 +51,10 @@ struct Xfer {
   }
   Xfer& read(uint16_t len, uint16_t addr = 0x40, uint16_t flags = 0) {
     bufs.emplace_back(std::max<uint16_t>(len, 1), 0);
-    msgs.push_back({addr, static_cast<uint16_t>(flags | kRd), len, nullptr});
+    msgs.push_back({addr, static_cast<uint16_t>(flags | kMsgRead), len, nullptr});
     return fix();
   }
-  Xfer& block_read(uint16_t addr = 0x40) { return read(33, addr, kRecvLen); }
+  Xfer& block_read(uint16_t addr = 0x40) { return read(33, addr, kMsgRecvLen); }
   Xfer& fix() {
     for (size_t i = 0; i < msgs.size(); ++i) msgs[i].buf = bufs[i].data();
     return *this;
@@ -72,7 +68,15 @@ std::vector<uint8_t> seq(size_t n, uint8_t first = 0x10) {
   return v;
 }
 
+// seq(n) shaped as a block: [command, count, data...] with byte 1 = `count`.
+std::vector<uint8_t> counted(size_t n, uint8_t count, uint8_t first = 0x10) {
+  auto v = seq(n, first);
+  v[1] = count;
+  return v;
+}
+
 // The constants are the kernel's.
+static_assert(kMsgRead == I2C_M_RD && kMsgTen == I2C_M_TEN && kMsgRecvLen == I2C_M_RECV_LEN);
 static_assert(kFuncI2c == I2C_FUNC_I2C && kFunc10BitAddr == I2C_FUNC_10BIT_ADDR);
 static_assert(kFuncSmbusQuick == I2C_FUNC_SMBUS_QUICK &&
               kFuncSmbusReadByte == I2C_FUNC_SMBUS_READ_BYTE &&
@@ -115,10 +119,10 @@ using Wire = std::vector<Segment>;
 std::optional<Wire> wire_of_msgs(std::span<const Msg> msgs) {
   Wire w;
   for (const Msg& m : msgs) {
-    if (m.flags & ~(kRd | kRecvLen)) return std::nullopt;  // not an SMBus frame at all
-    Segment s{m.addr, (m.flags & kRd) != 0, {}, 0};
+    if (m.flags & ~(kMsgRead | kMsgRecvLen)) return std::nullopt;  // not an SMBus frame at all
+    Segment s{m.addr, (m.flags & kMsgRead) != 0, {}, 0};
     if (s.read) {
-      s.read_len = (m.flags & kRecvLen) ? -1 : m.len;
+      s.read_len = (m.flags & kMsgRecvLen) ? -1 : m.len;
     } else {
       s.written.assign(m.buf, m.buf + m.len);
     }
@@ -206,8 +210,8 @@ std::vector<SmbusOp> oracle(std::span<const Msg> msgs) {
   const auto want = wire_of_msgs(msgs);
   if (!want || msgs.empty()) return out;
   std::vector<uint8_t> bytes;
-  if (!(msgs[0].flags & kRd)) bytes.assign(msgs[0].buf, msgs[0].buf + msgs[0].len);
-  const int reply = (msgs.back().flags & kRd) ? static_cast<int>(msgs.size()) - 1 : -1;
+  if (!(msgs[0].flags & kMsgRead)) bytes.assign(msgs[0].buf, msgs[0].buf + msgs[0].len);
+  const int reply = (msgs.back().flags & kMsgRead) ? static_cast<int>(msgs.size()) - 1 : -1;
   for (SmbusSize size : {SmbusSize::kQuick, SmbusSize::kByte, SmbusSize::kByteData,
                          SmbusSize::kWordData, SmbusSize::kProcCall, SmbusSize::kBlockData,
                          SmbusSize::kBlockProcCall, SmbusSize::kI2cBlockData}) {
@@ -279,12 +283,8 @@ TEST(SmbusPlan, EveryMappingOnAFullSmbusAdapter) {
       {"write word data", Xfer().write({0x06, 0x34, 0x12}), f, SmbusSize::kWordData, false},
       {"I2C block write 3", Xfer().write(seq(4)), f, SmbusSize::kI2cBlockData, false},
       {"I2C block write 32", Xfer().write(seq(33)), f, SmbusSize::kI2cBlockData, false},
-      {"SMBus block write of 32 (34 bytes)", Xfer().write([] {
-         auto v = seq(34);
-         v[1] = 32;
-         return v;
-       }()),
-       f, SmbusSize::kBlockData, false},
+      {"SMBus block write of 32 (34 bytes)", Xfer().write(counted(34, 32)), f,
+       SmbusSize::kBlockData, false},
       {"read byte data", Xfer().write({0x05}).read(1), f, SmbusSize::kByteData, true},
       {"read word data", Xfer().write({0x05}).read(2), f, SmbusSize::kWordData, true},
       {"I2C block read 3", Xfer().write({0x05}).read(3), f, SmbusSize::kI2cBlockData, true},
@@ -293,15 +293,8 @@ TEST(SmbusPlan, EveryMappingOnAFullSmbusAdapter) {
       {"process call", Xfer().write({0x05, 0x34, 0x12}).read(2), f, SmbusSize::kProcCall, false},
       {"block process call", Xfer().write({0x05, 2, 0xAA, 0xBB}).block_read(), f,
        SmbusSize::kBlockProcCall, false},
-      {"block process call of 32",
-       Xfer()
-           .write([] {
-             auto v = seq(34);
-             v[1] = 32;
-             return v;
-           }())
-           .block_read(),
-       f, SmbusSize::kBlockProcCall, false},
+      {"block process call of 32", Xfer().write(counted(34, 32)).block_read(), f,
+       SmbusSize::kBlockProcCall, false},
       {"general call send byte (reset)", Xfer().write({0x06}, 0x00), f, SmbusSize::kByte, false},
   };
   for (const Row& row : rows) expect_row(row);
@@ -363,12 +356,7 @@ TEST(SmbusPlan, LengthEdges) {
   const Row rows[] = {
       {"write 33 = I2C block of 32", Xfer().write(seq(33)), f, SmbusSize::kI2cBlockData, false},
       {"write 34 not counted", Xfer().write(seq(34)), f, std::nullopt},
-      {"write 35 counted 33", Xfer().write([] {
-         auto v = seq(35);
-         v[1] = 33;
-         return v;
-       }()),
-       f, std::nullopt},
+      {"write 35 counted 33", Xfer().write(counted(35, 33)), f, std::nullopt},
       {"write 2 with count 0 is byte data, never a block", Xfer().write({0x06, 0x00}),
        kFuncSmbusWriteBlock, std::nullopt},
       {"read 2 without register", Xfer().read(2), f, std::nullopt},
@@ -384,15 +372,7 @@ TEST(SmbusPlan, LengthEdges) {
       {"block proc call with count 0", Xfer().write({0x05, 0}).block_read(), f, std::nullopt},
       {"block proc call count mismatch", Xfer().write({0x05, 3, 1, 2}).block_read(), f,
        std::nullopt},
-      {"block proc call of 33",
-       Xfer()
-           .write([] {
-             auto v = seq(35);
-             v[1] = 33;
-             return v;
-           }())
-           .block_read(),
-       f, std::nullopt},
+      {"block proc call of 33", Xfer().write(counted(35, 33)).block_read(), f, std::nullopt},
       {"[c 1 d] + RECV_LEN is a block process call of one byte",
        Xfer().write({0x05, 1, 2}).block_read(), f, SmbusSize::kBlockProcCall, false},
       {"[c lo hi] + RECV_LEN is not a process call", Xfer().write({0x05, 7, 2}).block_read(), f,
@@ -409,12 +389,14 @@ TEST(SmbusPlan, ShapesWithNoSmbusForm) {
       {"write + read to another address", Xfer().write({0x05}).read(1, 0x41), f, std::nullopt},
       {"register + two reads", Xfer().write({0x05}).read(1).read(1), f, std::nullopt},
       {"smuggled write", Xfer().write({0x05}).read(1).write({0x00, 0x10}), f, std::nullopt},
-      {"ten-bit write", Xfer().write({0x00, 0x21}, 0x123, kTen), f | kFunc10BitAddr, std::nullopt},
-      {"ten-bit read", Xfer().write({0x00}, 0x123, kTen).read(1, 0x123, kTen), f | kFunc10BitAddr,
+      {"ten-bit write", Xfer().write({0x00, 0x21}, 0x123, kMsgTen), f | kFunc10BitAddr,
        std::nullopt},
+      {"ten-bit read", Xfer().write({0x00}, 0x123, kMsgTen).read(1, 0x123, kMsgTen),
+       f | kFunc10BitAddr, std::nullopt},
       {"IGNORE_NAK", Xfer().write({0x00, 0x21}, 0x40, 0x1000), f, std::nullopt},
       {"NOSTART", Xfer().write({0x00}).write({0x21}, 0x40, 0x4000), f, std::nullopt},
-      {"RECV_LEN in a short buffer", Xfer().write({0x05}).read(8, 0x40, kRecvLen), f, std::nullopt},
+      {"RECV_LEN in a short buffer", Xfer().write({0x05}).read(8, 0x40, kMsgRecvLen), f,
+       std::nullopt},
   };
   for (const Row& row : rows) expect_row(row);
 }
@@ -423,7 +405,7 @@ TEST(SmbusPlan, PlainI2cAdaptersGetEveryTransferAsIs) {
   const uint64_t f = kFuncI2c | kFuncSmbusQuick | kAllSmbus;
   for (const Xfer& x :
        {Xfer().write(seq(200)), Xfer().write({1}).write({2}).read(40), Xfer().read(5),
-        Xfer().write({0}, 0x123, kTen).read(2, 0x123, kTen), Xfer().write({})}) {
+        Xfer().write({0}, 0x123, kMsgTen).read(2, 0x123, kMsgTen), Xfer().write({})}) {
     EXPECT_EQ(x.plan(f).form, Plan::Form::kI2c);
   }
   // ... except a zero-length message where the driver says it cannot send one.
@@ -478,9 +460,7 @@ std::vector<Xfer> shapes() {
   for (size_t n = 0; n <= 36; ++n) {
     out.push_back(Xfer().write(seq(n, 0x80)));  // never count-shaped (byte 1 >= 0x81)
     if (n >= 2) {
-      auto v = seq(n, 0x80);
-      v[1] = static_cast<uint8_t>(n - 2);  // count-shaped
-      out.push_back(Xfer().write(v));
+      out.push_back(Xfer().write(counted(n, static_cast<uint8_t>(n - 2), 0x80)));
     }
   }
   for (int n : {0, 1, 2, 3, 31, 32, 33, 34}) out.push_back(Xfer().read(static_cast<uint16_t>(n)));
@@ -499,7 +479,7 @@ std::vector<Xfer> shapes() {
   out.push_back(Xfer().write({1}).write({2}));
   out.push_back(Xfer().read(1).read(1));
   out.push_back(Xfer().write({1}).read(1).read(1));
-  out.push_back(Xfer().write({1, 2}, 0x123, kTen));
+  out.push_back(Xfer().write({1, 2}, 0x123, kMsgTen));
   out.push_back(Xfer().read(1, 0x40, 0x0800));
   return out;
 }

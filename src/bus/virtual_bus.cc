@@ -25,8 +25,8 @@ int VirtualBus::transfer(std::span<Msg> msgs) {
   std::lock_guard lock(mu_);
   ++operations_;
   for (Msg& m : msgs) {
-    const bool read = (m.flags & 0x0001) != 0;
-    if ((m.flags & 0x0010) != 0) return ENXIO;  // no ten-bit devices on the virtual bus
+    const bool read = (m.flags & kMsgRead) != 0;
+    if ((m.flags & kMsgTen) != 0) return ENXIO;  // no ten-bit devices on the virtual bus
     if (m.addr == 0 && !read) {
       if (devices_.empty()) return ENXIO;
       for (const auto& d : devices_) d->general_call({m.buf, m.len});
@@ -36,7 +36,7 @@ int VirtualBus::transfer(std::span<Msg> msgs) {
     if (d == nullptr) return ENXIO;
     if (!read) {
       d->write(m.addr, {m.buf, m.len});
-    } else if ((m.flags & 0x0400) != 0) {  // RECV_LEN: the first byte says how many follow
+    } else if ((m.flags & kMsgRecvLen) != 0) {  // RECV_LEN: the first byte says how many follow
       if (m.len < 1) return EINVAL;
       d->read(m.addr, {m.buf, 1});
       const uint16_t count = m.buf[0];

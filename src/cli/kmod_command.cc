@@ -23,6 +23,7 @@
 #include <sys/sysmacros.h>
 
 #include "base/read_file.h"
+#include "base/unique_fd.h"
 #include "cli/audit_args.h"
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
@@ -143,8 +144,8 @@ int load(const std::string& device, const std::string& policy, const std::string
     fmt::print(stderr, "contego kmod: more than {} bindings\n", CONTEGO_KMOD_MAX_BINDS);
     return 2;
   }
-  const int fd = ::open(device.c_str(), O_RDWR | O_CLOEXEC);
-  if (fd < 0) {
+  const base::UniqueFd fd(::open(device.c_str(), O_RDWR | O_CLOEXEC));
+  if (!fd.valid()) {
     fmt::print(stderr, "contego kmod: {}: {} (is contego.ko loaded?)\n", device,
                std::strerror(errno));
     return 2;
@@ -154,9 +155,8 @@ int load(const std::string& device, const std::string& policy, const std::string
   req.size = static_cast<uint32_t>(image.size());
   req.nbinds = static_cast<uint32_t>(table.size());
   req.binds = reinterpret_cast<uintptr_t>(table.data());
-  const int rc = ::ioctl(fd, CONTEGO_KMOD_LOAD, &req);
+  const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_LOAD, &req);
   const int err = errno;
-  ::close(fd);
   if (rc != 0) {
     if (req.status != 0) {
       fmt::print(stderr,
@@ -174,14 +174,13 @@ int load(const std::string& device, const std::string& policy, const std::string
 }
 
 int stats(const std::string& device) {
-  const int fd = ::open(device.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) {
+  const base::UniqueFd fd(::open(device.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd.valid()) {
     fmt::print(stderr, "contego kmod: {}: {}\n", device, std::strerror(errno));
     return 2;
   }
   contego_kmod_stats s{};
-  const int rc = ::ioctl(fd, CONTEGO_KMOD_STATS, &s);
-  ::close(fd);
+  const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_STATS, &s);
   if (rc != 0) {
     fmt::print(stderr, "contego kmod: stats: {}\n", std::strerror(errno));
     return 2;

@@ -90,6 +90,19 @@ inline void add_invariant(ImageModel& m, const char* name, uint16_t device, cons
   m.invariants.push_back(v);
 }
 
+// A task with D = T = `period_us`.
+inline Named<TaskRecord> task_rec(const char* name, uint32_t period_us, uint32_t wcet_us,
+                                  uint16_t priority, uint16_t actuations_per_job) {
+  Named<TaskRecord> t;
+  t.name = name;
+  t.record.period_us = period_us;
+  t.record.deadline_us = period_us;
+  t.record.wcet_us = wcet_us;
+  t.record.priority = priority;
+  t.record.actuations_per_job = actuations_per_job;
+  return t;
+}
+
 inline FieldRecord field_rec(uint8_t offset, uint8_t nbytes, uint8_t width, uint8_t flags = 0,
                              uint8_t shift = 0) {
   return FieldRecord{offset, nbytes, shift, width, flags, {0, 0, 0}, 0};
@@ -160,14 +173,7 @@ inline Prog expect_when(Op compare, int32_t threshold, uint16_t expected) {
 inline ImageModel model() {
   ImageModel m;
   auto task = [&](const char* name, uint32_t period, uint16_t prio) {
-    Named<TaskRecord> t;
-    t.name = name;
-    t.record.period_us = period;
-    t.record.deadline_us = period;
-    t.record.wcet_us = period / 5;
-    t.record.priority = prio;
-    t.record.actuations_per_job = 3;
-    m.tasks.push_back(t);
+    m.tasks.push_back(task_rec(name, period, period / 5, prio, 3));
   };
   task("follower", 200000, 2);
   task("logger", 100000, 1);

@@ -53,16 +53,12 @@ CommandSpec frame_command(std::string name, uint8_t opcode, CommandClass cls, st
 CommandSpec register_command(std::string name, uint8_t base, uint8_t group_len, uint8_t repeat,
                              uint8_t stride, CommandClass cls, std::vector<FieldSpec> fields,
                              std::string doc) {
-  CommandSpec c;
-  c.group = name;
-  c.name = std::move(name);
-  c.command_class = cls;
-  c.match = base;
+  std::string group = name;  // a register command is its own group
+  CommandSpec c = frame_command(std::move(name), base, cls, std::move(group), std::move(fields),
+                                std::move(doc));
   c.group_len = group_len;
   c.repeat = repeat;
   c.stride = stride;
-  c.fields = std::move(fields);
-  c.doc = std::move(doc);
   return c;
 }
 

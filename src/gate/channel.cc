@@ -49,44 +49,36 @@ Result<uint8_t*> map(int fd) {
 }  // namespace
 
 Result<std::unique_ptr<Channel>> Channel::create(int socket_fd, SpinPolicy policy) {
-  const int fd = memfd_create("contego-channel", MFD_CLOEXEC | MFD_ALLOW_SEALING);
-  if (fd < 0) return make_error(std::string("memfd_create: ") + strerror(errno));
-  if (ftruncate(fd, static_cast<off_t>(kSize)) != 0 || fcntl(fd, F_ADD_SEALS, kSeals) != 0) {
-    const int e = errno;
-    close(fd);
-    return make_error(std::string("cannot size and seal the channel: ") + strerror(e));
+  base::UniqueFd fd(memfd_create("contego-channel", MFD_CLOEXEC | MFD_ALLOW_SEALING));
+  if (!fd.valid()) return make_error(std::string("memfd_create: ") + strerror(errno));
+  if (ftruncate(fd.get(), static_cast<off_t>(kSize)) != 0 ||
+      fcntl(fd.get(), F_ADD_SEALS, kSeals) != 0) {
+    return make_error(std::string("cannot size and seal the channel: ") + strerror(errno));
   }
-  auto base = map(fd);
-  if (!base) {
-    close(fd);
-    return make_error(base.error());
-  }
+  auto base = map(fd.get());
+  if (!base) return make_error(base.error());
   new (*base) ChannelControl{};  // the file is zero-filled; make the atomics' lifetime explicit
-  return std::unique_ptr<Channel>(new Channel(fd, socket_fd, *base, policy));
+  return std::unique_ptr<Channel>(new Channel(std::move(fd), socket_fd, *base, policy));
 }
 
 Result<std::unique_ptr<Channel>> Channel::attach(int memfd, int socket_fd, SpinPolicy policy) {
+  base::UniqueFd owned(memfd);
   struct stat st {};
   const int seals = fcntl(memfd, F_GET_SEALS);
   if (fstat(memfd, &st) != 0 || static_cast<size_t>(st.st_size) != kSize || seals < 0 ||
       (static_cast<unsigned>(seals) & kSeals) != kSeals) {
-    close(memfd);
     return make_error("the monitor's channel has the wrong size or is not sealed");
   }
   auto base = map(memfd);
-  if (!base) {
-    close(memfd);
-    return make_error(base.error());
-  }
-  auto c = std::unique_ptr<Channel>(new Channel(memfd, socket_fd, *base, policy));
+  if (!base) return make_error(base.error());
+  auto c = std::unique_ptr<Channel>(new Channel(std::move(owned), socket_fd, *base, policy));
   // Resume the numbering the monitor has seen (a fresh channel: zero).
   c->last_seq_ = c->control().request_seq.load(std::memory_order_acquire);
   return c;
 }
 
 Channel::~Channel() {
-  munmap(base_, kSize);
-  close(memfd_);
+  munmap(base_, kSize);  // memfd_ closes after this
 }
 
 bool Channel::peer_connected() {
@@ -256,29 +248,28 @@ std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t
   do {
     n = recvmsg(fd, &msg, MSG_WAITALL | MSG_CMSG_CLOEXEC);
   } while (n < 0 && errno == EINTR);
+  base::UniqueFd passed;  // closed on every failure below
   for (cmsghdr* h = CMSG_FIRSTHDR(&msg); h != nullptr; h = CMSG_NXTHDR(&msg, h)) {
     if (h->cmsg_level == SOL_SOCKET && h->cmsg_type == SCM_RIGHTS &&
         h->cmsg_len == CMSG_LEN(sizeof(int))) {
-      std::memcpy(passed_fd, CMSG_DATA(h), sizeof *passed_fd);
+      int got;
+      std::memcpy(&got, CMSG_DATA(h), sizeof got);
+      passed.reset(got);
     }
   }
-  auto fail = [&](std::string why) {
-    if (*passed_fd >= 0) close(*passed_fd);
-    *passed_fd = -1;
-    return why;
-  };
-  if (n == 0) return fail("closed");
-  if (n != static_cast<ssize_t>(sizeof raw)) return fail("truncated header");
-  if (msg.msg_flags & MSG_CTRUNC) return fail("descriptor truncated");
-  if (std::string why = wire::decode_header(raw, header); !why.empty()) return fail(why);
+  if (n == 0) return "closed";
+  if (n != static_cast<ssize_t>(sizeof raw)) return "truncated header";
+  if (msg.msg_flags & MSG_CTRUNC) return "descriptor truncated";
+  if (std::string why = wire::decode_header(raw, header); !why.empty()) return why;
   payload->resize(header->length);
   size_t off = 0;
   while (off < header->length) {
     const ssize_t m = recv(fd, payload->data() + off, header->length - off, 0);
     if (m < 0 && errno == EINTR) continue;
-    if (m <= 0) return fail("truncated payload");
+    if (m <= 0) return "truncated payload";
     off += static_cast<size_t>(m);
   }
+  *passed_fd = passed.release();
   return {};
 }
 

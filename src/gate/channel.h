@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 #include "gate/wire.h"
 
 namespace contego::gate {
@@ -87,7 +88,7 @@ class Channel {
   Channel(const Channel&) = delete;
   Channel& operator=(const Channel&) = delete;
 
-  int memfd() const { return memfd_; }
+  int memfd() const { return memfd_.get(); }
 
   // --- client ---
   // Waits until the previous request was answered, then writes this one.
@@ -110,8 +111,8 @@ class Channel {
   void answer(uint8_t type, std::span<const uint8_t> payload);
 
  private:
-  Channel(int memfd, int socket_fd, uint8_t* base, SpinPolicy policy)
-      : memfd_(memfd), socket_fd_(socket_fd), base_(base), policy_(policy) {}
+  Channel(base::UniqueFd memfd, int socket_fd, uint8_t* base, SpinPolicy policy)
+      : memfd_(std::move(memfd)), socket_fd_(socket_fd), base_(base), policy_(policy) {}
   ChannelControl& control() { return *reinterpret_cast<ChannelControl*>(base_); }
   uint8_t* request_slot() { return base_ + kControlSize; }
   uint8_t* reply_slot() { return base_ + kControlSize + kSlotSize; }
@@ -122,7 +123,7 @@ class Channel {
                    uint32_t spin_us, bool* slept);
   bool peer_connected();
 
-  int memfd_;
+  base::UniqueFd memfd_;  // closed after the destructor unmaps the channel
   int socket_fd_;
   uint8_t* base_;
   SpinPolicy policy_;

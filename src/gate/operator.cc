@@ -1,12 +1,5 @@
 #include "gate/operator.h"
 
-#include <unistd.h>
-
-#include <cerrno>
-#include <cstring>
-#include <sys/socket.h>
-#include <sys/un.h>
-
 #include "gate/socket.h"
 #include "gate/wire.h"
 
@@ -16,21 +9,9 @@ Result<bool> request_reset(const std::string& socket_path, const std::string& de
   if (device.empty() || device.size() > wire::kMaxTaskName) {
     return make_error("a device name of 1..64 characters expected");
   }
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (socket_path.size() >= sizeof addr.sun_path) {
-    return make_error("socket path too long: " + socket_path);
-  }
-  std::memcpy(addr.sun_path, socket_path.c_str(), socket_path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return make_error(std::string("socket: ") + std::strerror(errno));
-  struct Closer {
-    int fd;
-    ~Closer() { ::close(fd); }
-  } closer{fd};
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    return make_error("cannot reach the monitor at " + socket_path + ": " + std::strerror(errno));
-  }
+  auto connected = connect_to_monitor(socket_path);
+  if (!connected) return make_error(connected.error());
+  const int fd = connected->get();
   if (!send_frame(fd, wire::Type::kReset, 1, wire::encode_hello(device))) {
     return make_error("the monitor at " + socket_path + " closed the connection");
   }

@@ -9,7 +9,22 @@
 #include <sys/uio.h>
 #include <sys/un.h>
 
+#include "base/unique_fd.h"
+
 namespace contego::gate {
+
+Result<base::UniqueFd> connect_to_monitor(const std::string& path) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  base::UniqueFd fd(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0));
+  if (!fd.valid()) return make_error(std::string("socket: ") + std::strerror(errno));
+  if (::connect(fd.get(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    return make_error("cannot reach the monitor at " + path + ": " + std::strerror(errno));
+  }
+  return fd;
+}
 
 bool send_frame(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload) {
   // Header on the stack, payload where it is: one sendmsg, no copy, no allocation.
@@ -115,18 +130,9 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
                                                             const std::string& task,
                                                             std::optional<SpinPolicy> channel,
                                                             const wire::Vouch& vouch) {
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return make_error(std::string("socket: ") + std::strerror(errno));
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    const int e = errno;
-    ::close(fd);
-    return make_error("cannot reach the monitor at " + path + ": " + std::strerror(e));
-  }
-  std::unique_ptr<SocketClient> c(new SocketClient(fd));
+  auto fd = connect_to_monitor(path);
+  if (!fd) return make_error(fd.error());
+  std::unique_ptr<SocketClient> c(new SocketClient(fd->release()));
   wire::Header h;
   std::span<const uint8_t> answer;
   if (!c->exchange(wire::Type::kHello, wire::encode_hello(task, vouch), &h, &answer)) {
@@ -157,17 +163,17 @@ void SocketClient::open_channel(SpinPolicy policy) {
   }
   wire::Header h;
   std::vector<uint8_t> answer;
-  int memfd = -1;
-  if (!recv_frame_with_fd(fd_, &h, &answer, &memfd).empty() || h.seq != seq_) {
-    if (memfd >= 0) ::close(memfd);
+  int received = -1;
+  const std::string why = recv_frame_with_fd(fd_, &h, &answer, &received);
+  base::UniqueFd memfd(received);
+  if (!why.empty() || h.seq != seq_) {
     broken_ = true;
     return;
   }
-  if (h.type != static_cast<uint8_t>(wire::Type::kChannelOk) || memfd < 0) {
-    if (memfd >= 0) ::close(memfd);
+  if (h.type != static_cast<uint8_t>(wire::Type::kChannelOk) || !memfd.valid()) {
     return;  // refused: keep using the socket
   }
-  if (auto c = Channel::attach(memfd, fd_, policy)) {
+  if (auto c = Channel::attach(memfd.release(), fd_, policy)) {
     channel_ = std::move(*c);
   } else {
     // The monitor switched this connection to the channel; without it the

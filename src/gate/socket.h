@@ -14,11 +14,15 @@
 #include <vector>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 #include "gate/channel.h"
 #include "gate/endpoint.h"
 #include "gate/wire.h"
 
 namespace contego::gate {
+
+// A stream socket connected to the monitor listening at `path`.
+Result<base::UniqueFd> connect_to_monitor(const std::string& path);
 
 // Writes one frame completely. False on any error.
 bool send_frame(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload);

@@ -67,6 +67,14 @@ class Reader {
   size_t pos_ = 0;
 };
 
+// The allocating form of an encoder into a reused buffer.
+template <typename T>
+std::vector<uint8_t> encoded(void (*encode)(const T&, std::vector<uint8_t>*), const T& value) {
+  std::vector<uint8_t> out;
+  encode(value, &out);
+  return out;
+}
+
 }  // namespace
 
 std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
@@ -172,11 +180,7 @@ std::string decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
   return {};
 }
 
-std::vector<uint8_t> encode_transfer(const Transfer& t) {
-  std::vector<uint8_t> out;
-  encode_transfer(t, &out);
-  return out;
-}
+std::vector<uint8_t> encode_transfer(const Transfer& t) { return encoded(encode_transfer, t); }
 
 void encode_transfer(const Transfer& t, std::vector<uint8_t>* out) {
   Writer w(*out);
@@ -217,11 +221,7 @@ std::string decode_transfer(std::span<const uint8_t> p, Transfer* t) {
   return validate(*t);
 }
 
-std::vector<uint8_t> encode_reply(const TransferReply& rep) {
-  std::vector<uint8_t> out;
-  encode_reply(rep, &out);
-  return out;
-}
+std::vector<uint8_t> encode_reply(const TransferReply& rep) { return encoded(encode_reply, rep); }
 
 void encode_reply(const TransferReply& rep, std::vector<uint8_t>* out) {
   Writer w(*out);

@@ -28,6 +28,7 @@
 #include "base/clock.h"
 #include "base/json_text.h"
 #include "base/read_file.h"
+#include "base/unique_fd.h"
 #include "monitor/audit_internal.h"
 #include "monitor/audit_log.h"
 #include "monitor/sha256.h"
@@ -364,18 +365,17 @@ Status AuditLog::open(const std::string& path, const AuditOptions& options) {
 }
 
 Status AuditLog::open_file_locked() {
-  const int fd =
-      ::open(path_.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC | O_NOCTTY | O_NONBLOCK, 0666);
+  // Closed on every refusal below; fd_ takes it over once the log is open.
+  base::UniqueFd owned(
+      ::open(path_.c_str(), O_RDWR | O_APPEND | O_CREAT | O_CLOEXEC | O_NOCTTY | O_NONBLOCK, 0666));
+  const int fd = owned.get();
   if (fd < 0) return make_error("cannot open audit log " + path_ + ": " + strerror(errno));
   struct stat st {};
   if (fstat(fd, &st) != 0) {
-    const int err = errno;
-    close(fd);
-    return make_error("cannot stat audit log " + path_ + ": " + strerror(err));
+    return make_error("cannot stat audit log " + path_ + ": " + strerror(errno));
   }
   if (!S_ISREG(st.st_mode)) {
     if (!options_.allow_unsafe) {
-      close(fd);
       return make_error(fmt::format(
           "audit log {} is {}, not a regular file: what is written there cannot be checked, "
           "locked or rotated (give --audit-unsafe to log there anyway, or - for standard error)",
@@ -384,20 +384,18 @@ Status AuditLog::open_file_locked() {
     // --audit-unsafe: write(2) per line, blocking (a FIFO reader paces us).
     (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
     mode_ = Mode::kStream;
-    fd_ = fd;
+    fd_ = owned.release();
     owned_ = true;
     return {};
   }
   (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   struct statvfs vfs {};
   if (fstatvfs(fd, &vfs) == 0 && (vfs.f_flag & ST_RDONLY) != 0) {
-    close(fd);
     return make_error("audit log " + path_ + " is on a read-only file system");
   }
   // One writer per log: two would interleave and break the chain.
   if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
-    close(fd);
     if (err != EWOULDBLOCK) {
       return make_error("cannot lock audit log " + path_ + ": " + strerror(err));
     }
@@ -420,12 +418,11 @@ Status AuditLog::open_file_locked() {
   if (const int err = posix_fallocate(fd, end, kStartRoom);
       err == ENOSPC || err == EDQUOT || err == EFBIG) {
     (void)!ftruncate(fd, end);
-    close(fd);
     return make_error(
         fmt::format("no room for the audit log {} on its file system: {}", path_, strerror(err)));
   }
   std::lock_guard g(grow_mu_);
-  fd_ = fd;
+  fd_ = owned.release();
   owned_ = true;
   dev_ = st.st_dev;
   ino_ = st.st_ino;

@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "base/unique_fd.h"
 #include "monitor/server.h"
 
 namespace contego::monitor {
@@ -18,10 +19,9 @@ bool Server::descends_from_supervised(pid_t pid) {
   // built by a program's own forks within a hello's time).
   for (int depth = 0; depth < 64 && pid > 1; ++depth) {
     if (supervised_.contains(pid)) return true;
-    const int fd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
-    if (fd < 0) return false;
-    auto facts = process_facts(fd, pid);
-    close(fd);
+    const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, pid, 0)));
+    if (!fd.valid()) return false;
+    auto facts = process_facts(fd.get(), pid);
     if (!facts.ok()) return false;
     pid = facts->ppid;
   }
@@ -44,10 +44,9 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
     // uid. The binding is then checked against the program (what a parent
     // can claim for its child it could claim by letting the child connect).
     const pid_t child = static_cast<pid_t>(vouch.pid);
-    const int child_fd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
-    if (child_fd < 0) return fmt::format("the supervised program (pid {}) is gone", child);
-    auto program = process_facts(child_fd, child);
-    close(child_fd);
+    const base::UniqueFd child_fd(static_cast<int>(syscall(SYS_pidfd_open, child, 0)));
+    if (!child_fd.valid()) return fmt::format("the supervised program (pid {}) is gone", child);
+    auto program = process_facts(child_fd.get(), child);
     if (!program.ok()) return "the supervised program: " + program.error();
     if (program->ppid != c.pid) {
       return fmt::format("pid {} is not a child of the supervisor (pid {})", child, c.pid);

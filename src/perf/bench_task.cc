@@ -32,11 +32,13 @@
 #include <sys/ioctl.h>
 #include <vector>
 
+#include "base/unique_fd.h"
 #include "perf/release.h"
 
 namespace {
 
 using contego::monotonic_ns;
+using contego::base::UniqueFd;
 
 bool parse_hex(const char* text, std::vector<uint8_t>* out) {
   const size_t n = strlen(text);
@@ -73,15 +75,15 @@ bool write_samples(const char* path, const std::vector<uint64_t>& ns) {
   return true;
 }
 
-int open_device(const char* bus, long addr) {
-  const int fd = open(bus, O_RDWR);
-  if (fd < 0) {
+UniqueFd open_device(const char* bus, long addr) {
+  UniqueFd fd(open(bus, O_RDWR));
+  if (!fd.valid()) {
     perror(bus);
-    return -1;
+    return {};
   }
-  if (ioctl(fd, I2C_SLAVE, addr) < 0) {
+  if (ioctl(fd.get(), I2C_SLAVE, addr) < 0) {
     perror("I2C_SLAVE");
-    return -1;
+    return {};
   }
   return fd;
 }
@@ -99,8 +101,8 @@ int per_job(char** argv) {
     fprintf(stderr, "bench task: bad HEXBYTES, JOBS, PERIOD_US, PER_JOB or ADDR\n");
     return 1;
   }
-  const int fd = open_device(argv[1], addr);
-  if (fd < 0) return 1;
+  UniqueFd fd = open_device(argv[1], addr);
+  if (!fd.valid()) return 1;
   std::vector<uint64_t> ns(static_cast<size_t>(jobs));
   const uint64_t period_ns = static_cast<uint64_t>(period_us) * 1000u;
   const uint64_t first = contego::perf::start_grid(grid, period_ns);
@@ -110,11 +112,11 @@ int per_job(char** argv) {
     const uint64_t t0 = monotonic_ns();
     for (long i = 0; i < per_job; ++i) {
       const std::vector<uint8_t>& c = commands[static_cast<size_t>(i) % commands.size()];
-      if (write(fd, c.data(), c.size()) != static_cast<ssize_t>(c.size())) ++failed;
+      if (write(fd.get(), c.data(), c.size()) != static_cast<ssize_t>(c.size())) ++failed;
     }
     ns[static_cast<size_t>(j)] = monotonic_ns() - t0;
   }
-  close(fd);
+  fd.reset();  // done with the device before the samples are written
   if (!write_samples(argv[5], ns)) return 1;
   if (failed > 0) fprintf(stderr, "bench task: %ld writes failed\n", failed);
   return failed > 0 ? 2 : 0;
@@ -145,15 +147,17 @@ int main(int argc, char** argv) {
     fprintf(stderr, "bench task: bad TRIALS, PERIOD_US, PER_JOB or ADDR\n");
     return 1;
   }
-  const int fd = open_device(argv[1], addr);
-  if (fd < 0) return 1;
+  UniqueFd fd = open_device(argv[1], addr);
+  if (!fd.valid()) return 1;
   int failed = 0;
   if (trials == 0) {  // the burst
     const uint64_t end =
         monotonic_ns() + static_cast<uint64_t>(argc == 8 ? atol(argv[7]) : 0) * 1000000u;
     long sent = 0;
     while (monotonic_ns() < end) {
-      if (write(fd, bytes.data(), bytes.size()) != static_cast<ssize_t>(bytes.size())) ++failed;
+      if (write(fd.get(), bytes.data(), bytes.size()) != static_cast<ssize_t>(bytes.size())) {
+        ++failed;
+      }
       ++sent;
     }
     FILE* out = fopen(argv[5], "wb");
@@ -181,12 +185,12 @@ int main(int argc, char** argv) {
     }
     const std::vector<uint8_t>& command = commands[static_cast<size_t>(i) % commands.size()];
     const uint64_t t0 = monotonic_ns();
-    const ssize_t r = write(fd, command.data(), command.size());
+    const ssize_t r = write(fd.get(), command.data(), command.size());
     const uint64_t t1 = monotonic_ns();
     if (r != static_cast<ssize_t>(command.size())) ++failed;
     ns[static_cast<size_t>(i)] = t1 - t0;
   }
-  close(fd);
+  fd.reset();  // done with the device before the samples are written
   if (!write_samples(argv[5], ns)) return 1;
   if (failed > 0) fprintf(stderr, "bench task: %d of %ld writes failed\n", failed, trials);
   return failed > 0 ? 2 : 0;

@@ -14,8 +14,6 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <sys/wait.h>
 #include <vector>
 
@@ -185,13 +183,7 @@ class MonitorProcess {
     }
     // Ready when a connection is accepted.
     for (int i = 0; i < 500; ++i) {
-      const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-      sockaddr_un addr{};
-      addr.sun_family = AF_UNIX;
-      std::memcpy(addr.sun_path, socket_.c_str(), socket_.size() + 1);
-      const bool up = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
-      ::close(fd);
-      if (up) return {};
+      if (gate::connect_to_monitor(socket_).ok()) return {};
       usleep(10000);
     }
     return make_error("the monitor process did not come up at " + socket_);

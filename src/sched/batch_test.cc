@@ -7,6 +7,7 @@
 
 #include "sched/analysis.h"
 #include "sched/generate.h"
+#include "sched/reader.h"
 #include "sched/sensitivity.h"
 
 namespace contego::sched {
@@ -76,20 +77,6 @@ TEST(BatchTest, NoPrioritiesNeedAnAssignment) {
   EXPECT_EQ(r.lines[0]["tasks"][0]["overhead_ns"], 1000);
 }
 
-std::string json_line(const TaskSet& s) {
-  nlohmann::json j;
-  for (const Task& t : s.tasks) {
-    j["tasks"].push_back({{"name", t.name},
-                          {"wcet", std::to_string(t.wcet) + "ns"},
-                          {"period", std::to_string(t.period) + "ns"},
-                          {"deadline", std::to_string(t.deadline) + "ns"},
-                          {"priority", t.priority},
-                          {"actuations", t.actuations},
-                          {"overhead", std::to_string(t.overhead) + "ns"}});
-  }
-  return j.dump() + "\n";
-}
-
 nlohmann::json figure(int64_t v) {
   if (v == kUnbounded) return "unbounded";
   if (v == kInfeasible) return "infeasible";
@@ -110,7 +97,7 @@ TEST(BatchTest, ResultsEqualTheLibraryOnRandomSets) {
       s.tasks[i].priority = static_cast<int64_t>(i % 5);
       s.tasks[i].overhead = 1000 * static_cast<Nanos>(k % 7);
     }
-    text += json_line(s);
+    text += to_json_line(s);
     sets.push_back(s);
   }
   const Ran r = run(text);

@@ -249,6 +249,20 @@ Result<TaskSet> parse_json(const std::string& text, const std::string& source) {
 
 Result<std::string> read_text_file(const std::string& path) { return read_input_file(path); }
 
+std::string to_json_line(const TaskSet& set) {
+  nlohmann::json j;
+  for (const Task& t : set.tasks) {
+    j["tasks"].push_back({{"name", t.name},
+                          {"wcet", std::to_string(t.wcet) + "ns"},
+                          {"period", std::to_string(t.period) + "ns"},
+                          {"deadline", std::to_string(t.deadline) + "ns"},
+                          {"priority", t.priority},
+                          {"actuations", t.actuations},
+                          {"overhead", std::to_string(t.overhead) + "ns"}});
+  }
+  return j.dump() + "\n";
+}
+
 Result<TaskSet> read_task_set_file(const std::string& path) {
   Result<std::string> text = read_text_file(path);
   if (!text) return make_error(text.error());

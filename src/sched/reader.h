@@ -26,6 +26,11 @@ namespace contego::sched {
 Result<TaskSet> parse_csv(const std::string& text, const std::string& source);
 Result<TaskSet> parse_json(const std::string& text, const std::string& source);
 
+// The set in the JSON form parse_json reads, on one line ending in '\n' (a
+// line of a `contego sched --batch` stream): every field of every task,
+// durations in ns; no set-wide overhead.
+std::string to_json_line(const TaskSet& set);
+
 // By extension (.csv, .json), else by content (a leading '{' is JSON).
 // The result has passed validate().
 Result<TaskSet> read_task_set_file(const std::string& path);

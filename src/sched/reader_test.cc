@@ -78,6 +78,24 @@ TEST(ReaderTest, JsonTaskSet) {
   EXPECT_TRUE(r->priorities_given);
 }
 
+TEST(ReaderTest, JsonLineReadsBackAsTheSameSet) {
+  const TaskSet s = testing::issue_example();
+  const std::string line = to_json_line(s);
+  ASSERT_EQ(line.back(), '\n');
+  const Result<TaskSet> r = parse_json(line, "line");
+  ASSERT_TRUE(r.ok()) << r.error();
+  ASSERT_EQ(r->tasks.size(), s.tasks.size());
+  for (size_t i = 0; i < s.tasks.size(); ++i) {
+    EXPECT_EQ(r->tasks[i].name, s.tasks[i].name);
+    EXPECT_EQ(r->tasks[i].wcet, s.tasks[i].wcet);
+    EXPECT_EQ(r->tasks[i].period, s.tasks[i].period);
+    EXPECT_EQ(r->tasks[i].deadline, s.tasks[i].deadline);
+    EXPECT_EQ(r->tasks[i].priority, s.tasks[i].priority);
+    EXPECT_EQ(r->tasks[i].actuations, s.tasks[i].actuations);
+    EXPECT_EQ(r->tasks[i].overhead, s.tasks[i].overhead);
+  }
+}
+
 TEST(ReaderTest, JsonErrorsNameTaskAndField) {
   expect_error(parse_json(R"({"tasks": [{"name": "a", "wcet": 1000, "period": "4ms"}]})", "j"),
                "tasks[0] ('a').wcet: give a string with a unit");

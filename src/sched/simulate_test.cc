@@ -82,18 +82,19 @@ TaskSet random_set(std::mt19937_64& rng, bool with_checking) {
   return s;
 }
 
-// The analysis is safe: over random sets with checking sections, with the
-// synchronous pattern and with random release offsets, no simulated job of
-// a task the analysis accepts takes longer than R^TEE.
-TEST(SimulateTest, SimulatedResponsesNeverExceedTheAnalyticBound) {
-  std::mt19937_64 rng(7);
-  int compared = 0;
-  int blocked_runs = 0;
+// 400 random sets drawn from `seed`, each analysed and simulated; hands
+// every task to `check(trial, task, analysis, simulation)` (the task's
+// results) and stops at a fatal failure. `random_offsets`: odd trials
+// release the tasks at random offsets (drawn after the set, from the same
+// generator); the others synchronously.
+template <typename Check>
+void for_random_tasks(uint64_t seed, bool with_checking, bool random_offsets, Check check) {
+  std::mt19937_64 rng(seed);
   for (int trial = 0; trial < 400; ++trial) {
-    const TaskSet s = random_set(rng, true);
+    const TaskSet s = random_set(rng, with_checking);
     const Analysis a = analyse(s);
     SimOptions o;
-    if (trial % 2 == 1) {
+    if (random_offsets && trial % 2 == 1) {
       for (const Task& t : s.tasks) {
         o.offsets.push_back(std::uniform_int_distribution<Nanos>(0, t.period - 1)(rng));
       }
@@ -101,14 +102,26 @@ TEST(SimulateTest, SimulatedResponsesNeverExceedTheAnalyticBound) {
     const Result<SimResult> r = simulate(s, o);
     ASSERT_TRUE(r.ok()) << r.error();
     for (size_t i = 0; i < s.tasks.size(); ++i) {
-      if (!a.tasks[i].schedulable) continue;
-      ++compared;
-      ASSERT_LE(r->tasks[i].max_response, a.tasks[i].response)
-          << "trial " << trial << " task " << s.tasks[i].name;
-      EXPECT_EQ(r->tasks[i].misses, 0);
-      if (a.tasks[i].blocking > 0) ++blocked_runs;
+      check(trial, s.tasks[i], a.tasks[i], r->tasks[i]);
+      if (::testing::Test::HasFatalFailure()) return;
     }
   }
+}
+
+// The analysis is safe: over random sets with checking sections, with the
+// synchronous pattern and with random release offsets, no simulated job of
+// a task the analysis accepts takes longer than R^TEE.
+TEST(SimulateTest, SimulatedResponsesNeverExceedTheAnalyticBound) {
+  int compared = 0;
+  int blocked_runs = 0;
+  ASSERT_NO_FATAL_FAILURE(for_random_tasks(
+      7, true, true, [&](int trial, const Task& t, const TaskResult& a, const SimTaskStats& r) {
+        if (!a.schedulable) return;
+        ++compared;
+        ASSERT_LE(r.max_response, a.response) << "trial " << trial << " task " << t.name;
+        EXPECT_EQ(r.misses, 0);
+        if (a.blocking > 0) ++blocked_runs;
+      }));
   EXPECT_GT(compared, 500);
   EXPECT_GT(blocked_runs, 200);
 }
@@ -118,24 +131,18 @@ TEST(SimulateTest, SimulatedResponsesNeverExceedTheAnalyticBound) {
 // equals R for every task the analysis accepts, and every task it rejects
 // misses a deadline in the simulation.
 TEST(SimulateTest, WithoutBlockingTheAnalysisIsExact) {
-  std::mt19937_64 rng(11);
   int equal = 0;
   int rejected = 0;
-  for (int trial = 0; trial < 400; ++trial) {
-    const TaskSet s = random_set(rng, false);
-    const Analysis a = analyse(s);
-    const Result<SimResult> r = simulate(s);
-    ASSERT_TRUE(r.ok()) << r.error();
-    for (size_t i = 0; i < s.tasks.size(); ++i) {
-      if (a.tasks[i].schedulable) {
-        ASSERT_EQ(r->tasks[i].max_response, a.tasks[i].response) << "trial " << trial;
-        ++equal;
-      } else {
-        ASSERT_GT(r->tasks[i].misses, 0) << "trial " << trial << " task " << s.tasks[i].name;
-        ++rejected;
-      }
-    }
-  }
+  ASSERT_NO_FATAL_FAILURE(for_random_tasks(
+      11, false, false, [&](int trial, const Task& t, const TaskResult& a, const SimTaskStats& r) {
+        if (a.schedulable) {
+          ASSERT_EQ(r.max_response, a.response) << "trial " << trial;
+          ++equal;
+        } else {
+          ASSERT_GT(r.misses, 0) << "trial " << trial << " task " << t.name;
+          ++rejected;
+        }
+      }));
   EXPECT_GT(equal, 500);
   EXPECT_GT(rejected, 50);
 }

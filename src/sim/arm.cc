@@ -47,9 +47,7 @@ class HighPulse : public Attack {
     bool rewrote = false;
     for (auto& op : ops) {
       if (!is_grip_write(op, task)) continue;
-      const uint8_t reg = op.op.bytes[0];
-      if (reg == 0x08 + 4 * kGripChannel) op.op.bytes[1] = static_cast<uint8_t>(pulse & 0xFF);
-      if (reg == 0x09 + 4 * kGripChannel) op.op.bytes[1] = static_cast<uint8_t>(pulse >> 8);
+      op.rewrite_word(0x08 + 4 * kGripChannel, pulse);  // LEDn_OFF_L/H; ON stays
       op.injected = rewrote = true;
     }
     if (!rewrote) {  // jobs that do not touch the gripper get a pulse of their own

@@ -32,10 +32,7 @@ class BeyondRange : public Attack {
     if (!hits(job, task)) return;
     const auto pulse = static_cast<uint16_t>(spec().param_int("pulse", 620));
     for (auto& op : ops) {
-      if (!op.is_write(task, kServoAddr, 2)) continue;
-      if (op.op.bytes[0] == 0x08) op.op.bytes[1] = static_cast<uint8_t>(pulse & 0xFF);
-      if (op.op.bytes[0] == 0x09) op.op.bytes[1] = static_cast<uint8_t>(pulse >> 8);
-      if (op.op.bytes[0] == 0x08 || op.op.bytes[0] == 0x09) op.injected = true;
+      if (op.is_write(task, kServoAddr, 2) && op.rewrite_word(0x08, pulse)) op.injected = true;
     }
   }
 };

@@ -21,8 +21,7 @@ class Overdose : public Attack {
     const auto rate = static_cast<uint16_t>(spec().param_int("rate", 1000));
     for (auto& op : ops) {
       if (!op.is_write(task, kPumpAddr, 2)) continue;
-      if (op.op.bytes[0] == 0x01) op.op.bytes[1] = static_cast<uint8_t>(rate & 0xFF);
-      if (op.op.bytes[0] == 0x02) op.op.bytes[1] = static_cast<uint8_t>(rate >> 8);
+      op.rewrite_word(0x01, rate);
       op.injected = true;
     }
   }
@@ -31,17 +30,15 @@ class Overdose : public Attack {
 }  // namespace
 
 void InfusionController::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
-  auto r = read_register(port, kEncoderAddr, 0x00, 2);
-  if (!r || r->size() < 2) return;
-  const int infused = ((*r)[0] << 8) | (*r)[1];
+  auto r = read_words(port, kEncoderAddr, 0x00, 1);
+  if (!r) return;
+  const uint16_t infused = (*r)[0];
   const uint16_t rate = infused < dose_ ? static_cast<uint16_t>(rate_) : 0;
   const uint64_t t = job.release_us;
   if (job.index == 1) schedule(ops, t, kPumpAddr, {0x03, 0});  // infuse
   // Rate (u16le) and the displayed volume, one register per write.
-  schedule(ops, t, kPumpAddr, {0x01, static_cast<uint8_t>(rate & 0xFF)});
-  schedule(ops, t, kPumpAddr, {0x02, static_cast<uint8_t>(rate >> 8)});
-  schedule(ops, t, kScreenAddr, {0x00, static_cast<uint8_t>(infused & 0xFF)});
-  schedule(ops, t, kScreenAddr, {0x01, static_cast<uint8_t>(infused >> 8)});
+  schedule_word(ops, t, kPumpAddr, 0x01, rate);
+  schedule_word(ops, t, kScreenAddr, 0x00, infused);
 }
 
 PumpWorld::PumpWorld(const std::map<std::string, std::string>& settings, uint64_t seed)

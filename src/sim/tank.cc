@@ -37,17 +37,16 @@ class FalseAlarm : public Attack {
 }  // namespace
 
 void TankMonitor::release(const Job& job, Port& port, std::vector<TimedOp>& ops) {
-  auto r = read_register(port, kSensorAddr, 0x00, 4);
-  if (!r || r->size() < 4) return;
-  const int level = ((*r)[0] << 8) | (*r)[1];
-  const int temp = static_cast<int16_t>(((*r)[2] << 8) | (*r)[3]);
+  auto r = read_words(port, kSensorAddr, 0x00, 2);
+  if (!r) return;
+  const int level = (*r)[0];
+  const int temp = static_cast<int16_t>((*r)[1]);
   const uint8_t on = (level > kLevelHigh || temp < kTempLow || temp > kTempHigh) ? 1 : 0;
   const uint64_t t = job.release_us;
   schedule(ops, t, kBuzzerAddr, {0x01, on});
   schedule(ops, t, kDisplayAddr, {0x00, on});
   // The displayed level, one register per write (the display does not auto-increment).
-  schedule(ops, t, kDisplayAddr, {0x01, static_cast<uint8_t>(level & 0xFF)});
-  schedule(ops, t, kDisplayAddr, {0x02, static_cast<uint8_t>(level >> 8)});
+  schedule_word(ops, t, kDisplayAddr, 0x01, static_cast<uint16_t>(level));
 }
 
 TankWorld::TankWorld(const std::map<std::string, std::string>& settings, uint64_t seed)

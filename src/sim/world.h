@@ -48,6 +48,20 @@ struct TimedOp {
     return task == of_task && op.kind == BusOp::Kind::kWrite && op.addr == to_addr &&
            op.bytes.size() == len;
   }
+  // For a one-register write [reg, byte] of the low (`reg`) or the high
+  // (`reg + 1`) byte of a 16-bit register pair: puts that byte of `value` in
+  // it. True if the write was one of the two.
+  bool rewrite_word(uint8_t reg, uint16_t value) {
+    if (op.bytes[0] == reg) {
+      op.bytes[1] = static_cast<uint8_t>(value & 0xFF);
+      return true;
+    }
+    if (op.bytes[0] == reg + 1) {
+      op.bytes[1] = static_cast<uint8_t>(value >> 8);
+      return true;
+    }
+    return false;
+  }
 };
 
 // What a task sees of the bus: reads and writes go through the guard.
@@ -89,10 +103,30 @@ class Controller {
     op.bytes = {reg};
     return port.read(task_, op);
   }
+  // Reads `count` big-endian 16-bit words from register `reg` on (as above);
+  // nullopt if the read was refused or came back short.
+  std::optional<std::vector<uint16_t>> read_words(Port& port, uint16_t addr, uint8_t reg,
+                                                  uint32_t count) const {
+    auto r = read_register(port, addr, reg, 2 * count);
+    if (!r || r->size() < 2 * size_t{count}) return std::nullopt;
+    std::vector<uint16_t> words(count);
+    for (uint32_t i = 0; i < count; ++i) {
+      words[i] = static_cast<uint16_t>(((*r)[2 * i] << 8) | (*r)[2 * i + 1]);
+    }
+    return words;
+  }
   // Schedules a write of this task at `at_us`.
   void schedule(std::vector<TimedOp>& ops, uint64_t at_us, uint16_t addr,
                 std::vector<uint8_t> bytes) const {
     ops.push_back({at_us, task_, write_op(addr, std::move(bytes))});
+  }
+  // Schedules a 16-bit value as two one-register writes, the low byte to
+  // `reg` and the high byte to `reg + 1` (for devices that do not
+  // auto-increment their register pointer).
+  void schedule_word(std::vector<TimedOp>& ops, uint64_t at_us, uint16_t addr, uint8_t reg,
+                     uint16_t value) const {
+    schedule(ops, at_us, addr, {reg, static_cast<uint8_t>(value & 0xFF)});
+    schedule(ops, at_us, addr, {static_cast<uint8_t>(reg + 1), static_cast<uint8_t>(value >> 8)});
   }
 
  private:

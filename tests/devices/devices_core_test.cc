@@ -9,6 +9,7 @@
 
 #include "contego/core/checker.h"
 
+#include "core/test_fixtures.h"
 #include "devices/codec.h"
 #include "devices/lower.h"
 #include "image/image_model.h"
@@ -27,14 +28,7 @@ class DevicesThroughCore : public ::testing::Test {
     add("gopigo", "gopigo2", 0x08);
     add("line", "line_follower", 0x06);
     add("arm", "pca9685", 0x40);
-    image::Named<core::TaskRecord> task;
-    task.name = "t";
-    task.record.period_us = 200000;
-    task.record.deadline_us = 200000;
-    task.record.wcet_us = 1000;
-    task.record.priority = 1;
-    task.record.actuations_per_job = 3;
-    model_.tasks.push_back(task);
+    model_.tasks.push_back(core::testing::task_rec("t", 200000, 1000, 1, 3));
     model_.access.push_back(core::AccessRecord{0x7, 0x7});
     image_ = image::serialize(model_);
     checker_ = std::make_unique<core::Checker>();

@@ -55,6 +55,13 @@ gate::Message write_msg(const FdState& s, std::vector<uint8_t> bytes) {
   return m;
 }
 
+// A write of the command (register) byte followed by `n` data bytes.
+gate::Message command_write(const FdState& s, uint8_t cmd, const uint8_t* data, size_t n) {
+  std::vector<uint8_t> bytes{cmd};
+  bytes.insert(bytes.end(), data, data + n);
+  return write_msg(s, std::move(bytes));
+}
+
 gate::Message read_msg(const FdState& s, uint16_t len, uint16_t extra_flags = 0) {
   gate::Message m;
   m.addr = s.addr;
@@ -116,25 +123,18 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
     case kSmbusByte:  // read: one byte, no register
       msgs.push_back(read_msg(s, 1));
       break;
-    case kSmbusByteData:
+    case kSmbusByteData:  // datasize 1
+    case kSmbusWordData:  // datasize 2
       if (read) {
         msgs.push_back(write_msg(s, {cmd}));
-        msgs.push_back(read_msg(s, 1));
+        msgs.push_back(read_msg(s, static_cast<uint16_t>(datasize)));
       } else {
-        msgs.push_back(write_msg(s, {cmd, data[0]}));
-      }
-      break;
-    case kSmbusWordData:
-      if (read) {
-        msgs.push_back(write_msg(s, {cmd}));
-        msgs.push_back(read_msg(s, 2));
-      } else {
-        msgs.push_back(write_msg(s, {cmd, data[0], data[1]}));
+        msgs.push_back(command_write(s, cmd, data, datasize));
       }
       break;
     case kSmbusProcCall:
       c.smbus_read_write = kSmbusRead;
-      msgs.push_back(write_msg(s, {cmd, data[0], data[1]}));
+      msgs.push_back(command_write(s, cmd, data, 2));
       msgs.push_back(read_msg(s, 2));
       break;
     case kSmbusBlockData:
@@ -143,20 +143,15 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
         msgs.push_back(read_msg(s, 1 + gate::kSmbusBlockMax, gate::kMsgRecvLen));
       } else {
         if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
-        std::vector<uint8_t> bytes{cmd};
-        bytes.insert(bytes.end(), data, data + 1 + data[0]);
-        msgs.push_back(write_msg(s, std::move(bytes)));
+        msgs.push_back(command_write(s, cmd, data, 1 + data[0]));  // the count, then the data
       }
       break;
-    case kSmbusBlockProcCall: {
+    case kSmbusBlockProcCall:
       c.smbus_read_write = kSmbusRead;
       if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
-      std::vector<uint8_t> bytes{cmd};
-      bytes.insert(bytes.end(), data, data + 1 + data[0]);
-      msgs.push_back(write_msg(s, std::move(bytes)));
+      msgs.push_back(command_write(s, cmd, data, 1 + data[0]));
       msgs.push_back(read_msg(s, 1 + gate::kSmbusBlockMax, gate::kMsgRecvLen));
       break;
-    }
     case kSmbusI2cBlockData:
       if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
       if (read) {
@@ -164,9 +159,7 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
         msgs.push_back(write_msg(s, {cmd}));
         msgs.push_back(read_msg(s, data[0]));
       } else {
-        std::vector<uint8_t> bytes{cmd};
-        bytes.insert(bytes.end(), data + 1, data + 1 + data[0]);
-        msgs.push_back(write_msg(s, std::move(bytes)));
+        msgs.push_back(command_write(s, cmd, data + 1, data[0]));  // the data without the length
       }
       break;
     default:

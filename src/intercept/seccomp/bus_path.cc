@@ -14,8 +14,12 @@
 #include <sys/sysmacros.h>
 #include <vector>
 
+#include "base/unique_fd.h"
+
 namespace contego::intercept::seccomp {
 namespace {
+
+using base::UniqueFd;
 
 // openat2's resolve flags this code knows (linux/openat2.h).
 constexpr uint64_t kResolveInRoot = 0x10;
@@ -37,11 +41,11 @@ std::string read_link_at(int dirfd, const std::string& name) {
 }
 
 pid_t thread_group_of(pid_t tid) {
-  const int fd = open(("/proc/" + std::to_string(tid) + "/status").c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return tid;
+  const UniqueFd fd(
+      open(("/proc/" + std::to_string(tid) + "/status").c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd.valid()) return tid;
   char buf[1024];
-  const ssize_t n = read(fd, buf, sizeof buf - 1);
-  close(fd);
+  const ssize_t n = read(fd.get(), buf, sizeof buf - 1);
   if (n <= 0) return tid;
   buf[n] = 0;
   const char* at = strstr(buf, "\nTgid:");
@@ -59,25 +63,6 @@ std::vector<std::string> components(const std::string& path) {
   }
   return out;
 }
-
-// An O_PATH descriptor that closes itself.
-struct Fd {
-  int fd = -1;
-  Fd() = default;
-  explicit Fd(int f) : fd(f) {}
-  Fd(Fd&& o) noexcept : fd(o.fd) { o.fd = -1; }
-  Fd& operator=(Fd&& o) noexcept {
-    if (this != &o) {
-      if (fd >= 0) close(fd);
-      fd = o.fd;
-      o.fd = -1;
-    }
-    return *this;
-  }
-  ~Fd() {
-    if (fd >= 0) close(fd);
-  }
-};
 
 bool same_file(int a, int b) {
   struct stat sa {
@@ -100,21 +85,23 @@ bool on_procfs(int fd) {
 
 // Walks `path` from `start` (or `root` for an absolute path) as the kernel
 // would for the program; returns the final O_PATH descriptor or -1.
-int walk(Fd root, Fd start, const std::string& path, pid_t tid, bool nofollow) {
+int walk(UniqueFd root, UniqueFd start, const std::string& path, pid_t tid, bool nofollow) {
   std::deque<std::string> todo;
   for (auto& c : components(path)) todo.push_back(std::move(c));
-  Fd cur(dup(path.size() > 0 && path[0] == '/' ? root.fd : start.fd));
+  UniqueFd cur(dup(path.size() > 0 && path[0] == '/' ? root.get() : start.get()));
   int links = 0;
   pid_t tgid = 0;
-  while (!todo.empty() && cur.fd >= 0) {
+  while (!todo.empty() && cur.valid()) {
     std::string name = std::move(todo.front());
     todo.pop_front();
     if (name == ".") continue;
     if (name == "..") {
-      if (!same_file(cur.fd, root.fd)) cur = Fd(openat(cur.fd, "..", O_PATH | O_CLOEXEC));
+      if (!same_file(cur.get(), root.get())) {
+        cur = UniqueFd(openat(cur.get(), "..", O_PATH | O_CLOEXEC));
+      }
       continue;
     }
-    if ((name == "self" || name == "thread-self") && is_procfs_root(cur.fd)) {
+    if ((name == "self" || name == "thread-self") && is_procfs_root(cur.get())) {
       if (tgid == 0) tgid = thread_group_of(tid);
       if (name == "thread-self") {
         todo.push_front(std::to_string(tid));
@@ -122,33 +109,31 @@ int walk(Fd root, Fd start, const std::string& path, pid_t tid, bool nofollow) {
       }
       name = std::to_string(tgid);
     }
-    Fd next(openat(cur.fd, name.c_str(), O_PATH | O_NOFOLLOW | O_CLOEXEC));
-    if (next.fd < 0) return -1;
+    UniqueFd next(openat(cur.get(), name.c_str(), O_PATH | O_NOFOLLOW | O_CLOEXEC));
+    if (!next.valid()) return -1;
     struct stat st {};
-    if (fstat(next.fd, &st) != 0) return -1;
+    if (fstat(next.get(), &st) != 0) return -1;
     if (!S_ISLNK(st.st_mode)) {
       cur = std::move(next);
       continue;
     }
     if (todo.empty() && nofollow) return -1;  // the kernel refuses it (ELOOP)
     if (++links > kMaxLinks) return -1;
-    const std::string target = read_link_at(cur.fd, name);
+    const std::string target = read_link_at(cur.get(), name);
     // A procfs magic link (cwd, root, exe, fd/N: its text is absolute or a
     // `type:[inode]` name): the kernel follows it to the program's object.
-    const bool magic = on_procfs(cur.fd) && (target.empty() || target[0] == '/' ||
-                                             target.find(':') != std::string::npos);
+    const bool magic = on_procfs(cur.get()) && (target.empty() || target[0] == '/' ||
+                                                target.find(':') != std::string::npos);
     if (magic) {
-      cur = Fd(openat(cur.fd, name.c_str(), O_PATH | O_CLOEXEC));
+      cur = UniqueFd(openat(cur.get(), name.c_str(), O_PATH | O_CLOEXEC));
       continue;
     }
     // An ordinary link (or procfs's own relative ones, `mounts` -> `self/mounts`).
     auto parts = components(target);
     for (auto it = parts.rbegin(); it != parts.rend(); ++it) todo.push_front(*it);
-    if (!target.empty() && target[0] == '/') cur = Fd(dup(root.fd));
+    if (!target.empty() && target[0] == '/') cur = UniqueFd(dup(root.get()));
   }
-  const int out = cur.fd;
-  cur.fd = -1;
-  return out;
+  return cur.release();
 }
 
 }  // namespace
@@ -180,14 +165,14 @@ BusPath resolve_bus_path(pid_t tid, int dirfd, const std::string& path, uint64_t
   }
   if (int n = bus_number(lexical); n >= 0) return {n, 0};
   // By what the kernel resolves.
-  Fd start(open(base_link.c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC));
-  if (start.fd < 0) return {};
-  Fd root(in_root ? dup(start.fd)
-                  : open((proc + "/root").c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC));
-  if (root.fd < 0) return {};
-  Fd end(walk(std::move(root), std::move(start), path, tid, nofollow));
+  UniqueFd start(open(base_link.c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC));
+  if (!start.valid()) return {};
+  UniqueFd root(in_root ? dup(start.get())
+                        : open((proc + "/root").c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC));
+  if (!root.valid()) return {};
+  UniqueFd end(walk(std::move(root), std::move(start), path, tid, nofollow));
   struct stat st {};
-  if (end.fd < 0 || fstat(end.fd, &st) != 0) return {};
+  if (!end.valid() || fstat(end.get(), &st) != 0) return {};
   if (S_ISCHR(st.st_mode) && major(st.st_rdev) == kI2cDevMajor && minor(st.st_rdev) <= 255) {
     return {static_cast<int>(minor(st.st_rdev)), 0};
   }

@@ -14,6 +14,8 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "base/unique_fd.h"
+
 namespace contego::intercept::seccomp {
 namespace {
 
@@ -160,17 +162,16 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
     }
   }
   // Export the program instead of loading it: the child installs it itself.
-  const int fd = memfd_create("contego-filter", MFD_CLOEXEC);
-  if (fd < 0) return make_error(std::string("memfd_create: ") + std::strerror(errno));
+  const base::UniqueFd fd(memfd_create("contego-filter", MFD_CLOEXEC));
+  if (!fd.valid()) return make_error(std::string("memfd_create: ") + std::strerror(errno));
   std::vector<sock_filter> program;
-  const int rc = seccomp_export_bpf(ctx.get(), fd);
-  const off_t size = lseek(fd, 0, SEEK_END);
+  const int rc = seccomp_export_bpf(ctx.get(), fd.get());
+  const off_t size = lseek(fd.get(), 0, SEEK_END);
   if (rc == 0 && size > 0 && size % static_cast<off_t>(sizeof(sock_filter)) == 0) {
     program.resize(static_cast<size_t>(size) / sizeof(sock_filter));
     const auto bytes = static_cast<ssize_t>(size);
-    if (pread(fd, program.data(), static_cast<size_t>(size), 0) != bytes) program.clear();
+    if (pread(fd.get(), program.data(), static_cast<size_t>(size), 0) != bytes) program.clear();
   }
-  close(fd);
   if (rc != 0) return make_error(why("export", rc));
   if (program.empty() || program.size() > BPF_MAXINSNS) {
     return make_error("cannot build the seccomp filter: the exported program is unusable");

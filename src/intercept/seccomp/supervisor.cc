@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "base/realtime.h"
+#include "base/unique_fd.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 #include "intercept/seccomp/bus_path.h"
 #include "intercept/seccomp/reach.h"
@@ -60,13 +61,7 @@ constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
 // something else at its number) before anything acts.
 struct Handle {
   i2c_abi::FdState state;
-  int standin = -1;
-  Handle() : standin(open("/dev/null", O_RDWR | O_CLOEXEC)) {}
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  ~Handle() {
-    if (standin >= 0) close(standin);
-  }
+  base::UniqueFd standin{open("/dev/null", O_RDWR | O_CLOEXEC)};
 };
 
 // True if descriptor `fd` of thread `tid` is the very file `own` is here.
@@ -82,15 +77,9 @@ struct Process {
   std::set<int> cloexec;  // bus descriptors that a successful exec closes
   // Names this very process, not its number: once it is reaped the number may
   // be handed to a new process, which must not inherit these descriptors.
-  int pidfd = -1;
-  Process() = default;
-  Process(const Process&) = delete;
-  Process& operator=(const Process&) = delete;
-  ~Process() {
-    if (pidfd >= 0) close(pidfd);
-  }
+  base::UniqueFd pidfd;
   bool alive() const {
-    return pidfd >= 0 && syscall(SYS_pidfd_send_signal, pidfd, 0, nullptr, 0) == 0;
+    return pidfd.valid() && syscall(SYS_pidfd_send_signal, pidfd.get(), 0, nullptr, 0) == 0;
   }
 };
 
@@ -134,14 +123,14 @@ class Loop {
   }
   // Installs the handle's stand-in at `slot` and answers the call with the slot.
   int install(uint64_t id, int slot, bool cloexec, const Handle& h) {
-    if (h.standin < 0) {
+    if (!h.standin.valid()) {
       reply(id, 0, EMFILE);
       return -1;
     }
     seccomp_notif_addfd a{};
     a.id = id;
     a.flags = SECCOMP_ADDFD_FLAG_SETFD | SECCOMP_ADDFD_FLAG_SEND;
-    a.srcfd = static_cast<uint32_t>(h.standin);
+    a.srcfd = static_cast<uint32_t>(h.standin.get());
     a.newfd = static_cast<uint32_t>(slot);
     a.newfd_flags = cloexec ? O_CLOEXEC : 0;
     return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ADDFD, &a);
@@ -178,7 +167,7 @@ class Loop {
 void Loop::close_down() {
   closing_ = true;
   for (auto& [tgid, p] : processes_) {
-    if (p.pidfd >= 0) syscall(SYS_pidfd_send_signal, p.pidfd, SIGKILL, nullptr, 0);
+    if (p.pidfd.valid()) syscall(SYS_pidfd_send_signal, p.pidfd.get(), SIGKILL, nullptr, 0);
   }
 }
 
@@ -219,19 +208,16 @@ Process* Loop::process_of(pid_t tid, uint64_t id) {
     return &it->second;
   }
   if (it != processes_.end()) processes_.erase(it);
-  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, tgid, 0));
+  base::UniqueFd pidfd(static_cast<int>(syscall(SYS_pidfd_open, tgid, 0)));
   // The notification still pending means its thread is alive, so the pidfd
   // (opened before this check) names the process that made the call.
-  if (pidfd < 0 || !valid(id)) {
-    if (pidfd >= 0) close(pidfd);
-    return nullptr;
-  }
+  if (!pidfd.valid() || !valid(id)) return nullptr;
   tgid_[tid] = tgid;
   result_.peak_threads_tracked = std::max<uint64_t>(result_.peak_threads_tracked, tgid_.size());
   // A new process: a forked child shares its parent's open bus descriptors
   // (same open file descriptions, so the same address and flags).
   Process& p = processes_[tgid];
-  p.pidfd = pidfd;
+  p.pidfd = std::move(pidfd);
   auto parent = processes_.find(ppid);
   if (parent != processes_.end() && ppid != 0 && parent->second.alive()) {
     p.fds = parent->second.fds;
@@ -338,7 +324,7 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   const int oldfd = static_cast<int>(a[0]);
   auto old = p.fds.find(oldfd);
   if (old != p.fds.end() &&
-      !same_open_file(static_cast<pid_t>(n.pid), oldfd, old->second->standin)) {
+      !same_open_file(static_cast<pid_t>(n.pid), oldfd, old->second->standin.get())) {
     p.cloexec.erase(oldfd);  // closed or replaced by a CLONE_FILES sibling
     p.fds.erase(old);
     return reply(n.id, 0, EBADF);
@@ -413,7 +399,7 @@ void Loop::handle(const seccomp_notif& n) {
   Process* found = process_of(static_cast<pid_t>(n.pid), n.id);
   if (found == nullptr) return reply(n.id, 0, EIO);  // gone meanwhile, or no pidfd: fail closed
   if (closing_) {
-    syscall(SYS_pidfd_send_signal, found->pidfd, SIGKILL, nullptr, 0);
+    syscall(SYS_pidfd_send_signal, found->pidfd.get(), SIGKILL, nullptr, 0);
     return reply(n.id, 0, EIO);
   }
   Process& p = *found;
@@ -465,7 +451,7 @@ void Loop::handle(const seccomp_notif& n) {
   if (is_dup) return dup_call(n, p);
   auto it = p.fds.find(static_cast<int>(a[0]));
   if (it == p.fds.end()) return continue_call(n.id);  // an inert descriptor that is not a bus
-  if (!same_open_file(static_cast<pid_t>(n.pid), it->first, it->second->standin)) {
+  if (!same_open_file(static_cast<pid_t>(n.pid), it->first, it->second->standin.get())) {
     // Closed or replaced behind this process's back (a CLONE_FILES sibling):
     // no longer this bus.
     p.cloexec.erase(it->first);
@@ -562,7 +548,7 @@ struct ChildStart {
   if (write(c.to_parent, &msg, sizeof msg) != sizeof msg || fd < 0) _exit(126);
   char ack;
   if (read(c.to_child, &ack, 1) != 1) _exit(126);
-  close(fd);
+  close(fd);  // a raw close: between fork and exec (see above)
   if (!c.program.empty()) {
     execv(c.program.c_str(), c.argv);
   } else {
@@ -577,21 +563,32 @@ struct ChildStart {
 // release() (see start_program); or why it could not be.
 struct Started {
   pid_t child = -1;
-  int pidfd = -1;
-  int listener = -1;
-  int to_child = -1;  // the go-ahead pipe's write end
+  base::UniqueFd pidfd;
+  base::UniqueFd listener;
+  base::UniqueFd to_child;  // the go-ahead pipe's write end
   void release() {
     char ack = 1;
-    (void)!write(to_child, &ack, 1);
-    close(to_child);
-    to_child = -1;
+    (void)!write(to_child.get(), &ack, 1);
+    to_child.reset();
+  }
+};
+
+// A close-on-exec pipe.
+struct Pipe {
+  base::UniqueFd read_end, write_end;
+  bool open() {
+    int fds[2];
+    if (pipe2(fds, O_CLOEXEC) != 0) return false;
+    read_end.reset(fds[0]);
+    write_end.reset(fds[1]);
+    return true;
   }
 };
 
 Result<Started> start_child(const Options& options, const std::string& program, char* const* argv,
                             const sock_fprog& prog) {
-  int to_parent[2], to_child[2];
-  if (pipe2(to_parent, O_CLOEXEC) != 0 || pipe2(to_child, O_CLOEXEC) != 0) {
+  Pipe to_parent, to_child;
+  if (!to_parent.open() || !to_child.open()) {
     return make_error(std::string("pipe: ") + strerror(errno));
   }
   sigset_t child_mask;
@@ -604,16 +601,17 @@ Result<Started> start_child(const Options& options, const std::string& program, 
   const pid_t child = fork();
   if (child < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (child == 0) {
-    start_program(
-        {options, program, argv, to_parent[1], to_child[0], child_mask, supervisor, &prog});
+    // Never returns: the child's copies of the UniqueFds are never destroyed.
+    start_program({options, program, argv, to_parent.write_end.get(), to_child.read_end.get(),
+                   child_mask, supervisor, &prog});
   }
-  close(to_parent[1]);
-  close(to_child[0]);
+  to_parent.write_end.reset();
+  to_child.read_end.reset();
   int msg = 0;
-  const ssize_t got = read(to_parent[0], &msg, sizeof msg);
-  close(to_parent[0]);
+  const ssize_t got = read(to_parent.read_end.get(), &msg, sizeof msg);
+  to_parent.read_end.reset();
   auto abandon = [&](const std::string& why) -> Result<Started> {
-    close(to_child[1]);
+    to_child.write_end.reset();
     kill(child, SIGKILL);
     waitpid(child, nullptr, 0);
     return make_error(why);
@@ -632,21 +630,19 @@ Result<Started> start_child(const Options& options, const std::string& program, 
     return abandon(std::string("cannot install the seccomp filter: ") +
                    (got == sizeof msg ? strerror(-msg) : "child failed"));
   }
-  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
-  const int listener = pidfd < 0 ? -1 : static_cast<int>(syscall(SYS_pidfd_getfd, pidfd, msg, 0));
-  if (listener < 0) {
-    if (pidfd >= 0) close(pidfd);
+  base::UniqueFd pidfd(static_cast<int>(syscall(SYS_pidfd_open, child, 0)));
+  base::UniqueFd listener(
+      pidfd.valid() ? static_cast<int>(syscall(SYS_pidfd_getfd, pidfd.get(), msg, 0)) : -1);
+  if (!listener.valid()) {
     return abandon(std::string("cannot take the notification descriptor: ") + strerror(errno));
   }
   if (options.before_start) {
     if (std::string why = options.before_start(child, program.empty() ? options.argv[0] : program);
         !why.empty()) {
-      close(listener);
-      close(pidfd);
       return abandon(why);
     }
   }
-  return Started{child, pidfd, listener, to_child[1]};
+  return Started{child, std::move(pidfd), std::move(listener), std::move(to_child.write_end)};
 }
 
 // The program and the thread that answers its system calls run at the
@@ -685,8 +681,8 @@ void watch(const Options& options, const Started& s, Watch& w) {
   bool stopping = options.stop_fd < 0;
   for (;;) {
     // The listener first; the child and the stop descriptor while they matter.
-    pollfd fds[3] = {{s.listener, 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
-    fds[1].fd = child_done ? -1 : s.pidfd;
+    pollfd fds[3] = {{s.listener.get(), 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
+    fds[1].fd = child_done ? -1 : s.pidfd.get();
     fds[2].fd = stopping ? -1 : options.stop_fd;
     if (poll(fds, 3, -1) < 0) {
       if (errno == EINTR) continue;
@@ -701,7 +697,7 @@ void watch(const Options& options, const Started& s, Watch& w) {
       // as soon as it sees `stop` (woken below).
       stopping = true;
       w.stop.store(true, std::memory_order_release);
-      if (!child_done) syscall(SYS_pidfd_send_signal, s.pidfd, SIGKILL, nullptr, 0);
+      if (!child_done) syscall(SYS_pidfd_send_signal, s.pidfd.get(), SIGKILL, nullptr, 0);
       pthread_kill(w.loop_thread, kWakeSignal);
     }
     if (fds[0].revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
@@ -720,7 +716,7 @@ void supervise(Started& s, const FdRange& range, const Options& options, gate::E
   syscall(SYS_seccomp, SECCOMP_GET_NOTIF_SIZES, 0, &sizes);
   std::vector<uint8_t> buf(std::max<size_t>(sizes.seccomp_notif, sizeof(seccomp_notif)));
   s.release();
-  Loop loop(s.listener, range, options, endpoint, result);
+  Loop loop(s.listener.get(), range, options, endpoint, result);
   // The loop blocks in SECCOMP_IOCTL_NOTIF_RECV itself (not poll() then
   // RECV): only a task waiting inside RECV gets the sync wake-up, so the
   // supervised thread hands the CPU straight to us. A blocked RECV is not
@@ -739,7 +735,7 @@ void supervise(Started& s, const FdRange& range, const Options& options, gate::E
   };
   while (!w.done.load(std::memory_order_acquire)) {
     close_down_if_stopped();
-    if (ioctl(s.listener, SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
+    if (ioctl(s.listener.get(), SECCOMP_IOCTL_NOTIF_RECV, n) == 0) {
       close_down_if_stopped();  // a call received after the stop is answered EIO
       loop.handle(*n);
       std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
@@ -775,7 +771,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   // From here the program may run: out of its reach.
   enter_undumpable();
   RunResult result;
-  if (options.sync_wakeup && ioctl(started->listener, SECCOMP_IOCTL_NOTIF_SET_FLAGS,
+  if (options.sync_wakeup && ioctl(started->listener.get(), SECCOMP_IOCTL_NOTIF_SET_FLAGS,
                                    SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
     result.sync_wakeup = true;
   }
@@ -785,8 +781,8 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   const bool loop_realtime = apply_priority(options, started->child, result);
   supervise(*started, range, options, endpoint, result);
   if (loop_realtime) pthread_setschedparam(pthread_self(), old_policy, &old_param);
-  close(started->listener);
-  close(started->pidfd);
+  started->listener.reset();
+  started->pidfd.reset();
   leave_undumpable();
   endpoint.task_exited(options.task);
   return result;
