@@ -101,10 +101,9 @@ Result<RunResult> run_scenario(const Scenario& sc, const RunOptions& options) {
   std::vector<std::unique_ptr<Attack>> attacks;
   if (options.attacks) {
     for (const auto& spec : sc.attacks) {
-      std::string err;
-      auto a = world->make_attack(spec, &err);
-      if (!a) return make_error(sc.name + ": " + err);
-      attacks.push_back(std::move(a));
+      auto a = world->make_attack(spec);
+      if (!a) return make_error(sc.name + ": " + a.error());
+      attacks.push_back(std::move(*a));
     }
   }
   Noise attack_noise(derive_seed(seed, 99));

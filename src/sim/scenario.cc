@@ -145,8 +145,8 @@ Result<Scenario> parse_scenario(std::string_view text, const std::string& file_n
   auto world = make_world(sc, sc.seed);
   if (!world) return make_error(file_name + ": " + world.error());
   for (const auto& a : sc.attacks) {
-    std::string err;
-    if (!(*world)->make_attack(a, &err)) return make_error(file_name + ": " + err);
+    auto attack = (*world)->make_attack(a);
+    if (!attack) return make_error(file_name + ": " + attack.error());
   }
   return sc;
 }

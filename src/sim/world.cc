@@ -46,14 +46,13 @@ std::vector<Metric> World::metrics() const {
   return out;
 }
 
-std::unique_ptr<Attack> World::make_attack(const AttackSpec& spec, std::string* error) const {
+Result<std::unique_ptr<Attack>> World::make_attack(const AttackSpec& spec) const {
   std::string kinds;
   for (const auto& [kind, make] : attacks_) {
     if (kind == spec.kind) return make(spec);
     kinds += (kinds.empty() ? "" : ", ") + kind;
   }
-  *error = "unknown " + name_ + " attack '" + spec.kind + "' (expected " + kinds + ")";
-  return nullptr;
+  return make_error("unknown " + name_ + " attack '" + spec.kind + "' (expected " + kinds + ")");
 }
 
 }  // namespace contego::sim

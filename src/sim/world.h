@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/result.h"
 #include "bus/virtual_bus.h"
 #include "sim/noise.h"
 
@@ -199,8 +200,8 @@ class World {
   virtual void on_write(uint64_t /*now_us*/, uint16_t /*addr*/,
                         std::span<const uint8_t> /*bytes*/) {}
   const std::vector<Controller*>& controllers() const { return controllers_; }
-  // Builds the attack of `spec` or returns null with a message in `error`.
-  std::unique_ptr<Attack> make_attack(const AttackSpec& spec, std::string* error) const;
+  // Builds the attack of `spec`, or says which kinds this world knows.
+  Result<std::unique_ptr<Attack>> make_attack(const AttackSpec& spec) const;
   // Advances the physics by `dt_us` ending at `now_us` and refreshes the
   // sensor device models.
   virtual void step(uint64_t now_us, uint64_t dt_us) = 0;
