@@ -17,7 +17,8 @@
 #      write-then-read (tank.policy);
 #  (b) `contego monitor --bus 1=/dev/i2c-1` and `contego run --socket`: the
 #      monitor performs on the adapter with I2C_RDWR (not the SMBus plan):
-#      arm_init's combined i2ctransfer, the gripper's attack_rdwr_atomic.
+#      arm_init's combined i2ctransfer, the gripper's attack_rdwr_atomic;
+#      the monitor's own sampling of the tank (tank.policy).
 # Everything is read back through the plain i2c-dev, outside contego (after
 # contego.ko is unloaded, after the monitor stopped).
 . /vm/lib.sh
@@ -40,16 +41,15 @@ A=0x40
 plain_get() { i2cget -y 1 "$1" "$2" b; }
 plain_set() { i2cset -y 1 "$1" "$2" "$3" b; }
 plain_expect() {  # plain_expect ADDR REG VALUE DESCRIPTION
-  got=$(plain_get "$1" "$2")
-  if [ $((got)) = $(($3)) ]; then ok "$4 (reg $2 = $got)"; else bad "$4 (reg $2 = $got, expected $3)"; fi
+  got=$(plain_get "$1" "$2")  # a failed read is no value, never 0
+  if [ -n "$got" ] && [ $((got)) = $(($3)) ]; then ok "$4 (reg $2 = $got)"; else bad "$4 (reg $2 = $got, expected $3)"; fi
 }
 plain_word() { lo=$(plain_get "$1" "$2") && hi=$(plain_get "$1" $(($2 + 1))) && echo $(((hi << 8) | lo)); }
-unload_plain() {
-  back_to_i2c_dev
-  rmmod i2c_plain_stub
-}
+unload_plain() { rmmod i2c_plain_stub; }  # i2c-dev is loaded whenever it is called
 
-run_logged plain_insmod insmod $PLAIN chip_addr=$A,0x20,0x48
+# The arm (0x40), and tank.policy's buzzer, tank and display (0x20, 0x48,
+# 0x3c): the monitor refuses to start when a policy device does not answer.
+run_logged plain_insmod insmod $PLAIN chip_addr=$A,0x20,0x48,0x3c
 [ $RC = 0 ] || { bad "insmod i2c-plain-stub (exit $RC)"; finish; }
 BUS=
 for d in /sys/bus/i2c/devices/i2c-*; do
@@ -298,6 +298,17 @@ plain_expect $A 0x00 0x21 "monitor: MODE1 = 0x21, no software reset"
 plain_expect $A 0x14 0 "monitor: LED3 off, the gripper's refused transfer did not land"
 [ "$(plain_word $A 0x1c)" = 420 ] && ok "monitor: LED5 off = 420 after the monitor stopped" ||
   bad "monitor: LED5 off = $(plain_word $A 0x1c), expected 420"
+
+# The monitor samples the tank itself on the plain adapter (I2C_RDWR:
+# [0x00], then 4 bytes): at 900 mm the buzzer's tone(1) lands; with no
+# sample it would be ignored (signal-unavailable).
+plain_set 0x20 0x01 0
+if start_monitor tank.policy; then
+  run_logged mon_tone under monitor tank.policy monitor i2cset -y 1 0x20 0x01 1
+  [ $RC = 0 ] && ok "monitor: the tank task's tone(1) exits 0" || bad "monitor: tone(1) exit $RC"
+  stop_monitor
+fi
+plain_expect 0x20 0x01 1 "monitor: the buzzer's tone(1) landed (the monitor sampled the tank at 900 mm)"
 
 unload_plain && ok "i2c-plain-stub unloads (no descriptor left open)" || bad "rmmod i2c_plain_stub"
 finish
