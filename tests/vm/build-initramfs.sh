@@ -3,13 +3,15 @@
 # (uncompressed newc cpio: the kernel unpacks it fastest, and building it
 # costs no compression time) holding
 #   /init                     tests/vm/guest/init.sh
-#   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test
+#   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test;
+#                             contego.ko and i2c-plain-stub.ko when built
 #   /usr/bin/contego          a stripped copy of the freshly built binary
 #   /usr/sbin/i2c*            the host's i2c-tools (the real clients)
 #   /usr/bin/python3          Debian's python3 (never a pyenv shim), a pruned
 #                             stdlib, python3-smbus, -smbus2 and -periphery
 #   /vm/...                   scenarios, clients, policies, the bench client,
-#                             test binaries run on the guest kernel (/vm/bin)
+#                             test binaries run on the guest kernel (/vm/bin),
+#                             attack programs (/vm/attack)
 # and every shared library those programs load, with the dynamic loader.
 #
 # For a foreign architecture (--arch arm64 --userland DIR) busybox, the
