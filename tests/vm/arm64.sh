@@ -67,6 +67,6 @@ done
 args+=(--mirror "$build/src/intercept/preload/libcontego_preload.so" --mirror "$src/tests/intercept/scripts"
   --mirror "$src/policies")
 for f in "$build"/tests/intercept/attack_*; do
-  [[ -x "$f" && -f "$f" ]] && args+=(--mirror "$f")
+  [[ -x "$f" && -f "$f" ]] && args+=(--mirror "$f" --attack-binary "$f")
 done
 exec bash "$here/run.sh" "${args[@]}" "${extra[@]}"

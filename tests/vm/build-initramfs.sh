@@ -3,13 +3,15 @@
 # (uncompressed newc cpio: the kernel unpacks it fastest, and building it
 # costs no compression time) holding
 #   /init                     tests/vm/guest/init.sh
-#   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test
+#   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test;
+#                             contego.ko and i2c-plain-stub.ko when built
 #   /usr/bin/contego          a stripped copy of the freshly built binary
 #   /usr/sbin/i2c*            the host's i2c-tools (the real clients)
 #   /usr/bin/python3          Debian's python3 (never a pyenv shim), a pruned
 #                             stdlib, python3-smbus, -smbus2 and -periphery
 #   /vm/...                   scenarios, clients, policies, the bench client,
-#                             test binaries run on the guest kernel (/vm/bin)
+#                             test binaries run on the guest kernel (/vm/bin),
+#                             attack programs (/vm/attack)
 # and every shared library those programs load, with the dynamic loader.
 #
 # For a foreign architecture (--arch arm64 --userland DIR) busybox, the
@@ -18,28 +20,33 @@
 # libraries are resolved from the ELF headers (the host's ldd cannot).
 # --mirror PATH copies a host file or directory to the same path in the
 # guest (ELF files stripped, their libraries added): the data of test
-# binaries that name it at compile time.
+# binaries that name it at compile time. --attack PATH puts an attack
+# program of tests/intercept (stripped, its libraries added) in /vm/attack.
 #
-# Usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]...
+# Usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]... [--attack PATH]...
 #                           OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
 # Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
 #                    beside the two i2c modules; unset or empty: none.
 #      CONTEGO_STATIC_CLIENT  a static build of the bench client, as
 #                    /usr/bin/i2c-write-loop-static; unset or empty: none.
+#      CONTEGO_PLAIN_STUB  the plain-I2C test adapter built for that kernel
+#                    (tests/vm/kmod/build.sh), as
+#                    /lib/modules/i2c-plain-stub.ko; unset or empty: none.
 set -euo pipefail
 
 die() { echo "build-initramfs: $*" >&2; exit 1; }
-arch=$(dpkg --print-architecture) userland="" mirrors=()
+arch=$(dpkg --print-architecture) userland="" mirrors=() attacks=()
 while [[ "${1:-}" == --* ]]; do
   case "$1" in
     --arch) arch=$2; shift 2 ;;
     --userland) userland=$2; shift 2 ;;
     --mirror) mirrors+=("$2"); shift 2 ;;
+    --attack) attacks+=("$2"); shift 2 ;;
     *) die "unknown option $1" ;;
   esac
 done
-(($# >= 4)) || die "usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]... OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]"
+(($# >= 4)) || die "usage: build-initramfs.sh [--arch A --userland DIR] [--mirror PATH]... [--attack PATH]... OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]"
 out=$1 contego=$2 kdir=$3 bench_client=$4
 shift 4
 test_binaries=("$@")
@@ -143,6 +150,10 @@ if [[ -n "${CONTEGO_KMOD:-}" ]]; then
   [[ -f "$CONTEGO_KMOD" ]] || die "no contego.ko at $CONTEGO_KMOD"
   cp "$CONTEGO_KMOD" "$root/lib/modules/contego.ko"
 fi
+if [[ -n "${CONTEGO_PLAIN_STUB:-}" ]]; then
+  [[ -f "$CONTEGO_PLAIN_STUB" ]] || die "no i2c-plain-stub.ko at $CONTEGO_PLAIN_STUB"
+  cp "$CONTEGO_PLAIN_STUB" "$root/lib/modules/i2c-plain-stub.ko"
+fi
 
 # contego, stripped (the debug build is tens of MB with its symbols).
 "$strip" -o "$root/usr/bin/contego" "$contego"
@@ -158,6 +169,14 @@ mkdir -p "$root/vm/bin"
 for t in "${test_binaries[@]}"; do
   [[ -x "$t" ]] || die "no test binary at $t (build it first)"
   "$strip" -o "$root/vm/bin/$(basename "$t")" "$t"
+  put_libs "$t"
+done
+
+# The attack programs of tests/intercept (scenario 61).
+mkdir -p "$root/vm/attack"
+for t in "${attacks[@]}"; do
+  [[ -x "$t" ]] || die "no attack program at $t (build it first)"
+  "$strip" -o "$root/vm/attack/$(basename "$t")" "$t"
   put_libs "$t"
 done
 

@@ -7,13 +7,18 @@
 # skip: CI must not go green without having run anything.
 #
 # Usage: tests/vm/run.sh [--arch amd64|arm64] [--contego PATH] [--bench-client PATH]
-#                        [--test-binary PATH]... [--mirror PATH]... [--workdir DIR]
+#                        [--test-binary PATH]... [--attack-binary PATH]...
+#                        [--mirror PATH]... [--workdir DIR]
 #                        [--scenarios a,b,...] [--shell] [--timeout SECONDS]
 #                        [--skip-code N]
 #   --arch arm64 Debian's arm64 kernel in qemu-system-aarch64 (-M virt,
 #                Cortex-A53), its i2c-stub cross-built (fetch-kernel.sh), its
 #                user space from Debian's arm64 packages (fetch-userland.sh);
 #                the binaries given must be the cross-built ones
+#   --attack-binary  an attack program of tests/intercept (attack_*), put in
+#                the guest's /vm/attack for scenario 61 (contego.ko and the
+#                monitor on the plain-I2C adapter); default: the dev build's,
+#                when built
 #   --mirror     a host path copied to the same path in the guest (test data
 #                a test binary names at compile time)
 #   --skip-code  exit N instead of failing when QEMU or a cross tool is
@@ -30,6 +35,7 @@ src=$(cd "$here/../.." && pwd)
 contego=$src/build/dev/src/cli/contego
 bench_client=$src/build/dev/tests/vm/i2c-write-loop
 test_binaries=()  # GoogleTest binaries run in the guest (scenario 01)
+attack_binaries=()  # tests/intercept's attack programs (scenario 61)
 workdir=$src/build/dev/tests/vm
 mirrors=()
 scenarios=all shell=0 arch=amd64 skip_code=""
@@ -42,6 +48,7 @@ while (($#)); do
     --contego) contego=$2; shift 2 ;;
     --bench-client) bench_client=$2; shift 2 ;;
     --test-binary) test_binaries+=("$2"); shift 2 ;;
+    --attack-binary) attack_binaries+=(--attack "$2"); shift 2 ;;
     --workdir) workdir=$2; shift 2 ;;
     --scenarios) scenarios=$2; shift 2 ;;
     --shell) shell=1; shift ;;
@@ -75,6 +82,11 @@ if [[ "$arch" != "$host_arch" ]]; then
     missing "linux-source-6.1 or linux-kbuild-6.1 not installed: run bash tools/bootstrap.sh --cross-arm64"
 fi
 mkdir -p "$workdir"
+if ((${#attack_binaries[@]} == 0)) && [[ "$arch" == "$host_arch" ]]; then
+  for f in "$src"/build/dev/tests/intercept/attack_*; do
+    [[ -x "$f" && -f "$f" ]] && attack_binaries+=(--attack "$f")
+  done
+fi
 
 t_start=$(date +%s.%N)
 kdir=$(bash "$here/fetch-kernel.sh" --arch "$arch") || fail "cannot get Debian's $arch kernel (see fetch-kernel's message above)"
@@ -84,23 +96,26 @@ if [[ "$arch" != "$host_arch" ]]; then
   userland_args=(--arch "$arch" --userland "$userland")
 fi
 t_kernel=$(date +%s.%N)
-# contego.ko (docs/kernel-client.md), built against the headers of exactly
-# this kernel; without them the module's scenario reports a skip.
-kmod=
-set +e
+# contego.ko (docs/kernel-client.md) and the plain-I2C test adapter
+# (tests/vm/kmod), built against the headers of exactly this kernel; without
+# them the scenarios that need them report a skip.
 if [[ -d "$kdir/headers" ]]; then
-  # arm64: the headers the kernel cache keeps (fetch-kernel.sh)
-  bash "$src/kernel/build.sh" --arch "$arch" "$workdir/kmod" "$kdir/headers/"
+  headers=$kdir/headers/  # arm64: the headers the kernel cache keeps (fetch-kernel.sh)
 else
-  bash "$src/kernel/build.sh" --arch "$arch" "$workdir/kmod" "/usr/src/linux-headers-$(cat "$kdir/version")"
+  headers=/usr/src/linux-headers-$(cat "$kdir/version")
 fi
-kmod_rc=$?
-set -e
-case $kmod_rc in
-  0) kmod=$workdir/kmod/contego.ko ;;
-  77) echo "run.sh: contego.ko not built (no headers for $(cat "$kdir/version")): its scenario skips" >&2 ;;
-  *) fail "building contego.ko failed (kernel/build.sh exit $kmod_rc)" ;;
-esac
+# build_module NAME SCRIPT: prints the module's path, nothing when skipped
+build_module() {
+  local rc=0
+  bash "$2" --arch "$arch" "$workdir/kmod" "$headers" >&2 || rc=$?
+  case $rc in
+    0) echo "$workdir/kmod/$1" ;;
+    77) echo "run.sh: $1 not built (no headers for $(cat "$kdir/version")): its scenarios skip" >&2 ;;
+    *) fail "building $1 failed ($2 exit $rc)" ;;
+  esac
+}
+kmod=$(build_module contego.ko "$src/kernel/build.sh") || exit 1
+plain_stub=$(build_module i2c-plain-stub.ko "$here/kmod/build.sh") || exit 1
 # A statically linked copy of the bench client: no dynamic loader, so no
 # preload can reach it; only the kernel client checks it (scenario 60).
 static_client=
@@ -110,8 +125,9 @@ if [[ "$arch" == "$host_arch" ]]; then
     fail "cannot link the static bench client (libc6-dev's libc.a)"
 fi
 t_kmod=$(date +%s.%N)
-CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod bash "$here/build-initramfs.sh" \
-  "${userland_args[@]}" "${mirrors[@]}" "$workdir/initrd.cpio" \
+CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod CONTEGO_PLAIN_STUB=$plain_stub \
+  bash "$here/build-initramfs.sh" \
+  "${userland_args[@]}" "${mirrors[@]}" "${attack_binaries[@]}" "$workdir/initrd.cpio" \
   "$contego" "$kdir" "$bench_client" "${test_binaries[@]}" ||
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)

@@ -1,9 +1,10 @@
 # Helpers shared by /init and the scenarios (sourced by busybox sh).
 #
-# The guest has one adapter, i2c-stub, as /dev/i2c-0. The example policies
-# name their devices `at i2c-1`, so contego maps its bus 1 onto that adapter
-# (BUS_ARGS) and the supervised programs talk to /dev/i2c-1, a node that
-# exists only inside contego's emulation. Everything read back with
+# The guest's adapter is i2c-stub, as /dev/i2c-0 (scenario 61 adds a second,
+# plain-I2C one, i2c-plain-stub, as /dev/i2c-1). The example policies
+# name their devices `at i2c-1`, so contego maps its bus 1 onto i2c-stub's
+# node (BUS_ARGS) and the supervised programs talk to /dev/i2c-1, a node that
+# (but in scenario 61) exists only inside contego's emulation. Everything read back with
 # `stub_get`/`stub_word` goes through the kernel directly, outside contego:
 # it is what reached the "device".
 
@@ -58,7 +59,8 @@ stub_reload() {
 # Safety net between scenarios: nothing a scenario started may outlive it
 # (an open descriptor on the adapter would keep i2c-stub loaded).
 cleanup_processes() {
-  for name in contego python3 python3.11 i2c-write-loop i2ctransfer i2cset i2cget i2cdump; do
+  for name in contego python3 python3.11 i2c-write-loop i2ctransfer i2cset i2cget i2cdump \
+      attack_rdwr_race attack_signal_storm attack_static attack_pid_reuse attack_identity attack_rdwr_atomic; do
     for pid in $(pidof $name); do kill -KILL "$pid" 2>/dev/null; done
   done
   rm -rf /run/contego

@@ -10,7 +10,7 @@
 # level set on the stub). What reached the chips is read back through the
 # plain i2c-dev, after contego.ko is unloaded (which drives the safe state).
 . /vm/lib.sh
-KO=/lib/modules/contego.ko
+. /vm/inc/kmod.sh
 if [ ! -f $KO ]; then
   # Not a failure: the host had no linux-headers for this kernel (tools/bootstrap.sh).
   echo "VM-CHECK SKIP $SCENARIO: contego.ko was not built (no kernel headers on the host)"
@@ -28,11 +28,6 @@ stub_set 0x48 0x01 0x22 # a chip the policy does not name
 N=${BENCH_N:-10000}
 run_logged plain i2c-write-loop 0 $A 0xfd 0 $N
 plain=$(grep '^loop' "$OUT")
-
-back_to_i2c_dev() {
-  rmmod contego 2>/dev/null
-  insmod /lib/modules/i2c-dev.ko && own_adapter
-}
 
 rmmod i2c_dev || { bad "cannot unload i2c-dev"; finish; }
 run_logged insmod insmod $KO adapters=0 buses=1
@@ -70,22 +65,6 @@ grep -q "reader=0 .*audit_refused=1" "$OUT" && ok "module counters: reader=0, on
   bad "module counters without a reader"
 
 AUDIT_LOG=$LOGDIR/kmod-audit.jsonl
-READER_PID=
-start_reader() {  # start_reader [POLICY]: the policy whose names the log gets (arm.policy)
-  contego kmod audit --policy ${1:-$POLICIES/arm.policy} --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
-  READER_PID=$!
-  i=0
-  until contego kmod stats 2>/dev/null | grep -q "reader=1"; do
-    i=$((i + 1))
-    [ $i -gt 100 ] && { bad "contego kmod audit did not attach"; show "$LOGDIR/reader.log"; return 1; }
-    usleep 100000
-  done
-}
-stop_reader() {
-  [ -n "$READER_PID" ] || return 0
-  kill -TERM $READER_PID; wait $READER_PID; rc=$?; READER_PID=
-  return $rc
-}
 start_reader && ok "contego kmod audit attached to the ring"
 
 run_logged get as_task i2cget -y 0 $A 0xfe

@@ -1,0 +1,27 @@
+# contego.ko's helpers, shared by the scenarios that load it (60, 61):
+# the audit reader (`contego kmod audit`, which the module needs before any
+# call may act) and the way back to the plain i2c-dev. Set AUDIT_LOG first.
+KO=/lib/modules/contego.ko
+
+READER_PID=
+start_reader() {  # start_reader [POLICY]: the policy whose names the log gets (arm.policy)
+  contego kmod audit --policy ${1:-$POLICIES/arm.policy} --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
+  READER_PID=$!
+  i=0
+  until contego kmod stats 2>/dev/null | grep -q "reader=1"; do
+    i=$((i + 1))
+    [ $i -gt 100 ] && { bad "contego kmod audit did not attach"; show "$LOGDIR/reader.log"; return 1; }
+    usleep 100000
+  done
+}
+stop_reader() {
+  [ -n "$READER_PID" ] || return 0
+  kill -TERM $READER_PID; wait $READER_PID; rc=$?; READER_PID=
+  return $rc
+}
+
+# contego.ko out, i2c-dev back in: every adapter gets its plain node again.
+back_to_i2c_dev() {
+  rmmod contego 2>/dev/null
+  insmod /lib/modules/i2c-dev.ko && own_adapter
+}
