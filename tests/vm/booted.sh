@@ -3,7 +3,7 @@
 # as PID 1 (build-rootfs.sh, cached), Debian's kernel (fetch-kernel.sh,
 # cached), the amd64 package under test and the README's "Install" commands
 # (extracted here, so that the guest runs what the README says), booted in
-# QEMU (KVM when /dev/kvm is writable, TCG otherwise). The guest's scenario
+# QEMU (KVM when it works here, TCG otherwise: accel.sh). The guest's scenario
 # (booted/scenario.sh) installs, uses, stops, restarts, removes and purges
 # the package and prints one line per check; this script judges them.
 #
@@ -86,8 +86,8 @@ ln -sf ../guest-scenario.service "$extra/etc/systemd/system/multi-user.target.wa
 cat "$rootfs" "$workdir/extra.cpio" >"$workdir/initrd.cpio"
 t3=$SECONDS
 
-accel=(-accel tcg) accel_name=TCG
-if [[ -w /dev/kvm ]]; then accel=(-enable-kvm -cpu host) accel_name=KVM; fi
+accel_kernel=$kdir/vmlinuz
+. "$here/accel.sh"
 log=$workdir/console.log
 echo "booted.sh: $(cat "$kdir/version") under $accel_name, $(basename "$deb"), limit ${limit}s" >&2
 set +e

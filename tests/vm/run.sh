@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The real-kernel test bed, host side: fetches Debian's kernel (cached),
 # packs the guest initramfs around the freshly built contego, boots it once in
-# QEMU (KVM when /dev/kvm is writable, TCG otherwise) under a hard time limit,
+# QEMU (KVM when it works here, TCG otherwise: accel.sh) under a hard time limit,
 # and judges the serial console: every scenario must report PASS and the
 # guest must say it finished. Missing QEMU or kernel is a failure, never a
 # skip: CI must not go green without having run anything.
@@ -132,17 +132,15 @@ CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod CONTEGO_PLAIN_STUB=$plai
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)
 
-accel=(-accel tcg)
-accel_name=TCG
 if [[ "$arch" == arm64 ]]; then
   # The paper's Raspberry Pi 3 core. No KVM for a foreign architecture.
   machine=(-M virt -cpu cortex-a53)
-elif [[ -w /dev/kvm ]]; then
-  machine=()
-  accel=(-enable-kvm -cpu host)
-  accel_name=KVM
+  accel=(-accel tcg)
+  accel_name=TCG
 else
   machine=()
+  accel_kernel=$kdir/vmlinuz
+  . "$here/accel.sh"
 fi
 append="console=$console quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
 qemu_args=("${machine[@]}" "${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
