@@ -265,6 +265,7 @@ void Server::stop() {
   for (const auto& c : conns_) {
     if (!c->done.load()) shutdown(c->fd.get(), SHUT_RDWR);
   }
+  session_ended_.notify_all();  // a hello waiting for an ending session
 }
 
 // Answers one well-framed message into *out; returns the answer's type, or

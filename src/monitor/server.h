@@ -37,6 +37,7 @@
 #define CONTEGO_MONITOR_SERVER_H_
 
 #include <atomic>
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -109,6 +110,7 @@ class Server {
     std::atomic<bool> hello{false};
     std::atomic<bool> done{false};
     bool timed_out = false;  // mu_
+    int task = -1;           // the task its session is bound to, -1 none; mu_
     std::thread thread;
   };
   struct EventBudget {
@@ -135,6 +137,9 @@ class Server {
   std::string identity_refusal(const Conn& c, const std::string& name,
                                const gate::wire::Vouch& vouch);
   bool descends_from_supervised(pid_t pid);  // mu_ held
+  // Whether a bound session of `task` has a peer that hung up: its
+  // connection's thread has yet to notice and end it. mu_ held.
+  bool session_ending(uint16_t task) const;
   void end_session(Session& s);
   Monitor& monitor_;
   AuditLog& audit_;
@@ -153,6 +158,7 @@ class Server {
   std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
   std::map<std::string, TaskBinding> bindings_;
   std::map<uint16_t, uint32_t> live_sessions_;  // per task; mu_
+  std::condition_variable session_ended_;       // a session ended; with mu_
   std::multiset<pid_t> supervised_;             // live supervisors and their programs; mu_
   bool own_exe_known_ = false;
   dev_t own_dev_ = 0;

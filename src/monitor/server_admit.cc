@@ -1,6 +1,7 @@
 // The server's hello admission: who the peer is (kernel facts), whether it
 // may run the task it names, and how many sessions the task already has.
 #include <errno.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <fmt/core.h>
@@ -92,13 +93,25 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
   auto binding = bindings_.find(name);
   const uint32_t allowed = binding == bindings_.end() ? 1 : binding->second.sessions;
-  std::lock_guard lock(mu_);
-  uint32_t& live = live_sessions_[task];
-  if (live >= allowed) {
-    return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
-                       live, allowed);
+  std::unique_lock lock(mu_);
+  auto live = [&] {
+    const auto it = live_sessions_.find(task);
+    return it == live_sessions_.end() ? 0u : it->second;
+  };
+  // A program that just exited (one i2cset after another, each under the
+  // preload client) still holds its session until its connection's thread
+  // notices the hang-up (within the channel's poll interval): wait for that
+  // rather than refuse its successor. A live peer is refused at once.
+  if (live() >= allowed && session_ending(task)) {
+    session_ended_.wait_for(lock, std::chrono::seconds(2),
+                            [&] { return live() < allowed || stopping_; });
   }
-  ++live;
+  if (live() >= allowed) {
+    return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
+                       live(), allowed);
+  }
+  ++live_sessions_[task];
+  s.conn->task = task;
   s.bound = true;
   s.task = task;
   if (vouch.pid != 0) {
@@ -109,6 +122,15 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   return {};
 }
 
+bool Server::session_ending(uint16_t task) const {
+  for (const auto& c : conns_) {
+    if (c->task != task || c->done || !c->fd.valid()) continue;
+    pollfd p{c->fd.get(), POLLRDHUP, 0};
+    if (poll(&p, 1, 0) > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0) return true;
+  }
+  return false;
+}
+
 void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
   monitor_.task_exited(s.task);
@@ -116,6 +138,8 @@ void Server::end_session(Session& s) {
   if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
     live_sessions_.erase(it);
   }
+  s.conn->task = -1;
+  session_ended_.notify_all();
   if (s.vouched != 0) {
     supervised_.erase(supervised_.find(s.conn->pid));
     supervised_.erase(supervised_.find(s.vouched));

@@ -200,6 +200,19 @@ TEST_F(Identity, ASecondSessionOfALiveTaskIsRefusedAndDrivesNothing) {
   EXPECT_EQ(count(audit_text(), "\"safe-state\""), safe_before);
 }
 
+// One program after another (i2cset, then i2cget, each under the preload
+// client): the first one's session ends as its connection closes, however
+// soon the next one says hello.
+TEST_F(Identity, ASessionClosedJustBeforeIsNoLiveSessionForTheNext) {
+  for (int i = 0; i < 20; ++i) {
+    auto first = gate::SocketClient::connect(socket_path, "arm_init", std::nullopt);
+    ASSERT_TRUE(first.ok()) << first.error();
+    first->reset();  // the program exits: its connection closes
+    auto next = gate::SocketClient::connect(socket_path, "arm_init", std::nullopt);
+    ASSERT_TRUE(next.ok()) << "round " << i << ": " << next.error();
+  }
+}
+
 TEST_F(Identity, AConnectHelloCloseLoopOfRefusedHellosDrivesNoSafeState) {
   auto live = gate::SocketClient::connect(socket_path, "arm_init", std::nullopt);
   ASSERT_TRUE(live.ok()) << live.error();
