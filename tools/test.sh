@@ -43,8 +43,8 @@ ctest --preset asan-ubsan -LE tree
 # checks. Only the targets they use are built.
 step "debug build: test bed, bench smoke runs, tree checks"
 cmake --preset dev >/dev/null
-cmake --build --preset dev --target contego contego_preload contego-bench-task \
-  contego-kernel-floor core_bench sched_bench check_insns vm_i2c_write_loop seccomp_filter_test
+cmake --build --preset dev --target vm_testbed_programs contego-bench-task \
+  contego-kernel-floor core_bench sched_bench check_insns
 # vm.booted_guest needs the package: it runs after the package stage below;
 # the arm64 bed (label arm64) has a stage of its own.
 ctest --preset dev -L 'vm|bench|tree' -E '^vm\.booted_guest$' -LE arm64
@@ -62,7 +62,18 @@ if [[ -f fuzz/CMakeLists.txt ]]; then
   bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-10}"
 fi
 
-# The arm64 test bed (docs/testbed.md): the arm64 build (cross-compiled,
+# The amd64 Debian package, built and checked (docs/packaging.md); the arm64
+# one is `tools/package.sh --arch arm64`, as long again, not run here.
+step "amd64 Debian package"
+bash tools/package.sh --arch amd64
+
+# The package installed, used, stopped, restarted, removed and purged in a
+# booted Debian 12 guest with the README's Install commands (docs/testbed.md).
+step "booted Debian guest"
+debs=(out/packages/contego_*_amd64.deb)
+CONTEGO_DEB=$PWD/${debs[-1]} ctest --preset dev -R '^vm\.booted_guest$' -V
+
+# Last, the arm64 test bed (docs/testbed.md): the arm64 build (cross-compiled,
 # preset arm64-test) and its core, policy, monitor, bus, gate and supervisor
 # tests on Debian's arm64 kernel in qemu-system-aarch64, then the real-adapter
 # scenarios and contego.ko there. The cross tools and arm64 libraries come
@@ -80,16 +91,5 @@ if ((rc != 0)) || ! grep -aq 'VM TEST BED PASSED' "$arm64_log"; then
   echo "arm64 test bed failed or did not run (log: $arm64_log)" >&2
   exit 1
 fi
-
-# The amd64 Debian package, built and checked (docs/packaging.md); the arm64
-# one is `tools/package.sh --arch arm64`, as long again, not run here.
-step "amd64 Debian package"
-bash tools/package.sh --arch amd64
-
-# The package installed, used, stopped, restarted, removed and purged in a
-# booted Debian 12 guest with the README's Install commands (docs/testbed.md).
-step "booted Debian guest"
-debs=(out/packages/contego_*_amd64.deb)
-CONTEGO_DEB=$PWD/${debs[-1]} ctest --preset dev -R '^vm\.booted_guest$' -V
 
 step "all tests passed"
