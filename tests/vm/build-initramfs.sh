@@ -165,20 +165,20 @@ fi
 put_libs "$bench_client"
 # Tests whose subject is the kernel (seccomp filter, IA-32 entry): run again
 # on Debian's kernel, which may offer what the host's kernel lacks.
-mkdir -p "$root/vm/bin"
-for t in "${test_binaries[@]}"; do
-  [[ -x "$t" ]] || die "no test binary at $t (build it first)"
-  "$strip" -o "$root/vm/bin/$(basename "$t")" "$t"
-  put_libs "$t"
-done
-
+# put_programs DIR WHAT PROGRAM...: stripped into the guest's DIR, with their libraries.
+put_programs() {
+  local dir=$1 what=$2 t
+  shift 2
+  mkdir -p "$root$dir"
+  for t in "$@"; do
+    [[ -x "$t" ]] || die "no $what at $t (build it first)"
+    "$strip" -o "$root$dir/$(basename "$t")" "$t"
+    put_libs "$t"
+  done
+}
+put_programs /vm/bin "test binary" "${test_binaries[@]}"
 # The attack programs of tests/intercept (scenario 61).
-mkdir -p "$root/vm/attack"
-for t in "${attacks[@]}"; do
-  [[ -x "$t" ]] || die "no attack program at $t (build it first)"
-  "$strip" -o "$root/vm/attack/$(basename "$t")" "$t"
-  put_libs "$t"
-done
+put_programs /vm/attack "attack program" "${attacks[@]}"
 
 # Test data named at compile time, at the same paths.
 for m in "${mirrors[@]}"; do
