@@ -18,7 +18,10 @@ export HOME=/root
 mount -t proc proc /proc
 mount -t sysfs sysfs /sys
 mount -t devtmpfs devtmpfs /dev
-mount -t tmpfs -o mode=1777 tmpfs /tmp
+# /tmp stays the initramfs's own (writable, in memory): test data mirrored
+# from a build tree under the host's /tmp (a CI clone) lives there, and a
+# tmpfs mounted over it would hide it.
+mkdir -p /tmp && chmod 1777 /tmp
 mount -t tmpfs -o mode=0755 tmpfs /run
 # Loop device nodes and the like are not needed; /dev/console is the serial
 # port (console=ttyS0, or ttyAMA0 on arm64), where every line below goes.
