@@ -45,7 +45,11 @@ t0=$SECONDS
 # From the source tree: CTest runs this script in the build tree, where
 # there are no presets.
 (cd "$src" && cmake --preset arm64-test -B "$build" >/dev/null)
-cmake --build "$build" --target contego contego_preload vm_i2c_write_loop "${tests[@]}" -- -j2
+# The attack programs of scenario 61 too: only some test binaries depend on them.
+attacks=(attack_rdwr_race attack_pid_reuse attack_static attack_signal_storm attack_rdwr_atomic
+  attack_identity)
+cmake --build "$build" --target contego contego_preload vm_i2c_write_loop "${tests[@]}" \
+  "${attacks[@]}" -- -j2
 echo "arm64.sh: cross build $((SECONDS - t0))s"
 
 # Every scenario but the tools ones (30, 31: about two minutes each of
@@ -58,6 +62,8 @@ scenarios=$(cd "$here/guest/scenarios" && ls ./*.sh | sed 's,^\./,,; s,\.sh$,,' 
 scenarios=${CONTEGO_ARM64_SCENARIOS:-$scenarios}
 # The guest's whole run under TCG: 6.5 min on a loaded 2-core host; the
 # CTest's own limit is 40 min.
+# CONTEGO_ARM64_GTEST_FILTER: GTEST_FILTER for those binaries in the guest.
+[[ -z "${CONTEGO_ARM64_GTEST_FILTER:-}" ]] || extra=(--gtest-filter "$CONTEGO_ARM64_GTEST_FILTER" "${extra[@]}")
 args=(--arch arm64 --skip-code 77 --workdir "$workdir" --scenarios "$scenarios"
   --timeout "${CONTEGO_VM_TIMEOUT:-2100}"
   --contego "$build/src/cli/contego"

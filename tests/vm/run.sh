@@ -10,7 +10,7 @@
 #                        [--test-binary PATH]... [--attack-binary PATH]...
 #                        [--mirror PATH]... [--workdir DIR]
 #                        [--scenarios a,b,...] [--shell] [--timeout SECONDS]
-#                        [--skip-code N]
+#                        [--skip-code N] [--gtest-filter PATTERN]
 #   --arch arm64 Debian's arm64 kernel in qemu-system-aarch64 (-M virt,
 #                Cortex-A53), its i2c-stub cross-built (fetch-kernel.sh), its
 #                user space from Debian's arm64 packages (fetch-userland.sh);
@@ -23,6 +23,8 @@
 #                a test binary names at compile time)
 #   --skip-code  exit N instead of failing when QEMU or a cross tool is
 #                missing (CTest's SKIP_RETURN_CODE for the optional arm64 bed)
+#   --gtest-filter  GTEST_FILTER for the test binaries the guest runs
+#                (scenario 02), e.g. '-*/seccomp_socket'; no spaces
 #   --shell      boot to an interactive shell on this terminal instead (run
 #                one scenario by hand: sh /vm/scenarios/NAME.sh; leave: poweroff -f)
 # Defaults: the dev build's binaries (build/dev), workdir build/dev/tests/vm.
@@ -38,7 +40,7 @@ test_binaries=()  # GoogleTest binaries run in the guest (scenario 01)
 attack_binaries=()  # tests/intercept's attack programs (scenario 61)
 workdir=$src/build/dev/tests/vm
 mirrors=()
-scenarios=all shell=0 arch=amd64 skip_code=""
+scenarios=all shell=0 arch=amd64 skip_code="" gtest_filter=""
 limit=${CONTEGO_VM_TIMEOUT:-900}
 while (($#)); do
   case "$1" in
@@ -52,6 +54,7 @@ while (($#)); do
     --workdir) workdir=$2; shift 2 ;;
     --scenarios) scenarios=$2; shift 2 ;;
     --shell) shell=1; shift ;;
+    --gtest-filter) gtest_filter=$2; shift 2 ;;
     --timeout) limit=$2; shift 2 ;;
     *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
   esac
@@ -143,6 +146,7 @@ else
   . "$here/accel.sh"
 fi
 append="console=$console quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
+[[ -z "$gtest_filter" ]] || append+=" contego.gtest_filter=$gtest_filter"
 qemu_args=("${machine[@]}" "${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
   -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio")
 

@@ -13,6 +13,7 @@
 #   contego.scenarios=a,b,c   run only these (names without .sh); default all
 #   contego.shell=1           no scenarios: an interactive shell on the console
 #   contego.timeout=N         per-scenario limit in seconds (default 420)
+#   contego.gtest_filter=P    GTEST_FILTER for scenario 02's test binaries
 export PATH=/usr/sbin:/usr/bin:/sbin:/bin
 export HOME=/root
 mount -t proc proc /proc
@@ -28,14 +29,17 @@ mount -t tmpfs -o mode=0755 tmpfs /run
 exec </dev/console >/dev/console 2>&1
 
 scenarios=all shell=0 timeout=420
+set -f  # a filter's '*' is not a file name pattern here
 for arg in $(cat /proc/cmdline); do
   case "$arg" in
     contego.scenarios=*) scenarios=${arg#contego.scenarios=} ;;
     contego.shell=*) shell=${arg#contego.shell=} ;;
     contego.timeout=*) timeout=${arg#contego.timeout=} ;;
     contego.accel=*) export ACCEL=${arg#contego.accel=} ;;
+    contego.gtest_filter=*) export GTEST_FILTER=${arg#contego.gtest_filter=} ;;
   esac
 done
+set +f
 
 . /vm/lib.sh
 if ! stub_load; then
