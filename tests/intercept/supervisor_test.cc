@@ -418,7 +418,10 @@ TEST_P(Supervised, BufferRewrittenByASecondThreadNeverReachesTheBus) {
   auto r = run({CONTEGO_TESTCASES_DIR "/attack_rdwr_race"});
   EXPECT_EQ(r.exit_code, 0) << output;
   EXPECT_EQ(pca->reg(0xFE), 0x1E);
-  EXPECT_EQ(pca->reg(0x06), 0x10);
+  // The flipper's stores are not atomic: a copy may catch [0x06, 0x03], an
+  // allowed LED0_ON_L write, checked and sent as copied (an optimised build
+  // of the attack catches it often). What must never land is PRE_SCALE.
+  EXPECT_TRUE(pca->reg(0x06) == 0x10 || pca->reg(0x06) == 0x03) << int{pca->reg(0x06)};
 }
 
 TEST_P(Supervised, StaticBinaryAttacksChangeNothingForbidden) {
