@@ -27,6 +27,26 @@ Response response_time(Nanos c_tee, Nanos blocking, Nanos deadline,
   }
 }
 
+bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline,
+                    std::span<const Interferer> higher) {
+  const Nanos own = sat_add(c_tee, blocking);
+  Nanos r = own;
+  // Every interferer releases a job at 0, so a positive R_i holds at least
+  // one job of each: starting there reaches the same least fixed point.
+  if (own > 0) {
+    for (const Interferer& h : higher) r = sat_add(r, h.c_tee);
+  }
+  while (r <= deadline) {
+    Nanos next = own;
+    for (const Interferer& h : higher) {
+      next = sat_add(next, sat_mul((r + h.period - 1) / h.period, h.c_tee));
+    }
+    if (next == r) return true;
+    r = next;  // iterates never decrease from a lower bound
+  }
+  return false;
+}
+
 void Analyzer::prepare(const TaskSet& set) {
   const size_t n = set.tasks.size();
   order_.resize(n);
@@ -59,19 +79,20 @@ void Analyzer::prepare(const TaskSet& set) {
   for (size_t q = 0; q < n; ++q) blocking_[q] = suffix[group_end_[q]];
 }
 
-Response Analyzer::respond(size_t pos) {
+std::span<const Interferer> Analyzer::higher(size_t pos) {
   const size_t end = group_end_[pos];
-  std::span<const Interferer> all(interferer_.data(), end);
-  if (end == pos + 1) {
-    // Distinct priority: hp(i) is exactly the positions before pos.
-    return response_time(interferer_[pos].c_tee, blocking_[pos], deadline_[pos], all.first(pos));
-  }
+  // Distinct priority: hp(i) is exactly the positions before pos.
+  if (end == pos + 1) return {interferer_.data(), pos};
   // Ties: every other member of the group interferes as well.
   scratch_.clear();
   for (size_t q = 0; q < end; ++q) {
     if (q != pos) scratch_.push_back(interferer_[q]);
   }
-  return response_time(interferer_[pos].c_tee, blocking_[pos], deadline_[pos], scratch_);
+  return scratch_;
+}
+
+Response Analyzer::respond(size_t pos) {
+  return response_time(interferer_[pos].c_tee, blocking_[pos], deadline_[pos], higher(pos));
 }
 
 Analysis Analyzer::analyse(const TaskSet& set) {
@@ -96,7 +117,7 @@ Analysis Analyzer::analyse(const TaskSet& set) {
 bool Analyzer::schedulable(const TaskSet& set) {
   prepare(set);
   for (size_t p = 0; p < order_.size(); ++p) {
-    if (!respond(p).schedulable) return false;
+    if (!meets_deadline(interferer_[p].c_tee, blocking_[p], deadline_[p], higher(p))) return false;
   }
   return true;
 }

@@ -62,6 +62,12 @@ Nanos checked_wcet(const Task& t);
 Response response_time(Nanos c_tee, Nanos blocking, Nanos deadline,
                        std::span<const Interferer> higher);
 
+// Whether the recurrence's least fixed point is within `deadline` (the same
+// verdict as response_time), starting from C_i + B_i + sum of C_j^TEE: a
+// lower bound on R_i whenever R_i > 0, so it skips the first iterates.
+bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline,
+                    std::span<const Interferer> higher);
+
 class Analyzer {
  public:
   // REQUIRES: validate(set) succeeded and overheads are resolved.
@@ -73,6 +79,8 @@ class Analyzer {
   // Sorts by priority and computes C^TEE, blocking and group bounds.
   void prepare(const TaskSet& set);
   Response respond(size_t pos);
+  // The interferers of position `pos` (its group's other members included).
+  std::span<const Interferer> higher(size_t pos);
 
   std::vector<size_t> order_;           // positions by decreasing priority
   std::vector<Interferer> interferer_;  // by position
