@@ -506,6 +506,28 @@ alarm_ms=$(sed -n 's/^elapsed_ms \([0-9]*\) .*/\1/p' "$OUT")
   ok "over-budget hold under a 50 ms timer: 8 writes still took one period ($(cat "$OUT"))" ||
   bad "over-budget hold under signals (exit $RC): $(cat "$OUT")"
 
+# Another contego's load request (the size before the per-task limits, 48
+# bytes; or this size with version 1) is refused with EPROTO, not misread;
+# a version mismatch gets the module's version back.
+cat >/tmp/kmod_oldload.py <<'PY'
+import errno, fcntl, os
+fd = os.open("/dev/contego", os.O_RDWR)
+def load(size, version):
+    buf = bytearray(size)
+    buf[0:4] = version.to_bytes(4, "little")
+    try:
+        fcntl.ioctl(fd, (3 << 30) | (size << 16) | (0xC7 << 8) | 1, buf)
+        return "ok"
+    except OSError as e:
+        return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
+print("size48", load(48, 0))
+print("version1", load(312, 1))
+PY
+run_logged oldload python3 /tmp/kmod_oldload.py
+grep -q "^size48 EPROTO" "$OUT" && grep -q "^version1 EPROTO version 2" "$OUT" &&
+  ok "a load request of another size or version is refused (EPROTO; the module's version 2 is sent back)" ||
+  bad "another contego's load request: $(cat "$OUT")"
+
 stop_reader
 run_logged verify4 contego audit $AUDIT_LOG
 [ $RC = 0 ] && ok "the log of the limits verifies" || bad "contego audit of the limits' log (exit $RC)"
