@@ -34,15 +34,33 @@ struct contego_kmod_bind {
   char unit[64];    /* "": any; a systemd unit name */
 };
 
+/* What the monitor enforces per task besides the image, handed over with
+ * the image (docs/kernel-client.md "Sessions", "Budget"): how many live
+ * sessions each task may have (the policy's `sessions`, default 1) and its
+ * actuations per job (N, the image's), with the over-budget hold's factor. */
+#define CONTEGO_KMOD_MAX_TASKS 32
+#define CONTEGO_KMOD_MAX_TASK_SESSIONS 64 /* the policy's largest `sessions` */
+
+/* The layout of struct contego_kmod_load. Its size is in the ioctl number
+ * too: a module refuses a CONTEGO_KMOD_LOAD of another size or version with
+ * EPROTO (and says so in the kernel log); an older module answers ENOTTY. */
+#define CONTEGO_KMOD_LOAD_VERSION 2
+
 struct contego_kmod_load {
-  __u64 image;   /* in: user pointer to the image */
-  __u32 size;    /* in: its size in bytes */
-  __u32 nbinds;  /* in: entries at `binds` */
-  __u64 binds;   /* in: user pointer to struct contego_kmod_bind[nbinds] */
-  __u32 status;  /* out: the core verifier's LoadStatus (0 = loaded) */
-  __u32 section; /* out: where the verifier stopped */
-  __u32 index;   /* out */
-  __u32 devices; /* out: devices driven to their safe state at load */
+  __u32 version;       /* in: CONTEGO_KMOD_LOAD_VERSION; out on EPROTO: the module's */
+  __u32 budget_factor; /* in: the over-budget hold: factor x actuations per job (0 = off) */
+  __u64 image;         /* in: user pointer to the image */
+  __u32 size;          /* in: its size in bytes */
+  __u32 nbinds;        /* in: entries at `binds` */
+  __u64 binds;         /* in: user pointer to struct contego_kmod_bind[nbinds] */
+  __u32 status;        /* out: the core verifier's LoadStatus (0 = loaded) */
+  __u32 section;       /* out: where the verifier stopped */
+  __u32 index;         /* out */
+  __u32 devices;       /* out: devices driven to their safe state at load */
+  __u32 ntasks;        /* in: the image's tasks: entries of sessions[] and actuations[] */
+  __u32 pad;
+  __u32 sessions[CONTEGO_KMOD_MAX_TASKS];   /* in: live sessions task i may have, 1..64 */
+  __u32 actuations[CONTEGO_KMOD_MAX_TASKS]; /* in: task i's actuations per job (N) */
 };
 
 struct contego_kmod_stats {
@@ -63,6 +81,9 @@ struct contego_kmod_stats {
   __u64 sample_errors;    /* sensor samples that failed (their signals unavailable) */
   __u32 loaded;           /* 1: an image is in force */
   __u32 reader;           /* 1: an audit reader holds /dev/contego-audit */
+  /* Added with CONTEGO_KMOD_LOAD_VERSION 2 (a shorter STATS gets the fields before): */
+  __u64 sessions_limited; /* calls refused (EACCES): their task had its `sessions` live */
+  __u64 holds;            /* transfers held to a later release (over-budget hold) */
 };
 
 /* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one
@@ -76,11 +97,18 @@ struct contego_kmod_stats {
  * so a reader that dies loses nothing: the next one is handed the records
  * not yet acknowledged. One reader at a time (EBUSY), CAP_SYS_ADMIN. */
 enum contego_kmod_record_type {
-  CONTEGO_KMOD_REC_DECISION = 1,     /* the core's audit record of one command */
-  CONTEGO_KMOD_REC_SAFE_STATE = 2,   /* device's safe state driven; `why` */
-  CONTEGO_KMOD_REC_LOAD = 3,         /* an image verified and in force; count = its size */
-  CONTEGO_KMOD_REC_LOAD_REFUSED = 4, /* the verifier refused an image; reason = its status */
-  CONTEGO_KMOD_REC_GAP = 5,          /* count = records lost before this one */
+  CONTEGO_KMOD_REC_DECISION = 1,        /* the core's audit record of one command */
+  CONTEGO_KMOD_REC_SAFE_STATE = 2,      /* device's safe state driven; `why` */
+  CONTEGO_KMOD_REC_LOAD = 3,            /* an image verified and in force; count = its size */
+  CONTEGO_KMOD_REC_LOAD_REFUSED = 4,    /* the verifier refused an image; reason = its status */
+  CONTEGO_KMOD_REC_GAP = 5,             /* count = records lost before this one */
+  CONTEGO_KMOD_REC_SESSION_REFUSED = 6, /* a process of `task` (pid, uid) would have opened a
+                                         * session beyond the task's `sessions` (count): its
+                                         * call was refused with EACCES */
+  CONTEGO_KMOD_REC_HOLD = 7,            /* over-budget hold of `task`: count = transfers held
+                                         * since the last such record (at most one a second per
+                                         * task), job = the job whose budget ran out, fields[0] =
+                                         * the budget; pid/uid: the process held this time */
 };
 
 enum contego_kmod_safe_why {

@@ -21,6 +21,7 @@
 #include <linux/cgroup.h>
 #include <linux/compat.h>
 #include <linux/cred.h>
+#include <linux/hrtimer.h>
 #include <linux/device.h>
 #include <linux/fs.h>
 #include <linux/file.h>
@@ -95,6 +96,18 @@ struct ct_policy {
 	u64 phase_us[32];
 	u32 phase_set; /* bit per task */
 	struct ct_sample samples[32];
+	/* What the monitor enforces beside the image (from CONTEGO_KMOD_LOAD):
+	 * each task's live sessions and actuations per job, and the hold. */
+	u32 sessions[CONTEGO_KMOD_MAX_TASKS];
+	u32 actuations[CONTEGO_KMOD_MAX_TASKS];
+	u32 budget_factor;
+	/* The over-budget hold (as the monitor's hold_if_over_budget): the
+	 * job each task's budget counts, and the transfers charged to it. */
+	u32 budget_job[CONTEGO_KMOD_MAX_TASKS];
+	u32 budget_used[CONTEGO_KMOD_MAX_TASKS];
+	u32 holds_unreported[CONTEGO_KMOD_MAX_TASKS];
+	u64 hold_reported_us[CONTEGO_KMOD_MAX_TASKS];
+	u32 hold_told; /* bit per task: the first hold is in the kernel log */
 };
 
 /* One decision at a time (the core is not thread-safe): the lock covers the
@@ -823,6 +836,77 @@ static struct ct_session *ct_session_find(struct ct_policy *p, u16 task)
 	return NULL;
 }
 
+/* The policy's `sessions` (docs/kernel-client.md "Sessions"): how many live
+ * sessions a task may have, as the monitor's admit() counts them. Here a
+ * live session is a unit: a process, or the process group whose leader a
+ * session was handed to. A process that is not its group's leader, while
+ * that leader lives, belongs to the group's unit (its session would end
+ * there), so the i2cset runs of a script, or a controller's forked child,
+ * are one session, not several. */
+static struct pid *ct_unit_of(struct task_struct *t)
+{
+	struct pid *pg = task_pgrp(t), *me = task_tgid(t);
+
+	return pg && pg != me && !thread_group_exited(pg) ? pg : me;
+}
+
+/* The unit of s while it lives; NULL once it has ended or is ending (its
+ * process, or its group's leader, exited: its end is queued). Under ct_lock
+ * and rcu_read_lock. */
+static struct pid *ct_session_unit(struct ct_session *s)
+{
+	struct task_struct *t;
+	struct pid *unit;
+	unsigned long flags;
+
+	spin_lock_irqsave(&s->watch->wait_pidfd.lock, flags);
+	if (s->phase == CT_S_LEADER) {
+		unit = s->fired ? NULL : s->watch;
+	} else if (s->fired) {
+		/* Handed to its group's leader while that lives, or ending. */
+		unit = s->leader && !thread_group_exited(s->leader) ? s->leader : NULL;
+	} else {
+		t = pid_task(s->proc, PIDTYPE_TGID);
+		unit = t ? ct_unit_of(t) : s->proc;
+	}
+	spin_unlock_irqrestore(&s->watch->wait_pidfd.lock, flags);
+	return unit;
+}
+
+static struct pid *ct_units[CONTEGO_KMOD_MAX_TASK_SESSIONS]; /* scratch, under ct_lock */
+
+/* Whether the caller may open a session of `task`: its unit already has a
+ * live session of the task, or the task has fewer live units than its
+ * `sessions`. Under ct_lock. */
+static bool ct_session_room(struct ct_policy *p, u16 task)
+{
+	u32 allowed = task < CONTEGO_KMOD_MAX_TASKS ? p->sessions[task] : 1, n = 0, i;
+	struct ct_session *s;
+	struct pid *mine, *u;
+	bool room;
+
+	rcu_read_lock();
+	mine = ct_unit_of(current);
+	list_for_each_entry(s, &ct_sessions, node) {
+		if (s->task != task || s->gen != p->gen)
+			continue;
+		u = ct_session_unit(s);
+		if (!u)
+			continue;
+		if (u == mine) { /* one session with it */
+			rcu_read_unlock();
+			return true;
+		}
+		for (i = 0; i < n && ct_units[i] != u; i++)
+			;
+		if (i == n && n < allowed && n < ARRAY_SIZE(ct_units))
+			ct_units[n++] = u;
+	}
+	room = n < allowed;
+	rcu_read_unlock();
+	return room;
+}
+
 /* A session for the caller, made before its call is decided so that a call
  * that would act without one can be refused instead. Under ct_lock. NULL:
  * no room (CT_MAX_SESSIONS) or no memory. */
@@ -915,7 +999,130 @@ static bool ct_call_writes(u32 checked)
 	return false;
 }
 
-static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
+/* A call of `task` refused for the task's `sessions`: an audit record
+ * naming the task and the process (not acting: it may be lost to the gap). */
+static void ct_record_session_refused(struct ct_policy *p, u16 task)
+{
+	struct contego_kmod_record r;
+
+	ct_record_start(&r, CONTEGO_KMOD_REC_SESSION_REFUSED, true);
+	r.task = task;
+	r.count = task < CONTEGO_KMOD_MAX_TASKS ? p->sessions[task] : 1;
+	ct_push(&r, false);
+	pr_info_ratelimited("contego: task %u: pid %u uid %u refused (EACCES): the task has its %u live session(s)\n",
+			    task, r.pid, r.uid, r.count);
+}
+
+/* ---- the over-budget hold (docs/kernel-client.md "Budget") --------------- */
+
+/* The monitor's hold_if_over_budget: each task's transfers that write are
+ * counted per job on its period grid; past budget_factor x its actuations,
+ * the transfer is charged to the next job and waits for that job's release
+ * before it is checked. A transfer charged to a later job than the current
+ * one (another thread of the task was held before it) waits for that
+ * job's release too. Under ct_lock. Returns when the caller may go on: 0
+ * now, else the release (CLOCK_MONOTONIC, us) to sleep until. */
+static u64 ct_charge(struct ct_policy *p, u16 task, u64 now)
+{
+	u32 period, job;
+	u64 budget;
+
+	if (p->budget_factor == 0 || task >= CONTEGO_KMOD_MAX_TASKS)
+		return 0;
+	period = contego_task_period_us(p->checker, task);
+	budget = (u64)p->budget_factor * p->actuations[task];
+	if (period == 0 || budget == 0)
+		return 0;
+	job = ct_job(p, task, now);
+	if (job > p->budget_job[task]) { /* a new release: a fresh budget */
+		p->budget_job[task] = job;
+		p->budget_used[task] = 0;
+	}
+	if (++p->budget_used[task] > budget) {
+		p->budget_job[task]++;
+		p->budget_used[task] = 1;
+	}
+	if (p->budget_job[task] <= job)
+		return 0;
+	ct_stats.holds++;
+	p->holds_unreported[task]++;
+	if (p->hold_reported_us[task] == 0 || now - p->hold_reported_us[task] >= 1000000) {
+		struct contego_kmod_record r;
+
+		ct_record_start(&r, CONTEGO_KMOD_REC_HOLD, true);
+		r.task = task;
+		r.job = job;
+		r.count = p->holds_unreported[task];
+		r.field_count = 1;
+		r.fields[0] = (s32)min_t(u64, budget, S32_MAX);
+		ct_push(&r, false); /* acts nothing: may be lost to the gap */
+		p->holds_unreported[task] = 0;
+		p->hold_reported_us[task] = now;
+	}
+	if (!(p->hold_told & (1u << task))) {
+		p->hold_told |= 1u << task;
+		pr_info("contego: task %u: more than %llu transfers in one job (budget_factor x actuations); further ones wait for the next release\n",
+			task, budget);
+	}
+	return p->phase_us[task] + (u64)(p->budget_job[task] - 1) * period;
+}
+
+/* Sleeps until `until_us` on CLOCK_MONOTONIC; -ERESTARTSYS when a signal
+ * comes first. */
+static int ct_sleep_until(u64 until_us)
+{
+	ktime_t t = ns_to_ktime(until_us * NSEC_PER_USEC);
+
+	while (ktime_before(ktime_get(), t)) {
+		if (signal_pending(current))
+			return -ERESTARTSYS;
+		set_current_state(TASK_INTERRUPTIBLE);
+		schedule_hrtimeout_range(&t, 20 * NSEC_PER_USEC, HRTIMER_MODE_ABS);
+	}
+	return 0;
+}
+
+/* The start of a call, under ct_lock: the caller's task (into *task), and,
+ * for a call that writes, the over-budget hold, with ct_lock dropped while
+ * it sleeps. 0: go on; 1: go on, but ct_lock was dropped (the call's
+ * scratch in ct_txs must be made again); -ERESTARTSYS: a signal cut the
+ * hold short, the call does nothing (its charge is given back; restarted,
+ * it is charged and held again). A process refused for its task's
+ * `sessions` is not charged: it spends nothing of the task's budget. */
+static int ct_enter(bool writes, u16 *task)
+{
+	struct ct_policy *p;
+	u64 charged_gen = 0, until;
+	u32 charged_job = 0;
+	int slept = 0, ret;
+
+	for (;;) {
+		p = ct_policy;
+		*task = p ? ct_task_of_current(p) : CONTEGO_NONE;
+		if (!writes || !p || *task == CONTEGO_NONE || p->gen == charged_gen ||
+		    (!ct_session_find(p, *task) && !ct_session_room(p, *task)))
+			return slept;
+		until = ct_charge(p, *task, div_u64(ktime_get_ns(), 1000));
+		if (until == 0)
+			return slept;
+		charged_gen = p->gen;
+		charged_job = p->budget_job[*task];
+		mutex_unlock(&ct_lock);
+		ret = ct_sleep_until(until);
+		mutex_lock(&ct_lock);
+		slept = 1;
+		if (ret) {
+			p = ct_policy; /* the one charged, unless another was loaded meanwhile */
+			if (p && p->gen == charged_gen && p->budget_job[*task] == charged_job &&
+			    p->budget_used[*task] > 0)
+				p->budget_used[*task]--;
+			return ret;
+		}
+	}
+}
+
+/* Decides the call of `task` (ct_enter's) in ct_txs[0..n). Under ct_lock. */
+static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 {
 	struct ct_policy *p = ct_policy;
 	struct ct_session *fresh = NULL;
@@ -923,7 +1130,6 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 	contego_transaction tx;
 	u32 checked = 0, i, job;
 	u8 action;
-	u16 task;
 	u64 now = div_u64(ktime_get_ns(), 1000);
 
 	*decider = 0;
@@ -934,17 +1140,29 @@ static u8 ct_decide(struct ct_file *cf, u32 n, u32 *decider)
 		ct_stats.refused++;
 		return CT_REFUSE;
 	}
-	task = ct_task_of_current(p);
-	if (task != CONTEGO_NONE && ct_call_writes(n) && !ct_session_find(p, task) &&
-	    !(fresh = ct_session_prepare(p, task))) {
-		/* No session, no safe state at its end: the call does not act. */
-		ct_verdicts[0].decision = CONTEGO_REJECT;
-		ct_verdicts[0].reply_errno = EAGAIN;
-		ct_stats.sessions_refused++;
-		ct_stats.refused++;
-		pr_warn_ratelimited("contego: %u sessions open: a call of task %u refused (EAGAIN)\n",
-				    ct_session_count, task);
-		return CT_REFUSE;
+	if (task != CONTEGO_NONE && ct_call_writes(n) && !ct_session_find(p, task)) {
+		if (!ct_session_room(p, task)) {
+			/* The task has its `sessions` live: as the monitor refuses
+			 * a further hello, the call is refused before the core
+			 * sees it, and audited. */
+			ct_verdicts[0].decision = CONTEGO_REJECT;
+			ct_verdicts[0].reply_errno = EACCES;
+			ct_stats.sessions_limited++;
+			ct_stats.refused++;
+			ct_record_session_refused(p, task);
+			return CT_REFUSE;
+		}
+		fresh = ct_session_prepare(p, task);
+		if (!fresh) {
+			/* No session, no safe state at its end: the call does not act. */
+			ct_verdicts[0].decision = CONTEGO_REJECT;
+			ct_verdicts[0].reply_errno = EAGAIN;
+			ct_stats.sessions_refused++;
+			ct_stats.refused++;
+			pr_warn_ratelimited("contego: %u sessions open: a call of task %u refused (EAGAIN)\n",
+					    ct_session_count, task);
+			return CT_REFUSE;
+		}
 	}
 	job = ct_job(p, task, now);
 	contego_begin_transfer(p->checker);
@@ -1036,6 +1254,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	struct ct_file *cf = file->private_data;
 	u32 decider;
 	u8 *tmp, action;
+	u16 task;
 	int ret;
 
 	if (count > CT_MAX_LEN)
@@ -1044,9 +1263,15 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	if (IS_ERR(tmp))
 		return PTR_ERR(tmp);
 	mutex_lock(&ct_lock);
+	ret = ct_enter(true, &task);
+	if (ret < 0) {
+		mutex_unlock(&ct_lock);
+		kfree(tmp);
+		return ret;
+	}
 	ct_txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
-	action = ct_decide(cf, 1, &decider);
+	action = ct_decide(cf, task, 1, &decider);
 	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
 		ret = ct_perform_emits(cf->adap, &ct_verdicts[0], cf->flags);
 	else if (action == CT_REFUSE)
@@ -1064,6 +1289,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	u32 funcs = i2c_get_functionality(cf->adap);
 	u32 decider;
 	u8 *tmp, action;
+	u16 task;
 	int ret;
 
 	if (count > CT_MAX_LEN)
@@ -1074,9 +1300,10 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	if (!tmp)
 		return -ENOMEM;
 	mutex_lock(&ct_lock);
+	ct_enter(false, &task); /* a read is never held */
 	ct_txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN) };
-	action = ct_decide(cf, 1, &decider);
+	action = ct_decide(cf, task, 1, &decider);
 	if (action == CT_PERFORM) {
 		if (funcs & I2C_FUNC_I2C) {
 			struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
@@ -1144,13 +1371,22 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 {
 	u32 ntx, decider, i;
 	u8 action;
+	u16 task;
 	long ret = 0;
+	int r;
 
 	if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C))
 		return -EOPNOTSUPP; /* as i2c_transfer on an SMBus-only adapter */
 	mutex_lock(&ct_lock);
 	ntx = ct_plan_msgs(msgs, nmsgs);
-	action = ct_decide(cf, ntx, &decider);
+	r = ct_enter(ct_call_writes(ntx), &task);
+	if (r < 0) {
+		mutex_unlock(&ct_lock);
+		return r;
+	}
+	if (r > 0) /* held: ct_txs served other calls meanwhile */
+		ntx = ct_plan_msgs(msgs, nmsgs);
+	action = ct_decide(cf, task, ntx, &decider);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
@@ -1162,8 +1398,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 				ret = ct_perform_emits(cf->adap, &ct_verdicts[i],
 						       tx->ten ? I2C_M_TEN : 0);
 			} else {
-				int r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
-
+				r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
 				ret = r == tx->msg_count ? 0 : (r < 0 ? r : -EIO);
 			}
 		}
@@ -1247,6 +1482,7 @@ static long ct_smbus(struct ct_file *cf, unsigned long arg)
 	u32 datasize = 0, n, decider;
 	bool read, proc;
 	u8 action;
+	u16 task;
 	long ret;
 
 	if (copy_from_user(&a, (void __user *)arg, sizeof(a)))
@@ -1287,6 +1523,13 @@ static long ct_smbus(struct ct_file *cf, unsigned long arg)
 		return -EINVAL;
 
 	mutex_lock(&ct_lock);
+	/* Held before ct_txs is made: an SMBus call writes unless it is a
+	 * quick command or a read (a process call writes). */
+	ret = ct_enter(a.size != I2C_SMBUS_QUICK && !read, &task);
+	if (ret < 0) {
+		mutex_unlock(&ct_lock);
+		return ret;
+	}
 	/* ct_txs is shared scratch, used under ct_lock only. The transactions
 	 * this call puts on the wire (smbus_plan.h's table, backwards): */
 	n = 0;
@@ -1328,7 +1571,7 @@ static long ct_smbus(struct ct_file *cf, unsigned long arg)
 			ct_txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
 	}
 
-	action = ct_decide(cf, n, &decider);
+	action = ct_decide(cf, task, n, &decider);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if (action == CT_IGNORE || action == CT_SAFE_STATE) {
@@ -1476,11 +1719,29 @@ static long ct_load(unsigned long arg)
 
 	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
 		return -EFAULT;
-	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS)
+	if (req.version != CONTEGO_KMOD_LOAD_VERSION) {
+		pr_warn("contego: CONTEGO_KMOD_LOAD version %u refused: this module takes version %u (use the contego built with it)\n",
+			req.version, CONTEGO_KMOD_LOAD_VERSION);
+		req.version = CONTEGO_KMOD_LOAD_VERSION;
+		if (copy_to_user((void __user *)arg, &req.version, sizeof(req.version)))
+			return -EFAULT;
+		return -EPROTO;
+	}
+	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS ||
+	    req.ntasks > CONTEGO_KMOD_MAX_TASKS)
 		return -EINVAL;
+	for (i = 0; i < req.ntasks; i++)
+		if (req.sessions[i] < 1 || req.sessions[i] > CONTEGO_KMOD_MAX_TASK_SESSIONS)
+			return -EINVAL;
 	p = kzalloc(sizeof(*p), GFP_KERNEL);
 	if (!p)
 		return -ENOMEM;
+	for (i = 0; i < CONTEGO_KMOD_MAX_TASKS; i++) {
+		/* A task the request does not cover: the monitor's default, one session. */
+		p->sessions[i] = i < req.ntasks ? req.sessions[i] : 1;
+		p->actuations[i] = i < req.ntasks ? req.actuations[i] : 0;
+	}
+	p->budget_factor = req.budget_factor;
 	p->mem = kvzalloc(size + contego_checker_align(), GFP_KERNEL);
 	p->image = kvmalloc(req.size, GFP_KERNEL);
 	if (!p->mem || !p->image) {
@@ -1530,6 +1791,15 @@ static long ct_load(unsigned long arg)
 		ret = -EINVAL;
 		goto fail;
 	}
+	/* The per-task limits must be the image's tasks' (each has a period). */
+	for (i = 0; i < CONTEGO_KMOD_MAX_TASKS && contego_task_period_us(p->checker, i); i++)
+		;
+	if (i != req.ntasks) {
+		pr_warn("contego: the load's per-task limits cover %u tasks, the image has %u: refused\n",
+			req.ntasks, i);
+		ret = -EINVAL;
+		goto fail;
+	}
 	{
 		/* The host, copied by the facade: samples for p, records to the ring. */
 		const contego_host host = { .context = p, .read_sample = ct_read_sample,
@@ -1553,8 +1823,8 @@ static long ct_load(unsigned long arg)
 	req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
 	mutex_unlock(&ct_lock);
 	ct_policy_free(old);
-	pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state)\n",
-		req.size, req.nbinds, req.devices);
+	pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)\n",
+		req.size, req.nbinds, req.devices, req.budget_factor);
 	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return 0;
@@ -1568,20 +1838,33 @@ fail:
 static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 {
 	struct contego_kmod_stats s;
+	unsigned int size = _IOC_SIZE(cmd);
 
 	if (!capable(CAP_SYS_ADMIN))
 		return -EPERM;
-	switch (cmd) {
-	case CONTEGO_KMOD_LOAD:
+	if (_IOC_TYPE(cmd) != CONTEGO_KMOD_IOC_MAGIC)
+		return -ENOTTY;
+	switch (_IOC_NR(cmd)) {
+	case _IOC_NR(CONTEGO_KMOD_LOAD):
+		if (cmd != CONTEGO_KMOD_LOAD) {
+			/* Another contego's request (its size is in the number). */
+			pr_warn("contego: CONTEGO_KMOD_LOAD of %u bytes refused: this module takes version %u, %zu bytes (use the contego built with it)\n",
+				size, CONTEGO_KMOD_LOAD_VERSION, sizeof(struct contego_kmod_load));
+			return -EPROTO;
+		}
 		return ct_load(arg);
-	case CONTEGO_KMOD_STATS:
+	case _IOC_NR(CONTEGO_KMOD_STATS):
+		/* An older contego asks for fewer counters: the ones it knows. */
+		if (_IOC_DIR(cmd) != _IOC_READ || size > sizeof(s) ||
+		    size < offsetofend(struct contego_kmod_stats, reader))
+			return -ENOTTY;
 		mutex_lock(&ct_lock);
 		spin_lock_irq(&ct_ring_lock);
 		s = ct_stats;
 		s.reader = ct_reader;
 		spin_unlock_irq(&ct_ring_lock);
 		mutex_unlock(&ct_lock);
-		return copy_to_user((void __user *)arg, &s, sizeof(s)) ? -EFAULT : 0;
+		return copy_to_user((void __user *)arg, &s, size) ? -EFAULT : 0;
 	default:
 		return -ENOTTY;
 	}
@@ -1752,6 +2035,8 @@ static int __init ct_init(void)
 	}
 	/* The record layout `contego kmod audit` reads (kmod_audit.cc asserts it too). */
 	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
+	/* CONTEGO_KMOD_LOAD_VERSION 2's layout (kmod_command.cc asserts it too). */
+	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 312);
 	if (audit_records < 64 || audit_records > (1u << 20)) {
 		pr_err("contego: audit_records=%u: give 64 .. 1048576\n", audit_records);
 		return -EINVAL;

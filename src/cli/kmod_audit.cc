@@ -161,6 +161,24 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        fmt::format("contego.ko: the verifier refused an image of {} bytes "
                                    "(status {}); the policy in force stays; {}",
                                    r.count, r.reason, caller(r)));
+    case CONTEGO_KMOD_REC_SESSION_REFUSED: {
+      // As the monitor's hello-refused for a task with its sessions live.
+      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      return log.event("session-refused",
+                       fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EACCES): "
+                                   "the task already has {} live session(s), as many as the "
+                                   "policy allows",
+                                   r.task, task, r.pid, r.uid, r.count));
+    }
+    case CONTEGO_KMOD_REC_HOLD: {
+      // As the monitor's over-budget event.
+      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      return log.event("over-budget",
+                       fmt::format("contego.ko: task {} ({}): over its budget of {} transfers "
+                                   "per job (job {}); {} transfer(s) held to the next release "
+                                   "since the last report; pid {} uid {}",
+                                   r.task, task, r.fields[0], r.job, r.count, r.pid, r.uid));
+    }
     case CONTEGO_KMOD_REC_GAP:
       return log.event("audit-gap",
                        fmt::format("contego.ko: {} record(s) could not be taken (no reader or "

@@ -6,7 +6,10 @@
 // in the policy (a process that meets all of them acts as the task; the
 // module checks them on every call from kernel facts), then each --bind
 // TASK=USER (every process of that user); a process no binding names is no
-// task and gets the policy's default (deny).
+// task and gets the policy's default (deny). With the image go what the
+// monitor enforces beside it: each task's `sessions` (live sessions it may
+// have) and actuations per job, and --budget-factor (the over-budget hold,
+// as the monitor's; default 4, 0 = off).
 // `contego kmod stats` prints the module's counters; `contego kmod audit`
 // writes the module's audit ring to the audit log (kmod_audit.cc).
 #include <fcntl.h>
@@ -25,14 +28,20 @@
 #include "base/read_file.h"
 #include "base/unique_fd.h"
 #include "cli/audit_args.h"
+#include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
+#include "image/image_model.h"
+#include "monitor/monitor.h"
 #include "monitor/peer_identity.h"
 
 namespace contego::cli {
 namespace {
+
+// CONTEGO_KMOD_LOAD_VERSION 2's layout (the module's BUILD_BUG_ON says the same).
+static_assert(sizeof(contego_kmod_load) == 312);
 
 Result<uint32_t> uid_of(const std::string& user) {
   char* end = nullptr;
@@ -64,10 +73,33 @@ Result<contego_kmod_bind> kmod_binding(uint16_t task, const monitor::TaskBinding
   return row;
 }
 
+// Each task's actuations per job (from the image's task records) and its
+// `sessions` (the policy's, 1 where it says nothing, as the monitor admits).
+bool fill_task_limits(contego_kmod_load* req, const image::ImageModel& model,
+                      const std::vector<policy::PolicySummary::Task>& bindings) {
+  if (model.tasks.size() > CONTEGO_KMOD_MAX_TASKS) {
+    fmt::print(stderr, "contego kmod: the image has {} tasks, the module takes {}\n",
+               model.tasks.size(), CONTEGO_KMOD_MAX_TASKS);
+    return false;
+  }
+  req->ntasks = static_cast<uint32_t>(model.tasks.size());
+  for (size_t i = 0; i < model.tasks.size(); ++i) {
+    req->actuations[i] = model.tasks[i].record.actuations_per_job;
+    req->sessions[i] = 1;
+    for (const auto& t : bindings) {
+      if (t.name == model.tasks[i].name) req->sessions[i] = t.sessions;
+    }
+  }
+  return true;
+}
+
 int load(const std::string& device, const std::string& policy, const std::string& raw_image,
-         const std::vector<std::string>& binds) {
+         const std::vector<std::string>& binds, uint32_t budget_factor) {
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
+  contego_kmod_load req{};
+  req.version = CONTEGO_KMOD_LOAD_VERSION;
+  req.budget_factor = budget_factor;
   if (!raw_image.empty()) {
     // The bytes as they are: the module's verifier is the judge (tests).
     auto bytes = read_input_file(raw_image);
@@ -76,6 +108,11 @@ int load(const std::string& device, const std::string& policy, const std::string
       return 2;
     }
     image.assign(bytes->begin(), bytes->end());
+    // The tasks' limits as far as the bytes can be read (else none: the
+    // module's verifier refuses such an image anyway).
+    if (auto model = image::deserialize(image); model.ok() && !fill_task_limits(&req, *model, {})) {
+      return 2;
+    }
   } else {
     monitor::SetupOptions o;
     o.policy = policy;
@@ -85,6 +122,7 @@ int load(const std::string& device, const std::string& policy, const std::string
       return 2;
     }
     image = loaded->image;
+    if (!fill_task_limits(&req, loaded->model, loaded->bindings)) return 2;
     std::map<std::string, uint16_t> ids;
     for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
       ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
@@ -150,7 +188,6 @@ int load(const std::string& device, const std::string& policy, const std::string
                std::strerror(errno));
     return 2;
   }
-  contego_kmod_load req{};
   req.image = reinterpret_cast<uintptr_t>(image.data());
   req.size = static_cast<uint32_t>(image.size());
   req.nbinds = static_cast<uint32_t>(table.size());
@@ -163,13 +200,26 @@ int load(const std::string& device, const std::string& policy, const std::string
                  "contego kmod: the module's verifier refused the image: status {} (section "
                  "{}, index {}); the policy in force stays\n",
                  req.status, req.section, req.index);
+    } else if (err == EPROTO || err == ENOTTY) {
+      // The request is not the module's: a contego.ko of another contego.
+      const std::string theirs =
+          err == ENOTTY ? std::string("an older interface (no per-task limits)")
+          : req.version != CONTEGO_KMOD_LOAD_VERSION
+              ? fmt::format("load request version {}", req.version)
+              : std::string("a load request of another size (see the kernel log)");
+      fmt::print(stderr,
+                 "contego kmod: load refused: the module takes {}, this contego sends version "
+                 "{}; load the contego.ko built with this contego\n",
+                 theirs, CONTEGO_KMOD_LOAD_VERSION);
     } else {
       fmt::print(stderr, "contego kmod: load failed: {}\n", std::strerror(err));
     }
     return 1;
   }
-  fmt::print("contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state\n",
-             image.size(), table.size(), req.devices);
+  fmt::print(
+      "contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state, budget "
+      "factor {}\n",
+      image.size(), table.size(), req.devices, budget_factor);
   return 0;
 }
 
@@ -188,10 +238,11 @@ int stats(const std::string& device) {
   fmt::print(
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
       "failsafe={} reader={} records={} unrecorded={} audit_refused={} sessions={} "
-      "session_ends={} sessions_refused={} samples={} sample_errors={}\n",
+      "session_ends={} sessions_refused={} sessions_limited={} holds={} samples={} "
+      "sample_errors={}\n",
       s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
       s.reader, s.records, s.unrecorded, s.audit_refused, s.sessions, s.session_ends,
-      s.sessions_refused, s.samples, s.sample_errors);
+      s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors);
   return 0;
 }
 
@@ -201,6 +252,7 @@ void register_kmod(CLI::App& app) {
   struct Args {
     std::string device = "/dev/contego", policy, raw_image;
     std::vector<std::string> binds;
+    uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("kmod", "Drive contego.ko, the in-kernel checked i2c-dev");
@@ -211,12 +263,14 @@ void register_kmod(CLI::App& app) {
                  "send this file's bytes as the image unchecked here (the module verifies)");
   ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
   ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
+  add_budget_option(ld, &args->budget_factor);
   ld->callback([args] {
     if (args->policy.empty() == args->raw_image.empty()) {
       fmt::print(stderr, "contego kmod load: give --policy or --unverified-image\n");
       return set_exit_code(2);
     }
-    set_exit_code(load(args->device, args->policy, args->raw_image, args->binds));
+    set_exit_code(
+        load(args->device, args->policy, args->raw_image, args->binds, args->budget_factor));
   });
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", args->device, "the module's control device")->capture_default_str();

@@ -184,5 +184,38 @@ TEST_F(KmodAudit, SessionEndNamesTaskProcessAndHowItEnded) {
   EXPECT_NE(c.find("none of its actuators has a safe state"), std::string::npos) << c;
 }
 
+// The policy's `sessions` (a process refused, EACCES) and the over-budget
+// hold, as the monitor's hello-refused and over-budget events.
+TEST_F(KmodAudit, SessionRefusedAndHoldNameTaskAndProcess) {
+  contego_kmod_record refused = record(CONTEGO_KMOD_REC_SESSION_REFUSED);
+  refused.task = 0;  // arm_init
+  refused.pid = 412;
+  refused.uid = 1000;
+  refused.count = 1;
+  contego_kmod_record hold = record(CONTEGO_KMOD_REC_HOLD);
+  hold.task = 1;  // gripper
+  hold.pid = 77;
+  hold.uid = 990;
+  hold.job = 5;
+  hold.count = 3;
+  hold.field_count = 1;
+  hold.fields[0] = 4;
+  for (const auto* r : {&refused, &hold}) ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 2u);
+  const std::string a = l[0]["detail"], b = l[1]["detail"];
+  EXPECT_EQ(l[0]["kind"], "session-refused");
+  EXPECT_NE(a.find("task 0 (" + names_.tasks[0] + "): pid 412 uid 1000 refused (EACCES)"),
+            std::string::npos)
+      << a;
+  EXPECT_NE(a.find("already has 1 live session(s)"), std::string::npos) << a;
+  EXPECT_EQ(l[1]["kind"], "over-budget");
+  EXPECT_NE(b.find("task 1 (" + names_.tasks[1] + "): over its budget of 4 transfers per job"),
+            std::string::npos)
+      << b;
+  EXPECT_NE(b.find("3 transfer(s) held"), std::string::npos) << b;
+  EXPECT_NE(b.find("pid 77 uid 990"), std::string::npos) << b;
+}
+
 }  // namespace
 }  // namespace contego::cli

@@ -51,7 +51,11 @@ run_logged nopolicy as_task i2cset -y 0 $A 0x01 0x04
   bad "i2cset succeeded with no policy loaded"
 
 # arm_init: uid 1000 (task); gripper: uid 990 (contego). Root is bound to nothing.
-run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego
+# The bench below sends 10,000 writes in one of arm_init's 10 s jobs: the
+# over-budget hold (4 x its 8 actuations per job by default) is off here; the
+# last part of the scenario tests it.
+run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
 [ $RC = 0 ] && grep -q "loaded" "$OUT" && ok "contego kmod load: arm.policy verified and in force" ||
   bad "contego kmod load (exit $RC)"
 
@@ -306,7 +310,8 @@ rmmod i2c_dev
 run_logged insmod2 insmod $KO adapters=0 buses=1 audit_records=64
 wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
 start_reader
-run_logged load2 contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego
+run_logged load2 contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
 kill -STOP $READER_PID
 # A flood of refused calls (root is bound to no task) cannot take the room
 # the records of actions need: three quarters of the ring at most.
@@ -402,5 +407,135 @@ expect_reg 0x20 0x01 1 "level 900 mm (high): the buzzer's tone(1) landed"
 run_logged verify3 contego audit $AUDIT_LOG
 [ $RC = 0 ] && grep -q '"rule_name":"INV_W"' $AUDIT_LOG &&
   ok "the log verifies and has the INV_W decisions" || bad "the log after the tank rounds"
+
+# The policy's `sessions` and the over-budget hold, as the monitor enforces
+# them (docs/kernel-client.md "Sessions", "Budget"). A copy of arm.policy
+# whose arm_init has a 500 ms period and one actuation per job: with
+# --budget-factor 4 (the default) its budget is 4 writes per job; its
+# `sessions` is the default, 1.
+AUDIT_LOG=$LOGDIR/kmod-limits.jsonl
+LIMITS=/tmp/arm-limits.policy
+sed -e 's/^  period 10s; deadline 10s; wcet 50ms; priority 1$/  period 500ms; deadline 500ms; wcet 50ms; priority 1/' \
+  -e 's/^  actuations 8$/  actuations 1/' $POLICIES/arm.policy >$LIMITS
+rmmod i2c_dev
+run_logged limits_insmod insmod $KO adapters=0 buses=1
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader $LIMITS
+limits_load() {
+  run_logged limits_load$1 contego kmod load --policy $LIMITS --bind arm_init=task --bind gripper=contego
+}
+limits_load 1
+[ $RC = 0 ] && grep -q "budget factor 4" "$OUT" && ok "kmod load: arm_init with a 500 ms period, budget factor 4 (the default)" ||
+  bad "kmod load of $LIMITS (exit $RC)"
+
+# sessions 1: a script of arm_init acted (its i2cset's session went to the
+# script, its process group's leader) and lives on; a second arm_init
+# process outside its group is refused (EACCES, as the monitor refuses a
+# second hello) and audited, while the script lives.
+rm -f /tmp/holder2.pid
+as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0xfd 0 && echo $$ >/tmp/holder2.pid && exec sleep 600' \
+  >"$LOGDIR/holder2.out" 2>&1 &
+wait_for /tmp/holder2.pid 10
+HOLDER2=$(cat /tmp/holder2.pid 2>/dev/null)
+cat >/tmp/kmod_second.py <<'PY'
+import errno, smbus
+bus = smbus.SMBus(0)
+try:
+    bus.write_byte_data(0x40, 0xfd, 0)
+    print("written", flush=True)
+except OSError as e:
+    print("refused", errno.errorcode[e.errno], flush=True)
+print("read", hex(bus.read_byte_data(0x40, 0xfe)), flush=True)
+PY
+run_logged second as_task python3 /tmp/kmod_second.py
+grep -q "^refused EACCES" "$OUT" &&
+  ok "sessions 1: a second arm_init process is refused (EACCES) while a script of arm_init (pid $HOLDER2) has its session" ||
+  bad "sessions 1: the second arm_init process: $(head -n 1 "$OUT")"
+grep -q "^read 0x" "$OUT" && ok "the refused process may still read (a read opens no session)" ||
+  bad "the refused process's read: $(sed -n 2p "$OUT")"
+run_logged limits_stats1 contego kmod stats
+grep -q "sessions=1 .*sessions_limited=1 " "$OUT" && ok "module counters: one live session, one call refused for sessions" ||
+  bad "module counters after the refused session"
+[ -n "$HOLDER2" ] && kill -KILL "$HOLDER2"
+i=0
+until contego kmod stats | grep -q " sessions=0 "; do
+  i=$((i + 1)); [ $i -gt 50 ] && break
+  usleep 100000
+done
+run_logged second_after as_task python3 /tmp/kmod_second.py
+grep -q "^written" "$OUT" && ok "the script killed, its session ended: the next arm_init process acts" ||
+  bad "after the script's end: $(head -n 1 "$OUT")"
+
+# The hold: 20 writes back to back from one process, right after a load
+# (the job grid starts at the first): 4 per job, the 5th, 9th, 13th and
+# 17th wait for the next release, so the 20 take 4 periods (2 s; unheld
+# they take milliseconds). Bounds are loose: TCG, a loaded host.
+limits_load 2
+run_logged burst as_task i2c-write-loop 0 $A 0xfd 0 20
+total_ms=$(sed -n 's/.*mean_us=\([0-9.]*\).*/\1/p' "$OUT" | awk '{ printf "%d", $1 * 20 / 1000 }')
+grep -q "errors=0" "$OUT" && [ -n "$total_ms" ] && [ "$total_ms" -ge 1950 ] && [ "$total_ms" -le 3000 ] &&
+  ok "over-budget hold: 5 bursts of 4 writes (budget 4 x 1 per 500 ms job) took $total_ms ms, about 4 periods" ||
+  bad "over-budget hold: 20 writes took '$total_ms' ms (expected 2000 to 3000), $(cat "$OUT")"
+run_logged limits_stats2 contego kmod stats
+grep -q " holds=4 " "$OUT" && ok "module counters: 4 holds" || bad "module counters after the burst: $(cat "$OUT")"
+
+# A signal does not cut the hold short into an unchecked write: a timer
+# every 50 ms interrupts the held 5th write (EINTR: Python's handlers have
+# no SA_RESTART); retried, it is held again until the release.
+limits_load 3
+cat >/tmp/kmod_alarm.py <<'PY'
+import signal, smbus, time
+signal.signal(signal.SIGALRM, lambda s, f: None)
+bus = smbus.SMBus(0)
+interrupted = 0
+t0 = time.monotonic()
+signal.setitimer(signal.ITIMER_REAL, 0.05, 0.05)
+for i in range(8):
+    while True:
+        try:
+            bus.write_byte_data(0x40, 0xfd, 0)
+            break
+        except InterruptedError:
+            interrupted += 1
+signal.setitimer(signal.ITIMER_REAL, 0)
+print("elapsed_ms %d interrupted %d" % ((time.monotonic() - t0) * 1000, interrupted), flush=True)
+PY
+run_logged alarm as_task python3 /tmp/kmod_alarm.py
+alarm_ms=$(sed -n 's/^elapsed_ms \([0-9]*\) .*/\1/p' "$OUT")
+[ $RC = 0 ] && [ -n "$alarm_ms" ] && [ "$alarm_ms" -ge 480 ] && [ "$alarm_ms" -le 1500 ] &&
+  ok "over-budget hold under a 50 ms timer: 8 writes still took one period ($(cat "$OUT"))" ||
+  bad "over-budget hold under signals (exit $RC): $(cat "$OUT")"
+
+# Another contego's load request (the size before the per-task limits, 48
+# bytes; or this size with version 1) is refused with EPROTO, not misread;
+# a version mismatch gets the module's version back.
+cat >/tmp/kmod_oldload.py <<'PY'
+import errno, fcntl, os
+fd = os.open("/dev/contego", os.O_RDWR)
+def load(size, version):
+    buf = bytearray(size)
+    buf[0:4] = version.to_bytes(4, "little")
+    try:
+        fcntl.ioctl(fd, (3 << 30) | (size << 16) | (0xC7 << 8) | 1, buf)
+        return "ok"
+    except OSError as e:
+        return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
+print("size48", load(48, 0))
+print("version1", load(312, 1))
+PY
+run_logged oldload python3 /tmp/kmod_oldload.py
+grep -q "^size48 EPROTO" "$OUT" && grep -q "^version1 EPROTO version 2" "$OUT" &&
+  ok "a load request of another size or version is refused (EPROTO; the module's version 2 is sent back)" ||
+  bad "another contego's load request: $(cat "$OUT")"
+
+stop_reader
+run_logged verify4 contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "the log of the limits verifies" || bad "contego audit of the limits' log (exit $RC)"
+for what in 'task 0 (arm_init): pid [0-9]* uid 1000 refused (EACCES).*"kind":"session-refused"' \
+    'task 0 (arm_init): over its budget of 4 transfers per job.*"kind":"over-budget"'; do
+  grep -q "$what" $AUDIT_LOG && ok "the module's log has $what" || bad "the module's log lacks $what"
+done
+back_to_i2c_dev
+
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
