@@ -120,12 +120,21 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t now = clock_.now_us();
     const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
-    if (b.job != job) {  // a new release on the task's grid: a fresh budget
+    if (job > b.job || period != b.period) {  // a new release (or grid): a fresh budget
       b.job = job;
       b.used = 0;
+      b.period = period;
     }
-    if (++b.used <= budget) return;
-    hold_until = next_release_locked(task, job);
+    // Past the budget, a transfer is the first of the next job's. One that
+    // arrives while earlier ones are held into a later job (another thread
+    // or process of the task) is charged to that job and waits for it too:
+    // a task never gets more than its budget in one job.
+    if (++b.used > budget) {
+      ++b.job;
+      b.used = 1;
+    }
+    if (b.job == job) return;
+    hold_until = next_release_locked(task, b.job - 1);
     ++b.holds_unreported;
     holds_.fetch_add(1);
     if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
@@ -148,10 +157,6 @@ void Monitor::hold_if_over_budget(uint16_t task) {
           "x actuations); further writes wait for the next period\n",
           name, budget);
     }
-    // The held transfer is the first of the next job's budget (another
-    // thread of the task arriving meanwhile is held too, and counts there).
-    b.job = job + 1;
-    b.used = 1;
   }
   clock_.sleep_until_us(hold_until);
 }

@@ -121,8 +121,9 @@ class Monitor final : public gate::Endpoint {
 
  private:
   struct Budget {
-    uint32_t job = 0;
+    uint32_t job = 0;  // the job `used` counts in; ahead of now while transfers are held
     uint32_t used = 0;
+    uint64_t period = 0;  // the grid `job` is on (a new policy may change it)
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
     bool told = false;  // the first hold was explained on standard error

@@ -847,6 +847,57 @@ TEST(MonitorBudget, TaskOverItsBudgetWaitsForTheEndOfThePeriod) {
   EXPECT_NE(log.find("over its budget of 2 transfers per job"), std::string::npos) << log;
 }
 
+// A second thread of a task whose first thread is held past its budget is
+// charged to the job the first waits for, and waits too: before, it found
+// the count moved to that job and started a fresh budget in the current one.
+TEST(MonitorBudget, AnotherThreadOfAHeldTaskWaitsToo) {
+  AuditedMonitor m;
+  auto pca = std::make_shared<bus::Pca9685>();
+  m.vbus.attach(pca);
+  auto send = [&](uint8_t value) {
+    gate::Transfer w;
+    w.bus = 1;
+    gate::Message msg;
+    msg.addr = 0x40;
+    msg.len = 2;
+    msg.data = {0x07, value};
+    w.messages.push_back(msg);
+    return m.mon.transfer(0, w).err;
+  };
+  m.mon.set_budget_factor(1);  // 2 transfers per 20 ms job
+  // The three transfers of the first thread and the second thread's one must
+  // fall in one job: a run that crosses a release is repeated.
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    // Start at a release, whose budget no earlier transfer was charged to.
+    // (Job 0: no grid yet, nothing charged.)
+    const uint32_t previous = m.mon.job(0);
+    while (previous != 0 && m.mon.job(0) == previous) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    const uint64_t holds = m.mon.holds();
+    const uint32_t job = m.mon.job(0);
+    std::atomic<bool> first_done{false};
+    std::thread first([&] {
+      for (uint8_t v = 1; v <= 3; ++v) EXPECT_EQ(send(v), 0);
+      first_done = true;
+    });
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+    while (m.mon.holds() == holds && !first_done && std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::yield();
+    }
+    const bool first_held = m.mon.holds() == holds + 1 && !first_done;
+    const uint32_t before = m.mon.job(0);
+    EXPECT_EQ(send(4), 0);
+    const uint32_t after = m.mon.job(0);
+    first.join();
+    if (!first_held || before != job) continue;  // a release came in between: again
+    EXPECT_GT(after, before) << "the second thread acted in the job its task had used up";
+    EXPECT_EQ(m.mon.holds(), holds + 2);
+    return;
+  }
+  FAIL() << "no attempt kept four transfers inside one 20 ms job";
+}
+
 TEST(MonitorServer, PeerWhoseUidIsNotAllowedIsRefusedAndAudited) {
   AuditedMonitor m;
   const std::string path = "/tmp/contego-peercred-" + std::to_string(getpid()) + ".sock";
