@@ -248,10 +248,16 @@ check_atomic() {  # the lines of attack_rdwr_atomic under arm.policy's gripper (
 run_logged atomic su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_rdwr_atomic"
 check_atomic "attack_rdwr_atomic as the gripper, contego.ko"
 stop_reader
-grep -q '"bytes":"1a 00 00 a4 01".*"decision":"allow"' $AUDIT_LOG &&
-  grep -q '"reason_name":"general-call"' $AUDIT_LOG && grep -q '"reason_name":"transfer-dropped"' $AUDIT_LOG &&
-  ok "the module's log: the pulse allowed, the transfers dropped, the general call ignored" ||
-  bad "the module's log lacks the pulse, the dropped transfers or the general call"
+missing=
+grep -q '"bytes":"1a 00 00 a4 01".*"decision":"allow"' $AUDIT_LOG || missing="$missing the-pulse"
+grep -q '"reason_name":"general-call"' $AUDIT_LOG || missing="$missing general-call"
+grep -q '"reason_name":"transfer-dropped"' $AUDIT_LOG || missing="$missing transfer-dropped"
+if [ -z "$missing" ]; then
+  ok "the module's log: the pulse allowed, the transfers dropped, the general call ignored"
+else
+  bad "the module's log lacks:$missing"
+  grep -a '"kind":"decision"' $AUDIT_LOG | tail -n 12 | sed 's/^/    | /'
+fi
 
 # A sensor read by the module on the plain adapter: the tank's sample is
 # one combined transfer (write [0x00], repeated-start read of 4 bytes). At
