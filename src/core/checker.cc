@@ -13,6 +13,20 @@ constexpr uint8_t kEinval = 22;
 
 bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
 
+// How outcomes combine: the strongest decides a transaction (allow: 0).
+uint32_t strength(Decision d) {
+  switch (d) {
+    case Decision::kReject:
+      return 3;
+    case Decision::kIgnore:
+      return 2;
+    case Decision::kFailsafe:
+      return 1;
+    default:
+      return 0;
+  }
+}
+
 }  // namespace
 
 Outcome* CheckerState::new_outcome(uint16_t dev) {
@@ -117,9 +131,20 @@ void CheckerState::rollback() {
 
 void CheckerState::update_window(const Transaction& tx) {
   const uint32_t period = tasks_[tx.task].period_us;
-  const uint64_t key =
-      tx.job != 0 ? ((uint64_t{1} << 63) | tx.job) : (period != 0 ? tx.now_us / period : 0);
   TaskWindow& w = windows_[tx.task];
+  uint64_t key = 0;
+  if (tx.job != 0) {
+    key = (uint64_t{1} << 63) | tx.job;
+    w.timed = false;
+  } else if (period != 0) {
+    // Inside the time window of the last check: no 64-bit division.
+    if (w.valid && w.timed && tx.now_us >= w.start_us && tx.now_us - w.start_us < period) return;
+    key = tx.now_us / period;
+    w.timed = true;
+    w.start_us = key * period;
+  } else {
+    w.timed = false;
+  }
   if (w.valid && w.key == key) return;
   w.valid = true;
   w.key = key;
@@ -210,7 +235,7 @@ Subst template_subst(const TemplateRecord& t) {
   s.command = t.command;
   s.index = t.index;
   s.set_mask = t.set_mask;
-  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = t.values[i];
+  copy_fields(s.values, t.values);
   return s;
 }
 
@@ -469,7 +494,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   o.command = d.command;
   o.index = d.index;
   o.field_count = d.field_count;
-  for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) o.fields[i] = d.fields[i];
+  copy_fields(o.fields, d.fields);
   const CommandRecord& cmd = commands_[d.command];
   if (cmd.command_class == static_cast<uint8_t>(CommandClass::kQuery)) {
     if ((access_[tx.task].read_devices >> dev) & 1u) {
@@ -621,10 +646,12 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
     }
   } else {
-    for (uint32_t i = 0; i < invariant_count_; ++i) {
-      if (!internal::bit_test(tx_.pending_state, i)) continue;
-      journal_state(i);
-      state_words_[i] = pending_state_[i];
+    for (uint32_t word = 0; word < kMaxInvariants / 32; ++word) {
+      for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {
+        const uint32_t i = word * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
+        journal_state(i);
+        state_words_[i] = pending_state_[i];
+      }
     }
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       const Outcome& o = tx_.outcomes[i];
@@ -633,7 +660,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       journal_history(l);
       l.valid = true;
       l.time_us = tx.now_us;
-      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) l.fields[f] = o.bus_fields[f];
+      copy_fields(l.fields, o.bus_fields);
       const CommandRecord& c = commands_[o.bus_command];
       if (c.group_len == 0 &&
           devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
@@ -681,11 +708,14 @@ void CheckerState::finish(const Transaction& tx, Verdict* out) {
       o.emit_len = out->emit_bytes_used;
     }
   } else {
-    // Reject over ignore over fail-safe over allow.
-    constexpr Decision kOrder[] = {Decision::kReject, Decision::kIgnore, Decision::kFailsafe};
-    for (uint32_t k = 0; k < 3 && decider == nullptr; ++k) {
-      for (uint32_t i = 0; i < tx_.outcome_count && decider == nullptr; ++i) {
-        if (tx_.outcomes[i].decision == kOrder[k]) decider = &tx_.outcomes[i];
+    // Reject over ignore over fail-safe over allow; the first of the
+    // strongest decides.
+    uint32_t strongest = 0;
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const uint32_t s = strength(tx_.outcomes[i].decision);
+      if (s > strongest) {
+        strongest = s;
+        decider = &tx_.outcomes[i];
       }
     }
     if (decider != nullptr) decision = decider->decision;

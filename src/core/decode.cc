@@ -46,7 +46,7 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   decode_fields(d);
   if (Outcome* o = check_as_is(tx, dev)) {
     o->bus_command = d.command;
-    for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+    copy_fields(o->bus_fields, d.fields);
   }
 }
 
@@ -61,7 +61,7 @@ void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   }
   Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, 1);
   d.bytes[0] = tx.bytes[0];
-  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) d.fields[f] = 0;
+  __builtin_memset(d.fields, 0, sizeof(d.fields));
   check_as_is(tx, dev);
 }
 
@@ -114,7 +114,7 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
     evaluate(tx, *o);
     if (o->decision == Decision::kAllow) {
       o->bus_command = cid;  // check() emits the broadcast
-      for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = 0;
+      __builtin_memset(o->bus_fields, 0, sizeof(o->bus_fields));
     }
     return;
   }
@@ -182,7 +182,7 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
   o->bus_command = cid;
   o->bus_index = d.index;
-  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o->bus_fields[f] = d.fields[f];
+  copy_fields(o->bus_fields, d.fields);
 }
 
 void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
@@ -334,7 +334,7 @@ bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
   o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
   o.bus_command = command;
   o.bus_index = index;
-  for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) o.bus_fields[f] = fields[f];
+  copy_fields(o.bus_fields, fields);
   return true;
 }
 

@@ -73,6 +73,13 @@ inline bool field_put(const FieldRecord& f, int64_t value, uint8_t* bytes) {
   return true;
 }
 
+// Field arrays are copied whole: one fixed-size copy, where an element loop
+// over two int32_t arrays that may alias would be copied one by one.
+inline void copy_fields(int32_t (&to)[kMaxFieldsPerCommand],
+                        const int32_t (&from)[kMaxFieldsPerCommand]) {
+  __builtin_memcpy(to, from, sizeof(to));
+}
+
 // CRC-32 (IEEE 802.3, reflected, initial and final xor 0xFFFFFFFF): zlib's crc32().
 uint32_t crc32(const uint8_t* data, size_t len);
 

@@ -74,13 +74,20 @@ SampleMemo& CheckerState::sample(uint16_t device, uint64_t now_us) {
     const uint32_t n = host_.read_sample(host_.context, device, buf, kMaxSampleBytes, &taken);
     len = n > kMaxSampleBytes ? 0 : n;  // a host that overran the buffer is not believed
   }
-  bool changed = len != m.len;
-  for (uint32_t i = 0; i < len; ++i) {
-    if (m.bytes[i] != buf[i]) {
-      m.bytes[i] = buf[i];
-      changed = true;
-    }
+  // Compared eight bytes at a time: a sensor's sample is the same most of
+  // the time, and this runs once per check.
+  uint64_t diff = len != m.len ? 1 : 0;
+  uint32_t i = 0;
+  for (; i + 8 <= len; i += 8) {
+    uint64_t was = 0;
+    uint64_t now = 0;
+    __builtin_memcpy(&was, m.bytes + i, 8);
+    __builtin_memcpy(&now, buf + i, 8);
+    diff |= was ^ now;
   }
+  for (; i < len; ++i) diff |= static_cast<uint8_t>(m.bytes[i] ^ buf[i]);
+  bool changed = diff != 0;
+  if (changed) __builtin_memcpy(m.bytes, buf, len);
   m.len = len;
   m.taken_at_us = len != 0 ? taken : 0;
   const uint64_t max_age = devices_[device].max_sample_age_us;
@@ -150,20 +157,11 @@ SignalStatus CheckerState::signal(uint16_t id, uint64_t now_us, int64_t* value) 
   return memo.status;
 }
 
-// The values a program reads from the checked command, its history and its
-// invariant's state word. False: a fault (no such field, no history yet).
+// The values a program reads from the task's job count and the command's
+// history (run() reads the command's own values itself). False: a fault (no
+// history yet, no such field).
 bool CheckerState::context_value(const Insn& in, const Env& env, int64_t* v) {
   switch (static_cast<Op>(in.op)) {
-    case Op::kField:
-      if (env.d == nullptr || in.b >= env.d->field_count) return false;
-      *v = env.d->fields[in.b];
-      return true;
-    case Op::kCommand:
-      *v = env.d->command;
-      return true;
-    case Op::kIndex:
-      *v = env.d->index;
-      return true;
     case Op::kJobCount:
       *v = job_count_[env.tx->task][env.d->device];
       return true;
@@ -184,10 +182,6 @@ bool CheckerState::context_value(const Insn& in, const Env& env, int64_t* v) {
     case Op::kHasLast:
       *v = last(env.d->command, env.d->index).valid ? 1 : 0;
       return true;
-    case Op::kState:
-      *v = internal::bit_test(tx_.pending_state, env.invariant) ? pending_state_[env.invariant]
-                                                                : state_words_[env.invariant];
-      return true;
     default:
       return false;
   }
@@ -201,7 +195,7 @@ bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
     s.command = in.b == kNone ? env.d->command : in.b;
     s.index = kSameIndex;
     s.set_mask = 0;
-    for (uint32_t i = 0; i < kMaxFieldsPerCommand; ++i) s.values[i] = 0;
+    __builtin_memset(s.values, 0, sizeof(s.values));
     return true;
   }
   if (!s.active || in.b >= commands_[s.command].field_count || v < INT32_MIN || v > INT32_MAX) {
@@ -212,89 +206,156 @@ bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
   return true;
 }
 
-// The loader verified every program (operands in range, forward jumps, stack
-// depth on every path), so the loop checks only what depends on values.
+// The loader verified every program: operands in range, valid opcodes, forward
+// jumps inside the program, the stack depth on every path, and no path that
+// runs past the end without a terminator (PASS, FAIL, FAIL_SUBST, RETURN or a
+// jump). So the loop has no bounds check of its own, and each opcode has its
+// own case (binary operators too, so that `binary` folds to one operation): it
+// checks only what depends on values.
 Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result) {
-  int64_t stack[kMaxStackDepth];
+  (void)code_len;  // the verifier proved no path reaches it
+  // The top of the stack lives in `tos` (a register); `stack` holds the rest
+  // above a dummy bottom slot, so a push never tests for an empty stack.
+  int64_t stack[kMaxStackDepth + 1];
   uint32_t sp = 0;
-  const Insn* prog = code_ + code_first;
+  int64_t tos = 0;
+  const Insn* ip = code_ + code_first;
   uint32_t steps = 0;  // instructions executed, added to executed_ on every exit
   Exit exit = Exit::kFault;
-  for (uint32_t pc = 0; pc < code_len; ++pc) {
-    const Insn& in = prog[pc];
-    const Op op = static_cast<Op>(in.op);
+  const auto push = [&](int64_t v) __attribute__((always_inline)) {
+    stack[sp++] = tos;
+    tos = v;
+  };
+  const auto pop = [&]() __attribute__((always_inline)) {
+    const int64_t v = tos;
+    tos = stack[--sp];
+    return v;
+  };
+  // a `op` b with b on top: false on overflow or division by zero.
+  const auto arith = [&](Op op) __attribute__((always_inline)) {
+    const int64_t a = stack[--sp];
+    return binary(op, a, tos, &tos);
+  };
+  for (;;) {
+    const Insn& in = *ip++;
     ++steps;
-    switch (op) {
+    switch (static_cast<Op>(in.op)) {
       case Op::kNop:
         break;
       case Op::kPush:
-        stack[sp++] = in.imm;
+        push(in.imm);
         break;
       case Op::kPushConst:
-        stack[sp++] = constants_[in.b];
+        push(constants_[in.b]);
         break;
       case Op::kSignal: {
-        const SignalStatus st = signal(in.b, now_us_, &stack[sp++]);
+        // The memo of this check first: most programs of a check read the same signals.
+        const SignalMemo& memo = signal_memo_[in.b];
+        SignalStatus st = memo.status;
+        int64_t v = memo.value;
+        if (memo.epoch != epoch_) st = signal(in.b, now_us_, &v);
+        push(v);
         if (st == SignalStatus::kOk) break;
         exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault;
         goto done;
       }
       case Op::kField:
+        if (env.d == nullptr || in.b >= env.d->field_count) goto done;
+        push(env.d->fields[in.b]);
+        break;
       case Op::kCommand:
+        push(env.d->command);
+        break;
       case Op::kIndex:
+        push(env.d->index);
+        break;
+      case Op::kState:
+        push(internal::bit_test(tx_.pending_state, env.invariant) ? pending_state_[env.invariant]
+                                                                  : state_words_[env.invariant]);
+        break;
       case Op::kJobCount:
       case Op::kLastField:
       case Op::kSinceLast:
-      case Op::kHasLast:
-      case Op::kState:
-        if (!context_value(in, env, &stack[sp++])) goto done;
+      case Op::kHasLast: {
+        int64_t v = 0;
+        if (!context_value(in, env, &v)) goto done;
+        push(v);
         break;
+      }
       case Op::kSetState:
-        pending_state_[env.invariant] = stack[--sp];
+        pending_state_[env.invariant] = pop();
         internal::bit_set(tx_.pending_state, env.invariant);
         break;
       case Op::kAdd:
+        if (!arith(Op::kAdd)) goto done;
+        break;
       case Op::kSub:
+        if (!arith(Op::kSub)) goto done;
+        break;
       case Op::kMul:
+        if (!arith(Op::kMul)) goto done;
+        break;
       case Op::kDiv:
+        if (!arith(Op::kDiv)) goto done;
+        break;
       case Op::kMod:
+        if (!arith(Op::kMod)) goto done;
+        break;
       case Op::kMin:
+        arith(Op::kMin);
+        break;
       case Op::kMax:
+        arith(Op::kMax);
+        break;
       case Op::kEq:
+        arith(Op::kEq);
+        break;
       case Op::kNe:
+        arith(Op::kNe);
+        break;
       case Op::kLt:
+        arith(Op::kLt);
+        break;
       case Op::kLe:
+        arith(Op::kLe);
+        break;
       case Op::kGt:
+        arith(Op::kGt);
+        break;
       case Op::kGe:
+        arith(Op::kGe);
+        break;
       case Op::kAnd:
+        arith(Op::kAnd);
+        break;
       case Op::kOr:
-        --sp;
-        if (!binary(op, stack[sp - 1], stack[sp], &stack[sp - 1])) goto done;
+        arith(Op::kOr);
         break;
       case Op::kNeg:
       case Op::kAbs:
-        if (stack[sp - 1] == INT64_MIN) goto done;
-        if (op == Op::kNeg || stack[sp - 1] < 0) stack[sp - 1] = -stack[sp - 1];
+        if (tos == INT64_MIN) goto done;
+        if (static_cast<Op>(in.op) == Op::kNeg || tos < 0) tos = -tos;
         break;
       case Op::kNot:
-        stack[sp - 1] = stack[sp - 1] == 0;
+        tos = tos == 0;
         break;
       case Op::kDup:
-        stack[sp] = stack[sp - 1];
-        ++sp;
+        push(tos);
         break;
       case Op::kDrop:
-        --sp;
+        pop();
         break;
       case Op::kJumpIfZero:
-        if (stack[--sp] == 0) pc += static_cast<uint32_t>(in.imm) - 1;
+        if (pop() == 0) ip += in.imm - 1;
         break;
       case Op::kJump:
-        pc += static_cast<uint32_t>(in.imm) - 1;
+        ip += in.imm - 1;
         break;
       case Op::kSubstBegin:
+        if (!subst_op(in, env, 0)) goto done;
+        break;
       case Op::kSubstField:
-        if (!subst_op(in, env, op == Op::kSubstField ? stack[--sp] : 0)) goto done;
+        if (!subst_op(in, env, pop())) goto done;
         break;
       case Op::kPass:
         exit = Exit::kPass;
@@ -306,11 +367,11 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         if (env.subst->active) exit = Exit::kFailSubst;
         goto done;
       case Op::kReturn:
-        *result = stack[sp - 1];
+        *result = tos;
         exit = Exit::kReturn;
         goto done;
       default:
-        goto done;
+        __builtin_unreachable();  // the verifier refused every other opcode
     }
   }
 done:

@@ -63,8 +63,10 @@ struct SampleMemo {
   uint8_t bytes[kMaxSampleBytes];
 };
 struct TaskWindow {
-  uint64_t key;  // job number (top bit set) or now / period
+  uint64_t key;       // job number (top bit set) or now / period
+  uint64_t start_us;  // timed: key * period, where the window starts
   bool valid;
+  bool timed;  // keyed by time (no job number, a period)
 };
 // What the checks made of one decoded command (kept for the audit and
 // for combining the commands of one transaction).
