@@ -109,6 +109,14 @@ enum contego_kmod_record_type {
                                          * since the last such record (at most one a second per
                                          * task), job = the job whose budget ran out, fields[0] =
                                          * the budget; pid/uid: the process held this time */
+  CONTEGO_KMOD_REC_SESSIONS_FULL = 8,   /* a process of `task` (pid, uid) would have opened a
+                                         * session while the module had no room for one more
+                                         * (its `max_sessions` open, or no memory): its call was
+                                         * refused with EAGAIN. count = calls of the task so
+                                         * refused since the last such record (at most one a
+                                         * second per task), fields[0] = sessions open,
+                                         * fields[1] = max_sessions. A reader that predates
+                                         * this type writes it as a `fault` line */
 };
 
 enum contego_kmod_safe_why {

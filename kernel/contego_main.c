@@ -55,7 +55,6 @@
 #define CT_MAX_MSGS I2C_RDWR_IOCTL_MAX_MSGS /* 42 */
 #define CT_MAX_LEN 8192
 #define CT_MAX_SAMPLE 64 /* contego::core::kMaxSampleBytes */
-#define CT_MAX_SESSIONS 1024
 
 static int adapters[CT_MAX_ADAPTERS];
 static int n_adapters;
@@ -73,6 +72,10 @@ MODULE_PARM_DESC(trace, "log every decision to the kernel log (debugging; not th
 static unsigned int audit_records = 16384;
 module_param(audit_records, uint, 0444);
 MODULE_PARM_DESC(audit_records, "records the audit ring holds until the reader acknowledges them");
+
+static unsigned int max_sessions = 1024;
+module_param(max_sessions, uint, 0444);
+MODULE_PARM_DESC(max_sessions, "sessions open at once, all tasks together; a call that would open one more is refused (EAGAIN)");
 
 /* ---- the checker in force ---------------------------------------------- */
 
@@ -108,6 +111,10 @@ struct ct_policy {
 	u32 holds_unreported[CONTEGO_KMOD_MAX_TASKS];
 	u64 hold_reported_us[CONTEGO_KMOD_MAX_TASKS];
 	u32 hold_told; /* bit per task: the first hold is in the kernel log */
+	/* Calls refused for want of room for a session (max_sessions), as
+	 * the holds: audited at most once a second per task. */
+	u32 full_unreported[CONTEGO_KMOD_MAX_TASKS];
+	u64 full_reported_us[CONTEGO_KMOD_MAX_TASKS];
 };
 
 /* One decision at a time (the core is not thread-safe): the lock covers the
@@ -909,12 +916,12 @@ static bool ct_session_room(struct ct_policy *p, u16 task)
 
 /* A session for the caller, made before its call is decided so that a call
  * that would act without one can be refused instead. Under ct_lock. NULL:
- * no room (CT_MAX_SESSIONS) or no memory. */
+ * no room (max_sessions) or no memory. */
 static struct ct_session *ct_session_prepare(struct ct_policy *p, u16 task)
 {
 	struct ct_session *s;
 
-	if (ct_session_count >= CT_MAX_SESSIONS)
+	if (ct_session_count >= max_sessions)
 		return NULL;
 	s = kzalloc(sizeof(*s), GFP_KERNEL);
 	if (!s)
@@ -1011,6 +1018,30 @@ static void ct_record_session_refused(struct ct_policy *p, u16 task)
 	ct_push(&r, false);
 	pr_info_ratelimited("contego: task %u: pid %u uid %u refused (EACCES): the task has its %u live session(s)\n",
 			    task, r.pid, r.uid, r.count);
+}
+
+/* A call of `task` refused (EAGAIN) for want of a session: max_sessions are
+ * open, or no memory for one more. Audited as the holds are, at most once a
+ * second per task: how many calls were so refused since the last record
+ * (not acting: it may be lost to the gap). Under ct_lock. */
+static void ct_record_sessions_full(struct ct_policy *p, u16 task, u64 now)
+{
+	struct contego_kmod_record r;
+
+	if (task >= CONTEGO_KMOD_MAX_TASKS)
+		return;
+	p->full_unreported[task]++;
+	if (p->full_reported_us[task] != 0 && now - p->full_reported_us[task] < 1000000)
+		return;
+	ct_record_start(&r, CONTEGO_KMOD_REC_SESSIONS_FULL, true);
+	r.task = task;
+	r.count = p->full_unreported[task];
+	r.field_count = 2;
+	r.fields[0] = (s32)min_t(u32, ct_session_count, S32_MAX);
+	r.fields[1] = (s32)min_t(u32, max_sessions, S32_MAX);
+	ct_push(&r, false);
+	p->full_unreported[task] = 0;
+	p->full_reported_us[task] = now;
 }
 
 /* ---- the over-budget hold (docs/kernel-client.md "Budget") --------------- */
@@ -1159,6 +1190,7 @@ static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 			ct_verdicts[0].reply_errno = EAGAIN;
 			ct_stats.sessions_refused++;
 			ct_stats.refused++;
+			ct_record_sessions_full(p, task, now);
 			pr_warn_ratelimited("contego: %u sessions open: a call of task %u refused (EAGAIN)\n",
 					    ct_session_count, task);
 			return CT_REFUSE;
@@ -2037,6 +2069,10 @@ static int __init ct_init(void)
 	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
 	/* CONTEGO_KMOD_LOAD_VERSION 2's layout (kmod_command.cc asserts it too). */
 	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 312);
+	if (max_sessions < 1 || max_sessions > 65536) {
+		pr_err("contego: max_sessions=%u: give 1 .. 65536\n", max_sessions);
+		return -EINVAL;
+	}
 	if (audit_records < 64 || audit_records > (1u << 20)) {
 		pr_err("contego: audit_records=%u: give 64 .. 1048576\n", audit_records);
 		return -EINVAL;

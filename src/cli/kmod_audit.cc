@@ -170,6 +170,20 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                                    "policy allows",
                                    r.task, task, r.pid, r.uid, r.count));
     }
+    case CONTEGO_KMOD_REC_SESSIONS_FULL: {
+      // No room for one more session in the module (EAGAIN): the task had
+      // room under its own `sessions`, the module as a whole had none.
+      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      const int32_t open = r.fields[0], cap = r.fields[1];
+      const std::string why =
+          open >= cap
+              ? fmt::format("the module has {} sessions open, its max_sessions", open)
+              : fmt::format("no memory for one more session ({} open, max_sessions {})", open, cap);
+      return log.event("session-refused",
+                       fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EAGAIN): {}; "
+                                   "{} call(s) of the task so refused since the last report",
+                                   r.task, task, r.pid, r.uid, why, r.count));
+    }
     case CONTEGO_KMOD_REC_HOLD: {
       // As the monitor's over-budget event.
       const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";

@@ -217,5 +217,36 @@ TEST_F(KmodAudit, SessionRefusedAndHoldNameTaskAndProcess) {
   EXPECT_NE(b.find("pid 77 uid 990"), std::string::npos) << b;
 }
 
+// A call refused because the module has no room for one more session
+// (EAGAIN, max_sessions open; or no memory): the task, the process, how many
+// are open and how many calls were so refused since the last record.
+TEST_F(KmodAudit, SessionsFullNamesTaskProcessAndCount) {
+  contego_kmod_record full = record(CONTEGO_KMOD_REC_SESSIONS_FULL);
+  full.task = 1;  // gripper
+  full.pid = 77;
+  full.uid = 990;
+  full.count = 3;
+  full.field_count = 2;
+  full.fields[0] = 1024;
+  full.fields[1] = 1024;
+  contego_kmod_record nomem = full;
+  nomem.fields[0] = 12;
+  nomem.count = 1;
+  for (const auto* r : {&full, &nomem}) ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 2u);
+  const std::string a = l[0]["detail"], b = l[1]["detail"];
+  EXPECT_EQ(l[0]["kind"], "session-refused");
+  EXPECT_NE(a.find("task 1 (" + names_.tasks[1] + "): pid 77 uid 990 refused (EAGAIN)"),
+            std::string::npos)
+      << a;
+  EXPECT_NE(a.find("1024 sessions open, its max_sessions"), std::string::npos) << a;
+  EXPECT_NE(a.find("3 call(s) of the task so refused"), std::string::npos) << a;
+  EXPECT_EQ(l[1]["kind"], "session-refused");
+  EXPECT_NE(b.find("no memory for one more session (12 open, max_sessions 1024)"),
+            std::string::npos)
+      << b;
+}
+
 }  // namespace
 }  // namespace contego::cli
