@@ -97,6 +97,15 @@ uint64_t decision_wall_us(uint64_t mono_us) {
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        const contego_kmod_record& r) {
   constexpr uint32_t kKept = CONTEGO_KMOD_REC_BYTES;
+  // Every record carries the module's time of what it records (its
+  // CLOCK_MONOTONIC when it took the record): the line's mono_us and t_us
+  // are that instant, not the time the line is written (0: none, the
+  // writer's time).
+  const int64_t mono_us = r.time_us != 0 ? static_cast<int64_t>(r.time_us) : -1;
+  const int64_t t_us = r.time_us != 0 ? static_cast<int64_t>(decision_wall_us(r.time_us)) : -1;
+  const auto event = [&](const std::string& kind, const std::string& detail) {
+    return log.event(kind, detail, t_us, mono_us);
+  };
   switch (r.type) {
     case CONTEGO_KMOD_REC_DECISION: {
       core::AuditRecord a{};
@@ -123,9 +132,8 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
       monitor::RecordNames named = names.of(a);
       named.pid = r.pid;
       named.uid = r.uid;
-      // The module's time of the decision, not the time the line is written.
-      named.mono_us = static_cast<int64_t>(r.time_us);
-      named.t_us = static_cast<int64_t>(decision_wall_us(r.time_us));
+      named.mono_us = mono_us;
+      named.t_us = t_us;
       return log.decision(a, named);
     }
     case CONTEGO_KMOD_REC_SAFE_STATE: {
@@ -133,11 +141,11 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
           r.device < names.devices.size() ? names.devices[r.device].c_str() : "(unknown)";
       if ((r.why & ~CONTEGO_KMOD_SAFE_FAILED) == CONTEGO_KMOD_SAFE_EXIT) {
         if (r.device == CONTEGO_NONE) {
-          return log.event("safe-state", fmt::format("contego.ko: {}; none of its actuators "
-                                                     "has a safe state",
-                                                     session_end(names, r)));
+          return event("safe-state", fmt::format("contego.ko: {}; none of its actuators "
+                                                 "has a safe state",
+                                                 session_end(names, r)));
         }
-        return log.event(
+        return event(
             "safe-state",
             fmt::format("contego.ko: {}; device {} ({}) at bus {} 0x{:02x} driven to its safe "
                         "state [{}]{}",
@@ -145,7 +153,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                         hex(r.substitute, std::min<uint32_t>(r.substitute_len, kKept)),
                         (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
       }
-      return log.event(
+      return event(
           "safe-state",
           fmt::format("contego.ko: device {} ({}) at bus {} 0x{:02x}: {} [{}]; {}{}", r.device,
                       device, r.bus, r.addr, safe_why(r.why),
@@ -153,22 +161,22 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                       (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
     }
     case CONTEGO_KMOD_REC_LOAD:
-      return log.event("policy-load",
-                       fmt::format("contego.ko: image of {} bytes verified and in force; {}",
-                                   r.count, caller(r)));
+      return event("policy-load",
+                   fmt::format("contego.ko: image of {} bytes verified and in force; {}", r.count,
+                               caller(r)));
     case CONTEGO_KMOD_REC_LOAD_REFUSED:
-      return log.event("policy-load-refused",
-                       fmt::format("contego.ko: the verifier refused an image of {} bytes "
-                                   "(status {}); the policy in force stays; {}",
-                                   r.count, r.reason, caller(r)));
+      return event("policy-load-refused",
+                   fmt::format("contego.ko: the verifier refused an image of {} bytes "
+                               "(status {}); the policy in force stays; {}",
+                               r.count, r.reason, caller(r)));
     case CONTEGO_KMOD_REC_SESSION_REFUSED: {
       // As the monitor's hello-refused for a task with its sessions live.
       const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
-      return log.event("session-refused",
-                       fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EACCES): "
-                                   "the task already has {} live session(s), as many as the "
-                                   "policy allows",
-                                   r.task, task, r.pid, r.uid, r.count));
+      return event("session-refused",
+                   fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EACCES): "
+                               "the task already has {} live session(s), as many as the "
+                               "policy allows",
+                               r.task, task, r.pid, r.uid, r.count));
     }
     case CONTEGO_KMOD_REC_SESSIONS_FULL: {
       // No room for one more session in the module (EAGAIN): the task had
@@ -179,28 +187,28 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
           open >= cap
               ? fmt::format("the module has {} sessions open, its max_sessions", open)
               : fmt::format("no memory for one more session ({} open, max_sessions {})", open, cap);
-      return log.event("session-refused",
-                       fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EAGAIN): {}; "
-                                   "{} call(s) of the task so refused since the last report",
-                                   r.task, task, r.pid, r.uid, why, r.count));
+      return event("session-refused",
+                   fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EAGAIN): {}; "
+                               "{} call(s) of the task so refused since the last report",
+                               r.task, task, r.pid, r.uid, why, r.count));
     }
     case CONTEGO_KMOD_REC_HOLD: {
       // As the monitor's over-budget event.
       const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
-      return log.event("over-budget",
-                       fmt::format("contego.ko: task {} ({}): over its budget of {} transfers "
-                                   "per job (job {}); {} transfer(s) held to the next release "
-                                   "since the last report; pid {} uid {}",
-                                   r.task, task, r.fields[0], r.job, r.count, r.pid, r.uid));
+      return event("over-budget",
+                   fmt::format("contego.ko: task {} ({}): over its budget of {} transfers "
+                               "per job (job {}); {} transfer(s) held to the next release "
+                               "since the last report; pid {} uid {}",
+                               r.task, task, r.fields[0], r.job, r.count, r.pid, r.uid));
     }
     case CONTEGO_KMOD_REC_GAP:
-      return log.event("audit-gap",
-                       fmt::format("contego.ko: {} record(s) could not be taken (no reader or "
-                                   "the ring full); every call among them failed closed",
-                                   r.count));
+      return event("audit-gap",
+                   fmt::format("contego.ko: {} record(s) could not be taken (no reader or "
+                               "the ring full); every call among them failed closed",
+                               r.count));
     default:
-      return log.event("fault", fmt::format("contego.ko: record {} of unknown type {}", r.seq,
-                                            static_cast<int>(r.type)));
+      return event("fault", fmt::format("contego.ko: record {} of unknown type {}", r.seq,
+                                        static_cast<int>(r.type)));
   }
 }
 

@@ -24,8 +24,9 @@ struct KmodAuditOptions {
 uint64_t decision_wall_us(uint64_t mono_us);
 
 // One module record as a line of `log` (a decision, or an event naming the
-// device and the caller; a decision carries the module's time of it). False:
-// the line is not in the log.
+// device and the caller). Every line carries the module's time of what it
+// records (mono_us, and t_us: that instant on the wall clock), not the time
+// the line is written. False: the line is not in the log.
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                        const contego_kmod_record& record);
 

@@ -378,7 +378,12 @@ void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNam
 }
 
 bool AuditLog::event(const std::string& kind, const std::string& detail) {
-  const uint64_t t = wall_us();
+  return event(kind, detail, -1, -1);
+}
+
+bool AuditLog::event(const std::string& kind, const std::string& detail, int64_t t_us,
+                     int64_t mono_us) {
+  const uint64_t t = t_us >= 0 ? static_cast<uint64_t>(t_us) : wall_us();
   std::lock_guard lock(mu_);
   if (mode_ == Mode::kNone) {
     ++lines_;
@@ -389,6 +394,7 @@ bool AuditLog::event(const std::string& kind, const std::string& detail) {
   put_string(line_, detail);
   line_ += ",\"kind\":";
   put_string(line_, kind);
+  if (mono_us >= 0) fmt::format_to(Out(line_), ",\"mono_us\":{}", mono_us);
   fmt::format_to(Out(line_), ",\"t_us\":{}", t);
   return commit_locked(line_);
 }

@@ -102,6 +102,10 @@ class AuditLog {
   }
   // Monitor events: start, safe-state, fault, task-exit, peer ...
   bool event(const std::string& kind, const std::string& detail);
+  // An event the writer did not see happen (contego.ko's records, written
+  // later by `contego kmod audit`): its time as RecordNames's mono_us and
+  // t_us (-1: the writer's own time, and no mono_us).
+  bool event(const std::string& kind, const std::string& detail, int64_t t_us, int64_t mono_us);
   // SIGHUP: if the path no longer names the open file (moved away by
   // logrotate, deleted), opens the path anew and continues the chain there.
   // With max_bytes set, rotates now. Returns what it did.

@@ -217,6 +217,47 @@ TEST_F(KmodAudit, SessionRefusedAndHoldNameTaskAndProcess) {
   EXPECT_NE(b.find("pid 77 uid 990"), std::string::npos) << b;
 }
 
+// Events carry the module's time too (its CLOCK_MONOTONIC when it took the
+// record), not the time the reader writes them: a reader that was stopped
+// for seconds writes the earlier instant.
+TEST_F(KmodAudit, EventsCarryTheModulesTime) {
+  timespec mono{}, wall{};
+  clock_gettime(CLOCK_MONOTONIC, &mono);
+  clock_gettime(CLOCK_REALTIME, &wall);
+  const auto us = [](const timespec& t) {
+    return static_cast<uint64_t>(t.tv_sec) * 1000000u + static_cast<uint64_t>(t.tv_nsec) / 1000u;
+  };
+  contego_kmod_record s = record(CONTEGO_KMOD_REC_SAFE_STATE);
+  s.device = 0;
+  s.why = CONTEGO_KMOD_SAFE_LOAD;
+  s.time_us = us(mono) - 3000000;  // three seconds before the line is written
+  contego_kmod_record refused = record(CONTEGO_KMOD_REC_SESSION_REFUSED);
+  refused.task = 0;
+  refused.time_us = us(mono) - 2000000;
+  contego_kmod_record gap = record(CONTEGO_KMOD_REC_GAP);
+  gap.count = 1;
+  gap.time_us = us(mono) - 1000000;
+  for (const auto* r : {&s, &refused, &gap}) ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  // The reader's own events (start, stop) keep the writer's time, no mono_us.
+  ASSERT_TRUE(log_.event("stop", "reader"));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 4u);
+  const int64_t seconds_ago[] = {3, 2, 1};
+  for (size_t i = 0; i < 3; ++i) {
+    const contego_kmod_record* r = i == 0 ? &s : i == 1 ? &refused : &gap;
+    ASSERT_TRUE(l[i].contains("mono_us")) << l[i].dump();
+    EXPECT_EQ(l[i]["mono_us"].get<uint64_t>(), r->time_us) << l[i].dump();
+    const int64_t t = l[i]["t_us"].get<int64_t>();
+    const int64_t expected = static_cast<int64_t>(us(wall)) - seconds_ago[i] * 1000000;
+    EXPECT_LT(std::llabs(t - expected), 500000) << l[i].dump();
+  }
+  EXPECT_FALSE(l[3].contains("mono_us"));
+  EXPECT_GE(l[3]["t_us"].get<int64_t>(), static_cast<int64_t>(us(wall)));
+  std::ifstream in(path_);
+  const monitor::AuditCheck c = monitor::verify_audit(in);
+  EXPECT_TRUE(c.ok) << c.error;
+}
+
 // A call refused because the module has no room for one more session
 // (EAGAIN, max_sessions open; or no memory): the task, the process, how many
 // are open and how many calls were so refused since the last record.
