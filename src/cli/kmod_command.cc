@@ -31,6 +31,7 @@
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
+#include "cli/kmod_load_error.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
 #include "image/image_model.h"
@@ -195,25 +196,7 @@ int load(const std::string& device, const std::string& policy, const std::string
   const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_LOAD, &req);
   const int err = errno;
   if (rc != 0) {
-    if (req.status != 0) {
-      fmt::print(stderr,
-                 "contego kmod: the module's verifier refused the image: status {} (section "
-                 "{}, index {}); the policy in force stays\n",
-                 req.status, req.section, req.index);
-    } else if (err == EPROTO || err == ENOTTY) {
-      // The request is not the module's: a contego.ko of another contego.
-      const std::string theirs =
-          err == ENOTTY ? std::string("an older interface (no per-task limits)")
-          : req.version != CONTEGO_KMOD_LOAD_VERSION
-              ? fmt::format("load request version {}", req.version)
-              : std::string("a load request of another size (see the kernel log)");
-      fmt::print(stderr,
-                 "contego kmod: load refused: the module takes {}, this contego sends version "
-                 "{}; load the contego.ko built with this contego\n",
-                 theirs, CONTEGO_KMOD_LOAD_VERSION);
-    } else {
-      fmt::print(stderr, "contego kmod: load failed: {}\n", std::strerror(err));
-    }
+    fmt::print(stderr, "{}\n", kmod_load_error(err, req));
     return 1;
   }
   fmt::print(
