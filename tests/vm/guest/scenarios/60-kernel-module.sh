@@ -537,5 +537,121 @@ for what in 'task 0 (arm_init): pid [0-9]* uid 1000 refused (EACCES).*"kind":"se
 done
 back_to_i2c_dev
 
+# `sessions 2`, the module's own limit on sessions (max_sessions) and the
+# records' time. A copy of arm.policy whose arm_init may have 2 live
+# sessions; the module loaded with max_sessions=2. Two scripts of arm_init
+# act and live on: a third arm_init process is refused (EACCES), as the
+# monitor refuses a hello over `sessions`. That refusal is made while the
+# reader is stopped (SIGSTOP) and written seconds later: its line keeps the
+# module's time of it. Then the same policy loaded again: the two sessions
+# of the old load still count towards max_sessions (their processes live),
+# so the third, which has room under the new load's `sessions`, is refused
+# with EAGAIN: no room for one more session in the module, audited once
+# for its two tries within a second.
+AUDIT_LOG=$LOGDIR/kmod-sessions.jsonl
+TWO=/tmp/arm-two.policy
+awk '{ print } /^task arm_init \{/ { print "  sessions 2" }' $POLICIES/arm.policy >$TWO
+rmmod i2c_dev
+run_logged two_insmod insmod $KO adapters=0 buses=1 max_sessions=2
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader $TWO
+run_logged two_load1 contego kmod load --policy $TWO --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
+[ $RC = 0 ] && ok "kmod load: arm_init with sessions 2, module loaded with max_sessions=2" ||
+  bad "kmod load of $TWO (exit $RC)"
+two_pids=
+for n in 1 2; do
+  rm -f /tmp/two$n.pid
+  as_task setsid sh -c "/usr/sbin/i2cset -y 0 0x40 0xfd 0 && echo \$\$ >/tmp/two$n.pid && exec sleep 600" \
+    >"$LOGDIR/two$n.out" 2>&1 &
+  wait_for /tmp/two$n.pid 10
+  two_pids="$two_pids $(cat /tmp/two$n.pid 2>/dev/null)"
+done
+[ -s /tmp/two1.pid ] && [ -s /tmp/two2.pid ] &&
+  ok "sessions 2: two scripts of arm_init act and live on (pids$two_pids)" ||
+  bad "sessions 2: the scripts of arm_init did not both act: $(cat "$LOGDIR/two1.out" "$LOGDIR/two2.out")"
+run_logged two_stats1 contego kmod stats
+grep -q " sessions=2 " "$OUT" && ok "module counters: two live sessions" || bad "module counters with two scripts"
+wall_us() { python3 -c 'import time; print(time.time_ns() // 1000)'; }
+kill -STOP $READER_PID
+t_before=$(wall_us)
+run_logged two_third as_task python3 /tmp/kmod_second.py
+t_after=$(wall_us)
+sleep 3
+kill -CONT $READER_PID
+grep -q "^refused EACCES" "$OUT" &&
+  ok "sessions 2: a third arm_init process is refused (EACCES) while two scripts have their sessions" ||
+  bad "sessions 2: the third arm_init process: $(head -n 1 "$OUT")"
+run_logged two_load2 contego kmod load --policy $TWO --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
+cat >/tmp/kmod_full.py <<'PY'
+import errno, smbus
+bus = smbus.SMBus(0)
+for i in range(2):
+    try:
+        bus.write_byte_data(0x40, 0xfd, 0)
+        print("written", flush=True)
+    except OSError as e:
+        print("refused", errno.errorcode[e.errno], flush=True)
+PY
+run_logged two_full as_task python3 /tmp/kmod_full.py
+[ "$(grep -c '^refused EAGAIN' "$OUT")" = 2 ] &&
+  ok "max_sessions=2, both open (the old load's): a new arm_init process is refused twice (EAGAIN)" ||
+  bad "max_sessions=2: $(cat "$OUT")"
+run_logged two_stats2 contego kmod stats
+grep -q " sessions=2 .*sessions_refused=2 sessions_limited=1 " "$OUT" &&
+  ok "module counters: two calls refused for room (sessions_refused=2), one for sessions" ||
+  bad "module counters after the refusals: $(cat "$OUT")"
+kill -KILL $two_pids
+i=0
+until contego kmod stats | grep -q " sessions=0 "; do
+  i=$((i + 1)); [ $i -gt 50 ] && break
+  usleep 100000
+done
+run_logged two_after as_task python3 /tmp/kmod_full.py
+[ "$(grep -c '^written' "$OUT")" = 2 ] && ok "the scripts killed, their sessions ended: arm_init acts again" ||
+  bad "after the scripts' end: $(cat "$OUT")"
+stop_reader
+run_logged verify5 contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "the log of the sessions verifies" || bad "contego audit of the sessions' log (exit $RC)"
+cat >/tmp/kmod_times.py <<'PY'
+import json, sys
+log, before, after = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+eacces = eagain = None
+for line in open(log, encoding="utf-8", errors="replace"):
+    line = line.strip("\0\n")
+    if not line.startswith("{"):
+        continue
+    j = json.loads(line)
+    if j.get("kind") != "session-refused":
+        continue
+    if "(EACCES)" in j["detail"]:
+        eacces = j
+    elif "(EAGAIN)" in j["detail"]:
+        if eagain is not None:
+            print("two EAGAIN lines:", eagain["detail"], "|", j["detail"])
+            sys.exit(1)
+        eagain = j
+if eacces is None or eagain is None:
+    print("missing:", "EACCES" if eacces is None else "", "EAGAIN" if eagain is None else "")
+    sys.exit(1)
+print("EACCES:", eacces["detail"])
+print("EAGAIN:", eagain["detail"])
+t = eacces["t_us"]
+print("EACCES t_us %d, mono_us %s; the call ran in [%d, %d], the reader went on %.1f s after"
+      % (t, eacces.get("mono_us"), before, after, (after + 3000000 - t) / 1e6))
+# The refusal's time is the module's: inside the call, not the reader's
+# writing 3 s later (the slack: the clocks read by another process).
+ok = "mono_us" in eacces and before - 200000 <= t <= after + 200000
+# Two tries within a second, one record: the first, counting itself.
+ok = ok and "the module has 2 sessions open, its max_sessions; 1 call(s)" in eagain["detail"]
+sys.exit(0 if ok else 1)
+PY
+run_logged times python3 /tmp/kmod_times.py $AUDIT_LOG $t_before $t_after
+[ $RC = 0 ] &&
+  ok "the EACCES refusal, written 3 s after it by a stopped reader, has the module's time of it; one EAGAIN line for two tries" ||
+  bad "the session-refused lines' time or count: $(cat "$OUT")"
+back_to_i2c_dev
+
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
