@@ -66,6 +66,11 @@ uint64_t clock_us(clockid_t id) {
   return static_cast<uint64_t>(ts.tv_sec) * 1000000u + static_cast<uint64_t>(ts.tv_nsec) / 1000u;
 }
 
+// The record's task by the policy's name ("(unknown)" past the table).
+const char* task_name(const monitor::NameTable& names, const contego_kmod_record& r) {
+  return r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+}
+
 std::string caller(const contego_kmod_record& r) {
   return r.pid == 0 ? std::string("module") : fmt::format("pid {} uid {}", r.pid, r.uid);
 }
@@ -73,7 +78,7 @@ std::string caller(const contego_kmod_record& r) {
 // A session's end (CONTEGO_KMOD_SAFE_EXIT): which task, which process, how it
 // ended (`count` is its wait status), as the monitor's "task N exited".
 std::string session_end(const monitor::NameTable& names, const contego_kmod_record& r) {
-  const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+  const char* task = task_name(names, r);
   const uint32_t status = r.count;
   const std::string how = (status & 0x7f) != 0
                               ? fmt::format("killed by signal {}{}", status & 0x7f,
@@ -171,7 +176,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                                r.count, r.reason, caller(r)));
     case CONTEGO_KMOD_REC_SESSION_REFUSED: {
       // As the monitor's hello-refused for a task with its sessions live.
-      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      const char* task = task_name(names, r);
       return event("session-refused",
                    fmt::format("contego.ko: task {} ({}): pid {} uid {} refused (EACCES): "
                                "the task already has {} live session(s), as many as the "
@@ -181,7 +186,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
     case CONTEGO_KMOD_REC_SESSIONS_FULL: {
       // No room for one more session in the module (EAGAIN): the task had
       // room under its own `sessions`, the module as a whole had none.
-      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      const char* task = task_name(names, r);
       const int32_t open = r.fields[0], cap = r.fields[1];
       const std::string why =
           open >= cap
@@ -194,7 +199,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
     }
     case CONTEGO_KMOD_REC_HOLD: {
       // As the monitor's over-budget event.
-      const char* task = r.task < names.tasks.size() ? names.tasks[r.task].c_str() : "(unknown)";
+      const char* task = task_name(names, r);
       return event("over-budget",
                    fmt::format("contego.ko: task {} ({}): over its budget of {} transfers "
                                "per job (job {}); {} transfer(s) held to the next release "
