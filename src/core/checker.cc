@@ -13,20 +13,6 @@ constexpr uint8_t kEinval = 22;
 
 bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
 
-// How outcomes combine: the strongest decides a transaction (allow: 0).
-uint32_t strength(Decision d) {
-  switch (d) {
-    case Decision::kReject:
-      return 3;
-    case Decision::kIgnore:
-      return 2;
-    case Decision::kFailsafe:
-      return 1;
-    default:
-      return 0;
-  }
-}
-
 }  // namespace
 
 Outcome* CheckerState::new_outcome(uint16_t dev) {
@@ -712,7 +698,7 @@ void CheckerState::finish(const Transaction& tx, Verdict* out) {
     // strongest decides.
     uint32_t strongest = 0;
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const uint32_t s = strength(tx_.outcomes[i].decision);
+      const uint32_t s = decision_strength(tx_.outcomes[i].decision);
       if (s > strongest) {
         strongest = s;
         decider = &tx_.outcomes[i];

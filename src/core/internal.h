@@ -73,6 +73,20 @@ inline bool field_put(const FieldRecord& f, int64_t value, uint8_t* bytes) {
   return true;
 }
 
+// How outcomes combine: the strongest decides a transaction (allow: 0).
+inline uint32_t decision_strength(Decision d) {
+  switch (d) {
+    case Decision::kReject:
+      return 3;
+    case Decision::kIgnore:
+      return 2;
+    case Decision::kFailsafe:
+      return 1;
+    default:
+      return 0;
+  }
+}
+
 // Field arrays are copied whole: one fixed-size copy, where an element loop
 // over two int32_t arrays that may alias would be copied one by one.
 inline void copy_fields(int32_t (&to)[kMaxFieldsPerCommand],

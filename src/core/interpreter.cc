@@ -206,6 +206,40 @@ bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
   return true;
 }
 
+namespace {
+
+// The operand stack: the top lives in `tos` (a register once inlined); `below`
+// holds the rest above a dummy bottom slot, so a push never tests for an
+// empty stack (the verifier proved the depth on every path).
+struct OperandStack {
+  int64_t below[kMaxStackDepth + 1];
+  uint32_t sp = 0;
+  int64_t tos = 0;
+  __attribute__((always_inline)) void push(int64_t v) {
+    below[sp++] = tos;
+    tos = v;
+  }
+  __attribute__((always_inline)) int64_t pop() {
+    const int64_t v = tos;
+    tos = below[--sp];
+    return v;
+  }
+  // a `op` b with b on top: false on overflow or division by zero.
+  __attribute__((always_inline)) bool arith(Op op) {
+    const int64_t a = below[--sp];
+    return binary(op, a, tos, &tos);
+  }
+};
+
+}  // namespace
+
+// One case per binary operator, so that `binary` folds to its one operation
+// (a shared case would switch on the operator a second time).
+#define CONTEGO_BINARY_CASE(name)             \
+  case Op::k##name:                           \
+    if (!stack.arith(Op::k##name)) goto done; \
+    break
+
 // The loader verified every program: operands in range, valid opcodes, forward
 // jumps inside the program, the stack depth on every path, and no path that
 // runs past the end without a terminator (PASS, FAIL, FAIL_SUBST, RETURN or a
@@ -214,28 +248,11 @@ bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
 // checks only what depends on values.
 Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, int64_t* result) {
   (void)code_len;  // the verifier proved no path reaches it
-  // The top of the stack lives in `tos` (a register); `stack` holds the rest
-  // above a dummy bottom slot, so a push never tests for an empty stack.
-  int64_t stack[kMaxStackDepth + 1];
-  uint32_t sp = 0;
-  int64_t tos = 0;
+  OperandStack stack;
+  int64_t& tos = stack.tos;
   const Insn* ip = code_ + code_first;
   uint32_t steps = 0;  // instructions executed, added to executed_ on every exit
   Exit exit = Exit::kFault;
-  const auto push = [&](int64_t v) __attribute__((always_inline)) {
-    stack[sp++] = tos;
-    tos = v;
-  };
-  const auto pop = [&]() __attribute__((always_inline)) {
-    const int64_t v = tos;
-    tos = stack[--sp];
-    return v;
-  };
-  // a `op` b with b on top: false on overflow or division by zero.
-  const auto arith = [&](Op op) __attribute__((always_inline)) {
-    const int64_t a = stack[--sp];
-    return binary(op, a, tos, &tos);
-  };
   for (;;) {
     const Insn& in = *ip++;
     ++steps;
@@ -243,10 +260,10 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       case Op::kNop:
         break;
       case Op::kPush:
-        push(in.imm);
+        stack.push(in.imm);
         break;
       case Op::kPushConst:
-        push(constants_[in.b]);
+        stack.push(constants_[in.b]);
         break;
       case Op::kSignal: {
         // The memo of this check first: most programs of a check read the same signals.
@@ -254,24 +271,25 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         SignalStatus st = memo.status;
         int64_t v = memo.value;
         if (memo.epoch != epoch_) st = signal(in.b, now_us_, &v);
-        push(v);
+        stack.push(v);
         if (st == SignalStatus::kOk) break;
         exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault;
         goto done;
       }
       case Op::kField:
         if (env.d == nullptr || in.b >= env.d->field_count) goto done;
-        push(env.d->fields[in.b]);
+        stack.push(env.d->fields[in.b]);
         break;
       case Op::kCommand:
-        push(env.d->command);
+        stack.push(env.d->command);
         break;
       case Op::kIndex:
-        push(env.d->index);
+        stack.push(env.d->index);
         break;
       case Op::kState:
-        push(internal::bit_test(tx_.pending_state, env.invariant) ? pending_state_[env.invariant]
-                                                                  : state_words_[env.invariant]);
+        stack.push(internal::bit_test(tx_.pending_state, env.invariant)
+                       ? pending_state_[env.invariant]
+                       : state_words_[env.invariant]);
         break;
       case Op::kJobCount:
       case Op::kLastField:
@@ -279,58 +297,28 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       case Op::kHasLast: {
         int64_t v = 0;
         if (!context_value(in, env, &v)) goto done;
-        push(v);
+        stack.push(v);
         break;
       }
       case Op::kSetState:
-        pending_state_[env.invariant] = pop();
+        pending_state_[env.invariant] = stack.pop();
         internal::bit_set(tx_.pending_state, env.invariant);
         break;
-      case Op::kAdd:
-        if (!arith(Op::kAdd)) goto done;
-        break;
-      case Op::kSub:
-        if (!arith(Op::kSub)) goto done;
-        break;
-      case Op::kMul:
-        if (!arith(Op::kMul)) goto done;
-        break;
-      case Op::kDiv:
-        if (!arith(Op::kDiv)) goto done;
-        break;
-      case Op::kMod:
-        if (!arith(Op::kMod)) goto done;
-        break;
-      case Op::kMin:
-        arith(Op::kMin);
-        break;
-      case Op::kMax:
-        arith(Op::kMax);
-        break;
-      case Op::kEq:
-        arith(Op::kEq);
-        break;
-      case Op::kNe:
-        arith(Op::kNe);
-        break;
-      case Op::kLt:
-        arith(Op::kLt);
-        break;
-      case Op::kLe:
-        arith(Op::kLe);
-        break;
-      case Op::kGt:
-        arith(Op::kGt);
-        break;
-      case Op::kGe:
-        arith(Op::kGe);
-        break;
-      case Op::kAnd:
-        arith(Op::kAnd);
-        break;
-      case Op::kOr:
-        arith(Op::kOr);
-        break;
+        CONTEGO_BINARY_CASE(Add);
+        CONTEGO_BINARY_CASE(Sub);
+        CONTEGO_BINARY_CASE(Mul);
+        CONTEGO_BINARY_CASE(Div);
+        CONTEGO_BINARY_CASE(Mod);
+        CONTEGO_BINARY_CASE(Min);
+        CONTEGO_BINARY_CASE(Max);
+        CONTEGO_BINARY_CASE(Eq);
+        CONTEGO_BINARY_CASE(Ne);
+        CONTEGO_BINARY_CASE(Lt);
+        CONTEGO_BINARY_CASE(Le);
+        CONTEGO_BINARY_CASE(Gt);
+        CONTEGO_BINARY_CASE(Ge);
+        CONTEGO_BINARY_CASE(And);
+        CONTEGO_BINARY_CASE(Or);
       case Op::kNeg:
       case Op::kAbs:
         if (tos == INT64_MIN) goto done;
@@ -340,13 +328,13 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         tos = tos == 0;
         break;
       case Op::kDup:
-        push(tos);
+        stack.push(tos);
         break;
       case Op::kDrop:
-        pop();
+        stack.pop();
         break;
       case Op::kJumpIfZero:
-        if (pop() == 0) ip += in.imm - 1;
+        if (stack.pop() == 0) ip += in.imm - 1;
         break;
       case Op::kJump:
         ip += in.imm - 1;
@@ -355,7 +343,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         if (!subst_op(in, env, 0)) goto done;
         break;
       case Op::kSubstField:
-        if (!subst_op(in, env, pop())) goto done;
+        if (!subst_op(in, env, stack.pop())) goto done;
         break;
       case Op::kPass:
         exit = Exit::kPass;
@@ -378,5 +366,7 @@ done:
   executed_ += steps;
   return exit;
 }
+
+#undef CONTEGO_BINARY_CASE
 
 }  // namespace contego::core::internal
