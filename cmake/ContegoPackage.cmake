@@ -4,6 +4,7 @@
 #   contego_VERSION_ARCH.deb        the CLI, preload library, data, units, system files
 #   contego-dev_VERSION_ARCH.deb    the trusted core: static library, headers, CMake config, .pc
 #   contego-dbgsym_VERSION_ARCH.ddeb  the runtime's debug symbols (split off, by build id)
+#   contego-dkms_VERSION_all.deb    contego.ko's source for DKMS (cmake/ContegoDkms.cmake)
 set(CPACK_PACKAGE_NAME contego)
 set(CPACK_PACKAGE_VENDOR "contego")
 set(CPACK_PACKAGE_CONTACT "contego maintainers <contego@localhost>")
@@ -23,7 +24,7 @@ set(CPACK_OBJCOPY_EXECUTABLE ${CMAKE_OBJCOPY})
 set(CPACK_READELF_EXECUTABLE ${CMAKE_READELF})
 set(CPACK_GENERATOR DEB)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
-set(CPACK_COMPONENTS_ALL runtime dev)
+set(CPACK_COMPONENTS_ALL runtime dev dkms)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_RELEASE 1)
 set(CPACK_DEBIAN_PACKAGE_SECTION misc)
@@ -54,4 +55,22 @@ set(CPACK_DEBIAN_DEV_PACKAGE_NAME contego-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 set(CPACK_DEBIAN_DEV_PACKAGE_ARCHITECTURE ${CPACK_DEBIAN_PACKAGE_ARCHITECTURE})
 set(CPACK_COMPONENT_DEV_DESCRIPTION "contego's trusted core (static library, headers, CMake and pkg-config files)")
+
+# Architecture-independent: sources DKMS compiles on the target for each of
+# its kernels. The core is C++ (g++); DKMS brings gcc, make and kmod.
+set(CPACK_DEBIAN_DKMS_PACKAGE_NAME contego-dkms)
+set(CPACK_DEBIAN_DKMS_PACKAGE_SECTION kernel)
+set(CPACK_DEBIAN_DKMS_PACKAGE_ARCHITECTURE all)
+set(CPACK_DEBIAN_DKMS_PACKAGE_DEPENDS "dkms (>= 2.8), g++")
+set(CPACK_DEBIAN_DKMS_PACKAGE_RECOMMENDS "contego (= ${PROJECT_VERSION}-${CPACK_DEBIAN_PACKAGE_RELEASE})")
+set(CPACK_DEBIAN_DKMS_PACKAGE_SHLIBDEPS OFF)
+set(CPACK_COMPONENT_DKMS_DESCRIPTION
+    "contego.ko, contego's kernel client, as source for DKMS: it takes i2c-dev's\n"
+    "place for the adapters it is told to protect and checks every program's I2C\n"
+    "calls with contego's trusted core (docs/kernel-client.md). DKMS builds it\n"
+    "for each installed kernel that has its headers.")
+string(JOIN "" CPACK_COMPONENT_DKMS_DESCRIPTION ${CPACK_COMPONENT_DKMS_DESCRIPTION})
+set(CPACK_DEBIAN_DKMS_PACKAGE_CONTROL_EXTRA
+    ${PROJECT_BINARY_DIR}/packaging/dkms/postinst ${PROJECT_BINARY_DIR}/packaging/dkms/prerm)
+set(CPACK_DEBIAN_DKMS_PACKAGE_CONTROL_STRICT_PERMISSION ON)
 include(CPack)

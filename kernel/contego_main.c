@@ -44,6 +44,7 @@
 #include <linux/slab.h>
 #include <linux/spinlock.h>
 #include <linux/uaccess.h>
+#include <linux/version.h>
 #include <linux/vmalloc.h>
 #include <linux/wait.h>
 #include <linux/workqueue.h>
@@ -150,6 +151,29 @@ struct ct_node {
 static struct ct_node ct_nodes[CT_MAX_ADAPTERS];
 static int ct_node_count;
 static struct class *ct_class;
+
+/*
+ * The nodes are open to every user: the module, not the file mode, decides
+ * who may act (an unbound process gets the policy's default). CONTEGO_KMOD=1
+ * in the uevent lets udev rules tell these nodes from i2c-dev's (the
+ * package's rule hands i2c-dev's to the monitor alone, and keeps off these).
+ */
+#if LINUX_VERSION_CODE >= KERNEL_VERSION(6, 2, 0)
+#define CT_CLASS_DEV const struct device
+#else
+#define CT_CLASS_DEV struct device
+#endif
+static char *ct_devnode(CT_CLASS_DEV *dev, umode_t *mode)
+{
+	if (mode)
+		*mode = 0666;
+	return NULL;
+}
+
+static int ct_dev_uevent(CT_CLASS_DEV *dev, struct kobj_uevent_env *env)
+{
+	return add_uevent_var(env, "CONTEGO_KMOD=1");
+}
 
 struct ct_file {
 	struct i2c_adapter *adap;
@@ -2093,6 +2117,8 @@ static int __init ct_init(void)
 		vfree(ct_ring);
 		return PTR_ERR(ct_class);
 	}
+	ct_class->devnode = ct_devnode;
+	ct_class->dev_uevent = ct_dev_uevent;
 	for (i = 0; i < n_adapters; i++) {
 		struct ct_node *node = &ct_nodes[ct_node_count];
 		struct i2c_adapter *adap;

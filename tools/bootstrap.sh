@@ -27,6 +27,9 @@ packages=(
   mmdebstrap
   # package checks (tools/check_package.sh)
   lintian
+  # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
+  # package's module with DKMS's own tool against Debian's headers
+  dkms
 )
 
 # contego.ko (kernel/build.sh, docs/kernel-client.md) builds against the

@@ -21,17 +21,21 @@ fail=0
 bad() { echo "check_package: FAIL: $*" >&2; fail=1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-runtime=""
+runtime="" dkms_deb=""
 for deb in "$@"; do
   name=$(dpkg-deb -f "$deb" Package)
-  [[ -z $arch || $(dpkg-deb -f "$deb" Architecture) == "$arch" ]] ||
-    bad "$deb: architecture $(dpkg-deb -f "$deb" Architecture), expected $arch"
+  # contego-dkms holds sources: architecture all.
+  want=$arch
+  [[ $name == contego-dkms ]] && want=all
+  [[ -z $want || $(dpkg-deb -f "$deb" Architecture) == "$want" ]] ||
+    bad "$deb: architecture $(dpkg-deb -f "$deb" Architecture), expected $want"
   dpkg-deb -c "$deb" > "$tmp/$name.list"
   for dir in "${forbid[@]}"; do
     if grep -F -e "$dir" "$tmp/$name.list"; then bad "$deb lists a path under $dir"; fi
   done
   if grep -E '(^|/)(build|CMakeFiles|_CPack_Packages)/' "$tmp/$name.list"; then bad "$deb lists a build-tree path"; fi
   [[ $name == contego ]] && runtime=$deb
+  [[ $name == contego-dkms ]] && dkms_deb=$deb
   echo "check_package: $deb: $(wc -l < "$tmp/$name.list") entries, $(dpkg-deb -f "$deb" Architecture)"
 done
 [[ -n $runtime ]] || bad "no contego runtime package among $*"
@@ -58,6 +62,21 @@ if [[ -n $runtime ]]; then
   done < <(find "$tmp/root" -type f -print0)
   grep -q "ExecStart=/usr/bin/contego monitor" "$tmp/root/usr/lib/systemd/system/contego-monitor.service" ||
     bad "the monitor unit does not run /usr/bin/contego"
+fi
+# contego-dkms: dkms.conf, the module's sources and the core's, and the
+# maintainer scripts that hand them to DKMS.
+if [[ -n $dkms_deb ]]; then
+  dpkg-deb -x "$dkms_deb" "$tmp/dkms"
+  dpkg-deb -e "$dkms_deb" "$tmp/dkms-control"
+  src=$(ls -d "$tmp"/dkms/usr/src/contego-* 2>/dev/null | head -n1)
+  [[ -n $src ]] || bad "$dkms_deb has no /usr/src/contego-VERSION"
+  for f in dkms.conf Kbuild contego_main.c contego_kmod.h shim/stdint.h include/contego/core_c.h \
+    src/core/checker.cc src/core/interpreter.cc src/core/verifier.cc src/core/state.h; do
+    [[ -n $src && -e $src/$f ]] || bad "$dkms_deb has no /usr/src/contego-VERSION/$f"
+  done
+  if [[ -n $src ]] && find "$src" -name '*test*' | grep .; then bad "$dkms_deb holds test sources"; fi
+  grep -q 'common.postinst contego' "$tmp/dkms-control/postinst" || bad "$dkms_deb's postinst does not build with DKMS"
+  grep -q 'dkms remove -m contego' "$tmp/dkms-control/prerm" || bad "$dkms_deb's prerm does not remove it from DKMS"
 fi
 # lintian (bootstrap.sh installs it) on the .deb files; the .ddeb debug
 # packages are CPack's and not lintian's business.
