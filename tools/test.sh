@@ -68,10 +68,13 @@ step "amd64 Debian package"
 bash tools/package.sh --arch amd64
 
 # The package installed, used, stopped, restarted, removed and purged in a
-# booted Debian 12 guest with the README's Install commands (docs/testbed.md).
+# booted Debian 12 guest with the README's Install commands, and contego-dkms
+# with its "Install the kernel client" commands (docs/testbed.md).
 step "booted Debian guest"
 debs=(out/packages/contego_*_amd64.deb)
-CONTEGO_DEB=$PWD/${debs[-1]} ctest --preset dev -R '^vm\.booted_guest$' -V
+dkms_debs=(out/packages/contego-dkms_*_all.deb)
+CONTEGO_DEB=$PWD/${debs[-1]} CONTEGO_DKMS_DEB=$PWD/${dkms_debs[-1]} \
+  ctest --preset dev -R '^vm\.booted_guest$' -V
 
 # Last, the arm64 test bed (docs/testbed.md): the arm64 build (cross-compiled,
 # preset arm64-test) and its seccomp filter, core, policy, monitor and

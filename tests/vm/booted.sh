@@ -5,11 +5,16 @@
 # (extracted here, so that the guest runs what the README says), booted in
 # QEMU (KVM when it works here, TCG otherwise: accel.sh). The guest's scenario
 # (booted/scenario.sh) installs, uses, stops, restarts, removes and purges
-# the package and prints one line per check; this script judges them.
+# the package and prints one line per check; this script judges them. With
+# contego-dkms it also runs the README's "Install the kernel client" commands:
+# DKMS builds contego.ko in the guest, against its kernel, and the module
+# checks the program in i2c-dev's place.
 #
-# Usage: tests/vm/booted.sh [--deb PATH] [--workdir DIR] [--timeout SECONDS]
-#   --deb     the package (default: $CONTEGO_DEB; tools/test.sh sets it after
-#             its package stage)
+# Usage: tests/vm/booted.sh [--deb PATH] [--dkms-deb PATH] [--workdir DIR] [--timeout SECONDS]
+#   --deb       the package (default: $CONTEGO_DEB; tools/test.sh sets it after
+#               its package stage)
+#   --dkms-deb  contego-dkms (default: $CONTEGO_DKMS_DEB); without it the
+#               guest reports the kernel client's part as skipped
 # Exit 77 (CTest: skipped) with the reason when there is no package, no
 # QEMU, or Debian's kernel or archive cannot be reached.
 set -euo pipefail
@@ -17,11 +22,13 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 src=$(cd "$here/../.." && pwd)
 deb=${CONTEGO_DEB:-}
+dkms_deb=${CONTEGO_DKMS_DEB:-}
 workdir=$src/build/dev/tests/vm/booted
-limit=${CONTEGO_VM_TIMEOUT:-600}
+limit=${CONTEGO_VM_TIMEOUT:-1000}
 while (($#)); do
   case "$1" in
     --deb) deb=$2; shift 2 ;;
+    --dkms-deb) dkms_deb=$2; shift 2 ;;
     --workdir) workdir=$2; shift 2 ;;
     --timeout) limit=$2; shift 2 ;;
     *) echo "booted.sh: unknown argument $1" >&2; exit 2 ;;
@@ -36,12 +43,17 @@ fail() { echo "BOOTED GUEST FAILED: $*" >&2; exit 1; }
 [[ $(dpkg-deb -f "$deb" Architecture) == amd64 ]] || skip "$deb is not an amd64 package"
 qemu=$(command -v qemu-system-x86_64) || skip "qemu-system-x86_64 not found (bash tools/bootstrap.sh)"
 command -v cpio >/dev/null || skip "cpio not found (bash tools/bootstrap.sh)"
+debs=("$deb")
+if [[ -n $dkms_deb ]]; then
+  [[ -f $dkms_deb ]] || fail "no contego-dkms package at $dkms_deb"
+  debs+=("$dkms_deb")
+fi
 
 mkdir -p "$workdir"
 t0=$SECONDS
 kdir=$(bash "$here/fetch-kernel.sh") || skip "cannot get Debian's kernel (fetch-kernel.sh's message above)"
 t1=$SECONDS
-rootfs=$(bash "$here/build-rootfs.sh" "$kdir" "$deb") ||
+rootfs=$(bash "$here/build-rootfs.sh" "$kdir" "${debs[@]}") ||
   skip "cannot build the Debian root file system (build-rootfs.sh's message above)"
 t2=$SECONDS
 
@@ -50,21 +62,31 @@ t2=$SECONDS
 # package, the scenario, the README's commands and the unit that runs them.
 extra=$workdir/extra
 rm -rf "$extra"
-mkdir -p "$extra/vm/pkg" "$extra/vm/readme" "$extra/etc/systemd/system/multi-user.target.wants"
+mkdir -p "$extra/vm/pkg" "$extra/vm/readme" "$extra/vm/readme-kmod" \
+  "$extra/etc/systemd/system/multi-user.target.wants"
 # A host name the guest resolves (sudo asks), as on any installed system.
 printf '127.0.0.1 localhost\n127.0.1.1 guest\n' >"$extra/etc/hosts"
 echo guest >"$extra/etc/hostname"
-cp "$deb" "$extra/vm/pkg/"
+cp "${debs[@]}" "$extra/vm/pkg/"
 cp "$here/booted/scenario.sh" "$extra/vm/"
-# The ```sh blocks of the README's "## Install" section, one file each, in
-# order. `bash tools/package.sh` builds the package on the build machine: the
-# host has just done that; every other line runs in the guest.
-awk -v dir="$extra/vm/readme" '
-  /^## / { inside = ($0 == "## Install") }
-  inside && /^```sh$/ { n++; file = sprintf("%s/%d.sh", dir, n); lines = 0; inblock = 1; next }
-  inblock && /^```$/ { inblock = 0; if (!lines) n--; next }
-  inblock && $0 !~ /^bash tools\/package\.sh/ { print > file; lines++ }
-' "$src/README.md"
+# The ```sh blocks of a README section, one file each, in order: "## Install"
+# and, with contego-dkms, "## Install the kernel client (contego.ko)".
+# `bash tools/package.sh` builds the packages on the build machine: the host
+# has just done that; every other line runs in the guest.
+readme_blocks() {
+  awk -v dir="$2" -v section="## $1" '
+    /^## / { inside = ($0 == section) }
+    inside && /^```sh$/ { n++; file = sprintf("%s/%d.sh", dir, n); lines = 0; inblock = 1; next }
+    inblock && /^```$/ { inblock = 0; if (!lines) n--; next }
+    inblock && $0 !~ /^bash tools\/package\.sh/ { print > file; lines++ }
+  ' "$src/README.md"
+}
+readme_blocks Install "$extra/vm/readme"
+if [[ -n $dkms_deb ]]; then
+  readme_blocks "Install the kernel client (contego.ko)" "$extra/vm/readme-kmod"
+  (($(ls "$extra/vm/readme-kmod" | wc -l) >= 2)) ||
+    fail "README.md's \"Install the kernel client (contego.ko)\" section has no commands to run"
+fi
 nblocks=$(ls "$extra/vm/readme" | wc -l)
 ((nblocks >= 2)) || fail "README.md's Install section has no commands to run (found $nblocks blocks)"
 cat >"$extra/etc/systemd/system/guest-scenario.service" <<'EOF'
@@ -89,9 +111,9 @@ t3=$SECONDS
 accel_kernel=$kdir/vmlinuz
 . "$here/accel.sh"
 log=$workdir/console.log
-echo "booted.sh: $(cat "$kdir/version") under $accel_name, $(basename "$deb"), limit ${limit}s" >&2
+echo "booted.sh: $(cat "$kdir/version") under $accel_name, $(basename -a "${debs[@]}" | paste -sd' '), limit ${limit}s" >&2
 set +e
-timeout -k 10 "$limit" "$qemu" "${accel[@]}" -m 2048 -smp 2 -nographic -no-reboot -nic none \
+timeout -k 10 "$limit" "$qemu" "${accel[@]}" -m 3072 -smp 2 -nographic -no-reboot -nic none \
   -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio" \
   -append "console=ttyS0 quiet loglevel=3 panic=-1 systemd.show_status=false" </dev/null 2>&1 |
   tr -d '\r' | sed -u 's/\x1b\[[0-9;?]*[a-zA-Z]//g; s/\x1b[c78]//g' >"$log"

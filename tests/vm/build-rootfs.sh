@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The booted guest's root file system (docs/testbed.md, "The booted Debian
 # guest"): Debian 12 made by mmdebstrap from Debian's archive, with systemd as
-# PID 1, udev, kmod, i2c-tools, python3-smbus2, the packages PACKAGE.deb
+# PID 1, udev, kmod, i2c-tools, python3-smbus2, the packages each PACKAGE.deb
 # depends on and recommends (so that `apt-get install ./PACKAGE.deb` in the
-# guest needs no network), and the i2c-stub and i2c-dev modules of the test
+# guest needs no network; for a package that depends on dkms also the
+# kernel's linux-headers, which the README installs beside it), and the i2c-stub and i2c-dev modules of the test
 # bed's kernel (fetch-kernel.sh) under lib/modules, depmod'ed. Packed as an
 # uncompressed cpio archive whose /init is systemd: the kernel unpacks it as
 # its root file system, no disk image needed.
@@ -12,25 +13,30 @@
 # the kernel release: a rerun with the same dependencies does no network I/O
 # and builds nothing. Prints the cpio's path on stdout.
 #
-# Usage: tests/vm/build-rootfs.sh KERNEL_DIR PACKAGE.deb
+# Usage: tests/vm/build-rootfs.sh KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]
 # Env:   CONTEGO_VM_CACHE   cache root (as fetch-kernel.sh)
 set -euo pipefail
 
 die() { echo "build-rootfs: $*" >&2; exit 1; }
-(($# == 2)) || die "usage: build-rootfs.sh KERNEL_DIR PACKAGE.deb"
-kdir=$1 deb=$2
+(($# >= 2)) || die "usage: build-rootfs.sh KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]"
+kdir=$1
+shift
 [[ -f $kdir/vmlinuz && -f $kdir/version ]] || die "$kdir is not a fetch-kernel.sh directory"
-[[ -f $deb ]] || die "no package $deb"
+for deb in "$@"; do [[ -f $deb ]] || die "no package $deb"; done
 cache_root=${CONTEGO_VM_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/contego-vm}
 release=$(cat "$kdir/version")
 
 # The guest's packages: the test bed's tools, sudo and adduser (the README's
 # Install section uses them, as a Raspberry Pi OS system has them), and the
-# package's own Depends and Recommends (first of each alternative, versions
-# dropped: bookworm's are the ones it was built against).
+# packages' own Depends and Recommends (first of each alternative, versions
+# dropped: bookworm's are the ones they were built against; a package of the
+# set itself, as contego-dkms recommends contego, comes from its .deb).
 base=(systemd-sysv udev kmod dbus i2c-tools python3-smbus2 sudo adduser apt)
-deps=$(dpkg-deb -f "$deb" Depends Recommends | sed 's/^[A-Za-z-]*: //' | tr ',' '\n' |
-  sed 's/|.*//; s/(.*)//; s/:any//; s/^ *//; s/ *$//' | grep -v '^$' || true)
+deps=$(for deb in "$@"; do dpkg-deb -f "$deb" Depends Recommends; done | sed 's/^[A-Za-z-]*: //' |
+  tr ',' '\n' | sed 's/|.*//; s/(.*)//; s/:any//; s/^ *//; s/ *$//' | grep -v '^$' || true)
+own=$(for deb in "$@"; do dpkg-deb -f "$deb" Package; done)
+deps=$(grep -vxF -f <(echo "$own") <<<"$deps" || true)
+grep -qx dkms <<<"$deps" && deps+=$'\n'"linux-headers-$release"
 mapfile -t pkgs < <(printf '%s\n' "${base[@]}" $deps | sort -u)
 key=$(printf '%s\n' bookworm "$release" "${pkgs[@]}" | sha256sum | cut -c1-16)
 dir=$cache_root/rootfs/$key

@@ -121,12 +121,12 @@ kmod=$(build_module contego.ko "$src/kernel/build.sh") || exit 1
 plain_stub=$(build_module i2c-plain-stub.ko "$here/kmod/build.sh") || exit 1
 # A statically linked copy of the bench client: no dynamic loader, so no
 # preload can reach it; only the kernel client checks it (scenario 60).
-static_client=
-if [[ "$arch" == "$host_arch" ]]; then
-  static_client=$workdir/i2c-write-loop-static
-  cc -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
-    fail "cannot link the static bench client (libc6-dev's libc.a)"
-fi
+# For arm64 Debian's cross gcc links it (libc6-dev-arm64-cross has libc.a).
+static_cc=cc
+[[ "$arch" == "$host_arch" ]] || static_cc=aarch64-linux-gnu-gcc
+static_client=$workdir/i2c-write-loop-static
+"$static_cc" -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
+  fail "cannot link the static bench client with $static_cc (libc6-dev's libc.a)"
 t_kmod=$(date +%s.%N)
 CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod CONTEGO_PLAIN_STUB=$plain_stub \
   bash "$here/build-initramfs.sh" \

@@ -23,14 +23,17 @@ word() { echo $(($(i2cget -y 0 $A $LED5_OFF) | $(i2cget -y 0 $A $((LED5_OFF + 1)
 set_word() { i2cset -y 0 $A $LED5_OFF $(($1 & 255)) && i2cset -y 0 $A $((LED5_OFF + 1)) $(($1 >> 8)); }
 reg() { i2cget -y 0 $A "$1" 2>/dev/null; }
 
-# Runs README block N as written (bus node renamed), echoing each command.
+# Runs README block N (of the section in /vm/readme, or of DIR) as written,
+# echoing each command; the robot's adapter 1 is the guest's 0.
 readme() {
-  echo "  README block $1:"
-  sed 's#/dev/i2c-1#/dev/i2c-0#g' "/vm/readme/$1.sh" >"/tmp/readme-$1.sh"
-  show "/tmp/readme-$1.sh"
-  (cd /vm/pkg && bash -e -x "/tmp/readme-$1.sh") >"/tmp/readme-$1.out" 2>&1
+  local dir=${2:-/vm/readme}
+  local name=${dir##*/}-$1
+  echo "  README block $1 (${dir##*/}):"
+  sed 's#/dev/i2c-1#/dev/i2c-0#g; s#adapters=1#adapters=0#g' "$dir/$1.sh" >"/tmp/$name.sh"
+  show "/tmp/$name.sh"
+  (cd /vm/pkg && bash -e -x "/tmp/$name.sh") >"/tmp/$name.out" 2>&1
   local rc=$?
-  show "/tmp/readme-$1.out" | tail -n 25
+  show "/tmp/$name.out" | tail -n 25
   return $rc
 }
 
@@ -74,6 +77,10 @@ with SMBus(1) as bus:
     attempt("address-0x41", lambda: bus.write_byte_data(0x41, 0x00, 0x01))
     time.sleep(1.05)
     attempt("pulse-900", lambda: pulse(900))
+    try:  # what the chip's LED5 off holds now, read by the program itself
+        print("GRIPPER led5", bus.read_byte_data(0x40, 0x1C) | bus.read_byte_data(0x40, 0x1D) << 8, flush=True)
+    except OSError as e:
+        print("GRIPPER led5", errno.errorcode.get(e.errno, e.errno), flush=True)
 print("GRIPPER holding", flush=True)
 while True:
     time.sleep(3600)
@@ -153,6 +160,88 @@ else
   bad "contego audit: the chain does not verify after restart"
 fi
 show /tmp/audit.out | tail -n 5
+
+# ---- the kernel client: contego-dkms, the README's commands ------------------
+# DKMS builds contego.ko here, against this kernel's headers; the module then
+# checks the same program, run as its user with no `contego run`. What the
+# chip holds is read back through i2c-dev once the module is unloaded (the
+# module answers root, bound to no task, with the policy's deny).
+kmod_blocks=$(ls /vm/readme-kmod 2>/dev/null | sed 's/\.sh$//' | sort -n)
+if [ -z "$kmod_blocks" ]; then
+  echo "VM-CHECK SKIP $SCENARIO: kernel client: no contego-dkms package given (booted.sh --dkms-deb)"
+else
+  kmod_last=$(echo "$kmod_blocks" | tail -n1)
+  t0=$(date +%s)
+  for n in $kmod_blocks; do
+    [ "$n" = "$kmod_last" ] && break
+    if readme "$n" /vm/readme-kmod; then ok "README kernel-client block $n runs as written (exit 0)"
+    else bad "README kernel-client block $n failed"; dmesg | tail -n 5; fi
+  done
+  echo "  kernel client set up in $(($(date +%s) - t0)) s (DKMS build under this guest's CPU)"
+  kver=$(uname -r)
+  grep -q "contego/.*$kver.*: installed" /tmp/readme-kmod-1.out &&
+    ok "dkms status: contego installed for $kver ($(grep -o 'contego/[^ ,]*' /tmp/readme-kmod-1.out | head -n1))" ||
+    bad "dkms status does not show contego installed for $kver"
+  ko=$(modinfo -n contego 2>/dev/null)
+  case $ko in
+  /lib/modules/$kver/updates/dkms/contego.ko*) ok "modprobe loaded DKMS's build: $ko" ;;
+  *) bad "contego.ko is not DKMS's (modinfo -n: '$ko')" ;;
+  esac
+  check "contego.ko loaded in place of i2c-dev" sh -c 'grep -q "^contego " /proc/modules && ! grep -q "^i2c_dev " /proc/modules'
+  udevadm settle
+  own=$(stat -c '%U:%G %a' /dev/i2c-0 2>&1)
+  [ "$own" = "root:root 666" ] && ok "udev rule keeps off contego.ko's node: /dev/i2c-0 is $own" ||
+    bad "contego.ko's /dev/i2c-0 is $own, not root:root 666"
+  check "contego-kmod-audit.service active" systemctl is-active contego-kmod-audit
+  kaudit=/var/log/contego/kmod-audit.jsonl
+  # The program as its unit would run it: its own user, nothing else. It holds
+  # (sleeps) after its commands; its end is a session's end (safe state).
+  # The robot's /dev/i2c-1 is the guest's /dev/i2c-0 (where the monitor
+  # mapped it for the program, the module serves the adapter's own number).
+  sed 's/SMBus(1)/SMBus(0)/' /opt/robot/gripper.py >/opt/robot/gripper-kmod.py
+  setpriv --reuid=contego-gripper --regid=nogroup --clear-groups \
+    python3 /opt/robot/gripper-kmod.py >/tmp/kgripper.log 2>&1 &
+  gpid=$!
+  for i in $(seq 1 150); do grep -q 'GRIPPER holding' /tmp/kgripper.log && break; sleep 0.2; done
+  kill $gpid 2>/dev/null
+  wait $gpid 2>/dev/null
+  out=$(cat /tmp/kgripper.log)
+  echo "$out" | show
+  echo "$out" | grep -q 'GRIPPER pulse-577 ok' &&
+    ok "the program, run as contego-gripper with no contego run: pulses 420, 577, 420 land" ||
+    bad "the program's pulses under contego.ko did not land"
+  echo "$out" | grep -q 'GRIPPER led5 577' &&
+    ok "high pulse 900 replaced by the expected 577 (the program reads LED5 off=577 back)" ||
+    bad "after the high pulse 900 the program read $(echo "$out" | grep -o 'led5 .*')"
+  echo "$out" | grep -q 'GRIPPER address-0x41 E' &&
+    ok "contego.ko: write to 0x41 (not in the policy) refused: $(echo "$out" | grep -o 'address-0x41 .*')" ||
+    bad "contego.ko: write to 0x41 (not in the policy): $(echo "$out" | grep -o 'address-0x41 .*')"
+  i2cset -y 0 $A $PRESCALE 0x03 >/dev/null 2>&1 && bad "root, bound to no task, wrote PRE_SCALE through contego.ko" ||
+    ok "root, bound to no task: i2cset is refused by contego.ko"
+  sleep 1 # the reader's last records
+  allowed=$(grep -a '"task_name":"gripper"' $kaudit 2>/dev/null | grep -ac '"decision":"allow"')
+  viol=$(grep -a '"kind":"decision"' $kaudit 2>/dev/null | grep -avc '"decision":"allow"')
+  [ "$allowed" -ge 12 ] && [ "$viol" -ge 2 ] &&
+    ok "kmod audit log: $allowed of the gripper's writes allowed, $viol decisions refused or replaced ($kaudit)" ||
+    bad "kmod audit log: $allowed allowed, $viol other decisions"
+  contego audit $kaudit >/tmp/kaudit.out 2>&1 && ok "contego audit verifies $kaudit's chain ($(wc -l <$kaudit) records)" ||
+    { bad "contego audit: $kaudit's chain does not verify"; show /tmp/kaudit.out | tail -n 5; }
+  if readme "$kmod_last" /vm/readme-kmod; then ok "README kernel-client block $kmod_last (removal) runs as written"
+  else bad "README kernel-client block $kmod_last failed"; fi
+  check "removal: contego.ko unloaded" sh -c '! grep -q "^contego " /proc/modules'
+  check "purge: no contego.ko left for $kver" sh -c "! modinfo -n contego && ! find /lib/modules/$kver -name 'contego.ko*' | grep -q ."
+  check "purge: DKMS knows no contego" sh -c '[ -z "$(dkms status contego)" ]'
+  # i2c-dev again, to read the chip and for the monitor's part below.
+  modprobe i2c-dev && udevadm settle
+  [ "$(word)" = 420 ] && ok "unloading contego.ko drove the safe state (LED5 off=420)" || bad "after unloading LED5 off=$(word)"
+  [ "$(reg $PRESCALE)" = 0x1e ] && ok "PRE_SCALE=0x1e: neither the gripper's nor root's forbidden write reached the chip" ||
+    bad "PRE_SCALE is $(reg $PRESCALE) after contego.ko"
+  own=$(stat -c '%U:%G %a' /dev/i2c-0 2>&1)
+  [ "$own" = "contego:contego 660" ] && ok "i2c-dev's /dev/i2c-0 is the monitor's again: $own" ||
+    bad "i2c-dev's /dev/i2c-0 is $own"
+  systemctl enable --now contego-monitor contego-run@gripper >/dev/null 2>&1 ||
+    bad "the monitor does not start again after the kernel client"
+fi
 
 # ---- remove, then the README's purge ------------------------------------------
 set_word 0x41

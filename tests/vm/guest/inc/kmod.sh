@@ -25,3 +25,13 @@ back_to_i2c_dev() {
   rmmod contego 2>/dev/null
   insmod /lib/modules/i2c-dev.ko && own_adapter
 }
+
+# Waits (up to 5 s) until the module counts no open session: a killed task's
+# session ends when its last file is released, a moment after the kill.
+wait_sessions_closed() {
+  local i=0
+  until contego kmod stats | grep -q " sessions=0 "; do
+    i=$((i + 1)); [ $i -gt 50 ] && return 1
+    usleep 100000
+  done
+}

@@ -457,11 +457,7 @@ run_logged limits_stats1 contego kmod stats
 grep -q "sessions=1 .*sessions_limited=1 " "$OUT" && ok "module counters: one live session, one call refused for sessions" ||
   bad "module counters after the refused session"
 [ -n "$HOLDER2" ] && kill -KILL "$HOLDER2"
-i=0
-until contego kmod stats | grep -q " sessions=0 "; do
-  i=$((i + 1)); [ $i -gt 50 ] && break
-  usleep 100000
-done
+wait_sessions_closed
 run_logged second_after as_task python3 /tmp/kmod_second.py
 grep -q "^written" "$OUT" && ok "the script killed, its session ended: the next arm_init process acts" ||
   bad "after the script's end: $(head -n 1 "$OUT")"
@@ -603,11 +599,7 @@ grep -q " sessions=2 .*sessions_refused=2 sessions_limited=1 " "$OUT" &&
   ok "module counters: two calls refused for room (sessions_refused=2), one for sessions" ||
   bad "module counters after the refusals: $(cat "$OUT")"
 kill -KILL $two_pids
-i=0
-until contego kmod stats | grep -q " sessions=0 "; do
-  i=$((i + 1)); [ $i -gt 50 ] && break
-  usleep 100000
-done
+wait_sessions_closed
 run_logged two_after as_task python3 /tmp/kmod_full.py
 [ "$(grep -c '^written' "$OUT")" = 2 ] && ok "the scripts killed, their sessions ended: arm_init acts again" ||
   bad "after the scripts' end: $(cat "$OUT")"
