@@ -32,7 +32,8 @@ install(TARGETS contego-bench-task RUNTIME DESTINATION ${CMAKE_INSTALL_LIBEXECDI
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/policies ${PROJECT_SOURCE_DIR}/scenarios
         DESTINATION ${CMAKE_INSTALL_DATADIR}/contego COMPONENT runtime)
 
-foreach(unit contego-monitor.service contego-run@.service contego-kmod-audit.service)
+foreach(unit contego-monitor.service contego-run@.service contego-kmod-audit.service
+             contego-kmod-load.service)
   configure_file(${CONTEGO_SYSTEM_DIR}/${unit}.in ${PROJECT_BINARY_DIR}/packaging/${unit} @ONLY)
   install(FILES ${PROJECT_BINARY_DIR}/packaging/${unit} DESTINATION ${CONTEGO_UNIT_DIR}
           COMPONENT runtime)

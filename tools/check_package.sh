@@ -44,6 +44,7 @@ if [[ -n $runtime ]]; then
   for f in usr/bin/contego usr/share/man/man1/contego.1 usr/share/man/man1/contego-monitor.1 \
     usr/share/bash-completion/completions/contego usr/lib/systemd/system/contego-monitor.service \
     usr/lib/systemd/system/contego-run@.service usr/lib/systemd/system/contego-kmod-audit.service \
+    usr/lib/systemd/system/contego-kmod-load.service \
     usr/lib/sysusers.d/contego.conf \
     usr/lib/tmpfiles.d/contego.conf usr/lib/udev/rules.d/99-contego-i2c.rules \
     etc/logrotate.d/contego etc/default/contego usr/share/contego/policies/rover.policy \

@@ -20,7 +20,7 @@ contego=$prefix/bin/contego
 for f in share/contego/policies/rover.policy share/contego/scenarios/rover_spoof.scn \
   share/man/man1/contego.1 share/bash-completion/completions/contego \
   lib/systemd/system/contego-monitor.service lib/systemd/system/contego-run@.service \
-  lib/systemd/system/contego-kmod-audit.service \
+  lib/systemd/system/contego-kmod-audit.service lib/systemd/system/contego-kmod-load.service \
   lib/sysusers.d/contego.conf lib/tmpfiles.d/contego.conf lib/udev/rules.d/99-contego-i2c.rules \
   etc/logrotate.d/contego etc/default/contego include/contego/core_c.h libexec/contego/contego-bench-task; do
   [[ -e $prefix/$f ]] || fail "no $f in the install tree"

@@ -8,13 +8,14 @@ command -v systemd-analyze >/dev/null || { echo "verify_units: SKIP: no systemd-
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 bindir=$(dirname "$contego")
-for unit in contego-monitor.service contego-run@.service contego-kmod-audit.service; do
+for unit in contego-monitor.service contego-run@.service contego-kmod-audit.service \
+  contego-kmod-load.service; do
   sed "s|@CMAKE_INSTALL_FULL_BINDIR@|$bindir|" "$src/packaging/system/$unit.in" > "$tmp/$unit"
 done
 cd "$tmp"
 # --man=no: the man pages are not installed on the build machine.
 if ! out=$(systemd-analyze verify --man=no contego-monitor.service contego-run@follower.service \
-  contego-kmod-audit.service 2>&1) ||
+  contego-kmod-audit.service contego-kmod-load.service 2>&1) ||
   [[ -n $out ]]; then
   echo "$out"
   echo "verify_units: FAIL: systemd-analyze verify complained"

@@ -193,6 +193,17 @@ else
   [ "$own" = "root:root 666" ] && ok "udev rule keeps off contego.ko's node: /dev/i2c-0 is $own" ||
     bad "contego.ko's /dev/i2c-0 is $own, not root:root 666"
   check "contego-kmod-audit.service active" systemctl is-active contego-kmod-audit
+  check "contego-kmod-load.service active: the policy loaded with CONTEGO_KMOD_OPTS" systemctl is-active contego-kmod-load
+  # An edited policy goes in by a restart; one the module's verifier refuses
+  # leaves the loaded one in force and the unit failed.
+  cp /etc/contego/robot.policy /tmp/robot.policy.good
+  systemctl restart contego-kmod-load && ok "systemctl restart contego-kmod-load loads the policy again" ||
+    bad "systemctl restart contego-kmod-load failed"
+  echo 'this is not a policy' >/etc/contego/robot.policy
+  systemctl restart contego-kmod-load 2>/dev/null && bad "contego-kmod-load accepted a broken policy" ||
+    ok "a broken policy: contego-kmod-load fails ($(systemctl is-active contego-kmod-load)), the module keeps the old one"
+  cp /tmp/robot.policy.good /etc/contego/robot.policy
+  journalctl -u contego-kmod-load --no-pager -o cat | tail -n 4 | show
   kaudit=/var/log/contego/kmod-audit.jsonl
   # The program as its unit would run it: its own user, nothing else. It holds
   # (sleeps) after its commands; its end is a session's end (safe state).
@@ -218,6 +229,9 @@ else
     bad "contego.ko: write to 0x41 (not in the policy): $(echo "$out" | grep -o 'address-0x41 .*')"
   i2cset -y 0 $A $PRESCALE 0x03 >/dev/null 2>&1 && bad "root, bound to no task, wrote PRE_SCALE through contego.ko" ||
     ok "root, bound to no task: i2cset is refused by contego.ko"
+  # The node is 0666, so reads matter too: a read needs the access matrix's `reads`.
+  i2cget -y 0 $A $PRESCALE >/dev/null 2>&1 && bad "root, bound to no task, read PRE_SCALE through contego.ko" ||
+    ok "root, bound to no task: i2cget is refused too (the node is open, the policy is not)"
   sleep 1 # the reader's last records
   allowed=$(grep -a '"task_name":"gripper"' $kaudit 2>/dev/null | grep -ac '"decision":"allow"')
   viol=$(grep -a '"kind":"decision"' $kaudit 2>/dev/null | grep -avc '"decision":"allow"')
@@ -228,7 +242,8 @@ else
     { bad "contego audit: $kaudit's chain does not verify"; show /tmp/kaudit.out | tail -n 5; }
   if readme "$kmod_last" /vm/readme-kmod; then ok "README kernel-client block $kmod_last (removal) runs as written"
   else bad "README kernel-client block $kmod_last failed"; fi
-  check "removal: contego.ko unloaded" sh -c '! grep -q "^contego " /proc/modules'
+  check "removal: contego.ko unloaded, its units off" sh -c '! grep -q "^contego " /proc/modules &&
+    ! systemctl is-active -q contego-kmod-load && ! systemctl is-enabled -q contego-kmod-audit'
   check "purge: no contego.ko left for $kver" sh -c "! modinfo -n contego && ! find /lib/modules/$kver -name 'contego.ko*' | grep -q ."
   check "purge: DKMS knows no contego" sh -c '[ -z "$(dkms status contego)" ]'
   # i2c-dev again, to read the chip and for the monitor's part below.
