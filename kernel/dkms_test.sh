@@ -8,7 +8,9 @@
 # Installing and loading it is the booted guest's part (tests/vm/booted).
 #
 # Usage: kernel/dkms_test.sh BUILD_DIR WORK_DIR [KDIR]
-# Exit 77 (skip) without root (DKMS wants it), dkms or the headers.
+# Exit 77 (skip) without root (DKMS wants it), dkms or the headers. DKMS may
+# create its signing key in /var/lib/dkms (mok.key, mok.pub) on first use,
+# as it would on any machine where it builds a module.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 build=${1:?usage: kernel/dkms_test.sh BUILD_DIR WORK_DIR [KDIR]}
@@ -38,7 +40,10 @@ ko=$(find "$work/dkms/contego/$version/$kver" -name 'contego.ko*' | head -n1)
 [[ -n $ko ]] || fail "dkms build left no contego.ko under $work/dkms/contego/$version/$kver"
 vermagic=$(modinfo -F vermagic "$ko")
 [[ $vermagic == "$kver "* ]] || fail "$ko: vermagic '$vermagic' is not $kver's"
-nm "$ko" | grep -qw contego_check || fail "$ko has no contego_check: the core is not linked in"
+# nm's whole output first: `grep -q` would stop reading early, and nm's
+# SIGPIPE fail the pipeline under pipefail.
+symbols=$(nm "$ko")
+grep -qw contego_check <<<"$symbols" || fail "$ko has no contego_check: the core is not linked in"
 status=$(dkms status -m contego -v "$version" "${trees[@]}")
 echo "kmod.dkms: $status"
 [[ $status == *"$kver"*": built"* ]] || fail "dkms status says '$status'"
