@@ -264,9 +264,13 @@ static bool ct_current_exe_is(const struct contego_kmod_bind *b)
 	if (!mm)
 		return false;
 	rcu_read_lock();
+#if LINUX_VERSION_CODE >= KERNEL_VERSION(6, 7, 0)
+	exe = get_file_rcu(&mm->exe_file); /* 6.7 made it take the RCU pointer */
+#else
 	exe = rcu_dereference(mm->exe_file);
 	if (exe && !get_file_rcu(exe))
 		exe = NULL;
+#endif
 	rcu_read_unlock();
 	if (!exe)
 		return false;
@@ -723,6 +727,23 @@ static void ct_session_record(struct contego_kmod_record *r, const struct ct_ses
 	r->index = s->phase == CT_S_LEADER;
 }
 
+/*
+ * Whether every thread of the process `pid` led has exited: what pidfd's
+ * poll reports. 6.1's thread_group_exited(), which later kernels dropped
+ * (their pidfd_poll() asks the task the same), written out here.
+ */
+static bool ct_thread_group_exited(struct pid *pid)
+{
+	struct task_struct *task;
+	bool exited;
+
+	rcu_read_lock();
+	task = pid_task(pid, PIDTYPE_PID);
+	exited = !task || (READ_ONCE(task->exit_state) && thread_group_empty(task));
+	rcu_read_unlock();
+	return exited;
+}
+
 /* do_notify_pidfd()'s wake-up of the watched pid: atomic context (the wait
  * queue's lock and tasklist_lock are held). Notes how the process ended and
  * queues the work; nothing here sleeps or touches the bus. */
@@ -732,7 +753,7 @@ static int ct_session_wake(struct wait_queue_entry *wq, unsigned int mode, int s
 	struct task_struct *t;
 	struct pid *pg;
 
-	if (s->fired || !thread_group_exited(s->watch))
+	if (s->fired || !ct_thread_group_exited(s->watch))
 		return 0;
 	s->fired = true;
 	list_del_init(&wq->entry);
@@ -743,7 +764,7 @@ static int ct_session_wake(struct wait_queue_entry *wq, unsigned int mode, int s
 			s->status = (t->signal->flags & SIGNAL_GROUP_EXIT) ?
 					    t->signal->group_exit_code : t->exit_code;
 			pg = task_pgrp(t);
-			if (s->status == 0 && pg && pg != s->watch && !thread_group_exited(pg))
+			if (s->status == 0 && pg && pg != s->watch && !ct_thread_group_exited(pg))
 				s->leader = get_pid(pg);
 		}
 		rcu_read_unlock();
@@ -836,7 +857,7 @@ static void ct_session_work(struct work_struct *w)
 		ct_session_arm(s);
 		/* The leader may have gone meanwhile: then end now, unless its
 		 * wake-up already queued this work again. */
-		if (!thread_group_exited(leader) || !ct_session_disarm(s)) {
+		if (!ct_thread_group_exited(leader) || !ct_session_disarm(s)) {
 			mutex_unlock(&ct_lock);
 			return;
 		}
@@ -878,7 +899,7 @@ static struct pid *ct_unit_of(struct task_struct *t)
 {
 	struct pid *pg = task_pgrp(t), *me = task_tgid(t);
 
-	return pg && pg != me && !thread_group_exited(pg) ? pg : me;
+	return pg && pg != me && !ct_thread_group_exited(pg) ? pg : me;
 }
 
 /* The unit of s while it lives; NULL once it has ended or is ending (its
@@ -895,7 +916,7 @@ static struct pid *ct_session_unit(struct ct_session *s)
 		unit = s->fired ? NULL : s->watch;
 	} else if (s->fired) {
 		/* Handed to its group's leader while that lives, or ending. */
-		unit = s->leader && !thread_group_exited(s->leader) ? s->leader : NULL;
+		unit = s->leader && !ct_thread_group_exited(s->leader) ? s->leader : NULL;
 	} else {
 		t = pid_task(s->proc, PIDTYPE_TGID);
 		unit = t ? ct_unit_of(t) : s->proc;
@@ -1745,7 +1766,9 @@ static int ct_release(struct inode *inode, struct file *file)
 
 static const struct file_operations ct_node_fops = {
 	.owner = THIS_MODULE,
-	.llseek = no_llseek,
+#if LINUX_VERSION_CODE < KERNEL_VERSION(6, 12, 0)
+	.llseek = no_llseek, /* 6.12: no .llseek is no seeking */
+#endif
 	.read = ct_read,
 	.write = ct_write,
 	.unlocked_ioctl = ct_ioctl,
@@ -2054,7 +2077,9 @@ static const struct file_operations ct_audit_fops = {
 	.read = ct_audit_read,
 	.poll = ct_audit_poll,
 	.unlocked_ioctl = ct_audit_ioctl,
+#if LINUX_VERSION_CODE < KERNEL_VERSION(6, 12, 0)
 	.llseek = no_llseek,
+#endif
 };
 
 static struct miscdevice ct_audit_dev = {
@@ -2110,7 +2135,11 @@ static int __init ct_init(void)
 		vfree(ct_ring);
 		return -ENOMEM;
 	}
+#if LINUX_VERSION_CODE >= KERNEL_VERSION(6, 4, 0)
+	ct_class = class_create("i2c-dev");
+#else
 	ct_class = class_create(THIS_MODULE, "i2c-dev");
+#endif
 	if (IS_ERR(ct_class)) {
 		pr_err("contego: cannot create class i2c-dev (is i2c-dev loaded? contego.ko replaces it)\n");
 		destroy_workqueue(ct_wq);

@@ -39,6 +39,15 @@ if [[ "${1:-}" != --cross-arm64 && $(dpkg --print-architecture) == amd64 ]]; the
   kpkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
     awk '/Depends: linux-image-[0-9]/ { print $2; exit }')
   if [[ -n "$kpkg" ]]; then packages+=("linux-headers-${kpkg#linux-image-}"); fi
+  # kmod.kernels (kernel/kernels_test.sh) builds contego.ko against the
+  # archive's newest amd64 kernel too (bookworm carries 6.12 beside 6.1),
+  # with headers it unpacks, not installs: their host tools are this kbuild.
+  newest=$(apt-cache search --names-only '^linux-headers-[0-9][^ ]*-amd64$' 2>/dev/null |
+    awk '{ print $1 }' | grep -v -e '-cloud-amd64$' -e '-rt-amd64$' | sort -V | tail -n1 || true)
+  if [[ -n "$newest" ]]; then
+    kbuild=$(apt-cache depends "$newest" | awk '/Depends: linux-kbuild-/ { print $2; exit }')
+    if [[ -n "$kbuild" ]]; then packages+=("$kbuild"); fi
+  fi
 fi
 
 # --cross-arm64 (tools/package.sh --arch arm64, the arm64 test bed): the

@@ -19,6 +19,8 @@
 #
 # Usage: tests/vm/fetch-kernel.sh [--arch amd64|arm64]   (default amd64)
 # Env:   CONTEGO_VM_CACHE   cache root (default ${XDG_CACHE_HOME:-$HOME/.cache}/contego-vm)
+#        CONTEGO_VM_KERNEL  another kernel package of the archive instead
+#                           (amd64, e.g. linux-image-6.12.117+deb12-amd64)
 set -euo pipefail
 
 die() { echo "fetch-kernel: $*" >&2; exit 1; }
@@ -37,6 +39,10 @@ command -v apt-cache >/dev/null || die "apt-cache not found: this needs a Debian
 # ask the metapackage which one it is today instead of naming it.
 pkg=$(apt-cache depends "linux-image-$arch$qual" 2>/dev/null |
   awk '/Depends: linux-image-[0-9]/ { sub(/:.*/, "", $2); print $2; exit }')
+if [[ -n "${CONTEGO_VM_KERNEL:-}" ]]; then
+  [[ "$arch" == amd64 ]] || die "CONTEGO_VM_KERNEL is for amd64 (arm64 builds its i2c-stub from 6.1's source)"
+  pkg=$CONTEGO_VM_KERNEL
+fi
 [[ -n "$pkg" ]] || die "cannot resolve the kernel package behind linux-image-$arch (apt-cache depends linux-image-$arch$qual names none; run apt-get update${qual:+, dpkg --add-architecture $arch}?)"
 release=${pkg#linux-image-}
 # The package version (e.g. 6.1.123-1) changes on a rebuild of the same ABI;

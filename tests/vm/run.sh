@@ -106,6 +106,12 @@ if [[ -d "$kdir/headers" ]]; then
   headers=$kdir/headers/  # arm64: the headers the kernel cache keeps (fetch-kernel.sh)
 else
   headers=/usr/src/linux-headers-$(cat "$kdir/version")
+  # Another kernel of the archive (CONTEGO_VM_KERNEL): its headers are
+  # unpacked, not installed (kernel/fetch-headers.sh).
+  if [[ ! -f "$headers/Makefile" ]]; then
+    headers=$(bash "$src/kernel/fetch-headers.sh" "linux-headers-$(cat "$kdir/version")") ||
+      headers=/usr/src/linux-headers-$(cat "$kdir/version")
+  fi
 fi
 # build_module NAME SCRIPT: prints the module's path, nothing when skipped
 build_module() {
