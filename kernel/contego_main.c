@@ -1787,6 +1787,56 @@ static void ct_policy_free(struct ct_policy *p)
 	kfree(p);
 }
 
+/*
+ * A register-map device configured before the load (a vendor library's
+ * init, an earlier policy) need not hold its power-on values: the shadow
+ * the core keeps of it is read back from the device, every register its
+ * commands cover, as the monitor does at start. A device that refuses a
+ * read keeps the power-on shadow (a write-only chip). Before the policy is
+ * live, so the safe state and the first checks see what the chip holds.
+ */
+static void ct_seed_shadows(struct ct_policy *p)
+{
+	u32 d, i, n, count = contego_device_count(p->checker);
+	u8 *regs = kmalloc(2 * 256, GFP_KERNEL);
+	u8 *values = regs + 256;
+
+	if (!regs)
+		return;
+	for (d = 0; d < count; d++) {
+		contego_device_info info;
+		union i2c_smbus_data data;
+		struct ct_node *node;
+		struct i2c_adapter *adap;
+		int ret = -ENODEV;
+
+		n = contego_command_registers(p->checker, d, regs);
+		if (n == 0 || !contego_device_info_of(p->checker, d, &info))
+			continue;
+		node = ct_node_for_bus(info.bus);
+		adap = node ? i2c_get_adapter(node->nr) : NULL;
+		for (i = 0; adap && i < n; i++) {
+			ret = i2c_smbus_xfer(adap, info.addr, info.ten_bit ? I2C_CLIENT_TEN : 0,
+					     I2C_SMBUS_READ, regs[i], I2C_SMBUS_BYTE_DATA, &data);
+			if (ret < 0)
+				break;
+			values[i] = data.byte;
+		}
+		if (adap)
+			i2c_put_adapter(adap);
+		if (!adap || i < n) {
+			pr_warn("contego: device %u (bus %u 0x%02x): register 0x%02x cannot be read (%d); its shadow keeps the power-on values\n",
+				d, info.bus, info.addr, i < n ? regs[i] : 0, ret);
+			continue;
+		}
+		for (i = 0; i < n; i++)
+			contego_seed_register(p->checker, d, regs[i], values[i]);
+		pr_info("contego: device %u (bus %u 0x%02x): shadow read back from the device (%u registers)\n",
+			d, info.bus, info.addr, n);
+	}
+	kfree(regs);
+}
+
 static long ct_load(unsigned long arg)
 {
 	struct contego_kmod_load req;
@@ -1886,6 +1936,7 @@ static long ct_load(unsigned long arg)
 
 		contego_set_host(p->checker, &host);
 	}
+	ct_seed_shadows(p);
 	mutex_lock(&ct_lock);
 	old = ct_policy;
 	p->gen = ++ct_gen;

@@ -115,6 +115,12 @@ void contego_abort_transfer(contego_checker* c, uint8_t decision);
 uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count,
                                  uint32_t* decider);
 void contego_reset_latch(contego_checker* c, uint16_t device);
+/* A register-map device's shadow: the registers its commands cover
+ * (ascending, into `regs` of 256 entries; returns how many, 0 for another
+ * profile), and one register's value as read back from the device (0: bad
+ * device or profile). A host seeds them after a load, before any check. */
+uint32_t contego_command_registers(const contego_checker* c, uint16_t device, uint8_t* regs);
+int contego_seed_register(contego_checker* c, uint16_t device, uint8_t reg, uint8_t value);
 int contego_latched(const contego_checker* c, uint16_t device);
 uint32_t contego_worst_case_cost(const contego_checker* c);
 /* The period of `task` in microseconds (0: no such task). A host that keeps

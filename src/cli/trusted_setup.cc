@@ -52,22 +52,6 @@ int read_register(bus::Bus& b, const core::DeviceRecord& r, uint8_t reg, uint8_t
   return b.transfer({m, 2});
 }
 
-// The registers of register-map device `d` that its commands cover.
-std::vector<uint8_t> command_registers(const image::ImageModel& model, uint16_t d) {
-  std::set<uint8_t> regs;
-  for (const auto& c : model.commands) {
-    const core::CommandRecord& r = c.record;
-    if (r.device != d || r.group_len == 0) continue;
-    for (uint32_t i = 0; i < r.repeat; ++i) {
-      for (uint32_t j = 0; j < r.group_len; ++j) {
-        const uint32_t reg = r.match + i * r.stride + j;
-        if (reg < core::kMaxRegisters) regs.insert(static_cast<uint8_t>(reg));
-      }
-    }
-  }
-  return {regs.begin(), regs.end()};
-}
-
 }  // namespace
 
 // A device configured before contego started (or by a run before it) need
@@ -85,7 +69,10 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
     const std::string name = d < model.devices.size() ? model.devices[d].name : std::to_string(d);
     std::vector<std::pair<uint8_t, uint8_t>> values;
     int err = 0;
-    for (uint8_t reg : command_registers(model, d)) {
+    uint8_t regs[core::kMaxRegisters];
+    const uint32_t nregs = checker.command_registers(d, regs);
+    for (uint32_t i = 0; i < nregs; ++i) {
+      const uint8_t reg = regs[i];
       uint8_t v = 0;
       if ((err = read_register(*it->second, r, reg, &v)) != 0) {
         notes.push_back(fmt::format(

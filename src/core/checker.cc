@@ -174,15 +174,6 @@ bool CheckerState::latched(uint16_t device) const {
   return device < device_count_ && state_[device].latched;
 }
 
-bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-    return false;
-  }
-  state_[device].shadow[reg] = value;
-  return true;
-}
-
 static void init_verdict(Verdict* out, const Transaction* tx) {
   out->decision = Decision::kReject;
   out->reason = Reason::kNotLoaded;
@@ -777,9 +768,6 @@ void Checker::check(const Transaction& tx, Verdict* out) { state().check(tx, out
 bool Checker::safe_state(uint16_t device, Verdict* out) { return state().safe_state(device, out); }
 void Checker::reset_latch(uint16_t device) { state().reset_latch(device); }
 bool Checker::latched(uint16_t device) const { return state().latched(device); }
-bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
-  return state().seed_register(device, reg, value);
-}
 void Checker::begin_transfer() { state().begin_transfer(); }
 void Checker::commit_transfer() { state().commit_transfer(); }
 void Checker::abort_transfer(Decision decision) { state().abort_transfer(decision); }

@@ -167,6 +167,14 @@ void contego_reset_latch(contego_checker* c, uint16_t device) {
   if (c != nullptr) checker(c)->reset_latch(device);
 }
 
+uint32_t contego_command_registers(const contego_checker* c, uint16_t device, uint8_t* regs) {
+  return c != nullptr && regs != nullptr ? checker(c)->command_registers(device, regs) : 0;
+}
+
+int contego_seed_register(contego_checker* c, uint16_t device, uint8_t reg, uint8_t value) {
+  return c != nullptr && checker(c)->seed_register(device, reg, value) ? 1 : 0;
+}
+
 int contego_latched(const contego_checker* c, uint16_t device) {
   return c != nullptr && checker(c)->latched(device) ? 1 : 0;
 }

@@ -58,6 +58,11 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   EXPECT_EQ(contego_device_count(c), 2u);
   EXPECT_EQ(contego_task_actuates(c, 0), 1u << rover::kGopigo);  // follower
   EXPECT_EQ(contego_task_actuates(c, 1), 0u);                    // logger reads only
+  // The rover's devices are frames: no register map to read back or seed.
+  uint8_t regs[256];
+  EXPECT_EQ(contego_command_registers(c, rover::kGopigo, regs), 0u);
+  EXPECT_EQ(contego_command_registers(c, rover::kGopigo, nullptr), 0u);
+  EXPECT_EQ(contego_seed_register(c, rover::kGopigo, 0, 0), 0);
   EXPECT_EQ(contego_task_actuates(c, CONTEGO_NONE), 0u);
   contego_device_info info{};
   ASSERT_EQ(contego_device_info_of(c, rover::kLine, &info), 1);
@@ -135,6 +140,9 @@ TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
   contego_abort_transfer(nullptr, CONTEGO_REJECT);
   contego_reset_latch(nullptr, 0);
   EXPECT_EQ(contego_latched(nullptr, 0), 0);
+  uint8_t regs[256];
+  EXPECT_EQ(contego_command_registers(nullptr, 0, regs), 0u);
+  EXPECT_EQ(contego_seed_register(nullptr, 0, 0, 0), 0);
   contego_device_info info{};
   EXPECT_EQ(contego_device_info_of(nullptr, 0, &info), 0);
   EXPECT_EQ(contego_device_count(nullptr), 0u);

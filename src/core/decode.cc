@@ -338,4 +338,51 @@ bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
   return true;
 }
 
+// The shadow of a register-map device, seeded by the host (read back from
+// the device after a load, before anything is checked).
+bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
+  if (!loaded_ || device >= device_count_ ||
+      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    return false;
+  }
+  state_[device].shadow[reg] = value;
+  return true;
+}
+
+// Every register a command group of `device` covers (match + i*stride + j),
+// ascending and once each: the registers whose shadow a check can read.
+uint32_t CheckerState::command_registers(uint16_t device, uint8_t* regs) const {
+  if (!loaded_ || device >= device_count_ ||
+      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    return 0;
+  }
+  uint64_t covered[kMaxRegisters / 64] = {};
+  for (uint32_t c = 0; c < command_count_; ++c) {
+    const CommandRecord& r = commands_[c];
+    if (r.device != device) continue;
+    for (uint32_t i = 0; i < r.repeat; ++i) {
+      for (uint32_t j = 0; j < r.group_len; ++j) {
+        const uint32_t reg = r.match + i * r.stride + j;
+        if (reg < kMaxRegisters) covered[reg / 64] |= uint64_t{1} << (reg % 64);
+      }
+    }
+  }
+  uint32_t n = 0;
+  for (uint32_t reg = 0; reg < kMaxRegisters; ++reg) {
+    if (covered[reg / 64] >> (reg % 64) & 1) regs[n++] = static_cast<uint8_t>(reg);
+  }
+  return n;
+}
+
 }  // namespace contego::core::internal
+
+namespace contego::core {
+
+bool Checker::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
+  return state().seed_register(device, reg, value);
+}
+uint32_t Checker::command_registers(uint16_t device, uint8_t* regs) const {
+  return state().command_registers(device, regs);
+}
+
+}  // namespace contego::core

@@ -198,6 +198,25 @@ TEST_F(ArmTest, SafeStateIsWrittenAsRegisterPairs) {
   EXPECT_EQ(v.addr, kAddr);
 }
 
+// What a host reads back to seed the shadow: every register of every group
+// (MODE1, MODE2, 16 LED groups of 4, ALL_LED, PRE_SCALE, TEST_MODE), each once.
+TEST_F(ArmTest, CommandRegistersListEveryGroupsRegistersOnce) {
+  uint8_t regs[kMaxRegisters];
+  const uint32_t n = h.checker->command_registers(arm::kArm, regs);
+  ASSERT_EQ(n, 2u + 64u + 4u + 2u);
+  EXPECT_EQ(regs[0], 0x00);
+  EXPECT_EQ(regs[1], 0x01);
+  EXPECT_EQ(regs[2], 0x06);
+  EXPECT_EQ(regs[2 + 63], 0x45);
+  EXPECT_EQ(regs[2 + 64], 0xFA);
+  EXPECT_EQ(regs[n - 1], 0xFF);
+  for (uint32_t i = 1; i < n; ++i) EXPECT_LT(regs[i - 1], regs[i]);
+  EXPECT_EQ(h.checker->command_registers(5, regs), 0u);
+  Harness rover;
+  ASSERT_EQ(rover.load(testing::rover::model()).status, LoadStatus::kOk);
+  EXPECT_EQ(rover.checker->command_registers(0, regs), 0u);  // frame device
+}
+
 TEST_F(ArmTest, SeedRegisterRefusesBadDevices) {
   EXPECT_FALSE(h.checker->seed_register(5, 0, 0));
   Harness rover;

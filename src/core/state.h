@@ -223,6 +223,7 @@ class CheckerState {
   void reset_latch(uint16_t device);
   bool latched(uint16_t device) const;
   bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+  uint32_t command_registers(uint16_t device, uint8_t* regs) const;
   bool safe_state(uint16_t device, Verdict* out);
   bool emit_safe_state(uint16_t dev);
 

@@ -100,6 +100,11 @@ class Checker {
   // Seeds the shadow copy of a register-map device (e.g. read back from the
   // hardware at start). Returns false for a bad device or a non-register-map profile.
   bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
+  // The registers the policy's commands of register-map device `device`
+  // address (every register of every group), ascending, into `regs`
+  // (kMaxRegisters entries): what a host reads back to seed the shadow.
+  // Returns how many; 0 for a bad device or a non-register-map profile.
+  uint32_t command_registers(uint16_t device, uint8_t* regs) const;
 
   // Transfers (contego/core/transfer.h): the check() calls between
   // begin_transfer() and commit_transfer() / abort_transfer() form one unit.

@@ -58,6 +58,11 @@ run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=
   --budget-factor 0
 [ $RC = 0 ] && grep -q "loaded" "$OUT" && ok "contego kmod load: arm.policy verified and in force" ||
   bad "contego kmod load (exit $RC)"
+# The PCA9685's shadow is read back from the chip at the load (as the
+# monitor does at start), not assumed at its power-on values.
+seeded=$(dmesg | grep -o "contego: device 0 (bus 1 0x40): shadow read back from the device ([0-9]* registers)" | tail -n1)
+[ -n "$seeded" ] && ok "the load read the PCA9685's registers back into its shadow: ${seeded#contego: }" ||
+  bad "no shadow read back at the load: $(dmesg | grep 'contego: device' | tail -n 2)"
 
 # No audit reader yet: an allowed command fails closed (EIO) and does not land
 # (the i2cget below still reads the old PRE_SCALE).
