@@ -54,6 +54,56 @@ class AuditChain : public ::testing::Test {
   std::string path;
 };
 
+// The decision line byte for byte, every optional key present: the format
+// readers and the hash chain depend on (docs/audit-format.md). The first
+// line's "prev" is the genesis hash; t_us is the record's own.
+TEST_F(AuditChain, DecisionLineIsWrittenByteForByte) {
+  {
+    AuditLog log;
+    ASSERT_TRUE(log.open(path).ok());
+    const uint8_t bytes[] = {0x1a, 0x00, 0xff, 0xa4, 0x01};
+    const uint8_t substitute[] = {0x1a, 0x20};
+    core::AuditRecord r{};
+    r.job = 4294967295u;
+    r.task = 3;
+    r.device = 1;
+    r.command = 65535;
+    r.rule = 7;
+    r.rule_kind = core::RuleKind::kInvariant;
+    r.decision = core::Decision::kFailsafe;
+    r.reason = core::Reason::kInvariantViolated;
+    r.index = 255;
+    r.fields[0] = -2147483647 - 1;
+    r.fields[1] = 0;
+    r.fields[2] = 2147483647;
+    r.field_count = 3;
+    r.bus = 250;
+    r.addr = 0x3ff;
+    r.original = bytes;
+    r.original_len = sizeof bytes;
+    r.substitute = substitute;
+    r.substitute_len = sizeof substitute;
+    RecordNames names{"t\"a\\sk\n\x01\xc3\xa9\xff", "arm", "LED", "grip_sequence"};
+    names.pid = 4242;
+    names.uid = 0;
+    names.mono_us = 123456789;
+    names.t_us = 1700000000000001;
+    ASSERT_TRUE(log.decision(r, names));
+  }
+  const std::vector<std::string> l = lines();
+  ASSERT_EQ(l.size(), 1u);
+  EXPECT_EQ(l[0],
+            "{\"addr\":1023,\"bus\":250,\"bytes\":\"1a 00 ff a4 01\",\"command\":65535,"
+            "\"command_name\":\"LED\",\"decision\":\"failsafe\",\"device\":1,\"device_name\":"
+            "\"arm\",\"fields\":[-2147483648,0,2147483647],\"index\":255,\"job\":4294967295,"
+            "\"kind\":\"decision\",\"mono_us\":123456789,\"pid\":4242,\"reason\":20,"
+            "\"reason_name\":\"invariant-violated\",\"rule\":7,\"rule_kind\":3,\"rule_name\":"
+            "\"grip_sequence\",\"substitute\":\"1a 20\",\"t_us\":1700000000000001,\"task\":3,"
+            "\"task_name\":\"t\\\"a\\\\sk\\n\\u0001\xc3\xa9\\ufffd\",\"uid\":0,\"prev\":\"" +
+                std::string(kAuditGenesis) + "\"}");
+  EXPECT_TRUE(verify().ok) << verify().error;
+}
+
 // A client's bytes reach the log (a task name in a refused hello, say): they
 // must not be able to stop the monitor, and the chain must still verify.
 TEST_F(AuditChain, DecisionRecordsCarryNamesAndExplainInWords) {

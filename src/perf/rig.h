@@ -81,13 +81,16 @@ class PassDecider final : public monitor::Decider {
   uint32_t actuations_ = 0;
 };
 
-// A monitor with the virtual bus and its device models, auditing to a file,
-// decided by the workload's policy in the real core or by PassDecider.
+// A monitor with the virtual bus and its device models, auditing to a file
+// (an empty path: no log, bench/monitor_bench's baseline), decided by the
+// workload's policy in the real core or by PassDecider.
 class Rig {
  public:
   static Result<std::unique_ptr<Rig>> make(const std::string& audit_path, const Workload& w) {
     std::unique_ptr<Rig> r(new Rig);
-    if (Status s = r->audit.open(audit_path); !s.ok()) return make_error(s.error());
+    if (!audit_path.empty()) {
+      if (Status s = r->audit.open(audit_path); !s.ok()) return make_error(s.error());
+    }
     r->bus.attach(std::make_shared<bus::Pca9685>());
     r->bus.attach(std::make_shared<bus::GoPiGo2>());
     auto line = std::make_shared<bus::LineFollower>();
