@@ -45,32 +45,69 @@ uint64_t wall_us() {
 
 using Out = std::back_insert_iterator<std::string>;
 
-void put_hex(std::string& out, const uint8_t* bytes, uint32_t len) {
-  static const char* digits = "0123456789abcdef";
-  if (bytes == nullptr || len == 0) return;
-  const size_t at = out.size();
-  out.resize(at + 3 * size_t{len} - 1);
-  char* p = out.data() + at;
-  for (uint32_t i = 0; i < len; ++i) {
-    if (i) *p++ = ' ';
-    *p++ = digits[bytes[i] >> 4];
-    *p++ = digits[bytes[i] & 15];
+// Appends to a string through a raw pointer: the decision line is written
+// on the path of every checked command, and std::string's append per piece
+// or fmt's format strings cost more than the line's SHA-256
+// (bench/monitor_bench). Every put makes room for what it writes; done()
+// trims the string to what was written.
+class LineWriter {
+ public:
+  explicit LineWriter(std::string& out) : out_(out) {
+    const size_t used = out.size();
+    out_.resize(std::max(out_.capacity(), used + 512));
+    p_ = out_.data() + used;
+    end_ = out_.data() + out_.size();
   }
-}
+  LineWriter(const LineWriter&) = delete;
+  LineWriter& operator=(const LineWriter&) = delete;
+  ~LineWriter() { done(); }
+  void room(size_t n) {
+    if (static_cast<size_t>(end_ - p_) >= n) return;
+    const size_t used = static_cast<size_t>(p_ - out_.data());
+    out_.resize(used + n + 512);
+    p_ = out_.data() + used;
+    end_ = out_.data() + out_.size();
+  }
+  void done() { out_.resize(static_cast<size_t>(p_ - out_.data())); }
+  char*& p() { return p_; }
 
-// The decision line is written on the path of every checked command, so it
-// is appended piece by piece, without a format string: fmt's parsing of the
-// format strings cost more than the line's SHA-256 (bench/monitor_bench).
-template <size_t N>
-void put(std::string& out, const char (&text)[N]) {
-  out.append(text, N - 1);
-}
-template <typename T>
-void put_number(std::string& out, T value) {
-  char buf[24];
-  const std::to_chars_result r = std::to_chars(buf, buf + sizeof buf, value);
-  out.append(buf, r.ptr);
-}
+  template <size_t N>
+  void put(const char (&text)[N]) {
+    room(N - 1);
+    std::memcpy(p_, text, N - 1);
+    p_ += N - 1;
+  }
+  void put(std::string_view text) {
+    room(text.size());
+    std::memcpy(p_, text.data(), text.size());
+    p_ += text.size();
+  }
+  void put(char c) {
+    room(1);
+    *p_++ = c;
+  }
+  template <typename T>
+  void number(T value) {
+    room(24);
+    p_ = std::to_chars(p_, p_ + 24, value).ptr;
+  }
+  void hex(const uint8_t* bytes, uint32_t len) {
+    static const char* digits = "0123456789abcdef";
+    if (bytes == nullptr || len == 0) return;
+    room(3 * size_t{len});
+    for (uint32_t i = 0; i < len; ++i) {
+      if (i) *p_++ = ' ';
+      *p_++ = digits[bytes[i] >> 4];
+      *p_++ = digits[bytes[i] & 15];
+    }
+  }
+  void string(std::string_view text);
+
+ private:
+  std::string& out_;
+  char* p_ = nullptr;
+  char* end_ = nullptr;
+};
 
 // Length of the valid UTF-8 sequence at text[i], or 0 if it is not one.
 size_t utf8_length(std::string_view text, size_t i) {
@@ -103,60 +140,59 @@ size_t utf8_length(std::string_view text, size_t i) {
 // A JSON string literal. Invalid UTF-8 (a client's task name, say) becomes
 // U+FFFD: a hostile string costs a replacement character, never a line the
 // verifier cannot read.
-void put_string(std::string& out, std::string_view text) {
-  out += '"';
+void LineWriter::string(std::string_view text) {
+  room(2 + 6 * text.size());  // no character takes more than \u00XX
+  *p_++ = '"';
   for (size_t i = 0; i < text.size();) {
-    // A run of characters that need no escape goes in at once.
-    size_t plain = i;
-    while (plain < text.size()) {
-      const auto c = static_cast<unsigned char>(text[plain]);
-      if (c >= 0x80 || c < 0x20 || c == '"' || c == '\\') break;
-      ++plain;
-    }
-    if (plain > i) {
-      out.append(text.data() + i, plain - i);
-      i = plain;
-      continue;
-    }
     const char ch = text[i];
     const auto c = static_cast<unsigned char>(ch);
     if (c >= 0x80) {
       const size_t n = utf8_length(text, i);
       if (n == 0) {
-        out += "\\ufffd";
+        std::memcpy(p_, "\\ufffd", 6);
+        p_ += 6;
         ++i;
       } else {
-        out.append(text.substr(i, n));
+        std::memcpy(p_, text.data() + i, n);
+        p_ += n;
         i += n;
       }
       continue;
     }
     ++i;
+    if (c >= 0x20 && c != '"' && c != '\\') {
+      *p_++ = ch;
+      continue;
+    }
+    *p_++ = '\\';
     switch (c) {
       case '"':
-        out += "\\\"";
-        break;
       case '\\':
-        out += "\\\\";
+        *p_++ = ch;
         break;
       case '\n':
-        out += "\\n";
+        *p_++ = 'n';
         break;
       case '\r':
-        out += "\\r";
+        *p_++ = 'r';
         break;
       case '\t':
-        out += "\\t";
+        *p_++ = 't';
         break;
       default:
-        if (c < 0x20) {
-          fmt::format_to(Out(out), "\\u{:04x}", c);
-        } else {
-          out += ch;
-        }
+        static const char* digits = "0123456789abcdef";
+        std::memcpy(p_, "u00", 3);
+        p_[3] = digits[c >> 4];
+        p_[4] = digits[c & 15];
+        p_ += 5;
     }
   }
-  out += '"';
+  *p_++ = '"';
+}
+
+void put_string(std::string& out, std::string_view text) {
+  LineWriter w(out);
+  w.string(text);
 }
 
 }  // namespace
@@ -346,70 +382,72 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
     return true;
   }
   // Each name beside its number, so a person reads the line without the image.
-  auto name = [&](std::string_view key, const char* value) {
-    if (value == nullptr) return;
-    put(line_, ",\"");
-    line_.append(key);
-    put(line_, "\":");
-    put_string(line_, value);
-  };
   line_.clear();
-  put(line_, "{\"addr\":");
-  put_number(line_, r.addr);
-  put(line_, ",\"bus\":");
-  put_number(line_, r.bus);
-  put(line_, ",\"bytes\":\"");
-  put_hex(line_, r.original, r.original_len);
-  put(line_, "\",\"command\":");
-  put_number(line_, r.command);
+  LineWriter w(line_);
+  auto name = [&w](std::string_view key, const char* value) {
+    if (value == nullptr) return;
+    w.put(",\"");
+    w.put(key);
+    w.put("\":");
+    w.string(value);
+  };
+  w.put("{\"addr\":");
+  w.number(r.addr);
+  w.put(",\"bus\":");
+  w.number(r.bus);
+  w.put(",\"bytes\":\"");
+  w.hex(r.original, r.original_len);
+  w.put("\",\"command\":");
+  w.number(r.command);
   name("command_name", names.command);
-  put(line_, ",\"decision\":\"");
-  line_.append(core::decision_name(r.decision));
-  put(line_, "\",\"device\":");
-  put_number(line_, r.device);
+  w.put(",\"decision\":\"");
+  w.put(std::string_view(core::decision_name(r.decision)));
+  w.put("\",\"device\":");
+  w.number(r.device);
   name("device_name", names.device);
-  put(line_, ",\"fields\":[");
+  w.put(",\"fields\":[");
   const uint8_t nfields = std::min<uint8_t>(r.field_count, 8);
   for (uint8_t i = 0; i < nfields; ++i) {
-    if (i) line_ += ',';
-    put_number(line_, r.fields[i]);
+    if (i) w.put(',');
+    w.number(r.fields[i]);
   }
-  put(line_, "],\"index\":");
-  put_number(line_, r.index);
-  put(line_, ",\"job\":");
-  put_number(line_, r.job);
-  put(line_, ",\"kind\":\"decision\"");
+  w.put("],\"index\":");
+  w.number(r.index);
+  w.put(",\"job\":");
+  w.number(r.job);
+  w.put(",\"kind\":\"decision\"");
   if (names.mono_us >= 0) {
-    put(line_, ",\"mono_us\":");
-    put_number(line_, names.mono_us);
+    w.put(",\"mono_us\":");
+    w.number(names.mono_us);
   }
   if (names.pid >= 0) {
-    put(line_, ",\"pid\":");
-    put_number(line_, names.pid);
+    w.put(",\"pid\":");
+    w.number(names.pid);
   }
-  put(line_, ",\"reason\":");
-  put_number(line_, static_cast<int>(r.reason));
-  put(line_, ",\"reason_name\":\"");
-  line_.append(core::reason_name(r.reason));
-  put(line_, "\",\"rule\":");
-  put_number(line_, r.rule);
-  put(line_, ",\"rule_kind\":");
-  put_number(line_, static_cast<int>(r.rule_kind));
+  w.put(",\"reason\":");
+  w.number(static_cast<int>(r.reason));
+  w.put(",\"reason_name\":\"");
+  w.put(std::string_view(core::reason_name(r.reason)));
+  w.put("\",\"rule\":");
+  w.number(r.rule);
+  w.put(",\"rule_kind\":");
+  w.number(static_cast<int>(r.rule_kind));
   name("rule_name", names.rule);
   if (r.substitute != nullptr) {
-    put(line_, ",\"substitute\":\"");
-    put_hex(line_, r.substitute, r.substitute_len);
-    line_ += '"';
+    w.put(",\"substitute\":\"");
+    w.hex(r.substitute, r.substitute_len);
+    w.put('"');
   }
-  put(line_, ",\"t_us\":");
-  put_number(line_, t);
-  put(line_, ",\"task\":");
-  put_number(line_, r.task);
+  w.put(",\"t_us\":");
+  w.number(t);
+  w.put(",\"task\":");
+  w.number(r.task);
   name("task_name", names.task);
   if (names.uid >= 0) {
-    put(line_, ",\"uid\":");
-    put_number(line_, names.uid);
+    w.put(",\"uid\":");
+    w.number(names.uid);
   }
+  w.done();
   const bool written = commit_locked(line_);
   if (options_.echo_violations && r.decision != core::Decision::kAllow)
     echo_violation_locked(r, names);

@@ -86,7 +86,8 @@ class PassDecider final : public monitor::Decider {
 // workload's policy in the real core or by PassDecider.
 class Rig {
  public:
-  static Result<std::unique_ptr<Rig>> make(const std::string& audit_path, const Workload& w) {
+  static Result<std::unique_ptr<Rig>> make(const std::string& audit_path, const Workload& w,
+                                           Clock& clock = MonotonicClock::instance()) {
     std::unique_ptr<Rig> r(new Rig);
     if (!audit_path.empty()) {
       if (Status s = r->audit.open(audit_path); !s.ok()) return make_error(s.error());
@@ -115,7 +116,7 @@ class Rig {
       names[w.task_id] = w.task;
       r->policy_ = true;
     }
-    r->mon = std::make_unique<monitor::Monitor>(*decider, r->audit);
+    r->mon = std::make_unique<monitor::Monitor>(*decider, r->audit, clock);
     r->mon->add_bus(1, &r->bus);
     r->mon->set_task_names(names);
     return r;
