@@ -214,6 +214,8 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
   if (ai && first + n > kMaxRegisters) {
     return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
   }
+  uint32_t dropped_cid = kNone;  // the group whose foreign staging this write already dropped
+  uint32_t dropped_index = 0;
   for (uint32_t i = 0; i < n; ++i) {
     const uint8_t reg = static_cast<uint8_t>(ai ? first + i : first);
     const uint8_t val = tx.bytes[1 + i];
@@ -231,7 +233,13 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     const uint32_t index = c.stride != 0 ? (reg - c.match) / c.stride : 0;
     const uint32_t base = c.match + index * c.stride;
     const uint32_t j = reg - base;
-    drop_foreign_staging(tx, dev, cid, base, index);
+    // Once per group and write: after the first of its registers, no other
+    // task's staging is left in it.
+    if (cid != dropped_cid || index != dropped_index) {
+      drop_foreign_staging(tx, dev, cid, base, index);
+      dropped_cid = cid;
+      dropped_index = index;
+    }
     if (j + 1 == c.group_len) {
       commit_group(tx, dev, cid, base, index, j, val);
       continue;

@@ -16,20 +16,33 @@ bool is_probe(const Transfer& t) {
   return !m.empty();
 }
 
-std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
-  std::vector<PlannedTx> out;
+void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out) {
+  size_t n = 0;
+  // Elements are reused, byte buffers and all: a caller that keeps `out`
+  // allocates nothing per transfer once it has seen its largest one.
+  auto next = [&]() -> PlannedTx& {
+    if (n == out.size()) out.emplace_back();
+    PlannedTx& tx = out[n++];
+    tx.kind = core::TxKind::kWrite;
+    tx.addr = 0;
+    tx.ten_bit = false;
+    tx.bytes.clear();
+    tx.first_message = 0;
+    tx.message_count = 0;
+    return tx;
+  };
   if (transfer.quick) {
-    PlannedTx tx;
+    PlannedTx& tx = next();
     tx.kind = core::TxKind::kQuick;
     tx.addr = transfer.quick_addr;
     tx.ten_bit = transfer.quick_ten_bit;
-    out.push_back(std::move(tx));
-    return out;
+    out.resize(n);
+    return;
   }
   const auto& msgs = transfer.messages;
   for (uint32_t i = 0; i < msgs.size(); ++i) {
     const Message& m = msgs[i];
-    PlannedTx tx;
+    PlannedTx& tx = next();
     tx.addr = m.addr;
     tx.ten_bit = (m.flags & kMsgTen) != 0;
     tx.first_message = i;
@@ -43,18 +56,20 @@ std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
                            // General call (address 0) is write-only: a byte sent there is a
                            // command to every listener (0x06 = software reset), never a pointer.
                            m.addr != 0;
+      tx.kind = pointer ? core::TxKind::kRead : core::TxKind::kWrite;
+      tx.bytes.assign(m.data.begin(), m.data.end());
       if (pointer) {
-        tx.kind = core::TxKind::kRead;
-        tx.bytes = m.data;
         tx.message_count = 2;
         ++i;
-      } else {
-        tx.kind = core::TxKind::kWrite;
-        tx.bytes = m.data;
       }
     }
-    out.push_back(std::move(tx));
   }
+  out.resize(n);
+}
+
+std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
+  std::vector<PlannedTx> out;
+  to_transactions(transfer, out);
   return out;
 }
 
@@ -67,19 +82,23 @@ std::string validate(const Transfer& transfer) {
   }
   if (transfer.messages.empty()) return "no messages";
   if (transfer.messages.size() > kMaxMessages) return "more than 42 messages";
+  // The message's number is put into the answer only when there is one to
+  // give: a valid transfer, the common case, costs no string at all.
+  auto bad = [](size_t i, const char* what) {
+    return "message " + std::to_string(i) + ": " + what;
+  };
   for (size_t i = 0; i < transfer.messages.size(); ++i) {
     const Message& m = transfer.messages[i];
-    const std::string where = "message " + std::to_string(i) + ": ";
-    if (m.addr > ((m.flags & kMsgTen) ? 0x3FF : 0x7F)) return where + "address out of range";
-    if (m.len > kMaxMessageLen) return where + "longer than 8192 bytes";
+    if (m.addr > ((m.flags & kMsgTen) ? 0x3FF : 0x7F)) return bad(i, "address out of range");
+    if (m.len > kMaxMessageLen) return bad(i, "longer than 8192 bytes");
     if (m.is_read()) {
-      if (!m.data.empty()) return where + "read message carries data";
+      if (!m.data.empty()) return bad(i, "read message carries data");
       if ((m.flags & kMsgRecvLen) && m.len < 1 + kSmbusBlockMax) {
-        return where + "RECV_LEN buffer shorter than 33 bytes";
+        return bad(i, "RECV_LEN buffer shorter than 33 bytes");
       }
     } else {
-      if (m.data.size() != m.len) return where + "length does not match its data";
-      if (m.flags & kMsgRecvLen) return where + "RECV_LEN on a write";
+      if (m.data.size() != m.len) return bad(i, "length does not match its data");
+      if (m.flags & kMsgRecvLen) return bad(i, "RECV_LEN on a write");
     }
   }
   return {};

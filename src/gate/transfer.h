@@ -77,6 +77,9 @@ struct PlannedTx {
 };
 
 std::vector<PlannedTx> to_transactions(const Transfer& transfer);
+// The same into `out`, reusing its elements (the monitor's path: no
+// allocation per transfer).
+void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out);
 
 // Structural validity (limits above, lengths consistent). Returns an empty
 // string when valid, else what is wrong; the caller answers EINVAL.

@@ -61,15 +61,18 @@ class LineWriter {
   LineWriter(const LineWriter&) = delete;
   LineWriter& operator=(const LineWriter&) = delete;
   ~LineWriter() { done(); }
-  void room(size_t n) {
-    if (static_cast<size_t>(end_ - p_) >= n) return;
+  __attribute__((always_inline)) void room(size_t n) {
+    if (static_cast<size_t>(end_ - p_) >= n) [[likely]]
+      return;
+    grow(n);
+  }
+  void grow(size_t n) {
     const size_t used = static_cast<size_t>(p_ - out_.data());
     out_.resize(used + n + 512);
     p_ = out_.data() + used;
     end_ = out_.data() + out_.size();
   }
   void done() { out_.resize(static_cast<size_t>(p_ - out_.data())); }
-  char*& p() { return p_; }
 
   template <size_t N>
   void put(const char (&text)[N]) {

@@ -158,7 +158,8 @@ class Monitor final : public gate::Endpoint {
   std::map<uint8_t, bus::Bus*> buses_;
   NameTable names_;
   std::vector<uint32_t> task_devices_;
-  std::vector<core::Verdict> verdicts_;  // transfer()'s, under mu_: reused, not allocated per call
+  std::vector<core::Verdict> verdicts_;   // transfer()'s, under mu_: reused, not allocated per call
+  std::vector<gate::PlannedTx> planned_;  // transfer()'s plan, under mu_: reused the same way
   readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
   uint64_t checking_now_us_ = 0;
