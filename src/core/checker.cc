@@ -7,10 +7,6 @@
 namespace contego::core::internal {
 namespace {
 
-constexpr uint8_t kEperm = 1;
-constexpr uint8_t kEnxio = 6;
-constexpr uint8_t kEinval = 22;
-
 bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
 
 }  // namespace

@@ -357,6 +357,77 @@ TEST_F(RoverTest, SensorIsSampledOncePerCheck) {
   EXPECT_EQ(h.sample_reads, 2u);  // memo is per check, not forever
 }
 
+// The loader fuses `PUSH c; <compare>; JZ` into one instruction (Fused).
+// Here a jump also lands on the fused triple's compare, with two values on
+// the stack: both ways in must decide as the image's own instructions, and
+// executed_instructions() must count the image's instructions.
+TEST_F(RoverTest, FusedComparesDecideAndCountAsTheInstructionsTheyReplace) {
+  constexpr Op kCompares[] = {Op::kEq, Op::kNe, Op::kLt, Op::kLe, Op::kGt, Op::kGe};
+  auto holds = [](Op op, int64_t a, int64_t b) {
+    switch (op) {
+      case Op::kEq:
+        return a == b;
+      case Op::kNe:
+        return a != b;
+      case Op::kLt:
+        return a < b;
+      case Op::kLe:
+        return a <= b;
+      case Op::kGt:
+        return a > b;
+      default:
+        return a >= b;
+    }
+  };
+  // INV1 alone decides (its template on FAIL); the others pass for fwd().
+  auto run = [&](const Prog& p, uint64_t* executed) {
+    image::ImageModel m = rover::model();
+    replace_inv1_program(m, p);
+    load(m);
+    sense(rover::kCentre);
+    const uint64_t before = h.checker->executed_instructions();
+    const Verdict v = send({1, 119, 0, 0, 0});
+    *executed = h.checker->executed_instructions() - before;
+    return v.decision;
+  };
+  // What the rest of the check executes after INV1 passes or fails (a
+  // failing invariant ends the evaluation), plus INV1's one instruction.
+  Prog pass;
+  pass.op(Op::kPass);
+  Prog fail;
+  fail.op(Op::kFail);
+  uint64_t after_pass = 0;
+  uint64_t after_fail = 0;
+  ASSERT_EQ(run(pass, &after_pass), Decision::kAllow);
+  ASSERT_EQ(run(fail, &after_fail), Decision::kFailsafe);
+  for (const Op op : kCompares) {
+    for (const int32_t x : {-5, 0, 7}) {
+      for (const int32_t y : {-5, 7}) {
+        for (const int32_t c : {-5, 0, 7}) {
+          for (const int32_t flag : {0, 1}) {
+            SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " x " << x
+                                              << " y " << y << " c " << c << " flag " << flag);
+            Prog p;
+            p.push(x).push(y).push(flag);
+            const size_t to_compare = p.jump(Op::kJumpIfZero);  // flag 0: x <op> y
+            p.op(Op::kDrop);
+            p.push(c);  // flag 1: x <op> c (the fused triple starts here)
+            p.land(to_compare).op(op);
+            const size_t to_pass = p.jump(Op::kJumpIfZero);
+            p.op(Op::kFail);
+            p.land(to_pass).op(Op::kPass);
+            const bool fails = flag != 0 ? holds(op, x, c) : holds(op, x, y);
+            uint64_t executed = 0;
+            EXPECT_EQ(run(p, &executed), fails ? Decision::kFailsafe : Decision::kAllow);
+            // Through the fused triple: 9 instructions; jumping onto the compare: 7.
+            EXPECT_EQ(executed - (fails ? after_fail : after_pass) + 1, flag != 0 ? 9u : 7u);
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST_F(RoverTest, ProgramFaultFailsClosed) {
   image::ImageModel m = rover::model();
   Prog div0;

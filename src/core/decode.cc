@@ -7,9 +7,6 @@
 namespace contego::core::internal {
 namespace {
 
-constexpr uint8_t kEperm = 1;
-constexpr uint8_t kEinval = 22;
-
 template <typename O>  // O = Outcome (private; deduced, not named)
 void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
   if (o == nullptr) return;

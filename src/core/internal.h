@@ -11,6 +11,12 @@
 
 namespace contego::core::internal {
 
+// The errno values a refusal answers with (Linux's numbers; no <errno.h>
+// in the freestanding core).
+inline constexpr uint8_t kEperm = 1;
+inline constexpr uint8_t kEnxio = 6;
+inline constexpr uint8_t kEinval = 22;
+
 inline uint32_t load_u32(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
          (static_cast<uint32_t>(p[2]) << 16) | (static_cast<uint32_t>(p[3]) << 24);

@@ -21,6 +21,12 @@ inline void* operator new(size_t, void* where, contego::core::internal::Place) n
 
 namespace contego::core::internal {
 
+// Superinstructions the loader writes over `PUSH imm; <compare>; JZ off`
+// (interpreter.cc, fuse_programs): the compare of the value on top of the
+// stack with imm, and the jump (b = off) when it is false. Opcodes no image
+// may carry (the verifier refuses everything above Op::kReturn).
+enum class Fused : uint8_t { kEqJz = 0xE0, kNeJz, kLtJz, kLeJz, kGtJz, kGeJz };
+
 // What evaluating a signal gave.
 enum class SignalStatus : uint8_t { kOk, kUnavailable, kFault };
 
@@ -197,6 +203,9 @@ class CheckerState {
   bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
                       uint16_t device, LoadResult* result);
   void compute_costs();
+  // interpreter.cc: after compute_costs, the superinstructions (Fused).
+  void fuse_programs();
+  bool inside_every_program(uint32_t at, uint32_t len) const;
 
   // checker.cc: the check path, its combination of outcomes, latches.
   void check(const Transaction& tx, Verdict* out);

@@ -85,6 +85,7 @@ LoadResult CheckerState::load(const uint8_t* image, uint32_t size) {
     return r;
   }
   compute_costs();
+  fuse_programs();  // after the costs: they count the image's instructions
   loaded_ = true;
   return r;
 }
