@@ -2,6 +2,7 @@
 // command → class, access, latch, rate, invariants → verdict and audit.
 #include <gtest/gtest.h>
 #include <random>
+#include <tuple>
 
 #include "core/harness_fixture_test.h"
 #include "core/test_fixtures.h"
@@ -426,6 +427,59 @@ TEST_F(RoverTest, FusedComparesDecideAndCountAsTheInstructionsTheyReplace) {
       }
     }
   }
+}
+
+// `SIGNAL s; PUSH c; <compare>; JZ` is fused once more, the signal read
+// included: the same decisions and counts as the four instructions, and a
+// missing reading still ends the program as unavailable.
+TEST_F(RoverTest, FusedSignalComparesDecideAndCountAsTheInstructionsTheyReplace) {
+  auto run = [&](const Prog& p, const int32_t(&line)[5], uint64_t* executed) {
+    image::ImageModel m = rover::model();
+    replace_inv1_program(m, p);
+    load(m);
+    sense(line);
+    const uint64_t before = h.checker->executed_instructions();
+    const Verdict v = send({1, 119, 0, 0, 0});
+    *executed = h.checker->executed_instructions() - before;
+    return v;
+  };
+  Prog pass;
+  pass.signal(rover::kPos).op(Op::kDrop).op(Op::kPass);  // reads pos, as the fused ones do
+  Prog fail;
+  fail.signal(rover::kPos).op(Op::kDrop).op(Op::kFail);
+  uint64_t after_pass = 0;
+  uint64_t after_fail = 0;
+  ASSERT_EQ(run(pass, rover::kCentre, &after_pass).decision, Decision::kAllow);
+  ASSERT_EQ(run(fail, rover::kCentre, &after_fail).decision, Decision::kFailsafe);
+  // pos is 0 with the line centred: 0 < 1 and 0 >= 0 hold, 0 > 0 does not.
+  for (const auto& [op, c, holds] :
+       {std::tuple{Op::kLt, 1, true}, std::tuple{Op::kGe, 0, true}, std::tuple{Op::kGt, 0, false},
+        std::tuple{Op::kEq, 5, false}, std::tuple{Op::kNe, 5, true},
+        std::tuple{Op::kLe, -1, false}}) {
+    SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " c " << c);
+    Prog p;
+    p.signal(rover::kPos).push(c).op(op);
+    const size_t to_fail = p.jump(Op::kJumpIfZero);
+    p.op(Op::kPass);
+    p.land(to_fail).op(Op::kFail);
+    uint64_t executed = 0;
+    const Verdict v = run(p, rover::kCentre, &executed);
+    EXPECT_EQ(v.decision, holds ? Decision::kAllow : Decision::kFailsafe);
+    // Five instructions against three (SIGNAL, DROP, PASS or FAIL).
+    EXPECT_EQ(executed - (holds ? after_pass : after_fail), 5u - 3u);
+  }
+  Prog p;
+  p.signal(rover::kPos).push(0).op(Op::kGe);
+  const size_t to_fail = p.jump(Op::kJumpIfZero);
+  p.op(Op::kPass);
+  p.land(to_fail).op(Op::kFail);
+  image::ImageModel m = rover::model();
+  replace_inv1_program(m, p);
+  load(m);
+  h.samples[rover::kLine].bytes.clear();  // no sample at all: pos is unavailable
+  const Verdict v = send({1, 119, 0, 0, 0});
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
 }
 
 TEST_F(RoverTest, ProgramFaultFailsClosed) {

@@ -254,6 +254,21 @@ struct OperandStack {
 // jump). So the loop has no bounds check of its own, and each opcode has its
 // own case (binary operators too, so that `binary` folds to one operation): it
 // checks only what depends on values.
+#define CONTEGO_FUSED_SIGNAL_CASE(name, compare)                                   \
+  case static_cast<Op>(Fused::k##name##SignalJz): {                                \
+    const SignalMemo& memo = signal_memo_[in.b];                                   \
+    SignalStatus st = memo.status;                                                 \
+    int64_t v = memo.value;                                                        \
+    if (memo.epoch != epoch_) st = signal(in.b, now_us_, &v);                      \
+    if (st != SignalStatus::kOk) {                                                 \
+      exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault; \
+      goto done;                                                                   \
+    }                                                                              \
+    steps += 3;                                                                    \
+    ip += (v compare int64_t{in.imm}) ? 3 : uint32_t{in.a} + 2;                    \
+    break;                                                                         \
+  }
+
 // The switch below has cases for the loader's own opcodes (Fused), which
 // are not in Op.
 #pragma GCC diagnostic push
@@ -365,6 +380,14 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         CONTEGO_FUSED_CASE(Le, <=);
         CONTEGO_FUSED_CASE(Gt, >);
         CONTEGO_FUSED_CASE(Ge, >=);
+        // The signal first (as SIGNAL: a missing one ends the program), then
+        // the compare; ip is at the PUSH, the jump's target off past the JZ.
+        CONTEGO_FUSED_SIGNAL_CASE(Eq, ==);
+        CONTEGO_FUSED_SIGNAL_CASE(Ne, !=);
+        CONTEGO_FUSED_SIGNAL_CASE(Lt, <);
+        CONTEGO_FUSED_SIGNAL_CASE(Le, <=);
+        CONTEGO_FUSED_SIGNAL_CASE(Gt, >);
+        CONTEGO_FUSED_SIGNAL_CASE(Ge, >=);
       case Op::kPass:
         exit = Exit::kPass;
         goto done;
@@ -390,6 +413,7 @@ done:
 
 #undef CONTEGO_BINARY_CASE
 #undef CONTEGO_FUSED_CASE
+#undef CONTEGO_FUSED_SIGNAL_CASE
 
 static_assert(kMaxProgramLength <= 0xFFFF, "a fused jump offset lives in Insn::b");
 
@@ -454,6 +478,21 @@ void CheckerState::fuse_programs() {
     if (!inside_every_program(i, 3)) continue;
     push.op = static_cast<uint8_t>(fused);
     push.b = static_cast<uint16_t>(jump.imm);  // verified: 1 <= imm < the program's length
+  }
+  // A signal read right before such a compare (a threshold on a reading)
+  // joins it, when the jump's offset fits in Insn::a.
+  for (uint32_t i = 0; i + 3 < code_count_; ++i) {
+    Insn& signal = code_[i];
+    const Insn& fused = code_[i + 1];
+    if (signal.op != static_cast<uint8_t>(Op::kSignal) ||
+        fused.op < static_cast<uint8_t>(Fused::kEqJz) ||
+        fused.op > static_cast<uint8_t>(Fused::kGeJz) || fused.b > 0xFF ||
+        !inside_every_program(i, 4)) {
+      continue;
+    }
+    signal.op = static_cast<uint8_t>(fused.op + 0x10);  // the k*SignalJz of the same compare
+    signal.a = static_cast<uint8_t>(fused.b);
+    signal.imm = fused.imm;  // b keeps the signal's id
   }
 }
 

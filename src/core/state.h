@@ -23,9 +23,24 @@ namespace contego::core::internal {
 
 // Superinstructions the loader writes over `PUSH imm; <compare>; JZ off`
 // (interpreter.cc, fuse_programs): the compare of the value on top of the
-// stack with imm, and the jump (b = off) when it is false. Opcodes no image
-// may carry (the verifier refuses everything above Op::kReturn).
-enum class Fused : uint8_t { kEqJz = 0xE0, kNeJz, kLtJz, kLeJz, kGtJz, kGeJz };
+// stack with imm, and the jump (b = off) when it is false; and over
+// `SIGNAL s; PUSH imm; <compare>; JZ off` (the k*SignalJz: b = s, a = off).
+// Opcodes no image may carry (the verifier refuses everything above
+// Op::kReturn).
+enum class Fused : uint8_t {
+  kEqJz = 0xE0,
+  kNeJz,
+  kLtJz,
+  kLeJz,
+  kGtJz,
+  kGeJz,
+  kEqSignalJz = 0xF0,  // the same order: kEqJz + 0x10
+  kNeSignalJz,
+  kLtSignalJz,
+  kLeSignalJz,
+  kGtSignalJz,
+  kGeSignalJz,
+};
 
 // What evaluating a signal gave.
 enum class SignalStatus : uint8_t { kOk, kUnavailable, kFault };
