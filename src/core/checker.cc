@@ -236,6 +236,7 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
   tx_.undo_device = kNone;
   tx_.undo_count = 0;
   __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
+  tx_.any_pending = false;
   tx_.staged_command = kNone;
   tx_.staged_index = 0;
   latch_event_ = false;
@@ -619,7 +620,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
     }
   } else {
-    for (uint32_t word = 0; word < kMaxInvariants / 32; ++word) {
+    for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {
       for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {
         const uint32_t i = word * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
         journal_state(i);

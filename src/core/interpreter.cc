@@ -76,16 +76,22 @@ SampleMemo& CheckerState::sample(uint16_t device, uint64_t now_us) {
   }
   // Compared eight bytes at a time: a sensor's sample is the same most of
   // the time, and this runs once per check.
+  // The tail of a sample of 8 bytes or more is its last 8 bytes, which
+  // overlap the words before: no byte loop.
   uint64_t diff = len != m.len ? 1 : 0;
-  uint32_t i = 0;
-  for (; i + 8 <= len; i += 8) {
+  auto word_diff = [&](uint32_t at) {
     uint64_t was = 0;
     uint64_t now = 0;
-    __builtin_memcpy(&was, m.bytes + i, 8);
-    __builtin_memcpy(&now, buf + i, 8);
-    diff |= was ^ now;
+    __builtin_memcpy(&was, m.bytes + at, 8);
+    __builtin_memcpy(&now, buf + at, 8);
+    return was ^ now;
+  };
+  if (len >= 8) {
+    for (uint32_t i = 0; i + 8 <= len; i += 8) diff |= word_diff(i);
+    diff |= word_diff(len - 8);
+  } else {
+    for (uint32_t i = 0; i < len; ++i) diff |= static_cast<uint8_t>(m.bytes[i] ^ buf[i]);
   }
-  for (; i < len; ++i) diff |= static_cast<uint8_t>(m.bytes[i] ^ buf[i]);
   bool changed = diff != 0;
   if (changed) __builtin_memcpy(m.bytes, buf, len);
   m.len = len;
@@ -330,6 +336,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       case Op::kSetState:
         pending_state_[env.invariant] = stack.pop();
         internal::bit_set(tx_.pending_state, env.invariant);
+        tx_.any_pending = true;
         break;
         CONTEGO_BINARY_CASE(Add);
         CONTEGO_BINARY_CASE(Sub);

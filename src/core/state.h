@@ -152,6 +152,7 @@ struct TxContext {
   uint32_t pending_state[kMaxInvariants / 32];
   uint16_t staged_command;  // first command whose group was only staged (kNone: none)
   uint8_t staged_index;
+  bool any_pending;  // some bit of pending_state is set (in the padding before outcomes)
   Outcome outcomes[kMaxCommandsPerTransaction];
   Undo undo[kMaxRegisters];
 };
