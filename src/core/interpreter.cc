@@ -245,7 +245,34 @@ struct OperandStack {
   case Op::k##name:                           \
     if (!stack.arith(Op::k##name)) goto done; \
     break
+#define CONTEGO_BINARY_CASES \
+  CONTEGO_BINARY_CASE(Add);  \
+  CONTEGO_BINARY_CASE(Sub);  \
+  CONTEGO_BINARY_CASE(Mul);  \
+  CONTEGO_BINARY_CASE(Div);  \
+  CONTEGO_BINARY_CASE(Mod);  \
+  CONTEGO_BINARY_CASE(Min);  \
+  CONTEGO_BINARY_CASE(Max);  \
+  CONTEGO_BINARY_CASE(Eq);   \
+  CONTEGO_BINARY_CASE(Ne);   \
+  CONTEGO_BINARY_CASE(Lt);   \
+  CONTEGO_BINARY_CASE(Le);   \
+  CONTEGO_BINARY_CASE(Gt);   \
+  CONTEGO_BINARY_CASE(Ge);   \
+  CONTEGO_BINARY_CASE(And);  \
+  CONTEGO_BINARY_CASE(Or)
 
+// One case per compare for each kind of superinstruction (Fused).
+#define CONTEGO_FOR_EACH_COMPARE(CASE) \
+  CASE(Eq, ==);                        \
+  CASE(Ne, !=);                        \
+  CASE(Lt, <);                         \
+  CASE(Le, <=);                        \
+  CASE(Gt, >);                         \
+  CASE(Ge, >=)
+
+// x <op> imm, then the jump when false: after the fetch, ip is at the
+// compare; the jump's target is off past the JZ (two further on).
 #define CONTEGO_FUSED_CASE(name, compare)                       \
   case static_cast<Op>(Fused::k##name##Jz): {                   \
     steps += 2;                                                 \
@@ -260,6 +287,8 @@ struct OperandStack {
 // jump). So the loop has no bounds check of its own, and each opcode has its
 // own case (binary operators too, so that `binary` folds to one operation): it
 // checks only what depends on values.
+// The signal first (as SIGNAL: a missing one ends the program), then the
+// compare; ip is at the PUSH, the jump's target off past the JZ.
 #define CONTEGO_FUSED_SIGNAL_CASE(name, compare)                                   \
   case static_cast<Op>(Fused::k##name##SignalJz): {                                \
     const SignalMemo& memo = signal_memo_[in.b];                                   \
@@ -338,21 +367,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         internal::bit_set(tx_.pending_state, env.invariant);
         tx_.any_pending = true;
         break;
-        CONTEGO_BINARY_CASE(Add);
-        CONTEGO_BINARY_CASE(Sub);
-        CONTEGO_BINARY_CASE(Mul);
-        CONTEGO_BINARY_CASE(Div);
-        CONTEGO_BINARY_CASE(Mod);
-        CONTEGO_BINARY_CASE(Min);
-        CONTEGO_BINARY_CASE(Max);
-        CONTEGO_BINARY_CASE(Eq);
-        CONTEGO_BINARY_CASE(Ne);
-        CONTEGO_BINARY_CASE(Lt);
-        CONTEGO_BINARY_CASE(Le);
-        CONTEGO_BINARY_CASE(Gt);
-        CONTEGO_BINARY_CASE(Ge);
-        CONTEGO_BINARY_CASE(And);
-        CONTEGO_BINARY_CASE(Or);
+        CONTEGO_BINARY_CASES;
       case Op::kNeg:
       case Op::kAbs:
         if (tos == INT64_MIN) goto done;
@@ -379,22 +394,8 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       case Op::kSubstField:
         if (!subst_op(in, env, stack.pop())) goto done;
         break;
-        // x <op> imm, then the jump when false: after the fetch, ip is at
-        // the compare; the jump's target is off past the JZ (two further on).
-        CONTEGO_FUSED_CASE(Eq, ==);
-        CONTEGO_FUSED_CASE(Ne, !=);
-        CONTEGO_FUSED_CASE(Lt, <);
-        CONTEGO_FUSED_CASE(Le, <=);
-        CONTEGO_FUSED_CASE(Gt, >);
-        CONTEGO_FUSED_CASE(Ge, >=);
-        // The signal first (as SIGNAL: a missing one ends the program), then
-        // the compare; ip is at the PUSH, the jump's target off past the JZ.
-        CONTEGO_FUSED_SIGNAL_CASE(Eq, ==);
-        CONTEGO_FUSED_SIGNAL_CASE(Ne, !=);
-        CONTEGO_FUSED_SIGNAL_CASE(Lt, <);
-        CONTEGO_FUSED_SIGNAL_CASE(Le, <=);
-        CONTEGO_FUSED_SIGNAL_CASE(Gt, >);
-        CONTEGO_FUSED_SIGNAL_CASE(Ge, >=);
+        CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_CASE);
+        CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_SIGNAL_CASE);
       case Op::kPass:
         exit = Exit::kPass;
         goto done;
@@ -419,8 +420,10 @@ done:
 #pragma GCC diagnostic pop
 
 #undef CONTEGO_BINARY_CASE
+#undef CONTEGO_BINARY_CASES
 #undef CONTEGO_FUSED_CASE
 #undef CONTEGO_FUSED_SIGNAL_CASE
+#undef CONTEGO_FOR_EACH_COMPARE
 
 static_assert(kMaxProgramLength <= 0xFFFF, "a fused jump offset lives in Insn::b");
 
