@@ -482,6 +482,38 @@ TEST_F(RoverTest, FusedSignalComparesDecideAndCountAsTheInstructionsTheyReplace)
   EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
 }
 
+// `COMMAND; PUSH c; <compare>; JZ` is fused the same way: fwd() is
+// command 0, and the four instructions count as four.
+TEST_F(RoverTest, FusedCommandComparesDecideAndCountAsTheInstructionsTheyReplace) {
+  auto run = [&](const Prog& p, uint64_t* executed) {
+    image::ImageModel m = rover::model();
+    replace_inv1_program(m, p);
+    load(m);
+    sense(rover::kCentre);
+    const uint64_t before = h.checker->executed_instructions();
+    const Decision d = send({1, 119, 0, 0, 0}).decision;
+    *executed = h.checker->executed_instructions() - before;
+    return d;
+  };
+  uint64_t after_pass = 0;
+  uint64_t after_fail = 0;
+  ASSERT_EQ(run(Prog{}.op(Op::kPass), &after_pass), Decision::kAllow);
+  ASSERT_EQ(run(Prog{}.op(Op::kFail), &after_fail), Decision::kFailsafe);
+  for (const auto& [op, c, holds] : {std::tuple{Op::kEq, 0, true}, std::tuple{Op::kEq, 1, false},
+                                     std::tuple{Op::kNe, 0, false}, std::tuple{Op::kLt, 1, true},
+                                     std::tuple{Op::kGe, 1, false}, std::tuple{Op::kLe, 0, true}}) {
+    SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " c " << c);
+    Prog p;
+    p.op(Op::kCommand).push(c).op(op);
+    const size_t to_fail = p.jump(Op::kJumpIfZero);
+    p.op(Op::kPass);
+    p.land(to_fail).op(Op::kFail);
+    uint64_t executed = 0;
+    EXPECT_EQ(run(p, &executed), holds ? Decision::kAllow : Decision::kFailsafe);
+    EXPECT_EQ(executed - (holds ? after_pass : after_fail), 4u);  // five against one
+  }
+}
+
 TEST_F(RoverTest, ProgramFaultFailsClosed) {
   image::ImageModel m = rover::model();
   Prog div0;

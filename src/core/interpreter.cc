@@ -304,6 +304,13 @@ struct OperandStack {
     break;                                                                         \
   }
 
+// The checked command's id compared with imm: ip is at the PUSH.
+#define CONTEGO_FUSED_COMMAND_CASE(name, compare)                                     \
+  case static_cast<Op>(Fused::k##name##CommandJz):                                    \
+    steps += 3;                                                                       \
+    ip += (int64_t{env.d->command} compare int64_t{in.imm}) ? 3 : uint32_t{in.a} + 2; \
+    break
+
 // The switch below has cases for the loader's own opcodes (Fused), which
 // are not in Op.
 #pragma GCC diagnostic push
@@ -396,6 +403,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         break;
         CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_CASE);
         CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_SIGNAL_CASE);
+        CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_COMMAND_CASE);
       case Op::kPass:
         exit = Exit::kPass;
         goto done;
@@ -423,6 +431,7 @@ done:
 #undef CONTEGO_BINARY_CASES
 #undef CONTEGO_FUSED_CASE
 #undef CONTEGO_FUSED_SIGNAL_CASE
+#undef CONTEGO_FUSED_COMMAND_CASE
 #undef CONTEGO_FOR_EACH_COMPARE
 
 static_assert(kMaxProgramLength <= 0xFFFF, "a fused jump offset lives in Insn::b");
@@ -489,20 +498,23 @@ void CheckerState::fuse_programs() {
     push.op = static_cast<uint8_t>(fused);
     push.b = static_cast<uint16_t>(jump.imm);  // verified: 1 <= imm < the program's length
   }
-  // A signal read right before such a compare (a threshold on a reading)
-  // joins it, when the jump's offset fits in Insn::a.
+  // A signal read or the command's id right before such a compare (a
+  // threshold on a reading, a test of which command this is) joins it, when
+  // the jump's offset fits in Insn::a.
   for (uint32_t i = 0; i + 3 < code_count_; ++i) {
-    Insn& signal = code_[i];
+    Insn& value = code_[i];
     const Insn& fused = code_[i + 1];
-    if (signal.op != static_cast<uint8_t>(Op::kSignal) ||
+    const bool signal = value.op == static_cast<uint8_t>(Op::kSignal);
+    if ((!signal && value.op != static_cast<uint8_t>(Op::kCommand)) ||
         fused.op < static_cast<uint8_t>(Fused::kEqJz) ||
         fused.op > static_cast<uint8_t>(Fused::kGeJz) || fused.b > 0xFF ||
         !inside_every_program(i, 4)) {
       continue;
     }
-    signal.op = static_cast<uint8_t>(fused.op + 0x10);  // the k*SignalJz of the same compare
-    signal.a = static_cast<uint8_t>(fused.b);
-    signal.imm = fused.imm;  // b keeps the signal's id
+    // The k*SignalJz or k*CommandJz of the same compare; b keeps the signal's id.
+    value.op = static_cast<uint8_t>(signal ? fused.op + 0x10 : fused.op - 0x10);
+    value.a = static_cast<uint8_t>(fused.b);
+    value.imm = fused.imm;
   }
 }
 

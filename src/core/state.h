@@ -24,7 +24,8 @@ namespace contego::core::internal {
 // Superinstructions the loader writes over `PUSH imm; <compare>; JZ off`
 // (interpreter.cc, fuse_programs): the compare of the value on top of the
 // stack with imm, and the jump (b = off) when it is false; and over
-// `SIGNAL s; PUSH imm; <compare>; JZ off` (the k*SignalJz: b = s, a = off).
+// `SIGNAL s; PUSH imm; <compare>; JZ off` (the k*SignalJz: b = s, a = off)
+// and `COMMAND; PUSH imm; <compare>; JZ off` (the k*CommandJz: a = off).
 // Opcodes no image may carry (the verifier refuses everything above
 // Op::kReturn).
 enum class Fused : uint8_t {
@@ -40,6 +41,12 @@ enum class Fused : uint8_t {
   kLeSignalJz,
   kGtSignalJz,
   kGeSignalJz,
+  kEqCommandJz = 0xD0,  // COMMAND; PUSH imm; <compare>; JZ (a = off): kEqJz - 0x10
+  kNeCommandJz,
+  kLtCommandJz,
+  kLeCommandJz,
+  kGtCommandJz,
+  kGeCommandJz,
 };
 
 // What evaluating a signal gave.
