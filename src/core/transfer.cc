@@ -23,6 +23,12 @@ void CheckerState::commit_transfer() { journal_.active = false; }
 
 bool CheckerState::journal_device(uint16_t dev) {
   if (!journal_.active || ((journal_.saved_devices >> dev) & 1u) != 0) return true;
+  // Only a register map has a model to put back; copying a frame device's
+  // unused 800 bytes on every check of the rover cost cache lines for nothing.
+  if (devices_[dev].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    journal_.saved_devices |= 1u << dev;
+    return true;
+  }
   if (journal_.device_count >= kMaxTransferDevices) return false;
   ModelCopy& c = journal_.devices[journal_.device_count++];
   const DeviceState& s = state_[dev];
