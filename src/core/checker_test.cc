@@ -44,6 +44,19 @@ class RoverTest : public testing::HarnessTest {
     EXPECT_TRUE(h.checker->latched(rover::kGopigo));
     return third;
   }
+  // fwd() with the line centred and INV1 running `program`: its decision,
+  // and in *executed the bytecode instructions the check ran.
+  Decision forward_with_inv1(const Prog& program, uint64_t* executed) {
+    image::ImageModel m = rover::model();
+    m.invariants[rover::kInv1].record.code_first = testing::add_code(m, program);
+    m.invariants[rover::kInv1].record.code_len = static_cast<uint16_t>(program.size());
+    load(m);
+    sense(rover::kCentre);
+    const uint64_t before = h.checker->executed_instructions();
+    const Decision d = send({1, 119, 0, 0, 0}).decision;
+    *executed = h.checker->executed_instructions() - before;
+    return d;
+  }
   // The verdict on fwd() under `m`, the line sensor reading `line`.
   Verdict forward_under(const image::ImageModel& m, const int32_t (&line)[5]) {
     load(m);
@@ -381,16 +394,7 @@ TEST_F(RoverTest, FusedComparesDecideAndCountAsTheInstructionsTheyReplace) {
     }
   };
   // INV1 alone decides (its template on FAIL); the others pass for fwd().
-  auto run = [&](const Prog& p, uint64_t* executed) {
-    image::ImageModel m = rover::model();
-    replace_inv1_program(m, p);
-    load(m);
-    sense(rover::kCentre);
-    const uint64_t before = h.checker->executed_instructions();
-    const Verdict v = send({1, 119, 0, 0, 0});
-    *executed = h.checker->executed_instructions() - before;
-    return v.decision;
-  };
+  auto run = [&](const Prog& p, uint64_t* executed) { return forward_with_inv1(p, executed); };
   // What the rest of the check executes after INV1 passes or fails (a
   // failing invariant ends the evaluation), plus INV1's one instruction.
   Prog pass;
@@ -429,45 +433,41 @@ TEST_F(RoverTest, FusedComparesDecideAndCountAsTheInstructionsTheyReplace) {
   }
 }
 
-// `SIGNAL s; PUSH c; <compare>; JZ` is fused once more, the signal read
-// included: the same decisions and counts as the four instructions, and a
-// missing reading still ends the program as unavailable.
-TEST_F(RoverTest, FusedSignalComparesDecideAndCountAsTheInstructionsTheyReplace) {
-  auto run = [&](const Prog& p, const int32_t(&line)[5], uint64_t* executed) {
-    image::ImageModel m = rover::model();
-    replace_inv1_program(m, p);
-    load(m);
-    sense(line);
-    const uint64_t before = h.checker->executed_instructions();
-    const Verdict v = send({1, 119, 0, 0, 0});
-    *executed = h.checker->executed_instructions() - before;
-    return v;
-  };
-  Prog pass;
-  pass.signal(rover::kPos).op(Op::kDrop).op(Op::kPass);  // reads pos, as the fused ones do
-  Prog fail;
-  fail.signal(rover::kPos).op(Op::kDrop).op(Op::kFail);
-  uint64_t after_pass = 0;
-  uint64_t after_fail = 0;
-  ASSERT_EQ(run(pass, rover::kCentre, &after_pass).decision, Decision::kAllow);
-  ASSERT_EQ(run(fail, rover::kCentre, &after_fail).decision, Decision::kFailsafe);
-  // pos is 0 with the line centred: 0 < 1 and 0 >= 0 hold, 0 > 0 does not.
-  for (const auto& [op, c, holds] :
-       {std::tuple{Op::kLt, 1, true}, std::tuple{Op::kGe, 0, true}, std::tuple{Op::kGt, 0, false},
-        std::tuple{Op::kEq, 5, false}, std::tuple{Op::kNe, 5, true},
-        std::tuple{Op::kLe, -1, false}}) {
-    SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " c " << c);
-    Prog p;
-    p.signal(rover::kPos).push(c).op(op);
-    const size_t to_fail = p.jump(Op::kJumpIfZero);
-    p.op(Op::kPass);
-    p.land(to_fail).op(Op::kFail);
-    uint64_t executed = 0;
-    const Verdict v = run(p, rover::kCentre, &executed);
-    EXPECT_EQ(v.decision, holds ? Decision::kAllow : Decision::kFailsafe);
-    // Five instructions against three (SIGNAL, DROP, PASS or FAIL).
-    EXPECT_EQ(executed - (holds ? after_pass : after_fail), 5u - 3u);
+// `SIGNAL s; PUSH c; <compare>; JZ` and `COMMAND; PUSH c; <compare>; JZ`
+// are fused once more, the value included: the same decisions and counts as
+// the four instructions. pos is 0 with the line centred, and fwd() is
+// command 0, so one table serves both.
+TEST_F(RoverTest, FusedSignalAndCommandComparesDecideAndCountAsTheInstructionsTheyReplace) {
+  const Prog kValues[] = {Prog{}.signal(rover::kPos), Prog{}.op(Op::kCommand)};
+  for (const Prog& value : kValues) {
+    SCOPED_TRACE(::testing::Message() << "value op " << static_cast<int>(value.code()[0].op));
+    // The same value read, dropped, then PASS or FAIL: what the rest costs.
+    uint64_t after_pass = 0;
+    uint64_t after_fail = 0;
+    ASSERT_EQ(forward_with_inv1(Prog(value).op(Op::kDrop).op(Op::kPass), &after_pass),
+              Decision::kAllow);
+    ASSERT_EQ(forward_with_inv1(Prog(value).op(Op::kDrop).op(Op::kFail), &after_fail),
+              Decision::kFailsafe);
+    for (const auto& [op, c, holds] :
+         {std::tuple{Op::kLt, 1, true}, std::tuple{Op::kGe, 0, true}, std::tuple{Op::kGt, 0, false},
+          std::tuple{Op::kEq, 5, false}, std::tuple{Op::kNe, 5, true},
+          std::tuple{Op::kLe, -1, false}}) {
+      SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " c " << c);
+      Prog p(value);
+      p.push(c).op(op);
+      const size_t to_fail = p.jump(Op::kJumpIfZero);
+      p.op(Op::kPass);
+      p.land(to_fail).op(Op::kFail);
+      uint64_t executed = 0;
+      EXPECT_EQ(forward_with_inv1(p, &executed), holds ? Decision::kAllow : Decision::kFailsafe);
+      EXPECT_EQ(executed - (holds ? after_pass : after_fail), 5u - 3u);  // five against three
+    }
   }
+}
+
+// A fused signal compare whose reading is missing ends the program as
+// SIGNAL does: unavailable, fail closed.
+TEST_F(RoverTest, FusedSignalCompareOfAMissingReadingIsUnavailable) {
   Prog p;
   p.signal(rover::kPos).push(0).op(Op::kGe);
   const size_t to_fail = p.jump(Op::kJumpIfZero);
@@ -480,38 +480,6 @@ TEST_F(RoverTest, FusedSignalComparesDecideAndCountAsTheInstructionsTheyReplace)
   const Verdict v = send({1, 119, 0, 0, 0});
   EXPECT_EQ(v.decision, Decision::kFailsafe);
   EXPECT_EQ(v.reason, Reason::kSignalUnavailable);
-}
-
-// `COMMAND; PUSH c; <compare>; JZ` is fused the same way: fwd() is
-// command 0, and the four instructions count as four.
-TEST_F(RoverTest, FusedCommandComparesDecideAndCountAsTheInstructionsTheyReplace) {
-  auto run = [&](const Prog& p, uint64_t* executed) {
-    image::ImageModel m = rover::model();
-    replace_inv1_program(m, p);
-    load(m);
-    sense(rover::kCentre);
-    const uint64_t before = h.checker->executed_instructions();
-    const Decision d = send({1, 119, 0, 0, 0}).decision;
-    *executed = h.checker->executed_instructions() - before;
-    return d;
-  };
-  uint64_t after_pass = 0;
-  uint64_t after_fail = 0;
-  ASSERT_EQ(run(Prog{}.op(Op::kPass), &after_pass), Decision::kAllow);
-  ASSERT_EQ(run(Prog{}.op(Op::kFail), &after_fail), Decision::kFailsafe);
-  for (const auto& [op, c, holds] : {std::tuple{Op::kEq, 0, true}, std::tuple{Op::kEq, 1, false},
-                                     std::tuple{Op::kNe, 0, false}, std::tuple{Op::kLt, 1, true},
-                                     std::tuple{Op::kGe, 1, false}, std::tuple{Op::kLe, 0, true}}) {
-    SCOPED_TRACE(::testing::Message() << "op " << static_cast<int>(op) << " c " << c);
-    Prog p;
-    p.op(Op::kCommand).push(c).op(op);
-    const size_t to_fail = p.jump(Op::kJumpIfZero);
-    p.op(Op::kPass);
-    p.land(to_fail).op(Op::kFail);
-    uint64_t executed = 0;
-    EXPECT_EQ(run(p, &executed), holds ? Decision::kAllow : Decision::kFailsafe);
-    EXPECT_EQ(executed - (holds ? after_pass : after_fail), 4u);  // five against one
-  }
 }
 
 TEST_F(RoverTest, ProgramFaultFailsClosed) {

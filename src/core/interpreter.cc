@@ -471,31 +471,16 @@ void CheckerState::fuse_programs() {
         jump.op != static_cast<uint8_t>(Op::kJumpIfZero)) {
       continue;
     }
-    Fused fused;
-    switch (static_cast<Op>(compare.op)) {
-      case Op::kEq:
-        fused = Fused::kEqJz;
-        break;
-      case Op::kNe:
-        fused = Fused::kNeJz;
-        break;
-      case Op::kLt:
-        fused = Fused::kLtJz;
-        break;
-      case Op::kLe:
-        fused = Fused::kLeJz;
-        break;
-      case Op::kGt:
-        fused = Fused::kGtJz;
-        break;
-      case Op::kGe:
-        fused = Fused::kGeJz;
-        break;
-      default:
-        continue;
+    // Eq..Ge are consecutive in Op, and their fused forms in Fused.
+    static_assert(static_cast<int>(Op::kGe) - static_cast<int>(Op::kEq) ==
+                  static_cast<int>(Fused::kGeJz) - static_cast<int>(Fused::kEqJz));
+    if (compare.op < static_cast<uint8_t>(Op::kEq) || compare.op > static_cast<uint8_t>(Op::kGe)) {
+      continue;
     }
+    const auto fused = static_cast<uint8_t>(static_cast<uint8_t>(Fused::kEqJz) + compare.op -
+                                            static_cast<uint8_t>(Op::kEq));
     if (!inside_every_program(i, 3)) continue;
-    push.op = static_cast<uint8_t>(fused);
+    push.op = fused;
     push.b = static_cast<uint16_t>(jump.imm);  // verified: 1 <= imm < the program's length
   }
   // A signal read or the command's id right before such a compare (a
