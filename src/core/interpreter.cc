@@ -163,6 +163,15 @@ SignalStatus CheckerState::signal(uint16_t id, uint64_t now_us, int64_t* value) 
   return memo.status;
 }
 
+// What SIGNAL reads: this check's memo when it is current (most programs of
+// a check read the same signals), else the signal evaluated.
+inline SignalStatus CheckerState::signal_now(uint16_t id, int64_t* value) {
+  const SignalMemo& memo = signal_memo_[id];
+  if (memo.epoch != epoch_) return signal(id, now_us_, value);
+  *value = memo.value;
+  return memo.status;
+}
+
 // The values a program reads from the task's job count and the command's
 // history (run() reads the command's own values itself). False: a fault (no
 // history yet, no such field).
@@ -281,20 +290,12 @@ struct OperandStack {
     break;                                                      \
   }
 
-// The loader verified every program: operands in range, valid opcodes, forward
-// jumps inside the program, the stack depth on every path, and no path that
-// runs past the end without a terminator (PASS, FAIL, FAIL_SUBST, RETURN or a
-// jump). So the loop has no bounds check of its own, and each opcode has its
-// own case (binary operators too, so that `binary` folds to one operation): it
-// checks only what depends on values.
 // The signal first (as SIGNAL: a missing one ends the program), then the
 // compare; ip is at the PUSH, the jump's target off past the JZ.
 #define CONTEGO_FUSED_SIGNAL_CASE(name, compare)                                   \
   case static_cast<Op>(Fused::k##name##SignalJz): {                                \
-    const SignalMemo& memo = signal_memo_[in.b];                                   \
-    SignalStatus st = memo.status;                                                 \
-    int64_t v = memo.value;                                                        \
-    if (memo.epoch != epoch_) st = signal(in.b, now_us_, &v);                      \
+    int64_t v = 0;                                                                 \
+    const SignalStatus st = signal_now(in.b, &v);                                  \
     if (st != SignalStatus::kOk) {                                                 \
       exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault; \
       goto done;                                                                   \
@@ -311,6 +312,12 @@ struct OperandStack {
     ip += (int64_t{env.d->command} compare int64_t{in.imm}) ? 3 : uint32_t{in.a} + 2; \
     break
 
+// The loader verified every program: operands in range, valid opcodes, forward
+// jumps inside the program, the stack depth on every path, and no path that
+// runs past the end without a terminator (PASS, FAIL, FAIL_SUBST, RETURN or a
+// jump). So the loop has no bounds check of its own, and each opcode has its
+// own case (binary operators too, so that `binary` folds to one operation): it
+// checks only what depends on values.
 // The switch below has cases for the loader's own opcodes (Fused), which
 // are not in Op.
 #pragma GCC diagnostic push
@@ -335,11 +342,8 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         stack.push(constants_[in.b]);
         break;
       case Op::kSignal: {
-        // The memo of this check first: most programs of a check read the same signals.
-        const SignalMemo& memo = signal_memo_[in.b];
-        SignalStatus st = memo.status;
-        int64_t v = memo.value;
-        if (memo.epoch != epoch_) st = signal(in.b, now_us_, &v);
+        int64_t v = 0;
+        const SignalStatus st = signal_now(in.b, &v);
         stack.push(v);
         if (st == SignalStatus::kOk) break;
         exit = st == SignalStatus::kUnavailable ? Exit::kUnavailable : Exit::kFault;

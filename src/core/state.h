@@ -282,6 +282,7 @@ class CheckerState {
   bool context_value(const Insn& in, const Env& env, int64_t* value);
   bool subst_op(const Insn& in, const Env& env, int64_t value);
   SignalStatus signal(uint16_t id, uint64_t now_us, int64_t* value);
+  SignalStatus signal_now(uint16_t id, int64_t* value);  // memo first, then signal()
   SignalStatus raw_signal(uint16_t id, uint64_t now_us, int64_t* value);
   SampleMemo& sample(uint16_t device, uint64_t now_us);  // sampled at most once per check()
 
