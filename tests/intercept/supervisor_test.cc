@@ -958,6 +958,46 @@ TEST(Realtime, ProgramRunsAtTheTaskPriority) {
   EXPECT_EQ(policy, SCHED_OTHER);
 }
 
+// `taskset -c N contego run --rt`: the loop, its watcher and the program
+// share one CPU at one SCHED_FIFO priority. When the program has gone, the
+// run ends (it used to spin in RECV, starving the watcher, forever). Run in
+// a child process so that a hang is a failure, not a stuck test binary.
+TEST(Realtime, RunOnOneCpuEndsWhenTheProgramExits) {
+  fflush(nullptr);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(sched_getcpu(), &one);
+    if (sched_setaffinity(0, sizeof one, &one) != 0) _exit(4);
+    AuditedMonitor m;
+    intercept::seccomp::Options opt;
+    opt.task = 0;
+    opt.realtime_priority = m.mon.task_priority(0);
+    opt.argv = {"/bin/true"};
+    auto r = intercept::seccomp::run(opt, m.mon);
+    if (!r.ok()) _exit(1);
+    if (!r->realtime) _exit(3);
+    _exit(r->exit_code == 0 ? 0 : 2);
+  }
+  int status = 0;
+  pid_t done = 0;
+  for (int i = 0; i < 300 && done == 0; ++i) {
+    done = waitpid(child, &status, WNOHANG);
+    if (done == 0) usleep(100000);
+  }
+  if (done == 0) {
+    kill(child, SIGKILL);
+    waitpid(child, &status, 0);
+    FAIL() << "contego run --rt on one CPU did not end within 30 s of /bin/true";
+  }
+  ASSERT_TRUE(WIFEXITED(status));
+  if (WEXITSTATUS(status) == 3) GTEST_SKIP() << "SCHED_FIFO refused here";
+  if (WEXITSTATUS(status) == 4) GTEST_SKIP() << "sched_setaffinity refused here";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
 // contego monitor --rt: the thread serving a connection runs at its task's
 // priority, which the hello answer also tells the client.
 TEST(Realtime, MonitorServesTheConnectionAtTheTaskPriority) {

@@ -741,10 +741,18 @@ void supervise(Started& s, const FdRange& range, const Options& options, gate::E
       std::memset(buf.data(), 0, buf.size());  // RECV wants a zeroed buffer
       continue;
     }
-    // EINTR: the watcher (or another signal); ENOENT: the task went away
-    // between the wake-up and the copy, or no task uses the filter any
-    // more (then the watcher sees POLLHUP). Either way: look at `done`.
-    if (errno != EINTR && errno != ENOENT) break;
+    // EINTR: the watcher (or another signal): look at `done`. ENOENT: the
+    // task went away between the wake-up and the copy, or no task uses the
+    // filter any more, and then RECV fails at once every time.
+    if (errno == EINTR) continue;
+    if (errno != ENOENT) break;
+    // So wait here instead of calling RECV again: retrying would spin until
+    // the watcher sets `done`, and a watcher that shares a single CPU with
+    // this thread at the same SCHED_FIFO priority (`taskset -c N contego run
+    // --rt`, or a one-core board) would never run.
+    pollfd p{s.listener.get(), POLLIN, 0};
+    if (poll(&p, 1, -1) < 0 && errno != EINTR) break;
+    if (p.revents & (POLLHUP | POLLERR | POLLNVAL)) break;  // no supervised task left
   }
   w.loop_left.store(true, std::memory_order_release);
   watcher.join();
