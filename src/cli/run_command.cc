@@ -1,3 +1,4 @@
+#include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -38,6 +39,20 @@ class VouchedClient final : public gate::Endpoint {
   uint64_t funcs(uint8_t bus) override { return client->funcs(bus); }
 };
 
+// Under SCHED_FIFO the scheduler wakes a thread away from a CPU that runs
+// another of equal priority, so a program and its supervisor that may use
+// several CPUs cross between them twice per checked call (docs/performance.md,
+// "--rt and one CPU").
+void warn_if_rt_spans_cpus(int cpu) {
+  cpu_set_t set;
+  if (cpu >= 0 || sched_getaffinity(0, sizeof set, &set) != 0 || CPU_COUNT(&set) <= 1) return;
+  fmt::print(stderr,
+             "contego run: note: --rt without --cpu: the program and its supervisor may run on "
+             "{} CPUs, and under SCHED_FIFO every checked call then crosses between two of them "
+             "(several times slower); give --cpu N to keep them on one\n",
+             CPU_COUNT(&set));
+}
+
 }  // namespace
 
 void register_run(CLI::App& app) {
@@ -51,6 +66,7 @@ void register_run(CLI::App& app) {
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
     bool realtime = false;
+    int cpu = -1;
     bool allow_degraded = false;
     std::string user;
     bool same_user = false;
@@ -80,6 +96,10 @@ void register_run(CLI::App& app) {
   cmd->add_flag(
       "--rt", args->realtime,
       "run the program and its supervisor under SCHED_FIFO at the task's policy priority");
+  cmd->add_option("--cpu", args->cpu,
+                  "run the program (and all it starts) and its supervising thread on this CPU "
+                  "only: each checked call then stays on one CPU (with --rt, strongly advised)")
+      ->check(CLI::Range(0, CPU_SETSIZE - 1));
   cmd->add_option("--user", args->user,
                   "USER[:GROUP]: run the program under this user (and group): the supervisor "
                   "then runs under another uid than the program (needs root)");
@@ -96,6 +116,8 @@ void register_run(CLI::App& app) {
     opt.argv = args->program;
     opt.stop_fd = stop.fd.get();
     opt.child_sigmask = &stop.original;
+    opt.cpu = args->cpu;
+    if (args->realtime) warn_if_rt_spans_cpus(args->cpu);
     if (!args->user.empty()) {
       auto user = parse_user_spec(args->user);
       if (!user.ok()) {

@@ -70,4 +70,22 @@ grep -q '"kind":"degraded-start"' "$dir/a3" || fail "no degraded-start event"
 expect 0 "warning: bus 2 (a virtual bus): no device of the policy is on it" \
   -- run --policy "$rover" --task follower --virtual-bus 1 --virtual-bus 2 -- /bin/echo RAN
 grep -q RAN "$dir/out" || fail "unused bus: the program did not run"
+
+# --cpu N: the program (and what it starts) runs on CPU N only; a CPU this
+# process may not use is refused before the program runs.
+cpus=$(python3 -c 'import os; print(" ".join(map(str, sorted(os.sched_getaffinity(0)))))')
+cpu=${cpus##* }
+expect 0 "[$cpu]" -- run --policy "$rover" --task follower --virtual-bus 1 --audit "$dir/a4" \
+  --cpu "$cpu" -- python3 -c 'import os; print(sorted(os.sched_getaffinity(0)))'
+expect 2 "CPU 1023 is not one this process may run on" -- run --policy "$rover" \
+  --task follower --virtual-bus 1 --audit "$dir/a5" --cpu 1023 -- /bin/echo RAN
+grep -q RAN "$dir/out" && fail "--cpu 1023: the program ran"
+# --rt without --cpu on several CPUs: a note says what it costs; with --cpu, none.
+if [[ "$cpus" == *" "* ]]; then
+  expect 0 "give --cpu N to keep them on one" -- run --policy "$rover" --task follower \
+    --virtual-bus 1 --audit "$dir/a6" --rt -- /bin/true
+fi
+"$contego" run --policy "$rover" --task follower --virtual-bus 1 --audit "$dir/a7" --rt \
+  --cpu "$cpu" -- /bin/true 2>"$dir/err" || fail "--rt --cpu $cpu: exit $?"
+grep -q "give --cpu" "$dir/err" && fail "--rt --cpu: the note was printed"
 echo "ok"

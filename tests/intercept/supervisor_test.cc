@@ -998,6 +998,37 @@ TEST(Realtime, RunOnOneCpuEndsWhenTheProgramExits) {
   EXPECT_EQ(WEXITSTATUS(status), 0);
 }
 
+// Options::cpu: the program runs on that CPU only, the run says it shared
+// one CPU with its supervisor, and the caller's own affinity comes back.
+TEST(CpuPin, ProgramRunsOnTheGivenCpuAndTheCallersAffinityComesBack) {
+  cpu_set_t before;
+  ASSERT_EQ(sched_getaffinity(0, sizeof before, &before), 0);
+  int last = -1;
+  for (int c = 0; c < CPU_SETSIZE; ++c) {
+    if (CPU_ISSET(c, &before)) last = c;
+  }
+  AuditedMonitor m;
+  StdoutCapture capture;
+  intercept::seccomp::Options opt;
+  opt.task = 0;
+  opt.cpu = last;
+  opt.argv = {"/usr/bin/python3", "-c", "import os; print(sorted(os.sched_getaffinity(0)))"};
+  auto r = intercept::seccomp::run(opt, m.mon);
+  const std::string out = capture.finish();
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(out, "[" + std::to_string(last) + "]\n");
+  EXPECT_TRUE(r->one_cpu);
+  cpu_set_t after;
+  ASSERT_EQ(sched_getaffinity(0, sizeof after, &after), 0);
+  EXPECT_TRUE(CPU_EQUAL(&before, &after));
+
+  opt.cpu = CPU_SETSIZE - 1;  // not one this process may use: nothing runs
+  auto refused = intercept::seccomp::run(opt, m.mon);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("is not one this process may run on"), std::string::npos)
+      << refused.error();
+}
+
 // contego monitor --rt: the thread serving a connection runs at its task's
 // priority, which the hello answer also tells the client.
 TEST(Realtime, MonitorServesTheConnectionAtTheTaskPriority) {

@@ -762,10 +762,57 @@ void supervise(Started& s, const FdRange& range, const Options& options, gate::E
   result.signal = w.child_status.signal;
 }
 
+// Pins the calling thread to options.cpu (the program forked from it and
+// the watcher inherit that), and puts its affinity back when it goes.
+class CpuPin {
+ public:
+  Status pin(int cpu) {
+    if (sched_getaffinity(0, sizeof saved_, &saved_) != 0) {
+      return make_error(std::string("sched_getaffinity: ") + strerror(errno));
+    }
+    if (cpu >= CPU_SETSIZE || !CPU_ISSET(cpu, &saved_)) {
+      return make_error("CPU " + std::to_string(cpu) + " is not one this process may run on (" +
+                        cpu_list(saved_) + ")");
+    }
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    if (sched_setaffinity(0, sizeof one, &one) != 0) {
+      return make_error("CPU " + std::to_string(cpu) + ": sched_setaffinity: " + strerror(errno));
+    }
+    pinned_ = true;
+    return {};
+  }
+  ~CpuPin() {
+    if (pinned_) (void)sched_setaffinity(0, sizeof saved_, &saved_);
+  }
+
+ private:
+  static std::string cpu_list(const cpu_set_t& set) {
+    std::string out;
+    for (int c = 0; c < CPU_SETSIZE; ++c) {
+      if (CPU_ISSET(c, &set)) out += (out.empty() ? "CPUs " : ",") + std::to_string(c);
+    }
+    return out.empty() ? "no CPU" : out;
+  }
+  cpu_set_t saved_{};
+  bool pinned_ = false;
+};
+
+// True if this thread may run on one CPU only.
+bool on_one_cpu() {
+  cpu_set_t set;
+  return sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) == 1;
+}
+
 }  // namespace
 
 Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   if (options.argv.empty()) return make_error("contego run: no program given");
+  CpuPin pin;
+  if (options.cpu >= 0) {
+    if (Status s = pin.pin(options.cpu); !s.ok()) return make_error(s.error());
+  }
   const FdRange range = reserved_range();
   auto filter = build_filter(range);
   if (!filter.ok()) return make_error(filter.error());
@@ -779,6 +826,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   // From here the program may run: out of its reach.
   enter_undumpable();
   RunResult result;
+  result.one_cpu = on_one_cpu();
   if (options.sync_wakeup && ioctl(started->listener.get(), SECCOMP_IOCTL_NOTIF_SET_FLAGS,
                                    SECCOMP_USER_NOTIF_FD_SYNC_WAKE_UP) == 0) {
     result.sync_wakeup = true;

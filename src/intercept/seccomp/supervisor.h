@@ -67,6 +67,12 @@ struct Options {
   // > 0: the program and the supervising thread run under SCHED_FIFO at this
   // (policy) priority; a refusal is reported in RunResult, not fatal.
   int realtime_priority = 0;
+  // >= 0: the program (and all it starts) and the supervising thread run on
+  // this CPU only, so that each call's hand-over stays on one CPU. Under
+  // SCHED_FIFO the scheduler otherwise wakes the supervisor away from the
+  // equal-priority program that is still running, and every call crosses
+  // CPUs twice. A CPU that cannot be used fails run() before anything runs.
+  int cpu = -1;
   // >= 0: when this descriptor becomes readable (e.g. a signalfd of SIGINT,
   // SIGTERM, SIGHUP; never read here), the supervisor ends the program: it
   // SIGKILLs the direct child and every supervised process it knows, and from
@@ -98,6 +104,7 @@ struct RunResult {
   uint64_t peak_threads_tracked = 0;  // most threads remembered at once (bounded)
   bool sync_wakeup = false;
   bool realtime = false;       // SCHED_FIFO was applied
+  bool one_cpu = false;        // the program and the supervising thread shared one CPU
   std::string realtime_error;  // why not, when it was asked for
   bool stopped = false;        // ended through stop_fd
 };
