@@ -46,6 +46,7 @@ struct BenchArgs {
   bool no_dos = false;
   bool no_chart = false;
   uint32_t spin_us = perf::Options{}.spin_us;
+  int cpu = -1;
   // Beside the executable: in its build tree or its install prefix.
   std::string task_exe = install_paths().bench_task;
   std::string preload = install_paths().preload;
@@ -120,6 +121,7 @@ void set_common_options(const BenchArgs& a, Options& o) {
   o.task_exe = a.task_exe;
   o.preload_lib = a.preload;
   o.spin_us = a.spin_us;
+  o.cpu = a.cpu;
   if (!a.quiet) {
     o.progress = [](const std::string& line) { fmt::print(stderr, "contego bench: {}\n", line); };
   }
@@ -228,6 +230,10 @@ void register_bench(CLI::App& app) {
                   "busy-wait of both ends of a shared-memory channel before they sleep")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
+  cmd->add_option("--cpu", args->cpu,
+                  "on paths b, c1 and c2, run the task (and its supervisor) on this CPU only, as "
+                  "`contego run --cpu N` does (default: wherever the scheduler puts them)")
+      ->check(CLI::Range(0, 1023));
   cmd->add_option("--task-program", args->task_exe, "the timed task program (contego-bench-task)");
   cmd->add_option("--policy-dir", args->policy_dir,
                   "where rover.policy and arm.policy are (empty: pass-through rows only)");

@@ -301,20 +301,23 @@ void AuditLog::grow_ahead() {
     const size_t want = std::min(written_.load(std::memory_order_acquire) + kAhead, map_len_);
     const size_t from = ready_.load(std::memory_order_acquire);
     if (map_ == nullptr || from >= want) {
-      // The writer notifies once it is within kAhead / 2 of ready_; the
-      // timeout covers a notification sent just before this wait began.
-      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      // Nothing to do until the writer comes within kAhead / 2 of ready_:
+      // it then notifies after every record until this thread has caught
+      // up, so a notification lost just before this wait is followed by
+      // another with the next record, and an idle log wakes no one.
+      grow_cv_.wait(g);
       continue;
     }
     if (!extend_locked(want) && file_room_ <= from) {
       // No space: the writer sees it when it reaches the end of what is
-      // allocated (its record fails, the action is refused).
-      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      // allocated (its record fails, the action is refused); this thread
+      // tries again at the writer's next notification.
+      grow_cv_.wait(g);
       continue;
     }
     if (!prefault_) {
       ready_.store(file_room_, std::memory_order_release);
-      grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+      grow_cv_.wait(g);
       continue;
     }
     // Fault the next pages in without the lock: a window the writer
@@ -330,7 +333,7 @@ void AuditLog::grow_ahead() {
     if (!ok) {
       if (err == EFAULT) {
         // The file was cut under the window: the writer's check resyncs.
-        grow_cv_.wait_for(g, std::chrono::milliseconds(20));
+        grow_cv_.wait(g);
         continue;
       }
       prefault_ = false;  // an older kernel: records fault their pages in themselves

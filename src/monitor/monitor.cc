@@ -505,6 +505,14 @@ uint64_t Monitor::sample_due_locked() {
 void Monitor::start_sampling() {
   std::lock_guard lock(mu_);
   if (sampler_.joinable()) return;
+  // No sensor with a sample period: a thread would only wake to find
+  // nothing due (every 100 ms, for the life of the monitor).
+  bool periodic = false;
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    const core::DeviceRecord& rec = decider_.device(d);
+    periodic = periodic || ((rec.role & core::kRoleSensor) && rec.sample_period_us != 0);
+  }
+  if (!periodic) return;
   sampler_stop_ = false;
   sampler_ = std::thread([this] {
     std::unique_lock held(mu_);

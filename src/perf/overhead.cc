@@ -191,6 +191,7 @@ const Row* Report::find(const std::string& workload, Path p) const {
 
 Result<Report> run(const Options& o) {
   if (o.trials == 0) return make_error("--trials must be at least 1");
+  if (Status s = check_cpu(o.cpu); !s.ok()) return make_error(s.error());
   if (access(o.task_exe.c_str(), X_OK) != 0) {
     return make_error("cannot execute the bench task program " + o.task_exe);
   }
@@ -238,6 +239,7 @@ Result<Report> run(const Options& o) {
       "per workload: the real core with the named compiled policy, or the pass-through decider "
       "(allow + emit + audit line)";
   report.trials = o.trials;
+  report.cpu = o.cpu;
   const std::string out = dir.path + "/samples.bin";
   size_t row_count = 0, row_no = 0;
   for (size_t wi = 0; wi < workloads.size(); ++wi) {
@@ -285,20 +287,21 @@ Result<Report> run(const Options& o) {
           ns = time_core(*local->mon, w, o.trials, &row.failures);
           break;
         case Path::kSeccompInProcess:
-          ns = run_seccomp(argv, *local->mon, w.task_id, &row.failures);
+          ns = run_seccomp(argv, *local->mon, w.task_id, &row.failures, o.cpu);
           break;
         case Path::kSeccompMonitor:
         case Path::kSeccompMonitorSocket: {
           Transport how;
           how.channel = p == Path::kSeccompMonitor;
           how.spin_us = o.spin_us;
+          how.cpu = o.cpu;
           ns = run_over_socket(proc->socket(), w, argv, &row.failures, how);
           break;
         }
         case Path::kPreload:
         case Path::kPreloadSocket:
           ns = run_preload(o.preload_lib, o.spin_us, proc->socket(), w, argv, &row.failures,
-                           p == Path::kPreload);
+                           p == Path::kPreload, o.cpu);
           break;
       }
       if (!ns.ok())

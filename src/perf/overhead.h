@@ -106,6 +106,9 @@ struct Options {
   bool dos = true;
   uint32_t dos_period_us = 1000;
   uint32_t spin_us = 100;  // channel busy-wait of both ends (gate::SpinPolicy)
+  // >= 0: on paths b, c1 and c2 the task program (and on c1 and c2 its
+  // supervising thread) run on this CPU only, as `contego run --cpu` does.
+  int cpu = -1;
   // Called before and after each row and DoS variant with a line saying
   // which (the CLI prints it on stderr); may be empty.
   std::function<void(const std::string&)> progress;
@@ -114,6 +117,7 @@ struct Options {
 struct Report {
   std::string checker;  // what decided (see run())
   uint32_t trials = 0;
+  int cpu = -1;  // Options::cpu
   std::vector<Row> rows;
   std::vector<DosResult> dos;  // one per transport (empty: not measured)
   const Row* find(const std::string& workload, Path p) const;

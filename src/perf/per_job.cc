@@ -97,17 +97,18 @@ void run_lane(const PerJobOptions& o, Lane& lane, uint64_t grid_ns) {
       break;
     }
     case Path::kSeccompInProcess:
-      lane.samples = run_seccomp(argv, *lane.rig->mon, w.task_id, &lane.row.failures);
+      lane.samples = run_seccomp(argv, *lane.rig->mon, w.task_id, &lane.row.failures, o.cpu);
       break;
     case Path::kSeccompMonitor: {
       Transport how;
       how.spin_us = o.spin_us;
+      how.cpu = o.cpu;
       lane.samples = run_over_socket(lane.process->socket(), w, argv, &lane.row.failures, how);
       break;
     }
     default:
       lane.samples = run_preload(o.preload_lib, o.spin_us, lane.process->socket(), w, argv,
-                                 &lane.row.failures, true);
+                                 &lane.row.failures, true, o.cpu);
       break;
   }
 }
@@ -126,6 +127,7 @@ Result<PerJobReport> run_per_job(const PerJobOptions& o) {
     return make_error(
         "the per-job bench needs at least 1 job, 1 command per job and a period of 1 ms");
   }
+  if (Status s = check_cpu(o.cpu); !s.ok()) return make_error(s.error());
   if (access(o.task_exe.c_str(), X_OK) != 0) {
     return make_error("cannot execute the bench task program " + o.task_exe);
   }
@@ -178,6 +180,7 @@ Result<PerJobReport> run_per_job(const PerJobOptions& o) {
   report.jobs = o.jobs;
   report.period_us = o.period_us;
   report.per_job = o.per_job;
+  report.cpu = o.cpu;
   for (Lane& lane : lanes) {
     if (!lane.samples.ok()) {
       return make_error(
@@ -203,8 +206,8 @@ Result<PerJobReport> run_per_job(const PerJobOptions& o) {
 std::string per_job_table(const PerJobReport& r) {
   std::string s = fmt::format(
       "contego bench --per-job: {}, {} jobs of {} commands every {} us, all paths interleaved;\n"
-      "CLOCK_MONOTONIC from each job's wake-up to the end of its last write()\n\n",
-      r.workload, r.jobs, r.per_job, r.period_us);
+      "CLOCK_MONOTONIC from each job's wake-up to the end of its last write()\n{}\n",
+      r.workload, r.jobs, r.per_job, r.period_us, detail::pinning_line(r.cpu));
   s += fmt::format("{:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>10}   {}\n", "path", "avg",
                    "median", "p99", "worst", "+avg", "+p99", "+worst", "decisions (audit log)");
   s += fmt::format("{:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>10}\n", "", "µs", "µs", "µs",
@@ -239,6 +242,7 @@ nlohmann::json per_job_json(const PerJobReport& r) {
                       {"jobs", r.jobs},
                       {"period_us", r.period_us},
                       {"commands_per_job", r.per_job},
+                      {"task_cpu", r.cpu},
                       {"paper_added_ms",
                        {{"avg", paper.avg_ms},
                         {"p99", paper.p99_ms},

@@ -33,6 +33,7 @@ struct PerJobOptions {
   std::string task_exe;     // contego-bench-task
   std::string preload_lib;  // "" skips path b
   uint32_t spin_us = 100;
+  int cpu = -1;  // >= 0: the task (and its supervisor) on this CPU only, as Options::cpu
   std::function<void(const std::string&)> progress;  // may be empty
 };
 
@@ -47,6 +48,7 @@ struct PerJobRow {
 struct PerJobReport {
   std::string workload;
   uint32_t jobs = 0, period_us = 0, per_job = 0;
+  int cpu = -1;
   std::vector<PerJobRow> rows;  // path a first
   const PerJobRow* find(Path p) const;
 };

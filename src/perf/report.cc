@@ -9,14 +9,15 @@
 #include <sys/utsname.h>
 
 #include "perf/overhead.h"
+#include "perf/rig.h"
 
 namespace contego::perf {
 
 std::string table(const Report& r) {
   std::string s = fmt::format(
       "contego bench: {} trials per cell, CLOCK_MONOTONIC around each write() in the task\n"
-      "checker: {}\n\n",
-      r.trials, r.checker);
+      "checker: {}\n{}\n",
+      r.trials, r.checker, detail::pinning_line(r.cpu));
   s += fmt::format("{:<30} {:<20} {:>9} {:>9} {:>9} {:>10}   {:>9} {:>9} {:>9}   {}\n", "task",
                    "path", "mean", "median", "p99", "worst", "+median", "+p99", "+worst",
                    "decisions (audit log)");
@@ -96,6 +97,7 @@ nlohmann::json to_json(const Report& r) {
   nlohmann::json j;
   j["trials"] = r.trials;
   j["checker"] = r.checker;
+  if (r.cpu >= 0) j["task_cpu"] = r.cpu;
   j["measured_on"] = machine();
   for (const Row& row : r.rows) {
     nlohmann::json cell = stats_json(row.stats);

@@ -1,5 +1,6 @@
 #include "perf/rig.h"
 
+#include <sched.h>
 #include <time.h>
 
 #include <fstream>
@@ -57,6 +58,26 @@ void next_job(uint32_t period_us) {
   }
 }
 
+std::string pinning_line(int cpu) {
+  if (cpu < 0) return {};
+  return fmt::format(
+      "pinned: on b, c1 and c2 the task (and on c1 and c2 its supervisor) ran on CPU {} only, as "
+      "with `contego run --cpu {}`\n",
+      cpu, cpu);
+}
+
+Status check_cpu(int cpu) {
+  if (cpu < 0) return {};
+  cpu_set_t allowed;
+  if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) {
+    return make_error(std::string("sched_getaffinity: ") + strerror(errno));
+  }
+  if (cpu >= CPU_SETSIZE || !CPU_ISSET(cpu, &allowed)) {
+    return make_error(fmt::format("--cpu {}: not a CPU this process may run on", cpu));
+  }
+  return {};
+}
+
 Result<std::vector<uint64_t>> read_samples(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return make_error("the bench task wrote no results to " + path);
@@ -78,9 +99,10 @@ Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out,
 
 Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
                                           gate::Endpoint& endpoint, uint16_t task,
-                                          uint64_t* failures) {
+                                          uint64_t* failures, int cpu) {
   intercept::seccomp::Options so;
   so.task = task;
+  so.cpu = cpu;
   so.argv = argv;
   auto r = intercept::seccomp::run(so, endpoint);
   if (!r.ok()) return make_error(r.error());
@@ -103,6 +125,7 @@ Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const W
   }
   intercept::seccomp::Options so;
   so.task = (*c)->task_id();
+  so.cpu = how.cpu;
   so.argv = argv;
   if (how.realtime) so.realtime_priority = (*c)->task_priority();
   auto r = intercept::seccomp::run(so, **c);
@@ -116,7 +139,7 @@ Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const W
 Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32_t spin_us,
                                           const std::string& socket, const Workload& w,
                                           const std::vector<std::string>& argv, uint64_t* failures,
-                                          bool channel) {
+                                          bool channel, int cpu) {
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -124,6 +147,12 @@ Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32
   const pid_t pid = fork();
   if (pid < 0) return make_error(std::string("fork: ") + strerror(errno));
   if (pid == 0) {
+    if (cpu >= 0) {
+      cpu_set_t one;
+      CPU_ZERO(&one);
+      CPU_SET(cpu, &one);
+      if (sched_setaffinity(0, sizeof one, &one) != 0) _exit(126);
+    }
     setenv("LD_PRELOAD", preload_lib.c_str(), 1);
     setenv("CONTEGO_SOCKET", socket.c_str(), 1);
     setenv("CONTEGO_TASK", w.task.c_str(), 1);

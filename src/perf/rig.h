@@ -211,6 +211,7 @@ struct Transport {
   bool channel = true;     // else the socket alone
   uint32_t spin_us = 100;  // the channel's client spin
   bool realtime = false;   // program and supervisor under SCHED_FIFO at the task's priority
+  int cpu = -1;            // >= 0: program and supervisor on this CPU only (contego run --cpu)
 };
 
 // Paths through the separate monitor process.
@@ -230,13 +231,19 @@ void next_job(uint32_t period_us);
 
 Result<std::vector<uint64_t>> read_samples(const std::string& path);
 
+// The report's line on where the task ran ("" when not pinned).
+std::string pinning_line(int cpu);
+
+// Fails unless `cpu` (>= 0) is one this process may run on; -1 passes.
+Status check_cpu(int cpu);
+
 // Runs the task program and reads its samples. exit 2 = some writes failed.
 Result<std::vector<uint64_t>> finish_task(int exit_code, const std::string& out,
                                           uint64_t* failures);
 
 Result<std::vector<uint64_t>> run_seccomp(const std::vector<std::string>& argv,
                                           gate::Endpoint& endpoint, uint16_t task,
-                                          uint64_t* failures);
+                                          uint64_t* failures, int cpu = -1);
 
 Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const Workload& w,
                                               const std::vector<std::string>& argv,
@@ -245,7 +252,7 @@ Result<std::vector<uint64_t>> run_over_socket(const std::string& socket, const W
 Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32_t spin_us,
                                           const std::string& socket, const Workload& w,
                                           const std::vector<std::string>& argv, uint64_t* failures,
-                                          bool channel);
+                                          bool channel, int cpu = -1);
 
 }  // namespace contego::perf::detail
 
