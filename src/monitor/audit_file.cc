@@ -1,6 +1,7 @@
 // The audit log's file: opening and checking it, the shared mapping it is
 // written through, and the helper thread that grows it ahead of the writer.
 #include <fcntl.h>
+#include <pthread.h>
 #include <setjmp.h>
 #include <signal.h>
 #include <time.h>
@@ -288,6 +289,7 @@ void AuditLog::grow_ahead() {
   // preempt the threads that check commands. (It never holds grow_mu_
   // while it works, so the writer never waits for it.)
   (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19);
+  (void)pthread_setname_np(pthread_self(), kGrowerThreadName);  // for top -H, ps -L and the tests
   std::unique_lock g(grow_mu_);
   while (!grow_stop_) {
     if (!retired_.empty()) {

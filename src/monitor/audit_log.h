@@ -88,6 +88,9 @@ class AuditLog {
   ~AuditLog();
   AuditLog(const AuditLog&) = delete;
   AuditLog& operator=(const AuditLog&) = delete;
+  // The thread that keeps a file's pages ready ahead of the writer; it
+  // sleeps while the log is idle.
+  static constexpr const char* kGrowerThreadName = "audit-grower";
 
   // Appends to `path` ("-" = standard error), continuing the hash chain from
   // the file's last line. Refuses a target that is not a regular file

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <iterator>
@@ -171,6 +172,32 @@ TEST_F(AuditChain, AFreshLogVerifiesAndIsSummarised) {
   EXPECT_EQ(c.summary.events.at("start"), 1u);
   EXPECT_TRUE(c.summary.starts_at_genesis);
   EXPECT_EQ(c.summary.last_hash.size(), 64u);
+}
+
+// An idle log wakes no one: its grower thread waits for the writer's
+// notification, not on a timer (it used to wake every 20 ms).
+TEST_F(AuditChain, AnIdleLogsGrowerSleeps) {
+  AuditLog log;
+  ASSERT_TRUE(log.open(path).ok());
+  log.event("start", "test");
+  auto grower_switches = [] {
+    for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+      std::ifstream comm(task.path() / "comm");
+      std::string name;
+      std::getline(comm, name);
+      if (name != AuditLog::kGrowerThreadName) continue;
+      std::ifstream status(task.path() / "status");
+      for (std::string line; std::getline(status, line);) {
+        if (line.rfind("voluntary_ctxt_switches:", 0) == 0) return std::stol(line.substr(24));
+      }
+    }
+    return -1L;
+  };
+  usleep(100000);  // let it finish what the open asked of it
+  const long before = grower_switches();
+  ASSERT_GE(before, 0) << "no thread named " << AuditLog::kGrowerThreadName;
+  usleep(600000);
+  EXPECT_LE(grower_switches() - before, 1);
 }
 
 TEST_F(AuditChain, ReopeningContinuesTheChain) {

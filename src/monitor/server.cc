@@ -6,6 +6,7 @@
 
 #include <cstring>
 #include <fmt/core.h>
+#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -72,8 +73,16 @@ Status Server::listen(const std::string& path) {
   chmod(path.c_str(), 0660);
   if (::listen(listen_fd_.get(), 64) != 0)
     return make_error(std::string("listen: ") + strerror(errno));
+  wake_fd_.reset(eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK));
+  if (!wake_fd_.valid()) return make_error(std::string("eventfd: ") + strerror(errno));
   path_ = path;
   return {};
+}
+
+void Server::wake() {
+  if (!wake_fd_.valid()) return;
+  const uint64_t one = 1;
+  (void)!write(wake_fd_.get(), &one, sizeof one);  // EAGAIN: already pending
 }
 
 size_t Server::live_connections() {
@@ -89,6 +98,7 @@ void Server::client_event(uid_t uid, const std::string& kind, const std::string&
     const uint64_t now = now_us();
     EventBudget& b = budgets_[uid];
     if (now >= b.window_us + 1000000) {
+      if (b.window_us == 0) wake();  // a new window: the accept loop ends it in 1 s
       if (b.suppressed > 0) {
         audit_.event("suppressed",
                      fmt::format("uid {}: {} client-error event(s) not written (over {} per "
@@ -133,9 +143,10 @@ void Server::flush_suppressed(bool all) {
   }
 }
 
-void Server::housekeeping() {
+int Server::housekeeping() {
   std::vector<std::unique_ptr<Conn>> finished;
   std::vector<std::pair<uid_t, int>> timed_out;
+  uint64_t next_us = UINT64_MAX;
   {
     std::lock_guard lock(mu_);
     const uint64_t now = now_us();
@@ -152,6 +163,9 @@ void Server::housekeeping() {
         shutdown(c.fd.get(), SHUT_RDWR);  // its thread sees the end and closes it
         timed_out.emplace_back(c.uid, c.fd.get());
       }
+      if (!c.hello.load() && c.hello_deadline_us != 0 && !c.timed_out) {
+        next_us = std::min(next_us, c.hello_deadline_us);
+      }
       ++it;
     }
   }
@@ -163,16 +177,29 @@ void Server::housekeeping() {
                              limits_.hello_timeout_ms));
   }
   flush_suppressed(false);
+  {
+    std::lock_guard lock(events_mu_);
+    for (const auto& [uid, b] : budgets_) next_us = std::min(next_us, b.window_us + 1000000);
+  }
+  if (next_us == UINT64_MAX) return -1;
+  const uint64_t now = now_us();
+  return next_us <= now ? 0
+                        : static_cast<int>(std::min<uint64_t>((next_us - now + 999) / 1000, 60000));
 }
 
 void Server::serve() {
   uint64_t accept_reported_us = 0, accept_unreported = 0;
   while (!stopping_) {
-    housekeeping();
-    pollfd p{listen_fd_.get(), POLLIN, 0};
-    const int ready = poll(&p, 1, 100);
+    const int timeout_ms = housekeeping();
+    pollfd p[2] = {{listen_fd_.get(), POLLIN, 0}, {wake_fd_.get(), POLLIN, 0}};
+    const int ready = poll(p, 2, timeout_ms);
     if (stopping_) break;
     if (ready <= 0) continue;
+    if (p[1].revents & POLLIN) {
+      uint64_t count = 0;
+      (void)!read(wake_fd_.get(), &count, sizeof count);
+    }
+    if ((p[0].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
     base::UniqueFd fd(accept4(listen_fd_.get(), nullptr, nullptr, SOCK_CLOEXEC));
     if (!fd.valid()) {
       const int err = errno;
@@ -260,6 +287,7 @@ void Server::serve() {
 
 void Server::stop() {
   stopping_ = true;
+  wake();
   if (listen_fd_.valid()) shutdown(listen_fd_.get(), SHUT_RDWR);
   std::lock_guard lock(mu_);
   for (const auto& c : conns_) {
@@ -417,6 +445,7 @@ void Server::connection(Conn* conn) {
     per_uid_.erase(it);
   }
   c->done.store(true);  // joined by the accept loop
+  wake();
 }
 
 void Server::serve_channel(Session& s, gate::Channel& channel) {

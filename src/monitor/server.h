@@ -126,7 +126,11 @@ class Server {
   void refuse_peer(int fd, pid_t pid, uid_t uid, const std::string& why, int error,
                    const char* message);
   void flush_suppressed(bool all);  // summaries of windows that are over
-  void housekeeping();              // joins finished threads, enforces hello deadlines
+  // Joins finished threads, enforces hello deadlines, writes the counts of
+  // ended event windows; returns the poll timeout (ms, -1: none) until the
+  // next of these is due, so that an idle monitor sleeps.
+  int housekeeping();
+  void wake();  // the accept loop runs housekeeping() again now
   std::optional<gate::wire::Type> dispatch(Session& s, uint8_t type,
                                            std::span<const uint8_t> payload, bool channel);
   gate::wire::Type reset(Session& s, std::span<const uint8_t> payload);  // `contego reset`
@@ -148,6 +152,7 @@ class Server {
   gate::SpinPolicy spin_;
   bool realtime_;  // serve each connection at its task's priority (SCHED_FIFO)
   base::UniqueFd listen_fd_;
+  base::UniqueFd wake_fd_;  // an eventfd: a connection ended, an event window began, stop()
   std::string path_;
   std::atomic<bool> stopping_{false};
   ServerLimits limits_;

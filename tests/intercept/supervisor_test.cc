@@ -958,6 +958,46 @@ TEST(Realtime, ProgramRunsAtTheTaskPriority) {
   EXPECT_EQ(policy, SCHED_OTHER);
 }
 
+// Voluntary context switches of thread `tid` of this process so far.
+long voluntary_switches(pid_t tid) {
+  std::ifstream in("/proc/self/task/" + std::to_string(tid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("voluntary_ctxt_switches:", 0) == 0) return std::stol(line.substr(24));
+  }
+  return -1;
+}
+
+// An idle monitor sleeps: its accept loop wakes for a connection, a hello
+// deadline, the end of an event window or stop(), not on a timer (it used
+// to poll every 100 ms). The hello deadline still ends a silent peer.
+TEST(MonitorServer, IdleAcceptLoopSleepsUntilSomethingIsDue) {
+  AuditedMonitor m;
+  const std::string path = "/tmp/contego-idle-" + std::to_string(getpid()) + ".sock";
+  monitor::ServerLimits limits;
+  limits.hello_timeout_ms = 200;
+  monitor::Server server(m.mon, m.audit, {{"t0", 0}}, {getuid()}, {}, false, limits);
+  ASSERT_TRUE(server.listen(path).ok());
+  std::atomic<pid_t> loop_tid{0};
+  std::thread t([&] {
+    loop_tid = gettid();
+    server.serve();
+  });
+  while (loop_tid.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const long before = voluntary_switches(loop_tid);
+  std::this_thread::sleep_for(std::chrono::milliseconds(800));
+  const long idle = voluntary_switches(loop_tid) - before;
+  EXPECT_LE(idle, 1) << "the accept loop woke " << idle << " times in 800 ms of nothing";
+  const int silent = connect_raw(path);  // never says hello
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(server.hello_timeouts(), 1u);
+  close(silent);
+  server.stop();
+  t.join();
+  unlink(path.c_str());
+}
+
 // `taskset -c N contego run --rt`: the loop, its watcher and the program
 // share one CPU at one SCHED_FIFO priority. When the program has gone, the
 // run ends (it used to spin in RECV, starving the watcher, forever). Run in

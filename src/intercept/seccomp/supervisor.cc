@@ -34,12 +34,12 @@
 #include <thread>
 #include <vector>
 
-#include "base/realtime.h"
 #include "base/unique_fd.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 #include "intercept/seccomp/bus_path.h"
 #include "intercept/seccomp/reach.h"
 #include "intercept/seccomp/remote_memory.h"
+#include "intercept/seccomp/scheduling.h"
 #include "intercept/seccomp/uapi_fallback.h"
 
 namespace contego::intercept::seccomp {
@@ -64,11 +64,12 @@ struct Handle {
   base::UniqueFd standin{open("/dev/null", O_RDWR | O_CLOEXEC)};
 };
 
-// True if descriptor `fd` of thread `tid` is the very file `own` is here.
-// (A kernel without kcmp, CONFIG_KCMP unset: the descriptor tables are trusted.)
-bool same_open_file(pid_t tid, int fd, int own) {
+// True if descriptor `fd` of thread `tid` is the very file `own` is in this
+// process, `self`. (A kernel without kcmp, CONFIG_KCMP unset: the
+// descriptor tables are trusted.)
+bool same_open_file(pid_t self, pid_t tid, int fd, int own) {
   constexpr int kKcmpFile = 0;  // KCMP_FILE
-  const long r = syscall(SYS_kcmp, getpid(), tid, kKcmpFile, own, fd);
+  const long r = syscall(SYS_kcmp, self, tid, kKcmpFile, own, fd);
   return r == 0 || (r < 0 && errno == ENOSYS);
 }
 
@@ -154,6 +155,7 @@ class Loop {
   void dup_call(const seccomp_notif& n, Process& p);
 
   int listener_;
+  const pid_t self_ = getpid();  // once: glibc asks the kernel on every getpid()
   FdRange range_;
   const Options& options_;
   gate::Endpoint& endpoint_;
@@ -324,7 +326,7 @@ void Loop::dup_call(const seccomp_notif& n, Process& p) {
   const int oldfd = static_cast<int>(a[0]);
   auto old = p.fds.find(oldfd);
   if (old != p.fds.end() &&
-      !same_open_file(static_cast<pid_t>(n.pid), oldfd, old->second->standin.get())) {
+      !same_open_file(self_, static_cast<pid_t>(n.pid), oldfd, old->second->standin.get())) {
     p.cloexec.erase(oldfd);  // closed or replaced by a CLONE_FILES sibling
     p.fds.erase(old);
     return reply(n.id, 0, EBADF);
@@ -451,7 +453,7 @@ void Loop::handle(const seccomp_notif& n) {
   if (is_dup) return dup_call(n, p);
   auto it = p.fds.find(static_cast<int>(a[0]));
   if (it == p.fds.end()) return continue_call(n.id);  // an inert descriptor that is not a bus
-  if (!same_open_file(static_cast<pid_t>(n.pid), it->first, it->second->standin.get())) {
+  if (!same_open_file(self_, static_cast<pid_t>(n.pid), it->first, it->second->standin.get())) {
     // Closed or replaced behind this process's back (a CLONE_FILES sibling):
     // no longer this bus.
     p.cloexec.erase(it->first);
@@ -645,25 +647,6 @@ Result<Started> start_child(const Options& options, const std::string& program, 
   return Started{child, std::move(pidfd), std::move(listener), std::move(to_child.write_end)};
 }
 
-// The program and the thread that answers its system calls run at the
-// task's priority (set before the program starts; threads and children it
-// creates inherit it). True if this thread's scheduling was changed.
-bool apply_priority(const Options& options, pid_t child, RunResult& result) {
-  if (options.realtime_priority <= 0) return false;
-  sched_param p{};
-  p.sched_priority = fifo_priority(options.realtime_priority);
-  if (sched_setscheduler(child, SCHED_FIFO, &p) != 0) {
-    result.realtime_error = std::string("SCHED_FIFO for the program: ") + strerror(errno);
-    return false;
-  }
-  if (std::string e = make_thread_realtime(options.realtime_priority); !e.empty()) {
-    result.realtime_error = "SCHED_FIFO for the supervisor: " + e;
-    return false;
-  }
-  result.realtime = true;
-  return true;
-}
-
 // What the loop and its watcher thread share.
 struct Watch {
   std::atomic<bool> done{false}, loop_left{false}, stop{false};
@@ -760,49 +743,6 @@ void supervise(Started& s, const FdRange& range, const Options& options, gate::E
   if (!w.child_status.reaped) w.child_status.reap(s.child);
   result.exit_code = w.child_status.exit_code;
   result.signal = w.child_status.signal;
-}
-
-// Pins the calling thread to options.cpu (the program forked from it and
-// the watcher inherit that), and puts its affinity back when it goes.
-class CpuPin {
- public:
-  Status pin(int cpu) {
-    if (sched_getaffinity(0, sizeof saved_, &saved_) != 0) {
-      return make_error(std::string("sched_getaffinity: ") + strerror(errno));
-    }
-    if (cpu >= CPU_SETSIZE || !CPU_ISSET(cpu, &saved_)) {
-      return make_error("CPU " + std::to_string(cpu) + " is not one this process may run on (" +
-                        cpu_list(saved_) + ")");
-    }
-    cpu_set_t one;
-    CPU_ZERO(&one);
-    CPU_SET(cpu, &one);
-    if (sched_setaffinity(0, sizeof one, &one) != 0) {
-      return make_error("CPU " + std::to_string(cpu) + ": sched_setaffinity: " + strerror(errno));
-    }
-    pinned_ = true;
-    return {};
-  }
-  ~CpuPin() {
-    if (pinned_) (void)sched_setaffinity(0, sizeof saved_, &saved_);
-  }
-
- private:
-  static std::string cpu_list(const cpu_set_t& set) {
-    std::string out;
-    for (int c = 0; c < CPU_SETSIZE; ++c) {
-      if (CPU_ISSET(c, &set)) out += (out.empty() ? "CPUs " : ",") + std::to_string(c);
-    }
-    return out.empty() ? "no CPU" : out;
-  }
-  cpu_set_t saved_{};
-  bool pinned_ = false;
-};
-
-// True if this thread may run on one CPU only.
-bool on_one_cpu() {
-  cpu_set_t set;
-  return sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) == 1;
 }
 
 }  // namespace
