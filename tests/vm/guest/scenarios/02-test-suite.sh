@@ -10,7 +10,8 @@ for t in /vm/bin/*_test; do
   name=${t##*/}
   [ "$name" = seccomp_filter_test ] && continue
   ran=$((ran + 1))
-  run_logged "$name" "$t" --gtest_brief=1
+  # Every test named in the log: a test that hangs is then the last one started.
+  run_logged "$name" "$t"
   summary=$(grep -a '^\[  PASSED  \]' "$OUT" | head -n1)
   skipped=$(grep -a '^\[  SKIPPED \]' "$OUT" | head -n1)
   if [ $RC = 0 ]; then
