@@ -77,7 +77,13 @@ for s in $list; do
     stub_reload
     SCENARIO=$s timeout -s KILL "$timeout" sh "/vm/scenarios/$s.sh"
     rc=$?
-    [ $rc = 137 ] && echo "VM-CHECK FAIL $s: killed after ${timeout}s"
+    if [ $rc = 137 ]; then
+      echo "VM-CHECK FAIL $s: killed after ${timeout}s"
+      # run_logged shows a command's output only once it ends: show the
+      # hung one's (with the test binaries' full output, the test that hung).
+      last=$(ls -t "/tmp/$s"/*.out 2>/dev/null | head -n 1)
+      [ -n "$last" ] && { echo "    last output ($last):"; tail -n 20 "$last" | sed 's/^/    | /'; }
+    fi
     cleanup_processes
   fi
   secs=$(( ($(now_ms) - t) / 1000 ))
