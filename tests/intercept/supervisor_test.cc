@@ -451,12 +451,14 @@ TEST_P(Supervised, SignalsDuringCheckedWritesNeitherRepeatNorHideAnAction) {
     const size_t before = allowed_writes_of_0x06();
     auto r = run({CONTEGO_TESTCASES_DIR "/attack_signal_storm", mode});
     EXPECT_EQ(r.exit_code, 0) << mode << ": " << output;
-    int ok = -1, eintr = -1, other = -1, signals = -1;
-    ASSERT_EQ(std::sscanf(output.c_str(), "ok %d eintr %d other %d signals %d", &ok, &eintr, &other,
-                          &signals),
-              4)
+    int ok = -1, eintr = -1, other = -1, signals = -1, period_us = -1;
+    ASSERT_EQ(std::sscanf(output.c_str(), "ok %d eintr %d other %d signals %d period_us %d", &ok,
+                          &eintr, &other, &signals, &period_us),
+              5)
         << output;
     EXPECT_GT(signals, 0) << mode;
+    // A host slower than the timer (an emulated CPU) widens its period.
+    if (period_us != 20) std::printf("%s: the timer slowed to every %d us\n", mode, period_us);
     EXPECT_EQ(allowed_writes_of_0x06() - before, static_cast<size_t>(ok)) << mode << ": " << output;
     if (std::string(mode) == "restart") {
       EXPECT_EQ(ok, 3000) << output;
