@@ -1,15 +1,18 @@
 #include "monitor/audit_log.h"
 
+#include <sched.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 
@@ -198,6 +201,29 @@ TEST_F(AuditChain, AnIdleLogsGrowerSleeps) {
   ASSERT_GE(before, 0) << "no thread named " << AuditLog::kGrowerThreadName;
   usleep(600000);
   EXPECT_LE(grower_switches() - before, 1);
+}
+
+// The grower's page work never takes the CPU from a thread that checks
+// commands: as a batch thread it does not preempt the writer that wakes it
+// (a woken nice-19 thread does under EEVDF), at nice 19 it has the least
+// share of a busy CPU.
+TEST_F(AuditChain, TheGrowerIsABatchThreadAtNice19) {
+  AuditLog log;
+  ASSERT_TRUE(log.open(path).ok());
+  log.event("start", "test");
+  usleep(100000);  // the thread sets its own policy when it starts
+  pid_t grower = -1;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string name;
+    std::getline(comm, name);
+    if (name == AuditLog::kGrowerThreadName) grower = std::stoi(task.path().filename().string());
+  }
+  ASSERT_GT(grower, 0) << "no thread named " << AuditLog::kGrowerThreadName;
+  EXPECT_EQ(sched_getscheduler(grower), SCHED_BATCH);
+  errno = 0;
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(grower)), 19);
+  EXPECT_EQ(errno, 0);
 }
 
 TEST_F(AuditChain, ReopeningContinuesTheChain) {
