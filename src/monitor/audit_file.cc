@@ -208,6 +208,7 @@ bool AuditLog::extend_locked(size_t upto) {
                                     static_cast<off_t>(room - file_room_));
     if (err == 0) {
       file_room_ = room;
+      allocated_.store(room, std::memory_order_release);
       return true;
     }
     if (err != ENOSPC && err != EDQUOT && err != EFBIG) {
@@ -216,6 +217,7 @@ bool AuditLog::extend_locked(size_t upto) {
       // copy's SIGBUS guard.
       if (ftruncate(fd_, map_base_ + static_cast<off_t>(room)) != 0) return false;
       file_room_ = room;
+      allocated_.store(room, std::memory_order_release);
       return true;
     }
   }
@@ -266,6 +268,7 @@ bool AuditLog::map_from_locked(off_t pos, size_t need) {
   map_len_ = len;
   pos_ = pos;
   file_room_ = at;
+  allocated_.store(at, std::memory_order_release);
   prefault_ = true;
   ready_.store(at / static_cast<size_t>(page) * static_cast<size_t>(page),
                std::memory_order_release);
@@ -309,7 +312,10 @@ void AuditLog::grow_ahead() {
       continue;
     }
     const size_t want = std::min(written_.load(std::memory_order_acquire) + kAhead, map_len_);
-    const size_t from = ready_.load(std::memory_order_acquire);
+    // Pages the writer has filled meanwhile (faulting them in itself when
+    // this thread was behind) need nothing more.
+    const size_t from = std::max(ready_.load(std::memory_order_acquire),
+                                 written_.load(std::memory_order_acquire) / step * step);
     if (map_ == nullptr || from >= want) {
       // Nothing to do until the writer comes within kAhead / 2 of ready_:
       // it then notifies after every record until this thread has caught
@@ -466,6 +472,7 @@ void AuditLog::close_file_locked() {
     ready_.store(0, std::memory_order_release);
     written_.store(0, std::memory_order_release);
     file_room_ = 0;
+    allocated_.store(0, std::memory_order_release);
     if (mode_ == Mode::kFile) {
       // A clean close removes the padding; a killed monitor leaves it, and
       // the next open() and the verifier skip it. Never grow the file here
@@ -501,12 +508,12 @@ void AuditLog::check_file_locked(bool force) {
   }
   struct stat st {
   }, named{};
-  off_t backed = 0;
-  {
-    std::lock_guard g(grow_mu_);
-    if (fstat(fd_, &st) != 0) return;
-    backed = map_ != nullptr ? map_base_ + static_cast<off_t>(file_room_) : pos_;
-  }
+  // What the file must hold, read before its size: an extension is
+  // published after its fallocate returned, so the size is never behind
+  // it (no grow_mu_: the grower may hold it through a long fallocate).
+  const size_t allocated = allocated_.load(std::memory_order_acquire);
+  if (fstat(fd_, &st) != 0) return;
+  const off_t backed = map_ != nullptr ? map_base_ + static_cast<off_t>(allocated) : pos_;
   const bool same =
       stat(path_.c_str(), &named) == 0 && named.st_dev == st.st_dev && named.st_ino == st.st_ino;
   std::string why;

@@ -294,12 +294,15 @@ bool AuditLog::put_locked(const std::string& line) {
   }
   if (map_ == nullptr) return write_fd_locked(line);
   size_t at = static_cast<size_t>(pos_ - map_base_);
-  bool room = at + line.size() <= ready_.load(std::memory_order_acquire);
+  // Below ready_ the pages are faulted in; below allocated_ the copy
+  // faults its own (a few µs), still without the grower's lock.
+  bool room = at + line.size() <= ready_.load(std::memory_order_acquire) ||
+              at + line.size() <= allocated_.load(std::memory_order_acquire);
   if (!room) {
-    // The grower fell behind, the window is full, or the file system is:
-    // make room here, for this record only (the pages it needs, a few µs:
-    // not the grower's lead, which cost a 64 KiB stall when a busy CPU
-    // left the grower behind).
+    // The grower fell behind on allocating, the window is full, or the
+    // file system is: make room here, for this record only (not the
+    // grower's 64 KiB lead: that cost a stall when a busy CPU left the
+    // grower behind).
     std::lock_guard g(grow_mu_);
     if (at + line.size() <= map_len_) {
       room = grow_locked(at + line.size());

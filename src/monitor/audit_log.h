@@ -177,8 +177,10 @@ class AuditLog {
   uint64_t gap_since_us_ = 0;    // wall clock of the first of them
   std::string gap_why_;          // the last reason
   // The grower: extends the file and faults its pages in ahead of the
-  // writer. Lock order: mu_, then grow_mu_. The writer's fast path takes
-  // no lock but mu_: it writes below ready_ only.
+  // writer. Lock order: mu_, then grow_mu_. The writer takes no lock but
+  // mu_ below allocated_ (below ready_ without a page fault): it takes
+  // grow_mu_ only to extend the file itself, so the grower, which holds it
+  // across a posix_fallocate and gets the CPU last, rarely stalls it.
   std::mutex grow_mu_;
   std::condition_variable grow_cv_;
   std::thread grower_;
@@ -186,8 +188,9 @@ class AuditLog {
   size_t file_room_ = 0;                           // window bytes the file backs; grow_mu_
   bool prefault_ = true;                           // MADV_POPULATE_WRITE works; grow_mu_
   std::vector<std::pair<char*, size_t>> retired_;  // old windows to unmap; grow_mu_
-  std::atomic<size_t> ready_{0};    // window bytes the writer may fill without a fault
-  std::atomic<size_t> written_{0};  // window bytes filled so far
+  std::atomic<size_t> ready_{0};      // window bytes the writer may fill without a fault
+  std::atomic<size_t> written_{0};    // window bytes filled so far
+  std::atomic<size_t> allocated_{0};  // file_room_, for the writer and the file check
 };
 
 // The "prev" of the first line of a new log.
