@@ -9,17 +9,49 @@ Nanos checked_wcet(const Task& t) {
   return sat_add(t.wcet, sat_mul(t.actuations, std::max<Nanos>(t.overhead, 0)));
 }
 
+namespace {
+
+// The interference sum_h ceil(r / T_h) C_h^TEE as r grows. Iterates never
+// decrease, so ceil(r / T_h) changes only when r passes the end of the last
+// job counted (jobs * T_h): most steps compare instead of dividing (the
+// division was most of an analysis' time), and the sum is kept, not redone.
+class Interference {
+ public:
+  // Keeps its counts in `jobs` and `covered` (an Analyzer's, reused).
+  Interference(std::vector<Nanos>& jobs, std::vector<Nanos>& covered)
+      : jobs_(jobs), covered_(covered) {}
+  void reset(size_t n) {
+    jobs_.assign(n, 0);
+    covered_.assign(n, 0);
+    total_ = 0;
+  }
+  // REQUIRES: r no smaller than at the previous call since reset(), r <= kMaxDuration.
+  Nanos at(Nanos r, std::span<const Interferer> higher) {
+    for (size_t k = 0; k < higher.size(); ++k) {
+      if (r <= covered_[k]) continue;
+      const Interferer& h = higher[k];
+      const Nanos jobs = (r + h.period - 1) / h.period;  // ceil(r / T_h), r <= D fits
+      total_ = sat_add(total_, sat_mul(jobs - jobs_[k], h.c_tee));
+      jobs_[k] = jobs;
+      covered_[k] = sat_mul(jobs, h.period);
+    }
+    return total_;
+  }
+
+ private:
+  std::vector<Nanos>& jobs_;     // ceil(r / T_h) at the last r that moved it
+  std::vector<Nanos>& covered_;  // jobs * T_h: the r up to which it holds
+  Nanos total_ = 0;
+};
+
 Response response_time(Nanos c_tee, Nanos blocking, Nanos deadline,
-                       std::span<const Interferer> higher) {
+                       std::span<const Interferer> higher, Interference& sum) {
   const Nanos own = sat_add(c_tee, blocking);
   Nanos r = own;
   if (r > deadline) return {r, false, 0};
+  sum.reset(higher.size());
   for (int it = 1;; ++it) {
-    Nanos next = own;
-    for (const Interferer& h : higher) {
-      const Nanos jobs = (r + h.period - 1) / h.period;  // ceil(r / T_h), r <= D fits
-      next = sat_add(next, sat_mul(jobs, h.c_tee));
-    }
+    const Nanos next = sat_add(own, sum.at(r, higher));
     // The whole iterate is reported, so a miss shows the paper's r^(alpha).
     if (next > deadline) return {next, false, it};
     if (next == r) return {r, true, it};
@@ -27,8 +59,8 @@ Response response_time(Nanos c_tee, Nanos blocking, Nanos deadline,
   }
 }
 
-bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline,
-                    std::span<const Interferer> higher) {
+bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline, std::span<const Interferer> higher,
+                    Interference& sum) {
   const Nanos own = sat_add(c_tee, blocking);
   Nanos r = own;
   // Every interferer releases a job at 0, so a positive R_i holds at least
@@ -36,15 +68,29 @@ bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline,
   if (own > 0) {
     for (const Interferer& h : higher) r = sat_add(r, h.c_tee);
   }
+  sum.reset(higher.size());
   while (r <= deadline) {
-    Nanos next = own;
-    for (const Interferer& h : higher) {
-      next = sat_add(next, sat_mul((r + h.period - 1) / h.period, h.c_tee));
-    }
+    const Nanos next = sat_add(own, sum.at(r, higher));
     if (next == r) return true;
     r = next;  // iterates never decrease from a lower bound
   }
   return false;
+}
+
+}  // namespace
+
+Response response_time(Nanos c_tee, Nanos blocking, Nanos deadline,
+                       std::span<const Interferer> higher) {
+  std::vector<Nanos> jobs, covered;
+  Interference sum(jobs, covered);
+  return response_time(c_tee, blocking, deadline, higher, sum);
+}
+
+bool meets_deadline(Nanos c_tee, Nanos blocking, Nanos deadline,
+                    std::span<const Interferer> higher) {
+  std::vector<Nanos> jobs, covered;
+  Interference sum(jobs, covered);
+  return meets_deadline(c_tee, blocking, deadline, higher, sum);
 }
 
 void Analyzer::prepare(const TaskSet& set) {
@@ -92,7 +138,8 @@ std::span<const Interferer> Analyzer::higher(size_t pos) {
 }
 
 Response Analyzer::respond(size_t pos) {
-  return response_time(interferer_[pos].c_tee, blocking_[pos], deadline_[pos], higher(pos));
+  Interference sum(jobs_, covered_);
+  return response_time(interferer_[pos].c_tee, blocking_[pos], deadline_[pos], higher(pos), sum);
 }
 
 Analysis Analyzer::analyse(const TaskSet& set) {
@@ -116,8 +163,11 @@ Analysis Analyzer::analyse(const TaskSet& set) {
 
 bool Analyzer::schedulable(const TaskSet& set) {
   prepare(set);
+  Interference sum(jobs_, covered_);
   for (size_t p = 0; p < order_.size(); ++p) {
-    if (!meets_deadline(interferer_[p].c_tee, blocking_[p], deadline_[p], higher(p))) return false;
+    if (!meets_deadline(interferer_[p].c_tee, blocking_[p], deadline_[p], higher(p), sum)) {
+      return false;
+    }
   }
   return true;
 }

@@ -89,6 +89,7 @@ class Analyzer {
   std::vector<Nanos> deadline_;         // by position
   std::vector<Interferer> scratch_;
   std::vector<Nanos> scratch_blocking_;
+  std::vector<Nanos> jobs_, covered_;  // the recurrence's job counts per interferer
 };
 
 Analysis analyse(const TaskSet& set);
