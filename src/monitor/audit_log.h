@@ -1,7 +1,7 @@
 // The monitor's audit log: one JSON object per line, in the page cache
 // before the decision it records takes effect on the bus, so a monitor that
 // is killed loses nothing it already decided. A regular file is mapped and
-// space is allocated (posix_fallocate) ahead of the writer (a record costs a
+// space is allocated (zeros appended) ahead of the writer (a record costs a
 // memcpy, no system call and no page fault: a helper thread allocates and
 // faults pages in ahead of the writer; a full file system is an error of the
 // allocation, seen before a record needs the space, never a SIGBUS; a clean
@@ -138,15 +138,18 @@ class AuditLog {
                                  const std::string& why);
   void report_failure_locked(const std::string& why);
   // Maps the file from `pos` with room for `need` more bytes, extending it
-  // with zeros in kMapChunk steps. False (and unmapped) on failure.
+  // with zeros in kGrowStep steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
   bool extend_locked(size_t upto);  // the file backs the window up to `upto`; grow_mu_ held
   bool grow_locked(size_t upto);    // extended and faulted in up to `upto`; grow_mu_ held
   void grow_ahead();                // the grower thread
   static constexpr size_t kWindow = size_t{256} << 20;  // mapped at once (address space only)
-  static constexpr size_t kMapChunk = 1 << 20;          // the file grows by this much
-  static constexpr size_t kPrefault = 64 * 1024;        // pages faulted in per step
-  static constexpr size_t kAhead = 256 * 1024;          // kept ready ahead of the writer
+  static constexpr size_t kMapChunk = 1 << 20;          // a window's length is a multiple
+  // The file grows by at most this much per step of the grower (zeros
+  // appended: a few µs of kernel work, during which it holds its CPU).
+  static constexpr size_t kGrowStep = 16 * 1024;
+  static constexpr size_t kPrefault = 64 * 1024;  // pages faulted in per step
+  static constexpr size_t kAhead = 256 * 1024;    // kept ready ahead of the writer
   mutable std::mutex mu_;
   char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
   std::string line_;    // reused: the line being formatted
@@ -180,7 +183,7 @@ class AuditLog {
   // writer. Lock order: mu_, then grow_mu_. The writer takes no lock but
   // mu_ below allocated_ (below ready_ without a page fault): it takes
   // grow_mu_ only to extend the file itself, so the grower, which holds it
-  // across a posix_fallocate and gets the CPU last, rarely stalls it.
+  // while it appends zeros and gets the CPU last, rarely stalls it.
   std::mutex grow_mu_;
   std::condition_variable grow_cv_;
   std::thread grower_;

@@ -200,7 +200,7 @@ show_audit_summary() {  # the last records of each audit log, shortened, for the
   for f in "$LOGDIR"/*audit.jsonl; do
     [ -f "$f" ] || continue
     echo "  audit $(basename "$f"), last records:"
-    # tail -c seeks: the log is extended with zeros 1 MiB ahead, and reading all
+    # tail -c seeks: the log is extended with zeros 256 KiB ahead, and reading all
     # of it under TCG is slow
     tail -c 8192 "$f" | tr -d '\000' | tail -n 6 | cut -c1-220 | sed 's/^/    | /'
   done
