@@ -299,13 +299,16 @@ bool AuditLog::put_locked(const std::string& line) {
   bool room = at + line.size() <= ready_.load(std::memory_order_acquire) ||
               at + line.size() <= allocated_.load(std::memory_order_acquire);
   if (!room) {
-    // The grower fell behind on allocating, the window is full, or the
-    // file system is: make room here, for this record only (not the
-    // grower's 64 KiB lead: that cost a stall when a busy CPU left the
-    // grower behind).
+    // The grower fell behind on allocating (a burst of records on busy
+    // CPUs), the window is full, or the file system is: make room here.
+    // Zeros appended kWriterStep at once, in one write(2), and no page
+    // populated: the copy faults its page in itself, and one fault maps the
+    // whole folio the append made (Linux 6.x page cache), so a burst pays
+    // one system call per 64 KiB of records, not one per page.
     std::lock_guard g(grow_mu_);
     if (at + line.size() <= map_len_) {
-      room = grow_locked(at + line.size());
+      (void)extend_locked(at + line.size() + kWriterStep, kWriterStep);
+      room = at + line.size() <= allocated_.load(std::memory_order_relaxed);
     } else {
       room = map_from_locked(pos_, line.size());
     }
