@@ -97,8 +97,12 @@ void Analyzer::prepare(const TaskSet& set) {
   const size_t n = set.tasks.size();
   order_.resize(n);
   std::iota(order_.begin(), order_.end(), size_t{0});
-  std::stable_sort(order_.begin(), order_.end(), [&](size_t a, size_t b) {
-    return set.tasks[a].priority > set.tasks[b].priority;
+  // Equal priorities keep the input's order: the index breaks ties, so a
+  // plain sort does what a stable one would, without its buffer.
+  std::sort(order_.begin(), order_.end(), [&](size_t a, size_t b) {
+    const auto pa = set.tasks[a].priority;
+    const auto pb = set.tasks[b].priority;
+    return pa != pb ? pa > pb : a < b;
   });
   interferer_.resize(n);
   blocking_.resize(n);
@@ -143,8 +147,13 @@ Response Analyzer::respond(size_t pos) {
 }
 
 Analysis Analyzer::analyse(const TaskSet& set) {
-  prepare(set);
   Analysis out;
+  analyse(set, out);
+  return out;
+}
+
+void Analyzer::analyse(const TaskSet& set, Analysis& out) {
+  prepare(set);
   out.tasks.resize(set.tasks.size());
   out.schedulable = true;
   for (size_t p = 0; p < order_.size(); ++p) {
@@ -158,7 +167,6 @@ Analysis Analyzer::analyse(const TaskSet& set) {
     tr.deadline = deadline_[p];
     out.schedulable = out.schedulable && r.schedulable;
   }
-  return out;
 }
 
 bool Analyzer::schedulable(const TaskSet& set) {

@@ -72,6 +72,9 @@ class Analyzer {
  public:
   // REQUIRES: validate(set) succeeded and overheads are resolved.
   Analysis analyse(const TaskSet& set);
+  // The same into `out`, reusing its storage (no allocation once it has
+  // held a set as large).
+  void analyse(const TaskSet& set, Analysis& out);
   // Same verdict as analyse(set).schedulable, stopping at the first miss.
   bool schedulable(const TaskSet& set);
 

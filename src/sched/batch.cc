@@ -62,10 +62,10 @@ class Batch {
                    where + ": the tasks carry no priorities; choose --assign rm, dm or audsley");
     }
     if (how != Assignment::kGiven) s = assign_priorities(s, how).set;
-    const Analysis a = analyzer_.analyse(s);
+    analyzer_.analyse(s, analysis_);  // reused: no allocation per set
     std::optional<Sensitivity> sens;
     if (options_.sensitivity) sens = sensitivity(s);
-    write(line, s, a, sens ? &*sens : nullptr);
+    write(line, s, analysis_, sens ? &*sens : nullptr);
   }
 
   BatchSummary summary;
@@ -127,6 +127,7 @@ class Batch {
   std::ostream& out_;
   std::ostream* errors_;
   Analyzer analyzer_;
+  Analysis analysis_;
   fmt::memory_buffer buf_;
 };
 
