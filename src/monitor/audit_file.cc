@@ -349,10 +349,12 @@ void AuditLog::grow_ahead() {
     // replaces meanwhile stays mapped until this thread unmaps it.
     // One step at a time, the CPU given back after each: a thread that
     // yields to this one (the channel's spinning server does, every few
-    // hundred ns) waits one page (~5 µs), not 64 KiB (~100 µs,
-    // `contego bench`'s c2 rows stalled 140 µs every 192 KiB of log).
+    // hundred ns) waits for one step. 64 KiB of appended zeros, one large
+    // folio, take about 20 µs with their populate; one step per page cost
+    // c2 ~10 µs on every page of records (its p99), and 64 KiB of a
+    // posix_fallocate'd range cost ~100 µs (round 9).
     char* const window = map_;
-    const size_t len = std::min(step, file_room_ - from);
+    const size_t len = std::min(kGrowStep, file_room_ - from);
     if (len == 0) continue;
     g.unlock();
     const bool ok = madvise(window + from, len, MADV_POPULATE_WRITE) == 0;
