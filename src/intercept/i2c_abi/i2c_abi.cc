@@ -57,8 +57,11 @@ gate::Message write_msg(const FdState& s, std::vector<uint8_t> bytes) {
 
 // A write of the command (register) byte followed by `n` data bytes.
 gate::Message command_write(const FdState& s, uint8_t cmd, const uint8_t* data, size_t n) {
-  std::vector<uint8_t> bytes{cmd};
-  bytes.insert(bytes.end(), data, data + n);
+  std::vector<uint8_t> bytes(n + 1);
+  bytes[0] = cmd;
+  // Copied only when there is something to copy: `data` may be null for
+  // n = 0 (and an insert from it made link-time optimisation warn).
+  if (n != 0) std::memcpy(bytes.data() + 1, data, n);
   return write_msg(s, std::move(bytes));
 }
 
