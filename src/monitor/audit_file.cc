@@ -196,14 +196,14 @@ AuditLog::~AuditLog() {
 // The file behind the window reaches at least `upto` bytes into it (at
 // most the window's end), its blocks allocated, so that a full file system
 // fails here and not as a SIGBUS on a page of the window: zeros appended
-// (the descriptor is O_APPEND) `step` bytes at a time, as far as they fit.
+// (the descriptor is O_APPEND) kGrowStep at a time, as far as they fit.
 // Written zeros, not posix_fallocate: ext4 keeps a fallocated range as an
 // unwritten extent and converts it at the first store into it, and tmpfs
 // zeroes its pages in the fallocate itself, both about 0.3 µs per KiB of
 // the range in one stretch of kernel work (350 µs for a MiB) that held the
 // CPU of whichever thread did it, while a request waited behind it.
 // grow_mu_ held.
-bool AuditLog::extend_locked(size_t upto, size_t step) {
+bool AuditLog::extend_locked(size_t upto) {
   const size_t page = static_cast<size_t>(sysconf(_SC_PAGESIZE));
   upto = std::min(map_len_, (upto + page - 1) / page * page);
   if (upto <= file_room_) return true;
@@ -212,10 +212,9 @@ bool AuditLog::extend_locked(size_t upto, size_t step) {
   if (fstat(fd_, &st) != 0) return false;
   off_t end = st.st_size;  // where the next append lands
   const off_t want = map_base_ + static_cast<off_t>(upto);
-  static const char kZeros[std::max(kGrowStep, kWriterStep)] = {};
-  step = std::min(step, sizeof kZeros);
+  static const char kZeros[kGrowStep] = {};
   while (end < want) {
-    const auto n = static_cast<size_t>(std::min<off_t>(static_cast<off_t>(step), want - end));
+    const auto n = static_cast<size_t>(std::min<off_t>(static_cast<off_t>(kGrowStep), want - end));
     const ssize_t w = ::write(fd_, kZeros, n);
     if (w < 0 && errno == EINTR) continue;
     if (w <= 0) break;  // ENOSPC, EDQUOT, EFBIG, EIO: what was written stays usable

@@ -301,13 +301,13 @@ bool AuditLog::put_locked(const std::string& line) {
   if (!room) {
     // The grower fell behind on allocating (a burst of records on busy
     // CPUs), the window is full, or the file system is: make room here.
-    // Zeros appended kWriterStep at once, in one write(2), and no page
+    // Zeros appended kGrowStep at once, in one write(2), and no page
     // populated: the copy faults its page in itself, and one fault maps the
     // whole folio the append made (Linux 6.x page cache), so a burst pays
     // one system call per 64 KiB of records, not one per page.
     std::lock_guard g(grow_mu_);
     if (at + line.size() <= map_len_) {
-      (void)extend_locked(at + line.size() + kWriterStep, kWriterStep);
+      (void)extend_locked(at + line.size() + kGrowStep);
       room = at + line.size() <= allocated_.load(std::memory_order_relaxed);
     } else {
       room = map_from_locked(pos_, line.size());

@@ -140,22 +140,17 @@ class AuditLog {
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kGrowStep steps. False (and unmapped) on failure.
   bool map_from_locked(off_t pos, size_t need);
-  // The file backs the window up to `upto`, appended `step` bytes per
-  // write(2); grow_mu_ held.
-  bool extend_locked(size_t upto, size_t step = kGrowStep);
-  bool grow_locked(size_t upto);  // extended and faulted in up to `upto`; grow_mu_ held
-  void grow_ahead();              // the grower thread
+  bool extend_locked(size_t upto);  // the file backs the window up to `upto`; grow_mu_ held
+  bool grow_locked(size_t upto);    // extended and faulted in up to `upto`; grow_mu_ held
+  void grow_ahead();                // the grower thread
   static constexpr size_t kWindow = size_t{256} << 20;  // mapped at once (address space only)
   static constexpr size_t kMapChunk = 1 << 20;          // a window's length is a multiple
-  // The file grows by at most this much per step of the grower (zeros
-  // appended and faulted in: about 20 µs of kernel work, during which it
-  // holds its CPU).
+  // The file grows by this much per write(2) of zeros: a step of the
+  // grower (appended and faulted in: about 20 µs of kernel work, during
+  // which it holds its CPU), or the writer's own when it finds the grower
+  // behind (about 17 µs per 64 KiB of records, where a write and a populate
+  // per 4 KiB cost 6 µs every dozen records: the p99 of a burst).
   static constexpr size_t kGrowStep = 64 * 1024;
-  // What the writer appends when it finds the grower behind: one write(2)
-  // of zeros (about 17 µs) per 64 KiB of records, instead of a write and a
-  // page populated per 4 KiB (about 6 µs every dozen records: the p99 of a
-  // burst that outruns the grower).
-  static constexpr size_t kWriterStep = 64 * 1024;
   static constexpr size_t kPrefault = 64 * 1024;  // pages faulted in per step
   static constexpr size_t kAhead = 256 * 1024;    // kept ready ahead of the writer
   mutable std::mutex mu_;
