@@ -59,6 +59,10 @@ struct ChannelControl {
   alignas(64) std::atomic<uint32_t> request_seq;  // client: bumped after a request is written
   std::atomic<uint32_t> request_type;
   std::atomic<uint32_t> request_len;
+  // client: CLOCK_MONOTONIC ns at the post (for the monitor's spin timing only)
+  alignas(8) std::atomic<uint64_t> request_posted_ns;
+  // client: the one CPU its thread is pinned to, plus 1 (0: not pinned)
+  std::atomic<uint32_t> client_cpu;
   alignas(64) std::atomic<uint32_t> reply_seq;  // server: the request seq it answered
   std::atomic<uint32_t> reply_type;
   std::atomic<uint32_t> reply_len;
@@ -67,7 +71,10 @@ struct ChannelControl {
 };
 static_assert(std::atomic<uint32_t>::is_always_lock_free);
 // The offsets docs/gate-protocol.md gives.
+static_assert(std::atomic<uint64_t>::is_always_lock_free);
 static_assert(offsetof(ChannelControl, request_seq) == 0 &&
+              offsetof(ChannelControl, request_posted_ns) == 16 &&
+              offsetof(ChannelControl, client_cpu) == 24 &&
               offsetof(ChannelControl, reply_seq) == 64 &&
               offsetof(ChannelControl, server_sleeping) == 128 &&
               offsetof(ChannelControl, client_sleeping) == 192);
@@ -122,6 +129,10 @@ class Channel {
   bool wait_change(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
                    uint32_t spin_us, bool* slept);
   bool peer_connected();
+  // Sleeps until `word` leaves `old` or monotonic time `deadline_ns`, whichever
+  // is first, announcing it in `sleeping`. False if the peer went away.
+  bool doze_until(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
+                  uint64_t deadline_ns);
 
   base::UniqueFd memfd_;  // closed after the destructor unmaps the channel
   int socket_fd_;
@@ -131,9 +142,16 @@ class Channel {
   static constexpr uint32_t kSpinMisses = 8;     // spins in a row that end asleep...
   static constexpr uint32_t kSpinBackoff = 256;  // ...stop spinning for this many answers
   uint32_t unanswered_spins_ = 0;                // client: spins in a row that ended asleep
-  uint32_t skipped_spins_ = 0;   // client: answers awaited without spinning since then
-  bool bursting_ = false;        // server: the last request followed its predecessor closely
-  uint64_t answered_at_ns_ = 0;  // server: when the last answer was written
+  uint32_t skipped_spins_ = 0;     // client: answers awaited without spinning since then
+  bool bursting_ = false;          // server: the last request followed its predecessor closely
+  uint32_t burst_taken_ = 0;       // server: requests taken in the current burst
+  uint32_t last_burst_ = 0;        // server: requests in the burst before it
+  uint64_t burst_started_ns_ = 0;  // server: when the current burst's first request was taken
+  uint64_t last_period_ns_ = 0;    // server: between the last two bursts' starts
+  uint64_t burst_period_ns_ = 0;   // server: that, when steady (else 0: no prediction)
+  bool cpu_told_ = false;          // client: client_cpu written
+  bool placed_ = false;            // server: keep_off_peer_cpu() done
+  uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
 };
 
 // Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the

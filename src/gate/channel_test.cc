@@ -1,8 +1,10 @@
 #include "gate/channel.h"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <gtest/gtest.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
@@ -158,6 +160,76 @@ TEST_F(ChannelPair, APeerThatHangsUpEndsTheWait) {
   uint32_t seq = 0;
   ASSERT_TRUE(client->post(wire::Type::kTransfer, {}, &seq));  // the server never answers
   EXPECT_FALSE(client->await_reply(seq, nullptr, nullptr));
+}
+
+// A periodic client (bursts of three requests every 20 ms): once two periods
+// agree, the server is awake (spinning) when a burst is due instead of
+// asleep on the futex, it spins on another CPU than the client's pinned one
+// (when it has one), and between bursts it sleeps.
+TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
+  // A wide spin: the lead before a burst is due must cover a slow
+  // (sanitised, shared) machine's timer and wake-up delays.
+  SpinPolicy lead{/*spin_us=*/3000, /*poll_ms=*/50};
+  auto s = Channel::create(fds[0], lead);
+  ASSERT_TRUE(s.ok());
+  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
+  ASSERT_TRUE(c.ok());
+  auto* control = static_cast<ChannelControl*>(
+      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
+  ASSERT_NE(control, MAP_FAILED);
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof all, &all), 0);
+  int client_cpu = -1;
+  for (int cpu = 0; cpu < CPU_SETSIZE && CPU_COUNT(&all) > 1; ++cpu) {
+    if (CPU_ISSET(cpu, &all)) {
+      client_cpu = cpu;
+      break;
+    }
+  }
+  constexpr int kBursts = 12;
+  cpu_set_t server_cpus;
+  CPU_ZERO(&server_cpus);
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    for (int i = 0; i < kBursts * 3; ++i) {
+      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
+      (*s)->answer(static_cast<uint8_t>(wire::Type::kReply), req);
+    }
+    sched_getaffinity(0, sizeof server_cpus, &server_cpus);
+  });
+  if (client_cpu >= 0) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(client_cpu, &one);
+    ASSERT_EQ(sched_setaffinity(0, sizeof one, &one), 0);
+  }
+  int awake_when_due = 0, asleep_between = 0;
+  auto next = std::chrono::steady_clock::now();
+  for (int burst = 0; burst < kBursts; ++burst) {
+    next += std::chrono::milliseconds(20);
+    std::this_thread::sleep_until(next - std::chrono::milliseconds(10));
+    asleep_between += burst >= 4 && control->server_sleeping.load() != 0 ? 1 : 0;
+    std::this_thread::sleep_until(next);
+    awake_when_due += burst >= 4 && control->server_sleeping.load() == 0 ? 1 : 0;
+    for (int i = 0; i < 3; ++i) {
+      const uint8_t b[1] = {static_cast<uint8_t>(i)};
+      uint32_t seq = 0;
+      ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
+      ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
+    }
+  }
+  monitor.join();
+  sched_setaffinity(0, sizeof all, &all);
+  munmap(control, Channel::kControlSize);
+  // Of the 8 bursts after the first 4, most find the server awake, and most
+  // gaps find it asleep (a loaded machine may delay either now and then).
+  EXPECT_GE(awake_when_due, 5);
+  EXPECT_GE(asleep_between, 5);
+  if (client_cpu >= 0) {
+    EXPECT_FALSE(CPU_ISSET(client_cpu, &server_cpus)) << "the server spins on the client's CPU";
+  }
 }
 
 // The client refuses a descriptor that is not a sealed channel of the right size.
