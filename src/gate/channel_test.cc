@@ -162,14 +162,14 @@ TEST_F(ChannelPair, APeerThatHangsUpEndsTheWait) {
   EXPECT_FALSE(client->await_reply(seq, nullptr, nullptr));
 }
 
-// A periodic client (bursts of three requests every 20 ms): once two periods
+// A periodic client (bursts of three requests every 40 ms): once two periods
 // agree, the server is awake (spinning) when a burst is due instead of
 // asleep on the futex, it spins on another CPU than the client's pinned one
 // (when it has one), and between bursts it sleeps.
 TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
   // A wide spin: the lead before a burst is due must cover a slow
-  // (sanitised, shared) machine's timer and wake-up delays.
-  SpinPolicy lead{/*spin_us=*/3000, /*poll_ms=*/50};
+  // (sanitised, emulated, shared) machine's timer and wake-up delays.
+  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
   auto s = Channel::create(fds[0], lead);
   ASSERT_TRUE(s.ok());
   auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
@@ -208,8 +208,8 @@ TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
   int awake_when_due = 0, asleep_between = 0;
   auto next = std::chrono::steady_clock::now();
   for (int burst = 0; burst < kBursts; ++burst) {
-    next += std::chrono::milliseconds(20);
-    std::this_thread::sleep_until(next - std::chrono::milliseconds(10));
+    next += std::chrono::milliseconds(40);
+    std::this_thread::sleep_until(next - std::chrono::milliseconds(20));
     asleep_between += burst >= 4 && control->server_sleeping.load() != 0 ? 1 : 0;
     std::this_thread::sleep_until(next);
     awake_when_due += burst >= 4 && control->server_sleeping.load() == 0 ? 1 : 0;
