@@ -233,7 +233,7 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   // sleeps at once and costs no CPU until the next one.
   const bool expected = burst_taken_ < last_burst_ || (bursting_ && burst_taken_ != last_burst_);
   const uint64_t spin_ns = uint64_t{policy_.spin_us} * 1000u;
-  uint64_t spin = expected ? spin_ns : 0;
+  uint32_t spin_us = expected ? policy_.spin_us : 0;
   if (!expected && spin_ns > 0 && burst_period_ns_ > 0) {
     // A client whose bursts start a steady period apart (a periodic task's
     // jobs): sleep until the spin time before the next one is due, then
@@ -249,10 +249,9 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
     if (!doze_until(c.request_seq, last_seq_, c.server_sleeping, due - std::min(due, spin_ns))) {
       return Next::kClosed;
     }
-    spin = 2 * spin_ns;
+    spin_us = 2 * policy_.spin_us;
   }
-  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, static_cast<uint32_t>(spin / 1000u),
-                   nullptr)) {
+  if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin_us, nullptr)) {
     return Next::kClosed;
   }
   // When the client posted (its word, bounded by when we took it): a thread

@@ -70,8 +70,8 @@ struct ChannelControl {
   alignas(64) std::atomic<uint32_t> client_sleeping;  // client waits on reply_seq's futex
 };
 static_assert(std::atomic<uint32_t>::is_always_lock_free);
-// The offsets docs/gate-protocol.md gives.
 static_assert(std::atomic<uint64_t>::is_always_lock_free);
+// The offsets docs/gate-protocol.md gives.
 static_assert(offsetof(ChannelControl, request_seq) == 0 &&
               offsetof(ChannelControl, request_posted_ns) == 16 &&
               offsetof(ChannelControl, client_cpu) == 24 &&
@@ -146,11 +146,11 @@ class Channel {
   bool bursting_ = false;          // server: the last request followed its predecessor closely
   uint32_t burst_taken_ = 0;       // server: requests taken in the current burst
   uint32_t last_burst_ = 0;        // server: requests in the burst before it
-  uint64_t burst_started_ns_ = 0;  // server: when the current burst's first request was taken
+  uint64_t burst_started_ns_ = 0;  // server: when the current burst's first request was posted
   uint64_t last_period_ns_ = 0;    // server: between the last two bursts' starts
   uint64_t burst_period_ns_ = 0;   // server: that, when steady (else 0: no prediction)
   bool cpu_told_ = false;          // client: client_cpu written
-  bool placed_ = false;            // server: keep_off_peer_cpu() done
+  bool placed_ = false;            // server: keep_off_cpu() done
   uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
 };
 
