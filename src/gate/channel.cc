@@ -57,18 +57,26 @@ uint32_t pinned_cpu_plus_one() {
 
 // A thread that spins for a client pinned to one CPU must not spin on that
 // CPU: it would take turns with the client instead of answering it. So the
-// calling thread leaves that CPU to the client, when it has another. (The
-// CPU is the client's word: a false one only moves this thread.)
-void keep_off_cpu(uint32_t cpu_plus_one) {
+// calling thread moves off that CPU, when it is on it and has another. It
+// keeps all its CPUs: narrowed for good, it would wait out whatever holds
+// the CPU left to it (a kernel thread, for ms) with the client's CPU idle,
+// where the scheduler's balancing can otherwise move it. (The CPU is the
+// client's word: a false one only moves this thread.)
+void step_off_cpu(uint32_t cpu_plus_one) {
   if (cpu_plus_one == 0 || cpu_plus_one > CPU_SETSIZE) return;
   const int cpu = static_cast<int>(cpu_plus_one - 1);
+  if (sched_getcpu() != cpu) return;
   cpu_set_t mine;
   if (sched_getaffinity(0, sizeof mine, &mine) != 0 || !CPU_ISSET(cpu, &mine) ||
       CPU_COUNT(&mine) < 2) {
     return;
   }
-  CPU_CLR(cpu, &mine);
-  (void)sched_setaffinity(0, sizeof mine, &mine);
+  cpu_set_t elsewhere = mine;
+  CPU_CLR(cpu, &elsewhere);
+  if (sched_setaffinity(0, sizeof elsewhere, &elsewhere) == 0) {
+    // Moved now; it stays there until the scheduler moves it.
+    (void)sched_setaffinity(0, sizeof mine, &mine);
+  }
 }
 
 Result<uint8_t*> map(int fd) {
@@ -239,9 +247,8 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
     // jobs): sleep until the spin time before the next one is due, then
     // spin through it, so that its first request finds this thread awake
     // instead of paying a wake-up (tens of µs on a virtual machine).
-    if (!placed_) {
-      placed_ = true;
-      keep_off_cpu(c.client_cpu.load(std::memory_order_relaxed));
+    if (!slack_set_) {
+      slack_set_ = true;
       // The default 50 µs of timer slack would spend half the lead.
       (void)prctl(PR_SET_TIMERSLACK, 1ul, 0ul, 0ul, 0ul);
     }
@@ -249,6 +256,8 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
     if (!doze_until(c.request_seq, last_seq_, c.server_sleeping, due - std::min(due, spin_ns))) {
       return Next::kClosed;
     }
+    // Woken where the scheduler chose; the spin belongs off the client's CPU.
+    step_off_cpu(c.client_cpu.load(std::memory_order_relaxed));
     spin_us = 2 * policy_.spin_us;
   }
   if (!wait_change(c.request_seq, last_seq_, c.server_sleeping, spin_us, nullptr)) {

@@ -150,7 +150,7 @@ class Channel {
   uint64_t last_period_ns_ = 0;    // server: between the last two bursts' starts
   uint64_t burst_period_ns_ = 0;   // server: that, when steady (else 0: no prediction)
   bool cpu_told_ = false;          // client: client_cpu written
-  bool placed_ = false;            // server: keep_off_cpu() done
+  bool slack_set_ = false;         // server: timer slack lowered for its doze
   uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
 };
 
