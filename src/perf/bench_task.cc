@@ -17,7 +17,7 @@
 // job of PER_JOB commands (the HEXBYTES in turn) released every PERIOD_US
 // on the grid through GRID_NS (CLOCK_MONOTONIC, absolute sleeps; see
 // perf/release.h); OUT receives JOBS job times, each from the job's wake-up
-// to the end of its last write().
+// to the end of its last write(), then the first job's release instant.
 // Exit status: 0, 1 on bad arguments or I/O errors, 2 if any write failed.
 #include <errno.h>
 #include <fcntl.h>
@@ -117,6 +117,8 @@ int per_job(char** argv) {
     ns[static_cast<size_t>(j)] = monotonic_ns() - t0;
   }
   fd.reset();  // done with the device before the samples are written
+  // Then when job 0 was released: the others follow on the grid.
+  ns.push_back(first);
   if (!write_samples(argv[5], ns)) return 1;
   if (failed > 0) fprintf(stderr, "bench task: %ld writes failed\n", failed);
   return failed > 0 ? 2 : 0;

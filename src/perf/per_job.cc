@@ -28,7 +28,8 @@ std::string joined_hex(const Workload& w) {
 }
 
 // The in-process paths (a, d): the same release grid as the task program's.
-// `command` sends one command and says whether it failed.
+// `command` sends one command and says whether it failed. As the task
+// program's, the samples end with the first job's release instant.
 template <typename Send>
 std::vector<uint64_t> time_jobs(const PerJobOptions& o, uint64_t grid_ns, Send command,
                                 const std::function<void()>& anchor, uint64_t* failures) {
@@ -42,6 +43,7 @@ std::vector<uint64_t> time_jobs(const PerJobOptions& o, uint64_t grid_ns, Send c
     for (uint32_t i = 0; i < o.per_job; ++i) *failures += command(i) ? 1 : 0;
     ns[j] = monotonic_ns() - t0;
   }
+  ns.push_back(first);
   return ns;
 }
 
@@ -186,13 +188,19 @@ Result<PerJobReport> run_per_job(const PerJobOptions& o) {
       return make_error(
           fmt::format("per job / {}: {}", path_label(lane.path), lane.samples.error()));
     }
-    if (lane.samples->size() != o.jobs) {
-      return make_error(fmt::format("per job / {}: {} jobs timed, expected {}",
-                                    path_label(lane.path), lane.samples->size(), o.jobs));
+    // Every job's time, then the first job's release instant.
+    if (lane.samples->size() != uint64_t{o.jobs} + 1) {
+      return make_error(
+          fmt::format("per job / {}: {} values from the task, expected {} jobs' times and "
+                      "the first release",
+                      path_label(lane.path), lane.samples->size(), o.jobs));
     }
     PerJobRow& row = lane.row;
     row.path = lane.path;
     if (lane.path != Path::kUnprotected) row.decisions = decisions_in(lane.audit);
+    const uint64_t first_release = lane.samples->back();
+    lane.samples->pop_back();
+    row.slowest = slowest_jobs(*lane.samples, first_release, period_ns, kSlowestKept);
     row.job_ns = std::move(*lane.samples);
     std::sort(row.job_ns.begin(), row.job_ns.end());
     row.stats = summarise(row.job_ns);
@@ -201,6 +209,33 @@ Result<PerJobReport> run_per_job(const PerJobOptions& o) {
     report.rows.push_back(std::move(row));
   }
   return report;
+}
+
+namespace {
+
+// "c2" of "c2 seccomp+monitor".
+std::string path_code(Path p) {
+  const std::string label = path_label(p);
+  return label.substr(0, label.find(' '));
+}
+
+}  // namespace
+
+std::vector<SlowJob> slowest_jobs(const std::vector<uint64_t>& job_ns, uint64_t first_release_ns,
+                                  uint64_t period_ns, size_t count) {
+  std::vector<uint32_t> order(job_ns.size());
+  for (uint32_t j = 0; j < order.size(); ++j) order[j] = j;
+  const size_t kept = std::min(count, order.size());
+  std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(kept), order.end(),
+                    [&](uint32_t a, uint32_t b) {
+                      return job_ns[a] != job_ns[b] ? job_ns[a] > job_ns[b] : a < b;
+                    });
+  std::vector<SlowJob> slowest;
+  for (size_t k = 0; k < kept; ++k) {
+    const uint32_t j = order[k];
+    slowest.push_back({j, first_release_ns + uint64_t{j} * period_ns, job_ns[j]});
+  }
+  return slowest;
 }
 
 std::string per_job_table(const PerJobReport& r) {
@@ -233,6 +268,22 @@ std::string per_job_table(const PerJobReport& r) {
   s += fmt::format("{:<20} {:>9} {:>9} {:>9} {:>10}   {:>9.0f} {:>9.0f} {:>10.0f}   ({} trials)\n",
                    "paper (Contego-TEE)", "", "", "", "", paper.avg_ms * 1000, paper.p99_ms * 1000,
                    paper.worst_ms * 1000, paper.trials);
+  // When to look in a trace (`perf record -k CLOCK_MONOTONIC`) for what
+  // else ran during a path's worst job.
+  std::string slowest;
+  for (const PerJobRow& row : r.rows) {
+    if (row.path == Path::kUnprotected || row.slowest.empty()) continue;
+    const SlowJob& w = row.slowest.front();
+    slowest += fmt::format("{}{} {:.0f} µs at {}.{:09}", slowest.empty() ? "" : ", ",
+                           path_code(row.path), static_cast<double>(w.job_ns) / 1000.0,
+                           w.release_ns / 1000000000u, w.release_ns % 1000000000u);
+  }
+  if (!slowest.empty()) {
+    s += fmt::format(
+        "slowest job, released at (CLOCK_MONOTONIC s): {}; the {} slowest of each "
+        "path are in per-job.json\n",
+        slowest, kSlowestKept);
+  }
   return s;
 }
 
@@ -267,6 +318,13 @@ nlohmann::json per_job_json(const PerJobReport& r) {
                           {"worst", x.worst_us - b.worst_us}};
       cell["decisions"] = row.decisions;
     }
+    nlohmann::json slowest = nlohmann::json::array();
+    for (const SlowJob& w : row.slowest) {
+      slowest.push_back({{"job", w.job},
+                         {"release_ns", w.release_ns},
+                         {"job_us", static_cast<double>(w.job_ns) / 1000.0}});
+    }
+    cell["slowest"] = slowest;
     paths[path_key(row.path)] = cell;
   }
   j["paths"] = paths;

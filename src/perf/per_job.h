@@ -37,13 +37,31 @@ struct PerJobOptions {
   std::function<void(const std::string&)> progress;  // may be empty
 };
 
+// One job of a path, by its release instant (CLOCK_MONOTONIC, as `perf
+// record -k CLOCK_MONOTONIC` stamps its events): a slow job can be lined up
+// with a trace of what else ran then.
+struct SlowJob {
+  uint32_t job = 0;  // 0-based
+  uint64_t release_ns = 0;
+  uint64_t job_ns = 0;
+};
+
+// The `count` slowest of `job_ns` (in job order; job j released at
+// first_release_ns + j * period_ns), slowest first, the earlier job first
+// among equals.
+std::vector<SlowJob> slowest_jobs(const std::vector<uint64_t>& job_ns, uint64_t first_release_ns,
+                                  uint64_t period_ns, size_t count);
+
 struct PerJobRow {
   Path path = Path::kUnprotected;
   Stats stats;                   // per job
   std::vector<uint64_t> job_ns;  // every job's time, sorted (the CDF)
+  std::vector<SlowJob> slowest;  // kSlowestKept, slowest first
   uint64_t failures = 0;
   std::map<std::string, uint64_t> decisions;  // from the audit log
 };
+
+inline constexpr size_t kSlowestKept = 10;
 
 struct PerJobReport {
   std::string workload;
@@ -62,7 +80,8 @@ struct PaperFigures {
 Result<PerJobReport> run_per_job(const PerJobOptions& options);
 
 // The table: per path avg / median / p99 / worst per job, the added avg /
-// p99 / worst against path a, the decisions, and the paper's line.
+// p99 / worst against path a, the decisions, the paper's line, and when
+// each protected path's slowest job was released.
 std::string per_job_table(const PerJobReport& report);
 nlohmann::json per_job_json(const PerJobReport& report);
 // Writes stem.dat (per path: job time µs and cumulative fraction, one
