@@ -1,6 +1,8 @@
 // A process opens the bus and dies; a new process is then created under the
-// dead one's number (clone3 with set_tid, which needs CAP_SYS_ADMIN) and
-// uses the descriptor number the dead one held, without opening anything.
+// dead one's number (clone3 with set_tid, or, where clone3 is refused as
+// under contego's seccomp filter, fork after writing the number before it
+// to /proc/sys/kernel/ns_last_pid; both need CAP_SYS_ADMIN) and uses the
+// descriptor number the dead one held, without opening anything.
 // The new process holds no such descriptor, so the call must fail with
 // EBADF and nothing may reach the bus. Prints "<step> <result> <errno>";
 // "reuse-skipped" when the number cannot be chosen here.
@@ -40,14 +42,9 @@ int main() {
   report("first-open", bus_fd);
   if (bus_fd < 0) return 2;
 
-  pid_t wanted = first;
-  clone_args args{};
-  args.exit_signal = SIGCHLD;
-  args.set_tid = reinterpret_cast<uintptr_t>(&wanted);
-  args.set_tid_size = 1;
-  const long second = syscall(SYS_clone3, &args, sizeof args);
-  if (second == 0) {
-    // Same number as the process that held bus_fd; never opened it.
+  // The new process: same number as the one that held bus_fd; it never
+  // opened it.
+  auto use_dead_ones_descriptor = [bus_fd] {
     unsigned char led[2] = {0x07, 0x5A};
     long r = ioctl(bus_fd, I2C_SLAVE, 0x40);
     const int slave_errno = r < 0 ? errno : 0;
@@ -55,12 +52,35 @@ int main() {
     std::printf("reuse-slave %d\nreuse-write %ld %d\n", slave_errno, r, r < 0 ? errno : 0);
     std::fflush(stdout);
     _exit(0);
+  };
+  pid_t wanted = first;
+  clone_args args{};
+  args.exit_signal = SIGCHLD;
+  args.set_tid = reinterpret_cast<uintptr_t>(&wanted);
+  args.set_tid_size = 1;
+  long second = syscall(SYS_clone3, &args, sizeof args);
+  if (second == 0) use_dead_ones_descriptor();
+  if (second > 0) waitpid(static_cast<pid_t>(second), &status, 0);
+  // ns_last_pid: the next fork gets the number after the one written,
+  // unless another process forks in between (then try again).
+  for (int attempt = 0; second < 0 && attempt < 20; ++attempt) {
+    FILE* last = std::fopen("/proc/sys/kernel/ns_last_pid", "w");
+    if (last == nullptr) break;
+    const bool set = std::fprintf(last, "%d", first - 1) > 0;
+    if (std::fclose(last) != 0 || !set) break;
+    const pid_t child = fork();
+    if (child == 0) {
+      if (getpid() == first) use_dead_ones_descriptor();
+      _exit(3);  // another number: not this test's case
+    }
+    if (child < 0) break;
+    waitpid(child, &status, 0);
+    if (child == first) second = child;
   }
   if (second < 0) {
     report("reuse-skipped", second);
     return 0;
   }
-  waitpid(static_cast<pid_t>(second), &status, 0);
   report("reuse-same-number", second == first ? 0 : -1);
   return 0;
 }
