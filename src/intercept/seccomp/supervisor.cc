@@ -37,6 +37,7 @@
 #include "base/unique_fd.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 #include "intercept/seccomp/bus_path.h"
+#include "intercept/seccomp/descriptor_table.h"
 #include "intercept/seccomp/reach.h"
 #include "intercept/seccomp/remote_memory.h"
 #include "intercept/seccomp/scheduling.h"
@@ -52,41 +53,6 @@ constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
 #else
 #error "unsupported architecture"
 #endif
-
-// --- per-process descriptor tables ---------------------------------------------------------
-
-// One opened bus: its state and its own stand-in file (a /dev/null opened
-// for it alone), so that kcmp can tell whether a program's descriptor is
-// still this bus's (a CLONE_FILES sibling may have closed it, or put
-// something else at its number) before anything acts.
-struct Handle {
-  i2c_abi::FdState state;
-  base::UniqueFd standin{open("/dev/null", O_RDWR | O_CLOEXEC)};
-};
-
-// True if descriptor `fd` of thread `tid` is the very file `own` is in this
-// process, `self`. (A kernel without kcmp, CONFIG_KCMP unset: the
-// descriptor tables are trusted.)
-bool same_open_file(pid_t self, pid_t tid, int fd, int own) {
-  constexpr int kKcmpFile = 0;  // KCMP_FILE
-  const long r = syscall(SYS_kcmp, self, tid, kKcmpFile, own, fd);
-  return r == 0 || (r < 0 && errno == ENOSYS);
-}
-
-struct Process {
-  std::map<int, std::shared_ptr<Handle>> fds;
-  std::set<int> cloexec;  // bus descriptors that a successful exec closes
-  // Names this very process, not its number: once it is reaped the number may
-  // be handed to a new process, which must not inherit these descriptors.
-  base::UniqueFd pidfd;
-  bool alive() const {
-    return pidfd.valid() && syscall(SYS_pidfd_send_signal, pidfd.get(), 0, nullptr, 0) == 0;
-  }
-};
-
-// True while `tid` is a thread of the thread group `tgid` (signal 0 delivers
-// nothing; it only looks the thread up).
-bool thread_of(pid_t tgid, pid_t tid) { return syscall(SYS_tgkill, tgid, tid, 0) == 0; }
 
 class Loop {
  public:
