@@ -10,10 +10,21 @@ namespace contego::intercept::seccomp {
 
 Handle::Handle() : standin(open("/dev/null", O_RDWR | O_CLOEXEC)) {}
 
-bool same_open_file(pid_t self, pid_t tid, int fd, int own) {
+namespace {
+// kcmp's answer: 0 for the same file, else another order or -1 (errno).
+long compare_files(pid_t self, pid_t tid, int fd, int own) {
   constexpr int kKcmpFile = 0;  // KCMP_FILE
-  const long r = syscall(SYS_kcmp, self, tid, kKcmpFile, own, fd);
+  return syscall(SYS_kcmp, self, tid, kKcmpFile, own, fd);
+}
+}  // namespace
+
+bool same_open_file(pid_t self, pid_t tid, int fd, int own) {
+  const long r = compare_files(self, tid, fd, own);
   return r == 0 || (r < 0 && errno == ENOSYS);
+}
+
+bool proven_same_open_file(pid_t self, pid_t tid, int fd, int own) {
+  return compare_files(self, tid, fd, own) == 0;
 }
 
 bool Process::alive() const {

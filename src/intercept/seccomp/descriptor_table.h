@@ -29,6 +29,9 @@ struct Handle {
 // process, `self`. (A kernel without kcmp, CONFIG_KCMP unset: the
 // descriptor tables are trusted.)
 bool same_open_file(pid_t self, pid_t tid, int fd, int own);
+// The same, but false when the kernel cannot tell (no kcmp): for a shortcut
+// that is only sound when the comparison was really made.
+bool proven_same_open_file(pid_t self, pid_t tid, int fd, int own);
 
 struct Process {
   std::map<int, std::shared_ptr<Handle>> fds;

@@ -381,11 +381,13 @@ void Loop::handle(const seccomp_notif& n) {
   // (a bus call does not look at the process). So the cached thread and
   // process are not checked for liveness first (a system call or two per
   // command): a stale entry passes kcmp only with the very file the caller
-  // holds. Anything else (not cached, kcmp fails) goes the full way below.
+  // holds. Anything else (not cached, kcmp fails or is missing) goes the
+  // full way below.
   if (!closing_ && (nr == __NR_write || nr == __NR_ioctl || nr == __NR_read)) {
     const int fd = static_cast<int>(n.data.args[0]);
     if (auto h = cached_handle(static_cast<pid_t>(n.pid), fd);
-        h != nullptr && same_open_file(self_, static_cast<pid_t>(n.pid), fd, h->standin.get())) {
+        h != nullptr &&
+        proven_same_open_file(self_, static_cast<pid_t>(n.pid), fd, h->standin.get())) {
       return bus_call(n, h);
     }
   }
