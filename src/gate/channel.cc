@@ -238,8 +238,10 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   // before it), and its jobs are alike, so the burst before this one says
   // how many follow. Past that count, spin only for a client that keeps
   // sending back to back. At the predicted end of a job the connection
-  // sleeps at once and costs no CPU until the next one.
-  const bool expected = burst_taken_ < last_burst_ || (bursting_ && burst_taken_ != last_burst_);
+  // sleeps at once and costs no CPU until the next one; a job-end from the
+  // client says so too, whatever the count.
+  const bool expected =
+      !job_ended_ && (burst_taken_ < last_burst_ || (bursting_ && burst_taken_ != last_burst_));
   const uint64_t spin_ns = uint64_t{policy_.spin_us} * 1000u;
   uint32_t spin_us = expected ? policy_.spin_us : 0;
   if (!expected && spin_ns > 0 && burst_period_ns_ > 0) {
@@ -270,19 +272,11 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   const uint64_t posted = std::clamp<uint64_t>(c.request_posted_ns.load(std::memory_order_relaxed),
                                                std::min(taken, answered_at_ns_), taken);
   bursting_ = posted - std::min(posted, answered_at_ns_) <= spin_ns;
-  if (bursting_) {
-    ++burst_taken_;
+  if (bursting_ || !note_burst_start(posted)) {
+    ++burst_taken_;  // the same job: its count goes on
   } else {
     last_burst_ = burst_taken_;
     burst_taken_ = 1;
-    // The period counts as steady when it is within an eighth of the last.
-    const uint64_t period =
-        burst_started_ns_ > 0 && posted > burst_started_ns_ ? posted - burst_started_ns_ : 0;
-    const uint64_t last = last_period_ns_;
-    const uint64_t gap = period > last ? period - last : last - period;
-    burst_period_ns_ = period > 0 && gap <= period / 8 ? period : 0;
-    last_period_ns_ = period;
-    burst_started_ns_ = posted;
   }
   last_seq_ = c.request_seq.load(std::memory_order_acquire);
   // Read each field once; the client may be rewriting them as we go.
@@ -290,10 +284,41 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   const uint32_t len = c.request_len.load(std::memory_order_relaxed);
   *claimed_len = len;
   *type = t <= 0xFF ? static_cast<uint8_t>(t) : 0;
+  job_ended_ = t == static_cast<uint32_t>(wire::Type::kJobEnd);
   if (len > kSlotSize) return Next::kOversized;
   payload->resize(len);
   if (len > 0) std::memcpy(payload->data(), request_slot(), len);  // the one copy
   return Next::kRequest;
+}
+
+bool Channel::note_burst_start(uint64_t posted) {
+  const uint64_t period =
+      burst_started_ns_ > 0 && posted > burst_started_ns_ ? posted - burst_started_ns_ : 0;
+  const uint64_t estimate = period_estimate_ns_;
+  // A burst that starts within half a period of the job's start, before the
+  // client's job-end, is the same job, its requests spread out (a slow one
+  // split the burst): the job's start and the prediction from it stand.
+  if (!job_ended_ && estimate > 0 && period < estimate / 2) return false;
+  burst_started_ns_ = posted;
+  // Each burst starts late by a varying amount (the client's wake-up, its
+  // first call's trap). The last start-to-start time carries that twice (a
+  // prediction from it would add the jitter of two starts to the next);
+  // their running mean carries almost none of it. A period within an eighth
+  // of the mean is steady and predicts the next start; one that is not
+  // suspends the prediction, and two in a row start a new mean.
+  const uint64_t gap = period > estimate ? period - estimate : estimate - period;
+  if (period > 0 && estimate > 0 && gap <= estimate / 8) {
+    period_estimate_ns_ = estimate - estimate / 8 + period / 8;
+    unsteady_periods_ = 0;
+    burst_period_ns_ = period_estimate_ns_;
+    return true;
+  }
+  burst_period_ns_ = 0;
+  if (estimate == 0 || ++unsteady_periods_ >= 2) {
+    period_estimate_ns_ = period;
+    unsteady_periods_ = 0;
+  }
+  return true;
 }
 
 void Channel::answer(uint8_t type, std::span<const uint8_t> payload) {

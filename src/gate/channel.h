@@ -133,6 +133,11 @@ class Channel {
   // is first, announcing it in `sleeping`. False if the peer went away.
   bool doze_until(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
                   uint64_t deadline_ns);
+  // Server: a request posted at `posted` (monotonic ns) did not follow its
+  // predecessor closely. True if it starts a new job (the period estimate
+  // and the prediction of the next start updated), false if it belongs to
+  // the job under way.
+  bool note_burst_start(uint64_t posted);
 
   base::UniqueFd memfd_;  // closed after the destructor unmaps the channel
   int socket_fd_;
@@ -142,16 +147,18 @@ class Channel {
   static constexpr uint32_t kSpinMisses = 8;     // spins in a row that end asleep...
   static constexpr uint32_t kSpinBackoff = 256;  // ...stop spinning for this many answers
   uint32_t unanswered_spins_ = 0;                // client: spins in a row that ended asleep
-  uint32_t skipped_spins_ = 0;     // client: answers awaited without spinning since then
-  bool bursting_ = false;          // server: the last request followed its predecessor closely
-  uint32_t burst_taken_ = 0;       // server: requests taken in the current burst
-  uint32_t last_burst_ = 0;        // server: requests in the burst before it
-  uint64_t burst_started_ns_ = 0;  // server: when the current burst's first request was posted
-  uint64_t last_period_ns_ = 0;    // server: between the last two bursts' starts
-  uint64_t burst_period_ns_ = 0;   // server: that, when steady (else 0: no prediction)
-  bool cpu_told_ = false;          // client: client_cpu written
-  bool slack_set_ = false;         // server: timer slack lowered for its doze
-  uint64_t answered_at_ns_ = 0;    // server: when the last answer was written
+  uint32_t skipped_spins_ = 0;       // client: answers awaited without spinning since then
+  bool bursting_ = false;            // server: the last request followed its predecessor closely
+  bool job_ended_ = false;           // server: the last request was the client's job-end
+  uint32_t burst_taken_ = 0;         // server: requests taken in the current burst
+  uint32_t last_burst_ = 0;          // server: requests in the burst before it
+  uint64_t burst_started_ns_ = 0;    // server: when the current burst's first request was posted
+  uint64_t period_estimate_ns_ = 0;  // server: mean time between bursts' starts
+  uint32_t unsteady_periods_ = 0;    // server: periods in a row off that mean
+  uint64_t burst_period_ns_ = 0;     // server: that mean, when steady (else 0: no prediction)
+  bool cpu_told_ = false;            // client: client_cpu written
+  bool slack_set_ = false;           // server: timer slack lowered for its doze
+  uint64_t answered_at_ns_ = 0;      // server: when the last answer was written
 };
 
 // Sends / receives one frame carrying a descriptor (SCM_RIGHTS): the

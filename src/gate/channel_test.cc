@@ -237,6 +237,61 @@ TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
   }
 }
 
+// A periodic client whose jobs are ragged, as a supervised task's are: each
+// job is three requests and a job-end, and in every other job the second
+// request comes later than the spin (its task was held up). The late
+// request belongs to its job: the server still expects the job's remaining
+// requests, takes the job-end as the job's end, and is awake when the next
+// job is due. (Taking the late request for a new burst, the server lost the
+// period for the next two jobs and slept through their starts.)
+TEST_F(ChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
+  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
+  auto s = Channel::create(fds[0], lead);
+  ASSERT_TRUE(s.ok());
+  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
+  ASSERT_TRUE(c.ok());
+  auto* control = static_cast<ChannelControl*>(
+      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
+  ASSERT_NE(control, MAP_FAILED);
+  constexpr int kJobs = 14, kWarmUp = 4;
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    for (int i = 0; i < kJobs * 4; ++i) {
+      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
+      (*s)->answer(static_cast<uint8_t>(type == static_cast<uint8_t>(wire::Type::kJobEnd)
+                                            ? wire::Type::kJobEndOk
+                                            : wire::Type::kReply),
+                   req);
+    }
+  });
+  int awake_when_due = 0, asleep_between = 0;
+  auto next = std::chrono::steady_clock::now();
+  for (int job = 0; job < kJobs; ++job) {
+    next += std::chrono::milliseconds(40);
+    std::this_thread::sleep_until(next - std::chrono::milliseconds(20));
+    asleep_between += job >= kWarmUp && control->server_sleeping.load() != 0 ? 1 : 0;
+    std::this_thread::sleep_until(next);
+    awake_when_due += job >= kWarmUp && control->server_sleeping.load() == 0 ? 1 : 0;
+    for (int i = 0; i < 3; ++i) {
+      if (i == 1 && job % 2 == 1) std::this_thread::sleep_for(std::chrono::milliseconds(12));
+      const uint8_t b[1] = {static_cast<uint8_t>(i)};
+      uint32_t seq = 0;
+      ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
+      ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
+    }
+    uint32_t seq = 0;
+    ASSERT_TRUE((*c)->post(wire::Type::kJobEnd, {}, &seq));  // answered before the next post
+  }
+  monitor.join();
+  munmap(control, Channel::kControlSize);
+  // Of the 10 jobs after the first 4, most find the server awake, and most
+  // gaps find it asleep (a loaded machine may delay either now and then).
+  EXPECT_GE(awake_when_due, 6);
+  EXPECT_GE(asleep_between, 6);
+}
+
 // The client refuses a descriptor that is not a sealed channel of the right size.
 TEST(ChannelAttach, RefusesAnUnsealedOrMisSizedFile) {
   const int fd = memfd_create("not-a-channel", MFD_CLOEXEC | MFD_ALLOW_SEALING);
