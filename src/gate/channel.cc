@@ -238,10 +238,12 @@ Channel::Next Channel::next_request(uint8_t* type, uint32_t* claimed_len,
   // before it), and its jobs are alike, so the burst before this one says
   // how many follow. Past that count, spin only for a client that keeps
   // sending back to back. At the predicted end of a job the connection
-  // sleeps at once and costs no CPU until the next one; a job-end from the
-  // client says so too, whatever the count.
-  const bool expected =
-      !job_ended_ && (burst_taken_ < last_burst_ || (bursting_ && burst_taken_ != last_burst_));
+  // sleeps at once and costs no CPU until the next one. A job-end from the
+  // client says so too, whatever the count, once its next job is predicted
+  // (without a steady period, a client that follows a job-end closely is
+  // sending back to back, and the count decides).
+  const bool expected = !(job_ended_ && burst_period_ns_ > 0) &&
+                        (burst_taken_ < last_burst_ || (bursting_ && burst_taken_ != last_burst_));
   const uint64_t spin_ns = uint64_t{policy_.spin_us} * 1000u;
   uint32_t spin_us = expected ? policy_.spin_us : 0;
   if (!expected && spin_ns > 0 && burst_period_ns_ > 0) {

@@ -292,6 +292,50 @@ TEST_F(ChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
   EXPECT_GE(asleep_between, 6);
 }
 
+// A client that sends a job-end after every command and the next command
+// well within the spin time (a task whose period is shorter than the spin)
+// keeps the server spinning:
+// with no steady period to predict from, a job-end does not end the
+// server's expectation of the next request.
+TEST_F(ChannelPair, JobEndsSentBackToBackKeepTheServerSpinning) {
+  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
+  auto s = Channel::create(fds[0], lead);
+  ASSERT_TRUE(s.ok());
+  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
+  ASSERT_TRUE(c.ok());
+  auto* control = static_cast<ChannelControl*>(
+      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
+  ASSERT_NE(control, MAP_FAILED);
+  constexpr int kJobs = 100;
+  std::thread monitor([&] {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    for (int i = 0; i < kJobs * 2; ++i) {
+      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
+      (*s)->answer(static_cast<uint8_t>(type == static_cast<uint8_t>(wire::Type::kJobEnd)
+                                            ? wire::Type::kJobEndOk
+                                            : wire::Type::kReply),
+                   req);
+    }
+  });
+  int found_asleep = 0;
+  for (int job = 0; job < kJobs; ++job) {
+    const uint8_t b[1] = {static_cast<uint8_t>(job)};
+    uint32_t seq = 0;
+    // A pause well inside the spin: the server is spinning, or asleep.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    found_asleep += job >= 10 && control->server_sleeping.load() != 0 ? 1 : 0;
+    ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
+    ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
+    ASSERT_TRUE((*c)->post(wire::Type::kJobEnd, {}, &seq));
+  }
+  monitor.join();
+  munmap(control, Channel::kControlSize);
+  // A loaded machine may let the server's spin run out now and then.
+  EXPECT_LE(found_asleep, 20) << "of " << kJobs - 10 << " commands";
+}
+
 // The client refuses a descriptor that is not a sealed channel of the right size.
 TEST(ChannelAttach, RefusesAnUnsealedOrMisSizedFile) {
   const int fd = memfd_create("not-a-channel", MFD_CLOEXEC | MFD_ALLOW_SEALING);
