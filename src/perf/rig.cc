@@ -2,8 +2,11 @@
 
 #include <sched.h>
 #include <time.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
+#include <string_view>
 
 #include "base/clock.h"
 #include "intercept/seccomp/supervisor.h"
@@ -143,6 +146,24 @@ Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
+  // The task's environment is built here, before the fork: the bench has
+  // other threads, and a child of a threaded process must not allocate (a
+  // lock another thread held at the fork stays held in the child, as
+  // with a sanitizer's allocator, and the child never gets to exec).
+  const std::vector<std::string> set = {"LD_PRELOAD=" + preload_lib, "CONTEGO_SOCKET=" + socket,
+                                        "CONTEGO_TASK=" + w.task,
+                                        std::string("CONTEGO_CHANNEL=") + (channel ? "1" : "0"),
+                                        "CONTEGO_SPIN_US=" + std::to_string(spin_us)};
+  std::vector<char*> env;
+  for (char** e = environ; *e != nullptr; ++e) {
+    const std::string_view entry(*e);
+    const bool replaced = std::any_of(set.begin(), set.end(), [&](const std::string& v) {
+      return entry.substr(0, entry.find('=') + 1) == std::string_view(v).substr(0, v.find('=') + 1);
+    });
+    if (!replaced) env.push_back(*e);
+  }
+  for (const std::string& v : set) env.push_back(const_cast<char*>(v.c_str()));
+  env.push_back(nullptr);
   fflush(nullptr);
   const pid_t pid = fork();
   if (pid < 0) return make_error(std::string("fork: ") + strerror(errno));
@@ -153,12 +174,7 @@ Result<std::vector<uint64_t>> run_preload(const std::string& preload_lib, uint32
       CPU_SET(cpu, &one);
       if (sched_setaffinity(0, sizeof one, &one) != 0) _exit(126);
     }
-    setenv("LD_PRELOAD", preload_lib.c_str(), 1);
-    setenv("CONTEGO_SOCKET", socket.c_str(), 1);
-    setenv("CONTEGO_TASK", w.task.c_str(), 1);
-    setenv("CONTEGO_CHANNEL", channel ? "1" : "0", 1);
-    setenv("CONTEGO_SPIN_US", std::to_string(spin_us).c_str(), 1);
-    execv(args[0], args.data());
+    execve(args[0], args.data(), env.data());
     _exit(127);
   }
   int status = 0;
