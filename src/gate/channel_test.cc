@@ -174,21 +174,49 @@ TEST_F(ChannelPair, APeerThatHangsUpEndsTheWait) {
   EXPECT_FALSE(client->await_reply(seq, nullptr, nullptr));
 }
 
+// A pair whose spin is wide: the lead before a burst is due must cover a
+// slow (sanitised, emulated, shared) machine's timer and wake-up delays.
+// The test reads the server's control block as a client could.
+class LeadChannelPair : public ChannelPair {
+ protected:
+  void SetUp() override {
+    ChannelPair::SetUp();
+    SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
+    auto s = Channel::create(fds[0], lead);
+    ASSERT_TRUE(s.ok()) << s.error();
+    server = std::move(*s);
+    auto c = Channel::attach(dup(server->memfd()), fds[1], lead);
+    ASSERT_TRUE(c.ok()) << c.error();
+    client = std::move(*c);
+    void* p = mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, server->memfd(), 0);
+    ASSERT_NE(p, MAP_FAILED);
+    control = static_cast<ChannelControl*>(p);
+  }
+  void TearDown() override {
+    if (control != nullptr) munmap(control, Channel::kControlSize);
+    ChannelPair::TearDown();
+  }
+  // The monitor's side: takes `count` requests and answers each (a job-end
+  // with its acknowledgement).
+  void answer_requests(int count) {
+    std::vector<uint8_t> req;
+    uint8_t type = 0;
+    uint32_t len = 0;
+    for (int i = 0; i < count; ++i) {
+      ASSERT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
+      const bool job_end = type == static_cast<uint8_t>(wire::Type::kJobEnd);
+      server->answer(static_cast<uint8_t>(job_end ? wire::Type::kJobEndOk : wire::Type::kReply),
+                     req);
+    }
+  }
+  ChannelControl* control = nullptr;
+};
+
 // A periodic client (bursts of three requests every 40 ms): once two periods
 // agree, the server is awake (spinning) when a burst is due instead of
 // asleep on the futex, it spins on another CPU than the client's pinned one
 // (when it has one), and between bursts it sleeps.
-TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
-  // A wide spin: the lead before a burst is due must cover a slow
-  // (sanitised, emulated, shared) machine's timer and wake-up delays.
-  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
-  auto s = Channel::create(fds[0], lead);
-  ASSERT_TRUE(s.ok());
-  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
-  ASSERT_TRUE(c.ok());
-  auto* control = static_cast<ChannelControl*>(
-      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
-  ASSERT_NE(control, MAP_FAILED);
+TEST_F(LeadChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
   cpu_set_t all;
   ASSERT_EQ(sched_getaffinity(0, sizeof all, &all), 0);
   int client_cpu = -1;
@@ -213,9 +241,9 @@ TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
     uint8_t type = 0;
     uint32_t len = 0;
     for (int i = 0; i < kBursts * 3; ++i) {
-      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
+      ASSERT_EQ(server->next_request(&type, &len, &req), Channel::Next::kRequest);
       if (i % 3 == 0) server_cpu[i / 3] = sched_getcpu();
-      (*s)->answer(static_cast<uint8_t>(wire::Type::kReply), req);
+      server->answer(static_cast<uint8_t>(wire::Type::kReply), req);
     }
     sched_getaffinity(0, sizeof server_cpus, &server_cpus);
     const int64_t delay_after = own_run_delay_ns();
@@ -238,13 +266,12 @@ TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
     for (int i = 0; i < 3; ++i) {
       const uint8_t b[1] = {static_cast<uint8_t>(i)};
       uint32_t seq = 0;
-      ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
-      ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
+      ASSERT_TRUE(client->post(wire::Type::kTransfer, b, &seq));
+      ASSERT_TRUE(client->await_reply(seq, nullptr, nullptr));
     }
   }
   monitor.join();
   sched_setaffinity(0, sizeof all, &all);
-  munmap(control, Channel::kControlSize);
   int awake_when_due = 0, awake_on_client_cpu = 0;
   for (int burst = kWarmUp; burst < kBursts; ++burst) {
     awake_when_due += awake[burst] ? 1 : 0;
@@ -281,28 +308,9 @@ TEST_F(ChannelPair, AServerIsAwakeWhenAPeriodicClientsBurstIsDue) {
 // requests, takes the job-end as the job's end, and is awake when the next
 // job is due. (Taking the late request for a new burst, the server lost the
 // period for the next two jobs and slept through their starts.)
-TEST_F(ChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
-  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
-  auto s = Channel::create(fds[0], lead);
-  ASSERT_TRUE(s.ok());
-  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
-  ASSERT_TRUE(c.ok());
-  auto* control = static_cast<ChannelControl*>(
-      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
-  ASSERT_NE(control, MAP_FAILED);
+TEST_F(LeadChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
   constexpr int kJobs = 14, kWarmUp = 4;
-  std::thread monitor([&] {
-    std::vector<uint8_t> req;
-    uint8_t type = 0;
-    uint32_t len = 0;
-    for (int i = 0; i < kJobs * 4; ++i) {
-      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
-      (*s)->answer(static_cast<uint8_t>(type == static_cast<uint8_t>(wire::Type::kJobEnd)
-                                            ? wire::Type::kJobEndOk
-                                            : wire::Type::kReply),
-                   req);
-    }
-  });
+  std::thread monitor([&] { answer_requests(kJobs * 4); });
   int awake_when_due = 0, asleep_between = 0;
   auto next = std::chrono::steady_clock::now();
   for (int job = 0; job < kJobs; ++job) {
@@ -315,14 +323,13 @@ TEST_F(ChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
       if (i == 1 && job % 2 == 1) std::this_thread::sleep_for(std::chrono::milliseconds(12));
       const uint8_t b[1] = {static_cast<uint8_t>(i)};
       uint32_t seq = 0;
-      ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
-      ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
+      ASSERT_TRUE(client->post(wire::Type::kTransfer, b, &seq));
+      ASSERT_TRUE(client->await_reply(seq, nullptr, nullptr));
     }
     uint32_t seq = 0;
-    ASSERT_TRUE((*c)->post(wire::Type::kJobEnd, {}, &seq));  // answered before the next post
+    ASSERT_TRUE(client->post(wire::Type::kJobEnd, {}, &seq));  // answered before the next post
   }
   monitor.join();
-  munmap(control, Channel::kControlSize);
   // Of the 10 jobs after the first 4, most find the server awake, and most
   // gaps find it asleep (a loaded machine may delay either now and then).
   EXPECT_GE(awake_when_due, 6);
@@ -334,28 +341,9 @@ TEST_F(ChannelPair, ALateRequestInAJobKeepsTheNextJobPredicted) {
 // keeps the server spinning:
 // with no steady period to predict from, a job-end does not end the
 // server's expectation of the next request.
-TEST_F(ChannelPair, JobEndsSentBackToBackKeepTheServerSpinning) {
-  SpinPolicy lead{/*spin_us=*/8000, /*poll_ms=*/50};
-  auto s = Channel::create(fds[0], lead);
-  ASSERT_TRUE(s.ok());
-  auto c = Channel::attach(dup((*s)->memfd()), fds[1], lead);
-  ASSERT_TRUE(c.ok());
-  auto* control = static_cast<ChannelControl*>(
-      mmap(nullptr, Channel::kControlSize, PROT_READ, MAP_SHARED, (*s)->memfd(), 0));
-  ASSERT_NE(control, MAP_FAILED);
+TEST_F(LeadChannelPair, JobEndsSentBackToBackKeepTheServerSpinning) {
   constexpr int kJobs = 100;
-  std::thread monitor([&] {
-    std::vector<uint8_t> req;
-    uint8_t type = 0;
-    uint32_t len = 0;
-    for (int i = 0; i < kJobs * 2; ++i) {
-      ASSERT_EQ((*s)->next_request(&type, &len, &req), Channel::Next::kRequest);
-      (*s)->answer(static_cast<uint8_t>(type == static_cast<uint8_t>(wire::Type::kJobEnd)
-                                            ? wire::Type::kJobEndOk
-                                            : wire::Type::kReply),
-                   req);
-    }
-  });
+  std::thread monitor([&] { answer_requests(kJobs * 2); });
   int found_asleep = 0;
   for (int job = 0; job < kJobs; ++job) {
     const uint8_t b[1] = {static_cast<uint8_t>(job)};
@@ -363,12 +351,11 @@ TEST_F(ChannelPair, JobEndsSentBackToBackKeepTheServerSpinning) {
     // A pause well inside the spin: the server is spinning, or asleep.
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     found_asleep += job >= 10 && control->server_sleeping.load() != 0 ? 1 : 0;
-    ASSERT_TRUE((*c)->post(wire::Type::kTransfer, b, &seq));
-    ASSERT_TRUE((*c)->await_reply(seq, nullptr, nullptr));
-    ASSERT_TRUE((*c)->post(wire::Type::kJobEnd, {}, &seq));
+    ASSERT_TRUE(client->post(wire::Type::kTransfer, b, &seq));
+    ASSERT_TRUE(client->await_reply(seq, nullptr, nullptr));
+    ASSERT_TRUE(client->post(wire::Type::kJobEnd, {}, &seq));
   }
   monitor.join();
-  munmap(control, Channel::kControlSize);
   // A loaded machine may let the server's spin run out now and then.
   EXPECT_LE(found_asleep, 20) << "of " << kJobs - 10 << " commands";
 }
