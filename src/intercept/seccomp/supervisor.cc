@@ -15,7 +15,6 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
-#include <linux/audit.h>
 #include <linux/close_range.h>
 #include <linux/filter.h>
 #include <linux/seccomp.h>
@@ -36,6 +35,7 @@
 
 #include "base/unique_fd.h"
 #include "intercept/i2c_abi/i2c_abi.h"
+#include "intercept/seccomp/audit_arch.h"
 #include "intercept/seccomp/bus_path.h"
 #include "intercept/seccomp/descriptor_table.h"
 #include "intercept/seccomp/reach.h"
@@ -45,14 +45,6 @@
 
 namespace contego::intercept::seccomp {
 namespace {
-
-#if defined(__x86_64__)
-constexpr uint32_t kAuditArch = AUDIT_ARCH_X86_64;
-#elif defined(__aarch64__)
-constexpr uint32_t kAuditArch = AUDIT_ARCH_AARCH64;
-#else
-#error "unsupported architecture"
-#endif
 
 class Loop {
  public:

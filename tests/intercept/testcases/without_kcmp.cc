@@ -7,19 +7,12 @@
 #include <unistd.h>
 
 #include <cstdio>
-#include <linux/audit.h>
 #include <linux/filter.h>
 #include <linux/seccomp.h>
 #include <sys/prctl.h>
 #include <sys/syscall.h>
 
-#if defined(__x86_64__)
-constexpr unsigned kNativeArch = AUDIT_ARCH_X86_64;
-#elif defined(__aarch64__)
-constexpr unsigned kNativeArch = AUDIT_ARCH_AARCH64;
-#else
-#error "without_kcmp: name this architecture's AUDIT_ARCH"
-#endif
+#include "intercept/seccomp/audit_arch.h"
 
 int main(int argc, char** argv) {
   if (argc < 2) {
@@ -28,7 +21,7 @@ int main(int argc, char** argv) {
   }
   sock_filter filter[] = {
       BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)),
-      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, kNativeArch, 0, 3),
+      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, contego::intercept::seccomp::kAuditArch, 0, 3),
       BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
       BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, SYS_kcmp, 0, 1),
       BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ERRNO | ENOSYS),
