@@ -11,19 +11,14 @@
 set -uo pipefail
 contego="$1" policies="$2" attack="$3"
 if [[ $(id -u) -ne 0 ]]; then printf "skipped: needs root\nok\n"; exit 0; fi
-dir="$(mktemp -d)"
+# shellcheck source=tests/intercept/cli_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
+FAIL_SHOW=("*.err" "*.out" "*.jsonl")
 chmod 0755 "$dir"
-monitor_pid=""
-cleanup() {
-  [[ -n "$monitor_pid" ]] && kill -KILL "$monitor_pid" 2>/dev/null
-  rm -rf "$dir"
-}
-trap cleanup EXIT
 # The program runs as nobody, who may not reach into the build tree (a fresh
 # clone under a private directory): run it from a copy in $dir.
 cp "$attack" "$dir/attack_identity" && chmod 0755 "$dir/attack_identity"
 attack="$dir/attack_identity"
-fail() { echo "FAIL: $*"; for f in "$dir"/*.{err,out,jsonl}; do [[ -f "$f" ]] && { echo "--- $f"; tail -c 2000 "$f" | tr -d '\0'; }; done; exit 1; }
 
 sed -e '/^task arm_init {/a\  user "root"' -e '/^task gripper {/a\  user "nobody"' \
   "$policies/arm.policy" >"$dir/arm.policy"
@@ -34,8 +29,7 @@ sock="$dir/monitor.sock"
 "$contego" monitor --policy "$dir/arm.policy" --virtual-bus 1 --socket "$sock" \
   --client-uid 65534 --audit "$dir/monitor.jsonl" >"$dir/monitor.out" 2>"$dir/monitor.err" &
 monitor_pid=$!
-for _ in $(seq 100); do [[ -S "$sock" ]] && break; sleep 0.1; done
-[[ -S "$sock" ]] || fail "the monitor did not start"
+wait_for_socket "$sock" || fail "the monitor did not start"
 chmod 0666 "$sock"  # so that the supervised program can try
 
 "$contego" run --socket "$sock" --task gripper --user nobody \
@@ -64,4 +58,5 @@ code=$?
 [[ $code -eq 2 ]] && grep -q "no user 'no-such-user-contego'" "$dir/nouser.err" ||
   fail "an unknown --user: exit $code, $(cat "$dir/nouser.err")"
 echo "unknown user refused: ok"
+stop_monitor || fail "the monitor exited $? on SIGTERM"
 echo ok

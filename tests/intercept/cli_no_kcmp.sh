@@ -10,14 +10,8 @@
 # Usage: cli_no_kcmp.sh CONTEGO POLICIES_DIR SCRIPTS_DIR WITHOUT_KCMP ATTACK_PID_REUSE
 set -uo pipefail
 contego="$1" policies="$2" scripts="$3" without_kcmp="$4" attack="$5"
-dir="$(mktemp -d)"
-monitor_pid=""
-cleanup() {
-  [[ -n "$monitor_pid" ]] && kill -KILL "$monitor_pid" 2>/dev/null
-  rm -rf "$dir"
-}
-trap cleanup EXIT
-fail() { echo "FAIL: $*"; for f in "$dir"/*; do [[ -f "$f" ]] && { echo "--- $f"; tail -n 20 "$f" | tr -d '\0'; }; done; exit 1; }
+# shellcheck source=tests/intercept/cli_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
 sock="$dir/monitor.sock"
 run() {  # NAME PROGRAM...: the gripper task under arm.policy, kcmp refused
   local name="$1"
@@ -64,8 +58,7 @@ grip embedded "$dir/embedded.jsonl"
 "$contego" monitor --policy "$policies/arm.policy" --virtual-bus 1 --socket "$sock" \
   --audit "$dir/monitor.jsonl" >"$dir/monitor.out" 2>"$dir/monitor.err" &
 monitor_pid=$!
-for _ in $(seq 100); do [[ -S "$sock" ]] && break; sleep 0.1; done
-[[ -S "$sock" ]] || fail "the monitor did not start"
+wait_for_socket "$sock" || fail "the monitor did not start"
 grip socket-grip "$dir/monitor.jsonl"
 
 if [[ $(id -u) -ne 0 ]]; then
@@ -75,7 +68,5 @@ fi
 reuse embedded-reuse
 reuse socket-reuse
 kill -0 "$monitor_pid" || fail "the monitor stopped"
-kill -TERM "$monitor_pid"
-wait "$monitor_pid" 2>/dev/null
-monitor_pid=""
+stop_monitor || fail "the monitor exited $? on SIGTERM"
 echo "ok"

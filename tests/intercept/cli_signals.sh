@@ -12,28 +12,14 @@
 # Usage: cli_signals.sh CONTEGO POLICIES_DIR SCRIPTS_DIR
 set -uo pipefail
 contego="$1" policies="$2" scripts="$3"
-dir="$(mktemp -d)"
-monitor_pid=""
-cleanup() {
-  [[ -n "$monitor_pid" ]] && kill -KILL "$monitor_pid" 2>/dev/null
-  rm -rf "$dir"
-}
-trap cleanup EXIT
-fail() { echo "FAIL: $*"; for f in "$dir"/*.{err,jsonl,state}; do [[ -f "$f" ]] && { echo "--- $f"; tail -n 20 "$f"; }; done; exit 1; }
+# shellcheck source=tests/intercept/cli_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
+FAIL_SHOW=("*.err" "*.jsonl" "*.state")
 declare -A number=([INT]=2 [TERM]=15 [HUP]=1 [KILL]=9)
 
 # event KIND TEXT FILE: an audit event of that kind whose detail contains TEXT.
 event() { grep -aqF -- "$2" <(grep -aF "\"kind\":\"$1\"" "$3"); }
 count() { grep -acF "\"kind\":\"$1\"" "$2"; }
-
-wait_for() {  # FILE: until it exists (10 s)
-  for _ in $(seq 100); do [[ -s "$1" ]] && return 0; sleep 0.1; done
-  return 1
-}
-gone() {  # PID: not running (a zombie counts as gone only once reaped by its parent)
-  for _ in $(seq 50); do kill -0 "$1" 2>/dev/null || return 0; sleep 0.1; done
-  return 1
-}
 
 # --- embedded monitor -------------------------------------------------------
 for sig in INT TERM HUP; do
@@ -76,8 +62,7 @@ sock="$dir/monitor.sock"
 "$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$sock" \
   --audit "$dir/monitor.jsonl" --virtual-state "$dir/monitor.state" 2>"$dir/monitor.err" &
 monitor_pid=$!
-for _ in $(seq 100); do [[ -S "$sock" ]] && break; sleep 0.1; done
-[[ -S "$sock" ]] || fail "the monitor did not start"
+wait_for_socket "$sock" || fail "the monitor did not start"
 for sig in INT TERM HUP; do
   kill -HUP "$monitor_pid"  # logged; the monitor keeps serving (the next run connects)
   "$contego" run --socket "$sock" --task follower \
@@ -101,11 +86,7 @@ for sig in INT TERM HUP; do
   echo "socket $sig: ok"
 done
 event signal "SIGHUP: still serving" "$dir/monitor.jsonl" || fail "no SIGHUP event"
-kill -TERM "$monitor_pid"
-wait "$monitor_pid"
-code=$?
-monitor_pid=""
-[[ $code -eq 0 ]] || fail "the monitor exited $code on SIGTERM"
+stop_monitor || fail "the monitor exited $? on SIGTERM"
 event safe-state "monitor stopping (SIGTERM)" "$dir/monitor.jsonl" ||
   fail "monitor: no safe state for SIGTERM"
 grep -q "gopigo2 0x08 motion=0x78" "$dir/monitor.state" || fail "monitor: the GoPiGo2 is not stopped"

@@ -7,17 +7,8 @@
 # Usage: cli_supervisor_killed.sh CONTEGO POLICIES_DIR SCRIPTS_DIR
 set -uo pipefail
 contego="$1" policies="$2" scripts="$3"
-dir="$(mktemp -d)"
-trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*"; for f in "$dir"/*; do [[ -f "$f" ]] && { echo "--- $f"; tail -n 20 "$f" | tr -d '\0'; }; done; exit 1; }
-wait_for() {  # FILE: until it exists (10 s)
-  for _ in $(seq 100); do [[ -s "$1" ]] && return 0; sleep 0.1; done
-  return 1
-}
-gone() {  # PID: not running
-  for _ in $(seq 50); do kill -0 "$1" 2>/dev/null || return 0; sleep 0.1; done
-  return 1
-}
+# shellcheck source=tests/intercept/cli_common.sh
+source "$(dirname "${BASH_SOURCE[0]}")/cli_common.sh"
 
 "$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
   --audit "$dir/audit.jsonl" --virtual-state "$dir/state" \
