@@ -11,7 +11,17 @@ quick=0
 
 bash tools/bootstrap.sh
 
-step() { printf '\n==== %s ====\n' "$*"; }
+# Each stage's header shows the disk space left: a full disk fails a build
+# with an error that does not say why it filled.
+step() { printf '\n==== %s ==== (%s free)\n' "$*" "$(df -h --output=avail . | tail -n1 | tr -d ' ')"; }
+
+# Under CI (CI=true) a stage's build tree is removed as soon as no later
+# stage reads it: a CI machine has run out of disk with all the trees kept
+# (about 4 GiB, README "Two commands"). A developer keeps them, for the next
+# incremental build.
+done_with() {
+  if [[ "${CI:-}" == true ]]; then rm -rf "$@"; fi
+}
 
 # Formatting first: it takes a second and fails before any build does.
 if command -v clang-format >/dev/null; then
@@ -36,6 +46,7 @@ cmake --build --preset asan-ubsan
 # aarch64 cross build, whose outcome does not depend on this build's flags
 # (they run once, in the debug stage below).
 ctest --preset asan-ubsan -LE tree
+done_with build/asan-ubsan
 
 # The debug build: what the sanitizer build cannot run or would only slow
 # down: the real-kernel test bed (its guest runs uninstrumented binaries), the
@@ -54,6 +65,7 @@ cmake --preset tsan >/dev/null
 cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test gate_test \
   seccomp_filter_test identity_test monitor_reading_test readings_test
 ctest --preset tsan -L 'monitor|supervisor|gate'
+done_with build/tsan
 
 if [[ -f fuzz/CMakeLists.txt ]]; then
   step "fuzz smoke runs (clang, libFuzzer)"
@@ -62,12 +74,14 @@ if [[ -f fuzz/CMakeLists.txt ]]; then
   # Each fuzzer replays its corpus, then mutates for 5 s: a smoke run (CI's
   # budget); CONTEGO_FUZZ_SECONDS=600 for a real campaign.
   bash tools/fuzz_smoke.sh build/fuzz "${CONTEGO_FUZZ_SECONDS:-5}"
+  done_with build/fuzz
 fi
 
 # The amd64 Debian package, built and checked (docs/packaging.md); the arm64
 # one is `tools/package.sh --arch arm64`, as long again, not run here.
 step "amd64 Debian package"
 bash tools/package.sh --arch amd64
+done_with build/package  # the packages are in out/packages
 
 # The package installed, used, stopped, restarted, removed and purged in a
 # booted Debian 12 guest with the README's Install commands, and contego-dkms
