@@ -16,6 +16,16 @@ function(contego_library name)
   target_link_libraries(${name} PUBLIC ${ARG_DEPS})
 endfunction()
 
+# contego_use_core_lto(TARGET): with CONTEGO_CORE_LTO, TARGET links the
+# core's bytecode copy (src/core) and optimises it at link time. Declare it
+# after TARGET's target_link_libraries; a no-op otherwise.
+function(contego_use_core_lto target)
+  if(TARGET contego_core_lto)
+    target_sources(${target} PRIVATE $<TARGET_OBJECTS:contego_core_lto>)
+    target_link_options(${target} PRIVATE -flto=auto)
+  endif()
+endfunction()
+
 # contego_test(NAME SOURCES ... DEPS ...): a GoogleTest binary registered with CTest.
 function(contego_test name)
   if(NOT CONTEGO_TESTS)

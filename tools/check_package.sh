@@ -21,7 +21,7 @@ fail=0
 bad() { echo "check_package: FAIL: $*" >&2; fail=1; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-runtime="" dkms_deb=""
+runtime="" dkms_deb="" dev_deb=""
 for deb in "$@"; do
   name=$(dpkg-deb -f "$deb" Package)
   # contego-dkms holds sources: architecture all.
@@ -36,6 +36,7 @@ for deb in "$@"; do
   if grep -E '(^|/)(build|CMakeFiles|_CPack_Packages)/' "$tmp/$name.list"; then bad "$deb lists a build-tree path"; fi
   [[ $name == contego ]] && runtime=$deb
   [[ $name == contego-dkms ]] && dkms_deb=$deb
+  [[ $name == contego-dev ]] && dev_deb=$deb
   echo "check_package: $deb: $(wc -l < "$tmp/$name.list") entries, $(dpkg-deb -f "$deb" Architecture)"
 done
 [[ -n $runtime ]] || bad "no contego runtime package among $*"
@@ -63,6 +64,18 @@ if [[ -n $runtime ]]; then
   done < <(find "$tmp/root" -type f -print0)
   grep -q "ExecStart=/usr/bin/contego monitor" "$tmp/root/usr/lib/systemd/system/contego-monitor.service" ||
     bad "the monitor unit does not run /usr/bin/contego"
+fi
+# contego-dev: a static core that any compiler links. GCC's link-time
+# bytecode (the package build's CONTEGO_CORE_LTO copy) belongs to `contego`
+# only: in the archive, an -flto link by another GCC version would fail.
+if [[ -n $dev_deb ]]; then
+  dpkg-deb -x "$dev_deb" "$tmp/dev"
+  archive=$(find "$tmp/dev" -name libcontego_core.a | head -n1)
+  [[ -n $archive ]] || bad "$dev_deb has no libcontego_core.a"
+  if [[ -n $archive ]] && readelf -S -W "$archive" | grep -q '\.gnu\.lto_'; then
+    bad "$dev_deb: libcontego_core.a carries GCC LTO bytecode"
+  fi
+  if grep -rqs --include='*.cmake' --include='*.pc' -e '-flto' "$tmp/dev/usr/lib"; then bad "$dev_deb: its CMake or pkg-config files ask for -flto"; fi
 fi
 # contego-dkms: dkms.conf, the module's sources and the core's, and the
 # maintainer scripts that hand them to DKMS.
