@@ -827,6 +827,8 @@ static void ct_session_end(struct ct_policy *p, struct ct_session *s)
 		ct_session_record(&rec, s);
 		ct_push(&rec, true);
 	}
+	/* The session's own state (a sequence's position) ends with it. */
+	contego_end_session(p->checker, s->task);
 	ct_stats.session_ends++;
 	pr_info("contego: task %u: session of pid %u ended (wait status 0x%x%s): %u of %u devices driven to their safe state\n",
 		s->task, s->pid, s->status, s->phase == CT_S_LEADER ? ", with its group's leader" : "",

@@ -464,6 +464,7 @@ void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t t
 void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   const Decoded& d = decoded_;
   bool unrepaired = false;  // for LatchMode::kHoldSafeUnrepaired
+  uint64_t rates_hit = 0;   // the rate rules that select this command
   const uint16_t dev = d.device;
   o.command = d.command;
   o.index = d.index;
@@ -486,8 +487,6 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
     decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
     return;  // already held: no new violation
   } else {
-    uint32_t& jc = job_count_[tx.task][dev];
-    if (jc != 0xFFFFFFFFu) ++jc;
     bool decided = false;
     for (uint32_t r = 0; r < rate_count_; ++r) {
       const RateRecord& rr = rates_[r];
@@ -495,8 +494,8 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
           (rr.only_channel != 0 && d.index != rr.only_channel - 1)) {
         continue;
       }
-      if (rate_used_[r] != 0xFFFFFFFFu) ++rate_used_[r];
-      if (!decided && rate_used_[r] > rr.max_per_job) {
+      rates_hit |= uint64_t{1} << r;
+      if (!decided && rate_used_[r] >= rr.max_per_job) {
         respond(o, rr.response, rr.reply_errno, rr.template_id, Reason::kRateExceeded,
                 RuleKind::kRate, static_cast<uint16_t>(r));
         decided = true;
@@ -565,6 +564,22 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
       decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
     }
   }
+  if (o.reason != Reason::kLatched) count_acting(tx, o, rates_hit);
+}
+
+// A rate counts the commands that act (allowed or substituted) in the policy's
+// unit: one decoded command, whatever number of bus writes carried it. A
+// dropped or refused command spends nothing, so a flood of them cannot take
+// the slots of the task's own commands (docs/policy-language.md, "What a rate
+// counts").
+void CheckerState::count_acting(const Transaction& tx, const Outcome& o, uint64_t rates_hit) {
+  if (!writes(o.decision) || tx.task >= kMaxTasks) return;
+  uint32_t& jc = job_count_[tx.task][o.device];
+  if (jc != 0xFFFFFFFFu) ++jc;
+  for (uint64_t bits = rates_hit; bits != 0; bits &= bits - 1) {
+    uint32_t& used = rate_used_[__builtin_ctzll(bits)];
+    if (used != 0xFFFFFFFFu) ++used;
+  }
 }
 
 bool CheckerState::emit_safe_state(uint16_t dev) {
@@ -623,8 +638,8 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
     for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {
       for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {
         const uint32_t i = word * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
-        journal_state(i);
-        state_words_[i] = pending_state_[i];
+        journal_state(i, tx.task);
+        state_word(i, tx.task) = pending_state_[i];
       }
     }
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
@@ -764,6 +779,7 @@ void Checker::set_host(const Host& host) { state().host_ = host; }
 void Checker::check(const Transaction& tx, Verdict* out) { state().check(tx, out); }
 bool Checker::safe_state(uint16_t device, Verdict* out) { return state().safe_state(device, out); }
 void Checker::reset_latch(uint16_t device) { state().reset_latch(device); }
+void Checker::end_session(uint16_t task) { state().end_session(task); }
 bool Checker::latched(uint16_t device) const { return state().latched(device); }
 void Checker::begin_transfer() { state().begin_transfer(); }
 void Checker::commit_transfer() { state().commit_transfer(); }

@@ -362,7 +362,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       case Op::kState:
         stack.push(internal::bit_test(tx_.pending_state, env.invariant)
                        ? pending_state_[env.invariant]
-                       : state_words_[env.invariant]);
+                       : state_word(env.invariant, env.tx->task));
         break;
       case Op::kJobCount:
       case Op::kLastField:

@@ -182,6 +182,7 @@ struct Journal {
   uint32_t device_count;
   uint32_t history_count;
   uint32_t saved_state[kMaxInvariants / 32];
+  uint16_t state_task;  // the task whose task-scoped words state_words holds
   ModelCopy devices[kMaxTransferDevices];
   HistoryCopy history[kMaxTransferHistory];
   int64_t state_words[kMaxInvariants];
@@ -237,6 +238,7 @@ class CheckerState {
   bool resolve_general_call(const Transaction& tx, Verdict* out);
   void check_device(const Transaction& tx, uint16_t dev);
   void evaluate(const Transaction& tx, Outcome& o);
+  void count_acting(const Transaction& tx, const Outcome& o, uint64_t rates_hit);
   void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
                RuleKind kind, uint16_t rule);
   void finish(const Transaction& tx, Verdict* out);
@@ -292,7 +294,10 @@ class CheckerState {
   void abort_transfer(Decision decision);
   bool journal_device(uint16_t dev);  // false: no room (the check is refused)
   void journal_history(LastCommand& slot);
-  void journal_state(uint32_t invariant);
+  void journal_state(uint32_t invariant, uint16_t task);
+  // The state word of invariant `i` as task `task` sees it (its scope decides).
+  int64_t& state_word(uint32_t i, uint16_t task);
+  void end_session(uint16_t task);
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 
@@ -333,7 +338,8 @@ class CheckerState {
   TaskWindow windows_[kMaxTasks]{};
   uint32_t job_count_[kMaxTasks][kMaxDevices]{};
   uint32_t rate_used_[kMaxRateLimits]{};
-  int64_t state_words_[kMaxInvariants]{};
+  int64_t state_words_[kMaxInvariants]{};  // kDevice scope
+  int64_t task_state_words_[kMaxTasks][kMaxInvariants]{};  // kTask and kSession scope
   int64_t pending_state_[kMaxInvariants]{};
   Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
   TxContext tx_{};

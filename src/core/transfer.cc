@@ -49,10 +49,28 @@ void CheckerState::journal_history(LastCommand& slot) {
   h.last = slot;
 }
 
-void CheckerState::journal_state(uint32_t invariant) {
+// A transfer is one task's: the task-scoped words it saves are that task's.
+void CheckerState::journal_state(uint32_t invariant, uint16_t task) {
   if (!journal_.active || internal::bit_test(journal_.saved_state, invariant)) return;
   internal::bit_set(journal_.saved_state, invariant);
-  journal_.state_words[invariant] = state_words_[invariant];
+  journal_.state_task = task;
+  journal_.state_words[invariant] = state_word(invariant, task);
+}
+
+int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
+  if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kDevice) || task >= kMaxTasks) {
+    return state_words_[i];
+  }
+  return task_state_words_[task][i];
+}
+
+void CheckerState::end_session(uint16_t task) {
+  if (!loaded_ || task >= task_count_) return;
+  for (uint32_t i = 0; i < invariant_count_; ++i) {
+    if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kSession)) {
+      task_state_words_[task][i] = 0;
+    }
+  }
 }
 
 void CheckerState::abort_transfer(Decision decision) {
@@ -62,7 +80,9 @@ void CheckerState::abort_transfer(Decision decision) {
     last_[journal_.history[i].slot] = journal_.history[i].last;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (internal::bit_test(journal_.saved_state, i)) state_words_[i] = journal_.state_words[i];
+    if (internal::bit_test(journal_.saved_state, i)) {
+      state_word(i, journal_.state_task) = journal_.state_words[i];
+    }
   }
   for (uint32_t i = 0; i < journal_.device_count; ++i) {
     const ModelCopy& c = journal_.devices[i];
@@ -115,6 +135,11 @@ uint32_t CheckerState::model_crc() const {
     mix(&valid, 1);
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) mix(&state_words_[i], sizeof(state_words_[i]));
+  for (uint32_t t = 0; t < task_count_; ++t) {
+    for (uint32_t i = 0; i < invariant_count_; ++i) {
+      mix(&task_state_words_[t][i], sizeof(task_state_words_[t][i]));
+    }
+  }
   return crc;
 }
 

@@ -73,6 +73,7 @@ void CheckerState::clear_tables() {
   __builtin_memset(job_count_, 0, sizeof(job_count_));
   __builtin_memset(rate_used_, 0, sizeof(rate_used_));
   __builtin_memset(state_words_, 0, sizeof(state_words_));
+  __builtin_memset(task_state_words_, 0, sizeof(task_state_words_));
   epoch_ = 0;
   executed_ = 0;
 }
@@ -500,7 +501,10 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
   // --- invariants -----------------------------------------------------------------------
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
-    if (!response_ok(v.response) || v.pad != 0) return fail(S::kBadTag, kInvSec, i);
+    if (!response_ok(v.response) || v.pad != 0 ||
+        v.scope > static_cast<uint8_t>(StateScope::kSession)) {
+      return fail(S::kBadTag, kInvSec, i);
+    }
     if (!is_actuator(v.device) || !mask_ok(v.commands, v.device) ||
         !template_ok(v.template_id, v.device) ||
         static_cast<uint32_t>(v.code_first) + v.code_len > code_count_) {

@@ -402,6 +402,8 @@ std::string dump(const ImageModel& m) {
     out += fmt::format("  i{} {}: d{} over [{}] on fail {}", i, m.invariants[i].name, v.device,
                        mask_list(v.commands), response_name(v.response));
     if (v.template_id != core::kNone) out += fmt::format(" tpl{}", v.template_id);
+    if (v.scope == static_cast<uint8_t>(core::StateScope::kTask)) out += ", state per task";
+    if (v.scope == static_cast<uint8_t>(core::StateScope::kSession)) out += ", state per session";
     out += fmt::format(", code {}+{}\n", v.code_first, v.code_len);
     disassemble(out, m, v.code_first, v.code_len);
   }

@@ -40,6 +40,8 @@ class Decider {
   // Operator reset of a latched device (`contego reset`).
   virtual bool latched(uint16_t /*device*/) const { return false; }
   virtual void reset_latch(uint16_t /*device*/) {}
+  // A session of the task ended (core::Checker::end_session).
+  virtual void end_session(uint16_t /*task*/) {}
 };
 
 }  // namespace contego::monitor

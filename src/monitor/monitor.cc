@@ -110,6 +110,18 @@ Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
   return was;
 }
 
+// The over-budget hold bounds the checking a task costs per job (the
+// analysis's N·C^o) with two counts, so that one kind of transfer never
+// spends the other's budget:
+// - transfers that acted (a write allowed or substituted) get `factor` x N
+//   per job; past it, the next transfer waits *before* it is checked for the
+//   task's next release, and is charged to that job;
+// - transfers that did not act (ignored, refused, or register writes only
+//   staged) get `factor` x max(N, kNonActingFloor) per job; past it, the
+//   thread that sent one waits *after* its answer for the next release.
+// A flood of dropped commands so holds the thread that floods, never the
+// task's own acting commands, and a vendor library's start-up writes that a
+// policy ignores by design (the PCA9685 constructor: 13) do not wait.
 void Monitor::hold_if_over_budget(uint16_t task) {
   const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
   if (factor == 0) return;
@@ -122,57 +134,102 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t now = clock_.now_us();
     const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
-    if (job > b.job || period != b.period) {  // a new release (or grid): a fresh budget
-      b.job = job;
-      b.used = 0;
-      b.period = period;
-    }
+    renew_budget_locked(b, job, period);
     // Past the budget, a transfer is the first of the next job's. One that
     // arrives while earlier ones are held into a later job (another thread
-    // or process of the task) is charged to that job and waits for it too:
-    // a task never gets more than its budget in one job.
-    if (++b.used > budget) {
+    // or process of the task) is charged to that job and waits for it too.
+    if (b.acted >= budget) {
       ++b.job;
-      b.used = 1;
+      b.acted = 0;
+      b.dropped = 0;
     }
     if (b.job == job) return;
     hold_until = next_release_locked(task, b.job - 1);
-    ++b.holds_unreported;
-    holds_.fetch_add(1);
-    if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
-      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
-      audit_.event("over-budget",
-                   fmt::format("task {} ({}): over its budget of {} transfers per job; {} "
-                               "transfer(s) held to the end of the period since the last report",
-                               task, name, budget, b.holds_unreported));
-      b.holds_unreported = 0;
-      b.reported_at_us = now;
+    report_hold_locked(task, b, now, budget, "acting transfers");
+  }
+  clock_.sleep_until_us(hold_until);
+}
+
+void Monitor::renew_budget_locked(Budget& b, uint32_t job, uint64_t period) {
+  if (job > b.job || period != b.period) {  // a new release (or grid): a fresh budget
+    b.job = job;
+    b.acted = 0;
+    b.dropped = 0;
+    b.period = period;
+  }
+}
+
+void Monitor::report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget,
+                                 const char* what) {
+  ++b.holds_unreported;
+  holds_.fetch_add(1);
+  const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
+  if (b.reported_at_us == 0 || now - b.reported_at_us >= 1000000) {
+    audit_.event("over-budget",
+                 fmt::format("task {} ({}): over its budget of {} {} per job; {} "
+                             "transfer(s) held to the end of the period since the last report",
+                             task, name, budget, what, b.holds_unreported));
+    b.holds_unreported = 0;
+    b.reported_at_us = now;
+  }
+  if (!b.told) {
+    // Once per task, where the user sees it (the supervised program's terminal
+    // under `contego run`): a held program otherwise looks hung.
+    b.told = true;
+    fmt::print(stderr,
+               "contego: task {}: more than {} {} in one job (its budget: --budget-factor x "
+               "actuations); the thread sending more waits for the next period\n",
+               name, budget, what);
+  }
+}
+
+// After a transfer was decided: counts it as acting or not; a non-acting one
+// past its budget holds the sending thread until the task's next release.
+void Monitor::charge_transfer(uint16_t task, bool acted) {
+  const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
+  if (factor == 0) return;
+  uint64_t hold_until = 0;
+  {
+    std::lock_guard lock(mu_);
+    const uint64_t period = decider_.task_period_us(task);
+    const uint64_t actuations = decider_.task_actuations_per_job(task);
+    if (period == 0 || actuations == 0) return;
+    const uint64_t now = clock_.now_us();
+    const uint32_t job = job_at_locked(task, now);
+    Budget& b = budgets_[task];
+    renew_budget_locked(b, job, period);
+    if (acted) {
+      ++b.acted;
+      return;
     }
-    if (!b.told) {
-      // Once per task, where the user sees it (the supervised program's terminal
-      // under `contego run`): a held program otherwise looks hung.
-      b.told = true;
-      const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "";
-      fmt::print(
-          stderr,
-          "contego: task {}: more than {} bus writes in one job (its budget: --budget-factor "
-          "x actuations); further writes wait for the next period\n",
-          name, budget);
-    }
+    const uint64_t budget = uint64_t{factor} * std::max<uint64_t>(actuations, kNonActingFloor);
+    if (++b.dropped <= budget) return;
+    hold_until = next_release_locked(task, job);
+    report_hold_locked(task, b, now, budget, "transfers that did not act");
   }
   clock_.sleep_until_us(hold_until);
 }
 
 gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
-  gate::TransferReply reply;
   if (std::string why = gate::validate(t); !why.empty()) {
     audit_.event("malformed", fmt::format("task {}: {}", task, why));
+    gate::TransferReply reply;
     reply.err = EINVAL;
     return reply;
   }
   // Probes (reads, register reads, SMBus quick: address scans) actuate
   // nothing, so they do not spend the task's actuation budget.
-  if (!gate::is_probe(t)) hold_if_over_budget(task);
+  const bool probe = gate::is_probe(t);
+  if (!probe) hold_if_over_budget(task);
+  bool acted = false;
+  gate::TransferReply reply = decide_and_act(task, t, &acted);
+  if (!probe) charge_transfer(task, acted);
+  return reply;
+}
+
+gate::TransferReply Monitor::decide_and_act(uint16_t task, const gate::Transfer& t,
+                                            bool* acted) {
+  gate::TransferReply reply;
   std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);
   if (bus_it == buses_.end()) {
@@ -214,6 +271,14 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
       }
     }
     decider_.commit_transfer();
+    // It acted if a write of it reached a device (not only staged).
+    for (size_t i = 0; i < planned.size() && i < checked; ++i) {
+      const core::Verdict& v = verdicts_[i];
+      if (planned[i].kind != core::TxKind::kRead && v.reason != core::Reason::kStaged &&
+          (v.decision == core::Decision::kAllow || v.decision == core::Decision::kFailsafe)) {
+        *acted = true;
+      }
+    }
     return perform_transfer(task, t, planned);
   }
   audit_lost_ = false;
@@ -404,6 +469,9 @@ void Monitor::task_exited(uint16_t task) {
   // must not override what the others are doing.
   const uint32_t devices = task < task_devices_.size() ? task_devices_[task] : UINT32_MAX;
   drive_safe_state_locked(fmt::format("task {} exited", task), devices);
+  // Its session-scoped state (a sequence's position) ends with it: the next
+  // run of the task starts its sequences at their first value.
+  decider_.end_session(task);
   // The job grid stays: a program that reconnects or restarts under the same
   // task joins it, so leaving cannot open a fresh job (and budget).
   readings_.forget_task(task);

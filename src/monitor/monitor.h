@@ -69,9 +69,11 @@ class Monitor final : public gate::Endpoint {
   void set_task_devices(std::vector<uint32_t> actuate_masks) {
     task_devices_ = std::move(actuate_masks);
   }
-  // Over-budget hold (0 = off): once a task has sent more than `factor` x
-  // its declared actuations per job in one job, its next transfer waits
-  // until the next release of the task.
+  // Over-budget hold (0 = off): once `factor` x its declared actuations per
+  // job of a task's transfers acted in one job, its next transfer waits until
+  // the task's next release; once more than `factor` x max(actuations,
+  // kNonActingFloor) of its transfers did not act (ignored, refused, only
+  // staged), the thread that sent the last one waits after its answer.
   // The schedulability test assumes N_i checked commands per job; this bounds
   // what a runaway or hostile task can make the monitor do for it.
   void set_budget_factor(uint32_t factor);
@@ -79,6 +81,10 @@ class Monitor final : public gate::Endpoint {
   // before the task's first contact; a grid already started keeps its phase.
   void set_task_phase(uint16_t task, uint64_t phase_us);
   static constexpr uint32_t kDefaultBudgetFactor = 4;  // what the CLI sets
+  // Non-acting transfers a task may send per job before its sender waits, at
+  // factor 1: room for a vendor library's start-up writes that a policy
+  // ignores by design (Adafruit's PCA9685 constructor sends 13).
+  static constexpr uint32_t kNonActingFloor = 8;
   uint64_t holds() const { return holds_.load(); }
 
   // Drives every actuator to its safe state; logs `why`. Returns the
@@ -121,8 +127,9 @@ class Monitor final : public gate::Endpoint {
 
  private:
   struct Budget {
-    uint32_t job = 0;  // the job `used` counts in; ahead of now while transfers are held
-    uint32_t used = 0;
+    uint32_t job = 0;  // the job the counts are of; ahead of now while transfers are held
+    uint32_t acted = 0;    // transfers that acted
+    uint32_t dropped = 0;  // transfers that did not
     uint64_t period = 0;  // the grid `job` is on (a new policy may change it)
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
@@ -142,6 +149,11 @@ class Monitor final : public gate::Endpoint {
   int sample_device_locked(uint16_t device);  // 0 or the bus's errno
   uint64_t sample_due_locked();
   void hold_if_over_budget(uint16_t task);
+  void charge_transfer(uint16_t task, bool acted);
+  void renew_budget_locked(Budget& b, uint32_t job, uint64_t period);
+  void report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget,
+                          const char* what);
+  gate::TransferReply decide_and_act(uint16_t task, const gate::Transfer& t, bool* acted);
   // The task's job at `now_us` on its period grid (1 = the first), starting
   // the grid on the first call; 0 for a task without a period.
   uint32_t job_at_locked(uint16_t task, uint64_t now_us);

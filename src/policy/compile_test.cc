@@ -197,6 +197,90 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
   EXPECT_EQ(write_led5(577, 4).decision, Decision::kAllow);  // the substitute advanced the sequence
 }
 
+// A sequence's position belongs to a run of the task by default: a session
+// that ends after an odd number of moves leaves nothing to the next one (the
+// 6DOF Hand's open/close across two program runs under one monitor). `scope
+// task` keeps it across the task's runs, `scope device` across every task.
+TEST(CompilePolicy, SequencePositionHasTheScopeThePolicyDeclares) {
+  auto run_twice = [](const std::string& scope) {
+    const std::string text = R"(
+device arm : pca9685 at i2c-1 0x40
+task t { period 1s; wcet 1ms }
+task u { period 1s; wcet 1ms }
+allow t -> arm
+allow u -> arm
+invariant GRIP on arm.led(5): sequence off [420, 577] )" + scope + R"( else failsafe expected
+)";
+    CompileOutput out;
+    std::unique_ptr<core::Checker> checker;
+    EXPECT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out, &checker));
+    std::vector<Decision> got;
+    if (!checker) return got;
+    auto led5 = [&](uint16_t task, uint16_t off, uint32_t job) {
+      core::Verdict v{};
+      const uint8_t regs[4][2] = {{0x1A, 0},
+                                  {0x1B, 0},
+                                  {0x1C, static_cast<uint8_t>(off & 0xFF)},
+                                  {0x1D, static_cast<uint8_t>(off >> 8)}};
+      for (const auto& r : regs) {
+        core::Transaction tx = testing::write_tx(0, 0x40, job, r, sizeof r);
+        tx.task = task;
+        checker->check(tx, &v);
+      }
+      got.push_back(v.decision);
+    };
+    led5(0, 420, 1);  // first run of t: open, then its session ends
+    checker->end_session(0);
+    led5(1, 420, 1);  // task u: open
+    led5(0, 420, 2);  // second run of t: open again
+    return got;
+  };
+  using D = Decision;
+  EXPECT_EQ(run_twice(""), (std::vector<D>{D::kAllow, D::kAllow, D::kAllow}));
+  EXPECT_EQ(run_twice("scope session"), (std::vector<D>{D::kAllow, D::kAllow, D::kAllow}));
+  EXPECT_EQ(run_twice("scope task"), (std::vector<D>{D::kAllow, D::kAllow, D::kFailsafe}));
+  EXPECT_EQ(run_twice("scope device"), (std::vector<D>{D::kAllow, D::kFailsafe, D::kAllow}));
+  CompileOutput bad = compile_source("bad.policy", R"(
+device arm : pca9685 at i2c-1 0x40
+task t { period 1s; wcet 1ms }
+allow t -> arm
+invariant GRIP on arm.led(5): sequence off [420, 577] scope forever else ignore
+)");
+  EXPECT_FALSE(bad.ok);
+  ASSERT_EQ(bad.diagnostics.size(), 1u);
+  EXPECT_EQ(bad.diagnostics[0].id, "E0301");
+}
+
+// A rate counts the commands that act: ignored or refused ones spend nothing,
+// so a flood of dropped commands cannot take the task's own slots.
+TEST(CompilePolicy, RateCountsOnlyCommandsThatAct) {
+  const char* text = R"(
+device gopigo : gopigo2 at i2c-1 0x08
+task t { period 100ms; wcet 1ms }
+allow t -> gopigo
+limit t -> gopigo.{set_left_speed, set_right_speed} 2 per job else ignore
+invariant CAP on gopigo.set_left_speed: require speed <= 120 else ignore
+)";
+  CompileOutput out;
+  std::unique_ptr<core::Checker> checker;
+  ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("rate.policy", text, &out, &checker));
+  auto send = [&](uint8_t cmd, uint8_t speed, uint32_t job) {
+    uint8_t frame[4] = {cmd, speed, 0, 0};
+    core::Verdict v{};
+    checker->check(testing::write_tx(0, 0x08, job, frame, sizeof frame), &v);
+    return v;
+  };
+  // Ten speeds the invariant drops: none of them counts.
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(send(0x46, 200, 1).decision, Decision::kIgnore);
+  EXPECT_EQ(send(0x46, 100, 1).decision, Decision::kAllow);
+  EXPECT_EQ(send(0x47, 100, 1).decision, Decision::kAllow);
+  // The third that would act is over the rate; it is dropped and counts nothing either.
+  const core::Verdict over = send(0x47, 100, 1);
+  EXPECT_EQ(over.decision, Decision::kIgnore);
+  EXPECT_EQ(over.reason, core::Reason::kRateExceeded);
+  EXPECT_EQ(send(0x46, 100, 2).decision, Decision::kAllow);  // a fresh job
+}
+
 TEST(CompilePolicy, ReportsEveryErrorNotJustTheFirst) {
   const char* text = R"(
 device gopigo : gopigo2 at i2c-1 0x08

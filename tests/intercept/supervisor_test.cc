@@ -809,8 +809,8 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   EXPECT_NE(log.find("\"kind\":\"safe-state\""), std::string::npos);
 }
 
-// A task past its budget (factor x declared actuations, here 1 x 2 per
-// 20 ms period) has every further transfer held to the end of the period;
+// A task past its budget of acting transfers (factor x declared actuations,
+// here 1 x 2 per 20 ms period) has every further transfer held to the end of the period;
 // the transfers still happen, later. A task that declares nothing is not held.
 TEST(MonitorBudget, TaskOverItsBudgetWaitsForTheEndOfThePeriod) {
   AuditedMonitor m;
@@ -846,7 +846,7 @@ TEST(MonitorBudget, TaskOverItsBudgetWaitsForTheEndOfThePeriod) {
   EXPECT_EQ(m.mon.holds(), 3u);
   const std::string log = m.log();
   EXPECT_NE(log.find("\"kind\":\"over-budget\""), std::string::npos) << log;
-  EXPECT_NE(log.find("over its budget of 2 transfers per job"), std::string::npos) << log;
+  EXPECT_NE(log.find("over its budget of 2 acting transfers per job"), std::string::npos) << log;
 }
 
 // A second thread of a task whose first thread is held past its budget is

@@ -28,7 +28,7 @@ class CheckerState;  // src/core/state.h
 }  // namespace internal
 
 // Bytes and alignment of the checker's state (src/core/state.h asserts them).
-inline constexpr uint32_t kCheckerStateBytes = 212968;
+inline constexpr uint32_t kCheckerStateBytes = 245736;
 inline constexpr uint32_t kCheckerStateAlign = 8;
 
 // Why the verifier refused an image. Stable numbers (they appear in tools' output).
@@ -95,6 +95,11 @@ class Checker {
 
   // Operator reset of a latched device.
   void reset_latch(uint16_t device);
+  // A session (one run of a program bound to `task`) ended: the task's
+  // session-scoped state words (StateScope::kSession) go back to their
+  // initial value, so the task's next run starts its sequences afresh. Hosts
+  // call it where they drive the task's safe state on exit.
+  void end_session(uint16_t task);
   bool latched(uint16_t device) const;
 
   // Seeds the shadow copy of a register-map device (e.g. read back from the

@@ -20,8 +20,9 @@ namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
 inline constexpr uint16_t kImageVersionMajor = 2;
-inline constexpr uint16_t kImageVersionMinor = 2;  // 1: HAS_LAST, per-channel rate limits;
-                                                   // 2: LatchMode::kHoldSafeUnrepaired
+inline constexpr uint16_t kImageVersionMinor = 3;  // 1: HAS_LAST, per-channel rate limits;
+                                                   // 2: LatchMode::kHoldSafeUnrepaired;
+                                                   // 3: InvariantRecord::scope
 inline constexpr uint16_t kNone = 0xFFFF;
 inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
@@ -234,6 +235,14 @@ enum class Response : uint8_t {
   kReject = 3,    // drop; the client's call fails with `reply_errno`
 };
 
+// Whose an invariant's state word (a sequence's position) is. kDevice: one
+// word, kept across every task and session (the device's physical history).
+// kTask: one word per task, kept across the task's sessions. kSession: one
+// word per task, back at its initial value (0) whenever a session of the task
+// ends (Checker::end_session), so a new run never inherits an old run's
+// position.
+enum class StateScope : uint8_t { kDevice = 0, kTask = 1, kSession = 2 };
+
 // Commands are selected by a 128-bit mask over global command ids.
 struct CommandMask {
   uint32_t bits[4];
@@ -262,7 +271,8 @@ struct InvariantRecord {
   uint8_t response;  // Response on FAIL (FAIL_SUBST always means kFailsafe)
   uint8_t reply_errno;
   uint16_t template_id;  // kFailsafe on FAIL: substitute (kNone = ignore)
-  uint16_t pad;
+  uint8_t scope;         // StateScope of its state word (since version 2.3; 0 before)
+  uint8_t pad;
   CommandMask commands;  // commands it applies to
   uint32_t name;
 };

@@ -34,7 +34,7 @@ enum class IOp : uint8_t {
   kLastField,  // field slot `slot` of the last command of this kind, times `scale`
   kSinceLast,  // microseconds since the last command of this kind
   kIndex,      // register-map channel of the checked command
-  kJobCount,   // commands of this task to this device in this job
+  kJobCount,   // commands of this task to this device that acted in this job
   kNeg,
   kNot,
   kAbs,
@@ -175,6 +175,9 @@ struct Invariant {
   std::vector<CommandValue> expect;
   uint8_t sequence_slot = 0;
   std::vector<int64_t> sequence;
+  // Whose position a sequence keeps: by default each run of a task starts at
+  // the first value (a program's protocol is its own, docs/policy-language.md).
+  core::StateScope scope = core::StateScope::kSession;
   Response response;
   std::string text;  // readable form
 };

@@ -195,6 +195,17 @@ void Sema::check_invariant(const ast::InvariantDecl& d) {
         ok = false;
       }
     }
+    if (const std::string& scope = d.scope.name; scope.empty() || scope == "session") {
+      inv.scope = core::StateScope::kSession;
+    } else if (scope == "task") {
+      inv.scope = core::StateScope::kTask;
+    } else if (scope == "device") {
+      inv.scope = core::StateScope::kDevice;
+    } else {
+      diags_.emit(DiagKind::kUnknownName, d.scope.span, scope,
+                  "a state scope: `session`, `task` or `device`");
+      ok = false;
+    }
   }
   auto resp = response(d.response, *dev, cmds, true, d.form != ast::InvariantForm::kRequire, rule);
   if (!resp) return;

@@ -177,6 +177,7 @@ struct InvariantDecl {
   std::vector<ExprPtr> expect;  // kExpect: kCall each
   Ident sequence_field;         // kSequence
   ExprPtr sequence_values;      // kSequence: kList
+  Ident scope;                  // kSequence: `scope session|task|device` (empty: the default)
   Response response;
   Span span;
   Span head_span;  // `invariant NAME`

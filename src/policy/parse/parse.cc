@@ -469,6 +469,9 @@ class Parser {
         return;
       }
       d.sequence_values = primary();
+      if (!failed_ && accept_word("scope") && !ident(d.scope, "`session`, `task` or `device`")) {
+        return;
+      }
     } else {
       fail("`when`, `require` or `sequence`");
       return;
