@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# The vendors' call patterns, unmodified in their logic, against the shipped
+# policies, under `contego run --policy` (embedded monitor) and under
+# `contego monitor` + `contego run --socket` (the README's deployment), on a
+# virtual bus. Attack-free runs: every decision allowed, apart from writes
+# the policy drops by design and says so (rover: the start-up set_speed(150);
+# arm: the gripper's configuration writes, which only arm_init may make).
+# - di_line_follow.py: the free-running follower loop (set_speed's 100 ms
+#   sleep inside, no sleep of its own), alone and beside a thread of the same
+#   process flooding increase_speed(): the flood is dropped, none of the
+#   loop's own frames is (a dropped frame spends no rate);
+# - sixdof_hand.py: the 6DOF Hand, open in one run and open, close in the next
+#   under one monitor: the next run starts the gripper's sequence afresh.
+# Usage: run_vendor_real.sh CONTEGO POLICIES_DIR VENDOR_DIR [SECONDS]
+set -uo pipefail
+contego="$1" policies="$2" vendor="$3" seconds="${4:-3}"
+# shellcheck source=../intercept/cli_common.sh
+source "$(dirname "$0")/../intercept/cli_common.sh"
+FAIL_SHOW=("*.out" "*.err")
+py=/usr/bin/python3
+arm_by_design=(--by-design "gripper->arm.{mode1, mode2, prescale, all_led}")
+
+verdicts() {  # NAME LOG ARGS...: the counts, or fail with the unexpected decisions
+  local name="$1" log="$2"
+  shift 2
+  "$py" "$vendor/verdicts.py" "$log" "$@" >"$dir/$name.verdicts" ||
+    fail "$name: $(cat "$dir/$name.verdicts")"
+  echo "$name: $(head -n1 "$dir/$name.verdicts")"
+}
+
+finished() {  # NAME: the program printed "done"
+  grep -q "^done" "$dir/$1.out" || fail "$1: the program did not finish"
+}
+
+# --- embedded: contego run --policy -----------------------------------------
+"$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/follow.jsonl" -- "$py" "$vendor/di_line_follow.py" "$seconds" \
+  >"$dir/follow.out" 2>"$dir/follow.err" || fail "follow: exit $?"
+finished follow
+verdicts follow "$dir/follow.jsonl" --by-design START_SPEED
+echo "follow: $(cat "$dir/follow.out")"
+
+"$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/flood.jsonl" -- "$py" "$vendor/di_line_follow.py" "$seconds" --flood \
+  >"$dir/flood.out" 2>"$dir/flood.err" || fail "flood: exit $?"
+finished flood
+verdicts flood "$dir/flood.jsonl" --by-design START_SPEED --require-dropped increase_speed
+echo "flood: $(cat "$dir/flood.out")"
+
+# --- contego monitor + contego run --socket --------------------------------------
+start_monitor() {  # POLICY NAME
+  "$contego" monitor --policy "$policies/$1" --virtual-bus 1 --socket "$dir/$2.sock" \
+    --audit "$dir/$2.jsonl" >"$dir/$2-monitor.out" 2>"$dir/$2-monitor.err" &
+  monitor_pid=$!
+  wait_for_socket "$dir/$2.sock" || fail "$2: the monitor did not start"
+}
+
+start_monitor rover.policy rover-monitor
+"$contego" run --socket "$dir/rover-monitor.sock" --task follower \
+  -- "$py" "$vendor/di_line_follow.py" "$seconds" >"$dir/follow-socket.out" \
+  2>"$dir/follow-socket.err" || fail "follow-socket: exit $?"
+finished follow-socket
+stop_monitor || fail "the rover's monitor exited $? on SIGTERM"
+verdicts follow-socket "$dir/rover-monitor.jsonl" --by-design START_SPEED
+
+start_monitor arm.policy arm-monitor
+"$contego" run --socket "$dir/arm-monitor.sock" --task gripper \
+  -- "$py" "$vendor/sixdof_hand.py" open >"$dir/hand-1.out" 2>"$dir/hand-1.err" ||
+  fail "hand-1: exit $?"
+finished hand-1
+# The next run comes at least one period (1 s) later: a run inside the same
+# job shares that job's one pulse (the grid outlives a session on purpose).
+sleep 1.1
+"$contego" run --socket "$dir/arm-monitor.sock" --task gripper \
+  -- "$py" "$vendor/sixdof_hand.py" open close >"$dir/hand-2.out" 2>"$dir/hand-2.err" ||
+  fail "hand-2: exit $?"
+finished hand-2
+stop_monitor || fail "the arm's monitor exited $? on SIGTERM"
+verdicts hand "$dir/arm-monitor.jsonl" "${arm_by_design[@]}"
+grep -q '"decision":"allow".*"fields":\[0,577' "$dir/arm-monitor.jsonl" ||
+  fail "hand: the second run's close did not act"
+echo "ok"
