@@ -338,7 +338,7 @@ class CheckerState {
   TaskWindow windows_[kMaxTasks]{};
   uint32_t job_count_[kMaxTasks][kMaxDevices]{};
   uint32_t rate_used_[kMaxRateLimits]{};
-  int64_t state_words_[kMaxInvariants]{};  // kDevice scope
+  int64_t state_words_[kMaxInvariants]{};                  // kDevice scope
   int64_t task_state_words_[kMaxTasks][kMaxInvariants]{};  // kTask and kSession scope
   int64_t pending_state_[kMaxInvariants]{};
   Decoded decoded_{};  // scratch of check(): kept out of the caller's stack

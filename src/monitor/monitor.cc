@@ -227,8 +227,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   return reply;
 }
 
-gate::TransferReply Monitor::decide_and_act(uint16_t task, const gate::Transfer& t,
-                                            bool* acted) {
+gate::TransferReply Monitor::decide_and_act(uint16_t task, const gate::Transfer& t, bool* acted) {
   gate::TransferReply reply;
   std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);

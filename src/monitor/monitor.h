@@ -127,10 +127,10 @@ class Monitor final : public gate::Endpoint {
 
  private:
   struct Budget {
-    uint32_t job = 0;  // the job the counts are of; ahead of now while transfers are held
+    uint32_t job = 0;      // the job the counts are of; ahead of now while transfers are held
     uint32_t acted = 0;    // transfers that acted
     uint32_t dropped = 0;  // transfers that did not
-    uint64_t period = 0;  // the grid `job` is on (a new policy may change it)
+    uint64_t period = 0;   // the grid `job` is on (a new policy may change it)
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
     bool told = false;  // the first hold was explained on standard error

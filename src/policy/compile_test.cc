@@ -209,7 +209,8 @@ task t { period 1s; wcet 1ms }
 task u { period 1s; wcet 1ms }
 allow t -> arm
 allow u -> arm
-invariant GRIP on arm.led(5): sequence off [420, 577] )" + scope + R"( else failsafe expected
+invariant GRIP on arm.led(5): sequence off [420, 577] )" +
+                             scope + R"( else failsafe expected
 )";
     CompileOutput out;
     std::unique_ptr<core::Checker> checker;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `contego run` with the embedded monitor: a rover loop that never sleeps
-# (80 frames, 3 act per job, the rest are ignored) is held to its budget of
+# (120 frames, 3 act per job, the rest are ignored) is held to its budget of
 # dropped transfers by default (an over-budget event in the audit log), and
 # not with --budget-factor 0.
 # Usage: cli_budget.sh CONTEGO POLICIES_DIR SCRIPTS_DIR
@@ -10,8 +10,8 @@ dir="$(mktemp -d)"
 trap 'rm -rf "$dir"' EXIT
 run() {
   "$contego" run --policy "$policies/rover.policy" --task follower --audit "$dir/$1.jsonl" \
-    "${@:2}" -- /usr/bin/python3 "$scripts/rover_burst.py" 80 >"$dir/$1.out"
-  grep -q "sent 80" "$dir/$1.out" || { echo "$1: the program did not finish its writes"; exit 1; }
+    "${@:2}" -- /usr/bin/python3 "$scripts/rover_burst.py" 120 >"$dir/$1.out"
+  grep -q "sent 120" "$dir/$1.out" || { echo "$1: the program did not finish its writes"; exit 1; }
 }
 run default
 grep -q '"kind":"over-budget"' "$dir/default.jsonl" ||

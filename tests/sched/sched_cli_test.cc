@@ -177,7 +177,7 @@ TEST(SchedCliTest, TaskModelFromPolicy) {
   const nlohmann::json* f = find_task(doc, "follower");
   ASSERT_NE(f, nullptr) << r.out;
   EXPECT_EQ((*f)["response_ns"], 40'150'000);
-  EXPECT_EQ(doc["max_overhead_ns"], 53'333'333);
+  EXPECT_EQ(doc["max_overhead_ns"], 20'000'000);  // (100 ms - 40 ms) / 3
 }
 #endif
 

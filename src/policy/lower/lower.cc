@@ -554,9 +554,8 @@ class Lowerer {
     rec.name = inv.name;
     rec.record.device = inv.device;
     rec.record.commands = mask_of(globals(inv.device, inv.commands));
-    rec.record.scope = static_cast<uint8_t>(inv.form == InvariantForm::kSequence
-                                                ? inv.scope
-                                                : core::StateScope::kDevice);
+    rec.record.scope = static_cast<uint8_t>(
+        inv.form == InvariantForm::kSequence ? inv.scope : core::StateScope::kDevice);
     static_response(inv.device, inv.response, rec.record.response, rec.record.reply_errno,
                     rec.record.template_id);
     place(p, rec.record.code_first, rec.record.code_len, inv.span);
