@@ -3,9 +3,11 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
 #include <fmt/core.h>
 #include <fstream>
 #include <sys/signalfd.h>
+#include <thread>
 
 #include "base/unique_fd.h"
 #include "cli/audit_args.h"
@@ -38,6 +40,58 @@ class VouchedClient final : public gate::Endpoint {
   bool has_bus(uint8_t bus) override { return client->has_bus(bus); }
   uint64_t funcs(uint8_t bus) override { return client->funcs(bus); }
 };
+
+// `contego run --socket`'s exit status when its monitor went away.
+constexpr int kExitMonitorLost = 3;
+
+// Watches the monitor connection of `contego run --socket`; when the monitor
+// closes it, raises SIGTERM in this process, which the supervisor takes
+// (stop_fd) as the order to end the program.
+class MonitorWatch {
+ public:
+  ~MonitorWatch() { stop(); }
+  void start(const gate::SocketClient& client) {
+    thread_ = std::thread([this, &client] {
+      while (!done_.load()) {
+        if (!client.wait_closed(100)) continue;
+        // Queued with a mark, so that a signal a user sent is told apart.
+        sigval mark{};
+        mark.sival_int = kWatchMark;
+        sigqueue(getpid(), SIGTERM, mark);
+        return;
+      }
+    });
+  }
+  void stop() {
+    done_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  static constexpr int kWatchMark = 0x6374676d;
+
+ private:
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+// What stopped the program: the signal read from the stop signals (SIGTERM
+// if none can be read), and whether it was MonitorWatch's.
+struct StopCause {
+  int signal = SIGTERM;
+  bool monitor_lost = false;
+};
+StopCause stop_cause(const StopSignals& stop) {
+  StopCause cause;
+  signalfd_siginfo info{};
+  if (!stop.fd.valid() ||
+      read(stop.fd.get(), &info, sizeof info) != static_cast<ssize_t>(sizeof info)) {
+    return cause;
+  }
+  cause.signal = static_cast<int>(info.ssi_signo);
+  cause.monitor_lost = info.ssi_code == SI_QUEUE &&
+                       info.ssi_pid == static_cast<uint32_t>(getpid()) &&
+                       info.ssi_int == MonitorWatch::kWatchMark;
+  return cause;
+}
 
 // Under SCHED_FIFO the scheduler wakes a thread away from a CPU that runs
 // another of equal priority, so a program and its supervisor that may use
@@ -138,12 +192,17 @@ void register_run(CLI::App& app) {
       // The hello names the program (pid, path) this supervisor speaks for;
       // the monitor checks the task's binding against it before it runs.
       VouchedClient endpoint;
+      // A monitor that goes away (stopped, crashed) ends the program: every
+      // actuation would fail from then on, and a program looping on EIO is
+      // worse than one that ends and is restarted by its unit.
+      MonitorWatch watch;
       opt.before_start = [&](pid_t child, const std::string& exe) -> std::string {
         gate::wire::Vouch vouch;
         if (!exe.empty() && exe[0] == '/') vouch = {static_cast<uint32_t>(child), exe};
         auto client = gate::SocketClient::connect(args->socket, args->task, channel, vouch);
         if (!client.ok()) return client.error();
         endpoint.client = std::move(*client);
+        watch.start(*endpoint.client);
         // Read by run() after this call (the options are this very object).
         opt.task = endpoint.client->task_id();
         if (args->realtime) opt.realtime_priority = endpoint.client->task_priority();
@@ -154,6 +213,7 @@ void register_run(CLI::App& app) {
         return {};
       };
       auto r = intercept::seccomp::run(opt, endpoint);
+      watch.stop();
       if (!r.ok()) {
         fmt::print(stderr, "contego run: {}\n", r.error());
         return set_exit_code(2);
@@ -161,8 +221,16 @@ void register_run(CLI::App& app) {
       if (!r->realtime_error.empty()) {
         fmt::print(stderr, "contego run: --rt refused ({}); ran without it\n", r->realtime_error);
       }
+      const StopCause cause = r->stopped ? stop_cause(stop) : StopCause{};
+      if (cause.monitor_lost) {
+        fmt::print(stderr,
+                   "contego run: the monitor at {} went away (stopped or died): ended the "
+                   "program of task '{}', whose actuations could no longer be checked\n",
+                   args->socket, args->task);
+        return set_exit_code(kExitMonitorLost);
+      }
       if (r->stopped) {
-        const int sig = stop.which();
+        const int sig = cause.signal;
         fmt::print(stderr,
                    "contego run: {}: ended the program; the monitor drives task '{}''s devices "
                    "to their safe state as the connection closes\n",

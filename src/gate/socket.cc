@@ -1,6 +1,7 @@
 #include "gate/socket.h"
 
 #include <errno.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -201,6 +202,12 @@ bool SocketClient::exchange(wire::Type type, std::span<const uint8_t> payload, w
     return false;
   }
   return true;
+}
+
+bool SocketClient::wait_closed(int timeout_ms) const {
+  pollfd p{fd_, POLLRDHUP, 0};
+  const int n = poll(&p, 1, timeout_ms);
+  return n > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL)) != 0;
 }
 
 TransferReply SocketClient::transfer(uint16_t /*task: bound by hello*/, const Transfer& t) {

@@ -72,6 +72,9 @@ class SocketClient final : public Endpoint {
   uint16_t task_id() const { return task_id_; }
   uint16_t task_priority() const { return task_priority_; }  // from the policy; 0 = none
   bool uses_channel() const { return channel_ != nullptr; }
+  // Waits up to `timeout_ms` for the monitor to close the connection (it
+  // stopped or died); true once it has. Safe beside transfers: it only polls.
+  bool wait_closed(int timeout_ms) const;
 
   TransferReply transfer(uint16_t task, const Transfer& transfer) override;
   void job_boundary(uint16_t task) override;

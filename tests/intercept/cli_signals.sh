@@ -5,6 +5,8 @@
 #    log records the signal and a safe state, the virtual GoPiGo2 reads back
 #    stopped (motion 0x78), and the program is gone.
 #  - SIGKILL to `contego run`: the program dies with it (PR_SET_PDEATHSIG).
+#  - A monitor stopped or killed under `contego run --socket`: exit 3, the
+#    program ended, the reason on stderr.
 #  - The same three signals to `contego run --socket`: exit 128+N, the
 #    program is gone and the monitor logs a safe state for the closed
 #    connection; SIGHUP to the monitor is logged and it keeps serving;
@@ -90,4 +92,29 @@ stop_monitor || fail "the monitor exited $? on SIGTERM"
 event safe-state "monitor stopping (SIGTERM)" "$dir/monitor.jsonl" ||
   fail "monitor: no safe state for SIGTERM"
 grep -q "gopigo2 0x08 motion=0x78" "$dir/monitor.state" || fail "monitor: the GoPiGo2 is not stopped"
+
+# A monitor that goes away ends the supervised program (contego run --socket
+# exits 3 and says why) instead of leaving it looping on EIO.
+for how in TERM KILL; do
+  "$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$sock" \
+    --audit "$dir/lost$how.jsonl" >"$dir/lost$how-monitor.out" 2>"$dir/lost$how-monitor.err" &
+  monitor_pid=$!
+  wait_for_socket "$sock" || fail "lost $how: the monitor did not start"
+  "$contego" run --socket "$sock" --task follower \
+    -- /usr/bin/python3 "$scripts/rover_loop.py" "$dir/lost$how.pid" >"$dir/lost$how.out" \
+    2>"$dir/lost$how.err" &
+  run_pid=$!
+  wait_for "$dir/lost$how.pid" || fail "lost $how: the program did not start"
+  child=$(cat "$dir/lost$how.pid")
+  kill -"$how" "$monitor_pid"
+  wait "$monitor_pid" 2>/dev/null
+  monitor_pid=""
+  wait "$run_pid"
+  code=$?
+  [[ $code -eq 3 ]] || fail "lost $how: contego run exited $code"
+  gone "$child" || fail "lost $how: the program (pid $child) outlived contego run"
+  grep -q "the monitor at .* went away" "$dir/lost$how.err" || fail "lost $how: no reason given"
+  rm -f "$sock"
+  echo "monitor lost ($how): ok"
+done
 echo "ok"
