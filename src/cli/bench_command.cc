@@ -61,8 +61,8 @@ struct BenchArgs {
 
 // rover.policy's follower declares a 100 ms period (the window of its rate:
 // the vendor loop is free-running), and a sleep ends a job only after half a
-// period: at 3 commands per job, 10,000 commands would take 6 minutes. The bench compiles the policy with a 2 ms
-// period instead (same devices, rate limits and invariants).
+// period: at 3 commands per job, 10,000 commands would take 6 minutes. The bench compiles the
+// policy with a 2 ms period instead (same devices, rate limits and invariants).
 constexpr const char* kRoverTiming = "period 100ms; deadline 100ms; wcet 40ms";
 constexpr const char* kBenchRoverTiming = "period 2ms; deadline 2ms; wcet 400us";
 constexpr uint32_t kBenchRoverPeriodUs = 2000;
