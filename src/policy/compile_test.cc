@@ -167,6 +167,19 @@ invariant CAP on gopigo.set_left_speed: require speed <= 120
   EXPECT_EQ(v.decision, Decision::kAllow);
 }
 
+// A PCA9685 LED5 pulse as Adafruit's set_pwm writes it: registers 0x1A..0x1D
+// (ON_L ON_H OFF_L OFF_H) one at a time (MODE1.AI is 0 at power-on). The
+// verdict of the last write, which commits the group.
+core::Verdict led5_pulse(core::Checker& checker, uint16_t task, uint16_t off, uint32_t job) {
+  core::Verdict v{};
+  const uint8_t regs[4][2] = {{0x1A, 0},
+                              {0x1B, 0},
+                              {0x1C, static_cast<uint8_t>(off & 0xFF)},
+                              {0x1D, static_cast<uint8_t>(off >> 8)}};
+  for (const auto& r : regs) checker.check(testing::write_tx(task, 0x40, job, r, sizeof r), &v);
+  return v;
+}
+
 TEST(CompilePolicy, SequenceFollowsTheDesignTimePulses) {
   const char* text = R"(
 device arm : pca9685 at i2c-1 0x40
@@ -177,18 +190,7 @@ invariant GRIP on arm.led(5): sequence off [420, 577] else failsafe expected
   CompileOutput out;
   std::unique_ptr<core::Checker> checker;
   ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out, &checker));
-  // LED5 = registers 0x1A..0x1D: ON_L ON_H OFF_L OFF_H (MODE1.AI is 0 at power-on: byte writes).
-  auto write_led5 = [&](uint16_t off, uint32_t job) {
-    core::Verdict v{};
-    const uint8_t regs[4][2] = {{0x1A, 0},
-                                {0x1B, 0},
-                                {0x1C, static_cast<uint8_t>(off & 0xFF)},
-                                {0x1D, static_cast<uint8_t>(off >> 8)}};
-    for (const auto& r : regs) {
-      checker->check(testing::write_tx(0, 0x40, job, r, sizeof r), &v);
-    }
-    return v;
-  };
+  auto write_led5 = [&](uint16_t off, uint32_t job) { return led5_pulse(*checker, 0, off, job); };
   EXPECT_EQ(write_led5(420, 1).decision, Decision::kAllow);
   EXPECT_EQ(write_led5(577, 2).decision, Decision::kAllow);
   // Out of sequence: 577 again where 420 is due; the expected pulse is substituted.
@@ -218,17 +220,7 @@ invariant GRIP on arm.led(5): sequence off [420, 577] )" +
     std::vector<Decision> got;
     if (!checker) return got;
     auto led5 = [&](uint16_t task, uint16_t off, uint32_t job) {
-      core::Verdict v{};
-      const uint8_t regs[4][2] = {{0x1A, 0},
-                                  {0x1B, 0},
-                                  {0x1C, static_cast<uint8_t>(off & 0xFF)},
-                                  {0x1D, static_cast<uint8_t>(off >> 8)}};
-      for (const auto& r : regs) {
-        core::Transaction tx = testing::write_tx(0, 0x40, job, r, sizeof r);
-        tx.task = task;
-        checker->check(tx, &v);
-      }
-      got.push_back(v.decision);
+      got.push_back(led5_pulse(*checker, task, off, job).decision);
     };
     led5(0, 420, 1);  // first run of t: open, then its session ends
     checker->end_session(0);
