@@ -320,6 +320,11 @@ void register_run(CLI::App& app) {
     if (!args->virtual_state.empty()) {
       std::ofstream(args->virtual_state) << monitor::virtual_state(**trusted);
     }
+    if ((*trusted)->monitor->decision_counts(opt.task).dropped() != 0) {
+      // What was dropped or replaced, where the user sees it (details: the audit log).
+      fmt::print(stderr, "contego run: task {}: {} (contego audit --explain {})\n", args->task,
+                 (*trusted)->monitor->decision_summary(opt.task), args->audit);
+    }
     if (!r.ok()) {
       fmt::print(stderr, "contego run: {}\n", r.error());
       return set_exit_code(2);

@@ -111,31 +111,6 @@ void CheckerState::rollback() {
   tx_.undo_device = kNone;
 }
 
-void CheckerState::update_window(const Transaction& tx) {
-  const uint32_t period = tasks_[tx.task].period_us;
-  TaskWindow& w = windows_[tx.task];
-  uint64_t key = 0;
-  if (tx.job != 0) {
-    key = (uint64_t{1} << 63) | tx.job;
-    w.timed = false;
-  } else if (period != 0) {
-    // Inside the time window of the last check: no 64-bit division.
-    if (w.valid && w.timed && tx.now_us >= w.start_us && tx.now_us - w.start_us < period) return;
-    key = tx.now_us / period;
-    w.timed = true;
-    w.start_us = key * period;
-  } else {
-    w.timed = false;
-  }
-  if (w.valid && w.key == key) return;
-  w.valid = true;
-  w.key = key;
-  __builtin_memset(job_count_[tx.task], 0, sizeof(job_count_[tx.task]));
-  for (uint32_t r = 0; r < rate_count_; ++r) {
-    if (rates_[r].task == tx.task) rate_used_[r] = 0;
-  }
-}
-
 LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
   // The verifier sized the history so that every (command, channel) has a slot.
   const CommandRecord& c = commands_[command];
@@ -484,16 +459,22 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   } else if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0) {
     decide(o, Decision::kReject, Reason::kAccessDenied, RuleKind::kAccess, tx.task, kEperm);
   } else if (state_[dev].latched) {
-    decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
+    // Held in its safe state: nothing acts. A command a rate rule refuses
+    // now is still refused with that rule's errno (the program learns its
+    // call is forbidden, as it would unlatched); others are ignored.
+    const uint16_t r = refusing_rate(tx, d);
+    if (r != kNone) {
+      decide(o, Decision::kReject, Reason::kRateExceeded, RuleKind::kRate, r,
+             rates_[r].reply_errno);
+    } else {
+      decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
+    }
     return;  // already held: no new violation
   } else {
     bool decided = false;
     for (uint32_t r = 0; r < rate_count_; ++r) {
       const RateRecord& rr = rates_[r];
-      if (rr.task != tx.task || rr.device != dev || !internal::mask_has(rr.commands, d.command) ||
-          (rr.only_channel != 0 && d.index != rr.only_channel - 1)) {
-        continue;
-      }
+      if (!selects(rr, tx, d)) continue;
       rates_hit |= uint64_t{1} << r;
       if (!decided && rate_used_[r] >= rr.max_per_job) {
         respond(o, rr.response, rr.reply_errno, rr.template_id, Reason::kRateExceeded,
@@ -565,21 +546,6 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
     }
   }
   if (o.reason != Reason::kLatched) count_acting(tx, o, rates_hit);
-}
-
-// A rate counts the commands that act (allowed or substituted) in the policy's
-// unit: one decoded command, whatever number of bus writes carried it. A
-// dropped or refused command spends nothing, so a flood of them cannot take
-// the slots of the task's own commands (docs/policy-language.md, "What a rate
-// counts").
-void CheckerState::count_acting(const Transaction& tx, const Outcome& o, uint64_t rates_hit) {
-  if (!writes(o.decision) || tx.task >= kMaxTasks) return;
-  uint32_t& jc = job_count_[tx.task][o.device];
-  if (jc != 0xFFFFFFFFu) ++jc;
-  for (uint64_t bits = rates_hit; bits != 0; bits &= bits - 1) {
-    uint32_t& used = rate_used_[__builtin_ctzll(bits)];
-    if (used != 0xFFFFFFFFu) ++used;
-  }
 }
 
 bool CheckerState::emit_safe_state(uint16_t dev) {

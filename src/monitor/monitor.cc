@@ -58,7 +58,24 @@ void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
   // No action without a record: a decision whose line is not in the log
   // is refused by transfer() (checked after each check()).
-  if (!self->audit_.decision(*record, self->names_.of(*record))) self->audit_lost_ = true;
+  const RecordNames names = self->names_.of(*record);
+  if (!self->audit_.decision(*record, names)) self->audit_lost_ = true;
+  self->drops_.note(*record, names, self->checking_now_us_);
+}
+
+std::string Monitor::decision_summary(uint16_t task) const {
+  std::lock_guard lock(mu_);
+  return drops_.summary(task);
+}
+
+DecisionCounts Monitor::decision_counts(uint16_t task) const {
+  std::lock_guard lock(mu_);
+  return drops_.counts(task);
+}
+
+void Monitor::set_drop_report(std::FILE* out) {
+  std::lock_guard lock(mu_);
+  drops_ = DropReport(out);
 }
 
 int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {

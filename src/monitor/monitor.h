@@ -31,6 +31,7 @@
 #include "gate/endpoint.h"
 #include "monitor/audit_log.h"
 #include "monitor/decider.h"
+#include "monitor/drop_report.h"
 #include "readings/sensor_readings.h"
 
 namespace contego::monitor {
@@ -121,6 +122,12 @@ class Monitor final : public gate::Endpoint {
   uint32_t job(uint16_t task) const;
   uint16_t task_priority(uint16_t task) const;
   uint64_t decisions() const { return decisions_.load(); }
+  // The task's decisions so far: "N allowed, N ignored, N substituted, N refused".
+  std::string decision_summary(uint16_t task) const;
+  DecisionCounts decision_counts(uint16_t task) const;
+  // Where the rate-limited lines about dropped commands go (standard error by
+  // default; nullptr: nowhere, as for a bench).
+  void set_drop_report(std::FILE* out);
   // Transfers refused because their decision's audit record could not be
   // written (each also drove the safe state).
   uint64_t audit_refusals() const { return audit_refusals_.load(); }
@@ -180,6 +187,7 @@ class Monitor final : public gate::Endpoint {
   std::atomic<uint32_t> budget_factor_{0};          // read without mu_ when off
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
+  DropReport drops_;  // under mu_
   std::atomic<uint64_t> decisions_{0};
   std::atomic<uint64_t> audit_refusals_{0};
   bool audit_lost_ = false;  // under mu_: the last check()'s record was not written

@@ -1,0 +1,68 @@
+// Rate windows and counts (INV^RC): a task's job window, which rate rules
+// select a command, and what they count (the commands that act).
+#include "core/internal.h"
+#include "core/state.h"
+
+namespace contego::core::internal {
+
+void CheckerState::update_window(const Transaction& tx) {
+  const uint32_t period = tasks_[tx.task].period_us;
+  TaskWindow& w = windows_[tx.task];
+  uint64_t key = 0;
+  if (tx.job != 0) {
+    key = (uint64_t{1} << 63) | tx.job;
+    w.timed = false;
+  } else if (period != 0) {
+    // Inside the time window of the last check: no 64-bit division.
+    if (w.valid && w.timed && tx.now_us >= w.start_us && tx.now_us - w.start_us < period) return;
+    key = tx.now_us / period;
+    w.timed = true;
+    w.start_us = key * period;
+  } else {
+    w.timed = false;
+  }
+  if (w.valid && w.key == key) return;
+  w.valid = true;
+  w.key = key;
+  __builtin_memset(job_count_[tx.task], 0, sizeof(job_count_[tx.task]));
+  for (uint32_t r = 0; r < rate_count_; ++r) {
+    if (rates_[r].task == tx.task) rate_used_[r] = 0;
+  }
+}
+
+bool CheckerState::selects(const RateRecord& rr, const Transaction& tx, const Decoded& d) const {
+  return rr.task == tx.task && rr.device == d.device &&
+         internal::mask_has(rr.commands, d.command) &&
+         (rr.only_channel == 0 || d.index == rr.only_channel - 1);
+}
+
+uint16_t CheckerState::refusing_rate(const Transaction& tx, const Decoded& d) const {
+  for (uint32_t r = 0; r < rate_count_; ++r) {
+    const RateRecord& rr = rates_[r];
+    if (selects(rr, tx, d) && rr.response == static_cast<uint8_t>(Response::kReject) &&
+        rate_used_[r] >= rr.max_per_job) {
+      return static_cast<uint16_t>(r);
+    }
+  }
+  return kNone;
+}
+
+// A rate counts the commands that act (allowed or substituted) in the policy's
+// unit: one decoded command, whatever number of bus writes carried it. A
+// dropped or refused command spends nothing, so a flood of them cannot take
+// the slots of the task's own commands (docs/policy-language.md, "What a rate
+// counts").
+void CheckerState::count_acting(const Transaction& tx, const Outcome& o, uint64_t rates_hit) {
+  if ((o.decision != Decision::kAllow && o.decision != Decision::kFailsafe) ||
+      tx.task >= kMaxTasks) {
+    return;
+  }
+  uint32_t& jc = job_count_[tx.task][o.device];
+  if (jc != 0xFFFFFFFFu) ++jc;
+  for (uint64_t bits = rates_hit; bits != 0; bits &= bits - 1) {
+    uint32_t& used = rate_used_[__builtin_ctzll(bits)];
+    if (used != 0xFFFFFFFFu) ++used;
+  }
+}
+
+}  // namespace contego::core::internal
