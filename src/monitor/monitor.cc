@@ -200,31 +200,28 @@ void Monitor::report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_
   }
 }
 
-// After a transfer was decided: counts it as acting or not; a non-acting one
-// past its budget holds the sending thread until the task's next release.
-void Monitor::charge_transfer(uint16_t task, bool acted) {
+// After a transfer was decided, under the decision's own lock (no second
+// lock on the check path): counts it as acting or not. A non-acting one past
+// its budget returns when the sending thread may go on (the task's next
+// release); 0: at once.
+uint64_t Monitor::charge_transfer_locked(uint16_t task, bool acted) {
   const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
-  if (factor == 0) return;
-  uint64_t hold_until = 0;
-  {
-    std::lock_guard lock(mu_);
-    const uint64_t period = decider_.task_period_us(task);
-    const uint64_t actuations = decider_.task_actuations_per_job(task);
-    if (period == 0 || actuations == 0) return;
-    const uint64_t now = clock_.now_us();
-    const uint32_t job = job_at_locked(task, now);
-    Budget& b = budgets_[task];
-    renew_budget_locked(b, job, period);
-    if (acted) {
-      ++b.acted;
-      return;
-    }
-    const uint64_t budget = uint64_t{factor} * std::max<uint64_t>(actuations, kNonActingFloor);
-    if (++b.dropped <= budget) return;
-    hold_until = next_release_locked(task, job);
-    report_hold_locked(task, b, now, budget, "transfers that did not act");
+  if (factor == 0) return 0;
+  const uint64_t period = decider_.task_period_us(task);
+  const uint64_t actuations = decider_.task_actuations_per_job(task);
+  if (period == 0 || actuations == 0) return 0;
+  const uint64_t now = clock_.now_us();
+  const uint32_t job = job_at_locked(task, now);
+  Budget& b = budgets_[task];
+  renew_budget_locked(b, job, period);
+  if (acted) {
+    ++b.acted;
+    return 0;
   }
-  clock_.sleep_until_us(hold_until);
+  const uint64_t budget = uint64_t{factor} * std::max<uint64_t>(actuations, kNonActingFloor);
+  if (++b.dropped <= budget) return 0;
+  report_hold_locked(task, b, now, budget, "transfers that did not act");
+  return next_release_locked(task, job);
 }
 
 gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
@@ -238,15 +235,21 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   // nothing, so they do not spend the task's actuation budget.
   const bool probe = gate::is_probe(t);
   if (!probe) hold_if_over_budget(task);
-  bool acted = false;
-  gate::TransferReply reply = decide_and_act(task, t, &acted);
-  if (!probe) charge_transfer(task, acted);
+  uint64_t hold_until = 0;
+  gate::TransferReply reply;
+  {
+    std::lock_guard lock(mu_);
+    bool acted = false;
+    reply = decide_and_act_locked(task, t, &acted);
+    if (!probe) hold_until = charge_transfer_locked(task, acted);
+  }
+  if (hold_until != 0) clock_.sleep_until_us(hold_until);
   return reply;
 }
 
-gate::TransferReply Monitor::decide_and_act(uint16_t task, const gate::Transfer& t, bool* acted) {
+gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Transfer& t,
+                                                   bool* acted) {
   gate::TransferReply reply;
-  std::lock_guard lock(mu_);
   auto bus_it = buses_.find(t.bus);
   if (bus_it == buses_.end()) {
     reply.err = ENODEV;

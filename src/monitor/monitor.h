@@ -156,11 +156,11 @@ class Monitor final : public gate::Endpoint {
   int sample_device_locked(uint16_t device);  // 0 or the bus's errno
   uint64_t sample_due_locked();
   void hold_if_over_budget(uint16_t task);
-  void charge_transfer(uint16_t task, bool acted);
+  uint64_t charge_transfer_locked(uint16_t task, bool acted);
   void renew_budget_locked(Budget& b, uint32_t job, uint64_t period);
   void report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget,
                           const char* what);
-  gate::TransferReply decide_and_act(uint16_t task, const gate::Transfer& t, bool* acted);
+  gate::TransferReply decide_and_act_locked(uint16_t task, const gate::Transfer& t, bool* acted);
   // The task's job at `now_us` on its period grid (1 = the first), starting
   // the grid on the first call; 0 for a task without a period.
   uint32_t job_at_locked(uint16_t task, uint64_t now_us);
