@@ -87,4 +87,15 @@ void add_budget_option(CLI::App* cmd, uint32_t* budget_factor) {
       ->capture_default_str();
 }
 
+void add_complain_options(CLI::App* cmd, bool* complain, std::vector<std::string>* complain_for) {
+  cmd->add_flag("--complain", *complain,
+                "complain mode: every command acts as the program sent it and the audit log "
+                "records the verdict the policy would have given (to fit a policy; never on an "
+                "unattended robot)");
+  cmd->add_option("--complain-for", *complain_for,
+                  "NAME: complain mode for this task or device only, the rest enforced; once per "
+                  "name")
+      ->allow_extra_args(false);
+}
+
 }  // namespace contego::cli

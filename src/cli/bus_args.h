@@ -41,6 +41,9 @@ void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
 // `--budget-factor` on `cmd`, as the Monitor takes it.
 void add_budget_option(CLI::App* cmd, uint32_t* budget_factor);
 
+// `--complain` and `--complain-for NAME` (complain mode) on `cmd`.
+void add_complain_options(CLI::App* cmd, bool* complain, std::vector<std::string>* complain_for);
+
 }  // namespace contego::cli
 
 #endif  // CONTEGO_CLI_BUS_ARGS_H_

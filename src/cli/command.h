@@ -29,6 +29,8 @@ void register_demo(CLI::App& app);
 // check and image need the policy compiler too.
 void register_check(CLI::App& app);
 void register_image(CLI::App& app);
+// replay and policy (generate) read audit logs and compile policies.
+void register_replay(CLI::App& app);
 
 // "contego X.Y.Z (policy image format M.N)": `contego version`, `contego --version`.
 std::string version_line();

@@ -29,6 +29,8 @@ void register_monitor(CLI::App& app) {
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool realtime = false;
     bool allow_degraded = false;
+    bool complain = false;
+    std::vector<std::string> complain_for;
     std::string virtual_state;  // tests: the virtual devices' state, written at exit
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
     monitor::AuditOptions audit_options;
@@ -65,6 +67,7 @@ void register_monitor(CLI::App& app) {
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
   add_budget_option(cmd, &args->budget_factor);
+  add_complain_options(cmd, &args->complain, &args->complain_for);
   cmd->add_flag("--allow-degraded", args->allow_degraded,
                 "start even if a device does not answer, a sensor cannot be read, a safe state "
                 "cannot be applied or a device's bus has no adapter (audited: degraded-start)");

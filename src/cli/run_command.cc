@@ -122,6 +122,8 @@ void register_run(CLI::App& app) {
     bool realtime = false;
     int cpu = -1;
     bool allow_degraded = false;
+    bool complain = false;
+    std::vector<std::string> complain_for;
     std::string user;
     bool same_user = false;
     std::string virtual_state;  // tests: the virtual devices' state, written at exit
@@ -143,6 +145,7 @@ void register_run(CLI::App& app) {
   cmd->add_flag("--no-channel", args->no_channel,
                 "with --socket: talk over the socket only, no shared-memory channel");
   add_budget_option(cmd, &args->budget_factor);
+  add_complain_options(cmd, &args->complain, &args->complain_for);
   cmd->add_flag("--allow-degraded", args->allow_degraded,
                 "embedded monitor: start even if a device does not answer, a sensor cannot be "
                 "read, a safe state cannot be applied or a device's bus has no adapter "

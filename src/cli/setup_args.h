@@ -22,6 +22,8 @@ Status apply_setup_args(const Args& args, monitor::SetupOptions& so) {
   so.virtual_buses = args.virtual_buses;
   so.budget_factor = args.budget_factor;
   so.allow_degraded = args.allow_degraded;
+  so.complain = args.complain;
+  so.complain_for = args.complain_for;
   return {};
 }
 

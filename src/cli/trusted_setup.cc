@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <optional>
 #include <set>
 
@@ -154,6 +155,50 @@ monitor::NameTable name_table(const image::ImageModel& model) {
   return n;
 }
 
+namespace {
+
+// The monitor's complain scope from --complain / --complain-for, and the
+// mode's words for the start record and the banner.
+Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
+    const SetupOptions& o, const image::ImageModel& model) {
+  Monitor::ComplainScope scope;
+  scope.all = o.complain;
+  scope.tasks.assign(model.tasks.size(), false);
+  std::vector<std::string> named;
+  for (const std::string& name : o.complain_for) {
+    bool found = false;
+    for (size_t i = 0; i < model.tasks.size(); ++i) {
+      if (model.tasks[i].name != name) continue;
+      scope.tasks[i] = found = true;
+      named.push_back("task " + name);
+    }
+    for (size_t d = 0; d < model.devices.size() && d < 32; ++d) {
+      if (model.devices[d].name != name) continue;
+      scope.devices |= 1u << d;
+      found = true;
+      named.push_back("device " + name);
+    }
+    if (!found) {
+      return make_error(
+          fmt::format("--complain-for {}: the policy has no task or device of "
+                      "that name",
+                      name));
+    }
+  }
+  std::string words = "mode enforce";
+  if (scope.all) {
+    words = "mode complain (every task and device: commands act as sent, verdicts recorded)";
+  } else if (!named.empty()) {
+    words = fmt::format(
+        "mode complain for {} (their commands act as sent, verdicts recorded); "
+        "enforce for the rest",
+        fmt::join(named, ", "));
+  }
+  return std::make_pair(std::move(scope), std::move(words));
+}
+
+}  // namespace
+
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   auto t = std::make_unique<Trusted>();
   if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
@@ -225,9 +270,20 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
     adapter_name[n] = "a test bus";
   }
   for (const auto& [n, b] : adapters) t->monitor->add_bus(static_cast<uint8_t>(n), b);
-  t->audit.event("start",
-                 fmt::format("policy {}, {} tasks, worst-case cost {} instructions", out.source,
-                             out.model.tasks.size(), t->decider->checker().worst_case_cost()));
+  auto complain = complain_scope(o, out.model);
+  if (!complain.ok()) return make_error(fmt::format("policy {}: {}", out.source, complain.error()));
+  t->monitor->set_complain(complain->first);
+  t->audit.event("start", fmt::format("policy {}, {} tasks, worst-case cost {} instructions, {}",
+                                      out.source, out.model.tasks.size(),
+                                      t->decider->checker().worst_case_cost(), complain->second));
+  if (complain->first.any()) {
+    // Loud on purpose: complain mode must never be left on by accident.
+    fmt::print(stderr,
+               "contego: WARNING: COMPLAIN MODE ({}): the policy's verdicts are only recorded; "
+               "the commands act as the programs send them. Do not run a robot unattended "
+               "like this.\n",
+               complain->second);
+  }
 
   const auto& devices = out.model.devices;
   auto device_name = [&](uint16_t d) {

@@ -44,6 +44,10 @@ struct SetupOptions {
   std::vector<int> virtual_buses;  // buses hosting PCA9685 0x40, GoPiGo2 0x08, line follower 0x06
   uint32_t budget_factor = Monitor::kDefaultBudgetFactor;  // set_budget_factor (0 = off)
   bool allow_degraded = false;
+  // Complain mode (Monitor::set_complain): every command, or those of the
+  // tasks and devices named, acts as sent; the policy's verdict is recorded.
+  bool complain = false;
+  std::vector<std::string> complain_for;
   std::string safe_state_reason = "start";  // the audit detail of the safe state at start
   // Tests: adapters supplied by the caller (not owned; must outlive the result).
   std::map<int, bus::Bus*> buses;

@@ -99,7 +99,12 @@ std::string explain_audit_line(const std::string& line) {
   } else if (reason != "allowed") {
     out += fmt::format(" ({})", reason);
   }
-  if (j.contains("substitute")) out += fmt::format("; wrote [{}] instead", text(j, "substitute"));
+  const bool complain = j.value("complain", false) && text(j, "decision") != "allow";
+  if (j.contains("substitute")) {
+    out += fmt::format("; {} [{}] instead", complain ? "would have written" : "wrote",
+                       text(j, "substitute"));
+  }
+  if (complain) out += " -- COMPLAIN MODE: not enforced, the command acted as sent";
   return out;
 }
 

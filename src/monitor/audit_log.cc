@@ -411,6 +411,7 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   w.put("\",\"command\":");
   w.number(r.command);
   name("command_name", names.command);
+  if (names.complain) w.put(",\"complain\":true");
   w.put(",\"decision\":\"");
   w.put(std::string_view(core::decision_name(r.decision)));
   w.put("\",\"device\":");
@@ -435,6 +436,10 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
     w.put(",\"pid\":");
     w.number(names.pid);
   }
+  if (names.readings != nullptr && !names.readings->empty()) {
+    w.put(",\"readings\":");
+    w.put(*names.readings);
+  }
   w.put(",\"reason\":");
   w.number(static_cast<int>(r.reason));
   w.put(",\"reason_name\":\"");
@@ -454,6 +459,10 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   w.put(",\"task\":");
   w.number(r.task);
   name("task_name", names.task);
+  if (names.tx >= 0) {
+    w.put(",\"tx\":");
+    w.number(names.tx);
+  }
   if (names.uid >= 0) {
     w.put(",\"uid\":");
     w.number(names.uid);

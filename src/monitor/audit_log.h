@@ -74,6 +74,15 @@ struct RecordNames {
   // (`t_us`). -1: the writer's own time is the decision's (t_us only).
   int64_t mono_us = -1;
   int64_t t_us = -1;
+  // Complain mode: the decision is the policy's, but the command acted as the
+  // program sent it (`"complain":true`).
+  bool complain = false;
+  // The writer's number of the core check the record is of (`tx`): records
+  // with one number are one transaction's commands. -1: not written.
+  int64_t tx = -1;
+  // The sensor readings the decision saw, a JSON object written as is
+  // (`readings`: {"line":{"age_us":N,"bytes":"..."}, ...}); null: none.
+  const std::string* readings = nullptr;
 };
 
 // The policy image's names, by id: what a decision record's numbers mean.

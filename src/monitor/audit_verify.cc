@@ -118,7 +118,10 @@ AuditCheck verify_audit(std::istream& in, const std::string& continues_from) {
     const std::string kind = j.value("kind", std::string("?"));
     if (kind == "decision") {
       ++s.decisions;
-      ++s.by_decision[j.value("decision", std::string("?"))];
+      std::string decision = j.value("decision", std::string("?"));
+      // Complain mode: the policy's verdict, but the command acted as sent.
+      if (decision != "allow" && j.value("complain", false)) decision += " (complain: sent)";
+      ++s.by_decision[decision];
       std::string task = j.contains("task_name") && j["task_name"].is_string()
                              ? j["task_name"].get<std::string>()
                              : (j.contains("task") ? json_text(j["task"]) : std::string("?"));

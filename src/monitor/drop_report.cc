@@ -11,22 +11,29 @@ namespace contego::monitor {
 void DropReport::note(const core::AuditRecord& r, const RecordNames& names, uint64_t now_us) {
   PerTask& t = tasks_[r.task < core::kMaxTasks ? r.task : core::kMaxTasks];
   const char* verdict = nullptr;
-  switch (r.decision) {
-    case core::Decision::kAllow:
-      ++t.counts.allowed;
-      return;
-    case core::Decision::kIgnore:
-      ++t.counts.ignored;
-      verdict = "ignored (the program was told it succeeded)";
-      break;
-    case core::Decision::kFailsafe:
-      ++t.counts.substituted;
-      verdict = "replaced by its fail-safe";
-      break;
-    case core::Decision::kReject:
-      ++t.counts.refused;
-      verdict = "refused";
-      break;
+  if (names.complain && r.decision != core::Decision::kAllow) {
+    ++t.counts.complained;
+    verdict = r.decision == core::Decision::kIgnore     ? "would be ignored (complain mode: sent)"
+              : r.decision == core::Decision::kFailsafe ? "would be replaced (complain mode: sent)"
+                                                        : "would be refused (complain mode: sent)";
+  } else {
+    switch (r.decision) {
+      case core::Decision::kAllow:
+        ++t.counts.allowed;
+        return;
+      case core::Decision::kIgnore:
+        ++t.counts.ignored;
+        verdict = "ignored (the program was told it succeeded)";
+        break;
+      case core::Decision::kFailsafe:
+        ++t.counts.substituted;
+        verdict = "replaced by its fail-safe";
+        break;
+      case core::Decision::kReject:
+        ++t.counts.refused;
+        verdict = "refused";
+        break;
+    }
   }
   if (out_ == nullptr) return;
   if (t.told && now_us - t.reported_at_us < interval_us_) {
@@ -53,8 +60,13 @@ const DecisionCounts& DropReport::counts(uint16_t task) const {
 
 std::string DropReport::summary(uint16_t task) const {
   const DecisionCounts& c = counts(task);
-  return fmt::format("{} allowed, {} ignored, {} substituted, {} refused", c.allowed, c.ignored,
-                     c.substituted, c.refused);
+  std::string s = fmt::format("{} allowed, {} ignored, {} substituted, {} refused", c.allowed,
+                              c.ignored, c.substituted, c.refused);
+  if (c.complained != 0) {
+    s +=
+        fmt::format("; {} would have been dropped but acted as sent (complain mode)", c.complained);
+  }
+  return s;
 }
 
 }  // namespace contego::monitor

@@ -23,6 +23,9 @@ struct RecordNames;
 
 struct DecisionCounts {
   uint64_t allowed = 0, ignored = 0, substituted = 0, refused = 0;
+  // Complain mode: commands the policy would have dropped that acted as sent
+  // (counted here only, not as ignored, substituted or refused).
+  uint64_t complained = 0;
   uint64_t dropped() const { return ignored + substituted + refused; }
 };
 
@@ -33,7 +36,8 @@ class DropReport {
   // Counts one decision (records of staged writes and of reads count as allowed).
   void note(const core::AuditRecord& record, const RecordNames& names, uint64_t now_us);
   const DecisionCounts& counts(uint16_t task) const;
-  // "N allowed, N ignored, N substituted, N refused" for the task.
+  // "N allowed, N ignored, N substituted, N refused" for the task (and, in
+  // complain mode, "; N would have been dropped but acted as sent").
   std::string summary(uint16_t task) const;
 
  private:

@@ -58,9 +58,89 @@ void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
   // No action without a record: a decision whose line is not in the log
   // is refused by transfer() (checked after each check()).
-  const RecordNames names = self->names_.of(*record);
+  RecordNames names = self->names_.of(*record);
+  names.complain = self->complain_now_;
+  names.tx = static_cast<int64_t>(self->check_seq_);
+  if (self->readings_json_seq_ != self->check_seq_) self->describe_readings_locked();
+  names.readings = &self->readings_json_;
   if (!self->audit_.decision(*record, names)) self->audit_lost_ = true;
   self->drops_.note(*record, names, self->checking_now_us_);
+}
+
+// Each sensor's latest sample as a check of the task sees it (its own reads
+// included), with its age: what `contego replay` feeds a policy's signals.
+void Monitor::describe_readings_locked() {
+  readings_json_seq_ = check_seq_;
+  readings_json_.clear();
+  static constexpr char kHex[] = "0123456789abcdef";
+  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+    if (decider_.device(d).sample_len == 0) continue;
+    readings_json_ += readings_json_.empty() ? "{\"" : ",\"";
+    readings_json_ += d < names_.devices.size() ? names_.devices[d] : std::to_string(d);
+    const readings::Reading* r = readings_.for_check(checking_task_, d, checking_now_us_);
+    if (r == nullptr) {
+      readings_json_ += "\":null";
+      continue;
+    }
+    const uint64_t age = checking_now_us_ > r->taken_at_us ? checking_now_us_ - r->taken_at_us : 0;
+    readings_json_ += fmt::format("\":{{\"age_us\":{},\"bytes\":\"", age);
+    for (uint32_t i = 0; i < r->len; ++i) {
+      if (i != 0) readings_json_ += ' ';
+      readings_json_ += kHex[r->bytes[i] >> 4];
+      readings_json_ += kHex[r->bytes[i] & 15];
+    }
+    readings_json_ += "\"}";
+  }
+  if (!readings_json_.empty()) readings_json_ += '}';
+}
+
+bool Monitor::ComplainScope::any() const {
+  return all || devices != 0 || std::find(tasks.begin(), tasks.end(), true) != tasks.end();
+}
+
+void Monitor::set_complain(ComplainScope scope) {
+  std::lock_guard lock(mu_);
+  complain_ = std::move(scope);
+}
+
+bool Monitor::complains_task_locked(uint16_t task) const {
+  return complain_.all || (task < complain_.tasks.size() && complain_.tasks[task]);
+}
+
+bool Monitor::complains_locked(uint16_t task, const gate::Transfer& t) const {
+  if (complains_task_locked(task)) return true;
+  if (complain_.devices == 0) return false;
+  auto complaining = [&](uint16_t addr) {
+    for (uint16_t d = 0; d < decider_.device_count() && d < 32; ++d) {
+      const core::DeviceRecord& rec = decider_.device(d);
+      if (rec.bus == t.bus && rec.addr == addr) return ((complain_.devices >> d) & 1u) != 0;
+    }
+    return false;  // no device of the policy there: enforced
+  };
+  if (t.quick) return complaining(t.quick_addr);
+  if (t.messages.empty()) return false;
+  for (const gate::Message& m : t.messages) {
+    if (!complaining(m.addr)) return false;
+  }
+  return true;
+}
+
+int Monitor::act_as_sent_locked(const gate::Transfer& t,
+                                const std::vector<gate::PlannedTx>& planned) {
+  for (size_t i = 0; i < planned.size(); ++i) {
+    if (planned[i].kind != core::TxKind::kWrite) continue;
+    const std::vector<uint8_t>& bytes = planned[i].bytes;
+    if (bytes.size() > core::kMaxEmitBytes) return EINVAL;
+    core::Verdict& v = verdicts_[i];
+    v.decision = core::Decision::kAllow;
+    v.bus = t.bus;
+    v.addr = planned[i].addr;
+    v.emit_count = 1;
+    v.emit_len[0] = static_cast<uint16_t>(bytes.size());
+    v.emit_bytes_used = static_cast<uint16_t>(bytes.size());
+    std::copy(bytes.begin(), bytes.end(), v.emit_bytes);
+  }
+  return 0;
 }
 
 std::string Monitor::decision_summary(uint16_t task) const {
@@ -145,6 +225,7 @@ void Monitor::hold_if_over_budget(uint16_t task) {
   uint64_t hold_until = 0;
   {
     std::lock_guard lock(mu_);
+    if (complains_task_locked(task)) return;  // observed as it runs, never held
     const uint64_t period = decider_.task_period_us(task);
     const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
@@ -209,7 +290,7 @@ uint64_t Monitor::charge_transfer_locked(uint16_t task, bool acted) {
   if (factor == 0) return 0;
   const uint64_t period = decider_.task_period_us(task);
   const uint64_t actuations = decider_.task_actuations_per_job(task);
-  if (period == 0 || actuations == 0) return 0;
+  if (period == 0 || actuations == 0 || complains_task_locked(task)) return 0;
   const uint64_t now = clock_.now_us();
   const uint32_t job = job_at_locked(task, now);
   Budget& b = budgets_[task];
@@ -241,6 +322,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
     std::lock_guard lock(mu_);
     bool acted = false;
     reply = decide_and_act_locked(task, t, &acted);
+    complain_now_ = false;  // records written outside a transfer (safe states) are enforced
     if (!probe) hold_until = charge_transfer_locked(task, acted);
   }
   if (hold_until != 0) clock_.sleep_until_us(hold_until);
@@ -308,6 +390,16 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     reply.err = EIO;
     return reply;
   }
+  if (complain_now_) {
+    // Complain mode: recorded as the policy would decide, acted as sent. The
+    // model was undone as for a drop, so it stays the one enforce mode keeps.
+    if (int err = act_as_sent_locked(t, planned); err != 0) {
+      reply.err = err;
+      return reply;
+    }
+    for (const gate::PlannedTx& p : planned) *acted = *acted || p.kind == core::TxKind::kWrite;
+    return perform_transfer(task, t, planned);
+  }
   if (tv.action == core::TransferAction::kRefuse) {
     const uint8_t err = verdicts_[tv.decider].reply_errno;
     reply.err = err != 0 ? err : EPERM;
@@ -333,6 +425,7 @@ int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
   const uint32_t job = job_at_locked(task, now);
   checking_task_ = task;
   checking_now_us_ = now;
+  complain_now_ = complain_.any() && complains_locked(task, t);
   verdicts_.resize(planned.size());
   decider_.begin_transfer();
   for (size_t i = 0; i < planned.size(); ++i) {
@@ -355,6 +448,7 @@ int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
     v.decision = core::Decision::kReject;  // fail closed if the decider leaves it untouched
     v.reply_errno = EPERM;
     audit_lost_ = false;
+    ++check_seq_;
     decider_.check(tx, &v);
     decisions_.fetch_add(1);
     *checked = i + 1;
@@ -487,7 +581,8 @@ void Monitor::task_exited(uint16_t task) {
   // Only the actuators this task may command: the end of one task's session
   // must not override what the others are doing.
   const uint32_t devices = task < task_devices_.size() ? task_devices_[task] : UINT32_MAX;
-  drive_safe_state_locked(fmt::format("task {} exited", task), devices);
+  const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "?";
+  drive_safe_state_locked(fmt::format("task {} ({}) exited", task, name), devices);
   // Its session-scoped state (a sequence's position) ends with it: the next
   // run of the task starts its sequences at their first value.
   decider_.end_session(task);

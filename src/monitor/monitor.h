@@ -88,6 +88,23 @@ class Monitor final : public gate::Endpoint {
   static constexpr uint32_t kNonActingFloor = 8;
   uint64_t holds() const { return holds_.load(); }
 
+  // Complain mode (`--complain`, `--complain-for NAME`): a transfer of a
+  // complaining task, or one whose every message goes to complaining devices,
+  // is checked and recorded as in enforce mode, its records marked
+  // `complain`, and then acts as the program sent it. The checker keeps the
+  // model enforce mode would have (a would-be drop is undone as a drop is),
+  // so the recorded verdicts are the ones enforce mode gives this traffic.
+  // The safe state at start and on exit is driven as in enforce mode; a
+  // latch's or a combined transfer's safe state is not, and a complaining
+  // task is never held over its budget (its timing is what is observed).
+  struct ComplainScope {
+    bool all = false;
+    std::vector<bool> tasks;  // by task id
+    uint32_t devices = 0;     // bit k: device k
+    bool any() const;
+  };
+  void set_complain(ComplainScope scope);
+
   // Drives every actuator to its safe state; logs `why`. Returns the
   // actuators whose safe state did not reach the bus (each also audited as a
   // `fault`); the others were driven.
@@ -147,6 +164,13 @@ class Monitor final : public gate::Endpoint {
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
   int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
+  bool complains_locked(uint16_t task, const gate::Transfer& t) const;
+  bool complains_task_locked(uint16_t task) const;
+  // Complain mode: every write of `planned` emits the bytes the program sent.
+  int act_as_sent_locked(const gate::Transfer& t, const std::vector<gate::PlannedTx>& planned);
+  // The readings of every sensor as the check of `checking_task_` sees them,
+  // as the JSON object of the decision records (readings_json_).
+  void describe_readings_locked();
   // transfer()'s steps, under mu_ (verdicts_ holds the verdicts).
   int check_transfer(uint16_t task, const gate::Transfer& t,
                      const std::vector<gate::PlannedTx>& planned, size_t* checked);
@@ -182,6 +206,11 @@ class Monitor final : public gate::Endpoint {
   readings::SensorReadings readings_;
   uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
   uint64_t checking_now_us_ = 0;
+  uint64_t check_seq_ = 0;          // under mu_: core checks so far (the records' `tx`)
+  bool complain_now_ = false;       // under mu_: the transfer being checked complains
+  std::string readings_json_;       // under mu_: describe_readings_locked()'s
+  uint64_t readings_json_seq_ = 0;  // the check readings_json_ is of (0: none)
+  ComplainScope complain_;
   std::map<uint16_t, uint64_t> job_phase_us_;       // the release of each task's job 1
   std::map<uint16_t, uint64_t> declared_phase_us_;  // the policy's `phase`, per task
   std::atomic<uint32_t> budget_factor_{0};          // read without mu_ when off
