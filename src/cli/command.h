@@ -31,6 +31,7 @@ void register_check(CLI::App& app);
 void register_image(CLI::App& app);
 // replay and policy (generate) read audit logs and compile policies.
 void register_replay(CLI::App& app);
+void register_policy(CLI::App& app);
 
 // "contego X.Y.Z (policy image format M.N)": `contego version`, `contego --version`.
 std::string version_line();

@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   contego::cli::register_check(app);
   contego::cli::register_image(app);
   contego::cli::register_replay(app);
+  contego::cli::register_policy(app);
 #endif
   if (argc > 1 && std::strcmp(argv[1], "--parse-only") == 0) {
     contego::cli::make_parse_only(app, "");

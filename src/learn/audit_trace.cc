@@ -4,6 +4,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <tuple>
 
 #include "base/read_file.h"
 #include "monitor/audit_log.h"
@@ -128,6 +129,12 @@ void note_event(const json& j, const std::string& kind, Trace& trace) {
 }
 
 }  // namespace
+
+bool same_transaction(const TraceDecision& a, const TraceDecision& b) {
+  if (a.tx >= 0 || b.tx >= 0) return a.tx == b.tx && a.file == b.file;
+  return std::tie(a.task, a.bus, a.addr, a.bytes, a.t_us, a.read) ==
+         std::tie(b.task, b.bus, b.addr, b.bytes, b.t_us, b.read);
+}
 
 bool parse_hex_bytes(const std::string& s, std::vector<uint8_t>& out) {
   out.clear();

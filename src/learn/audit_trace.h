@@ -68,6 +68,11 @@ struct Trace {
 // numbers alone cannot be mapped to another policy and are refused.
 Result<Trace> read_trace(const std::vector<std::string>& paths);
 
+// Whether two records are of one checked transaction (a register-map write
+// of several commands gives one record per command): the same `tx` of one
+// file, or, in logs without it, the same task, address, bytes and time.
+bool same_transaction(const TraceDecision& a, const TraceDecision& b);
+
 // "01 46 50" -> bytes; false on anything but hex pairs separated by spaces.
 bool parse_hex_bytes(const std::string& text, std::vector<uint8_t>& out);
 

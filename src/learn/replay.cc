@@ -106,12 +106,6 @@ std::map<std::string, std::vector<uint32_t>> job_numbers(const Trace& trace,
   return jobs;
 }
 
-bool same_transaction(const TraceDecision& a, const TraceDecision& b) {
-  if (a.tx >= 0 || b.tx >= 0) return a.tx == b.tx && a.file == b.file;
-  return std::tie(a.task, a.bus, a.addr, a.bytes, a.t_us, a.read) ==
-         std::tie(b.task, b.bus, b.addr, b.bytes, b.t_us, b.read);
-}
-
 bool differs(const TraceDecision& r, const Verdict& v) {
   if (r.decision != v.decision) return true;
   if (r.decision == "allow") return false;
