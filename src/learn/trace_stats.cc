@@ -208,13 +208,13 @@ void Collector::sensor_relations() {
             disjoint = false;
             break;
           }
-          others.push_back(fmt::format("{} with {}..{}", other, it->second.lo, it->second.hi));
+          others.push_back(fmt::format("{} {}..{}", other, it->second.lo, it->second.hi));
         }
         if (!disjoint) continue;
         out.suggestions.push_back(
-            {fmt::format("{}.{} acted {} times, always with {} in {}..{}; {} only: {}", device, cmd,
-                         iv.n, field, iv.lo, iv.hi, fmt::join(names, ", "),
-                         fmt::join(others, ", ")),
+            {fmt::format("{}.{} acted {} times, always with {} in {}..{}; the other commands "
+                         "of group `{}` only with: {}",
+                         device, cmd, iv.n, field, iv.lo, iv.hi, group, fmt::join(others, ", ")),
              fmt::format("invariant SUGGEST_{}_{} on {}.{}: require {} in {}..{} else ignore", cmd,
                          field.substr(field.find('.') + 1), device, cmd, field, iv.lo, iv.hi)});
         break;  // one field per command says it
