@@ -268,6 +268,10 @@ cp "$here"/guest/clients/* "$root/vm/clients/"
 # Reuse the end-to-end tests' client scripts where they fit.
 cp "$src"/tests/intercept/scripts/*.py "$root/vm/clients/"
 cp "$src"/policies/*.policy "$root/vm/policies/"
+mkdir -p "$root/vm/policies/observe"
+cp "$src"/policies/observe/*.policy "$root/vm/policies/observe/"
+# The vendor-style Hand and the raw-write attacker of the learn scenario.
+cp "$src"/tests/vendor/sixdof_hand.py "$src"/tests/vendor/attack_writes.py "$root/vm/clients/"
 
 (cd "$root" && find . -print0 | LC_ALL=C sort -z | cpio --null -o -H newc --quiet -R 0:0) >"$out.tmp"
 mv "$out.tmp" "$out"
