@@ -58,7 +58,9 @@ struct contego_kmod_load {
   __u32 index;         /* out */
   __u32 devices;       /* out: devices driven to their safe state at load */
   __u32 ntasks;        /* in: the image's tasks: entries of sessions[] and actuations[] */
-  __u32 pad;
+  __u32 complain;      /* in: bit i: task i in complain mode (docs/learn.md): its calls are
+                        * checked and recorded (CONTEGO_KMOD_REC_COMPLAIN) and act as sent.
+                        * A module that predates it reads 0 here: it enforces */
   __u32 sessions[CONTEGO_KMOD_MAX_TASKS];   /* in: live sessions task i may have, 1..64 */
   __u32 actuations[CONTEGO_KMOD_MAX_TASKS]; /* in: task i's actuations per job (N) */
 };
@@ -131,6 +133,10 @@ enum contego_kmod_safe_why {
   CONTEGO_KMOD_SAFE_FAILED = 0x80,  /* or'ed in: the safe state could not be written */
 };
 
+/* A decision taken in complain mode: the policy's verdict, recorded; the
+ * command acted as the program sent it. */
+#define CONTEGO_KMOD_REC_COMPLAIN 0x1
+
 #define CONTEGO_KMOD_REC_BYTES 24 /* bytes of the command (and substitute) kept */
 
 struct contego_kmod_record {
@@ -154,8 +160,8 @@ struct contego_kmod_record {
   __u16 addr;
   __u16 original_len;   /* the command's length (bytes kept: at most CONTEGO_KMOD_REC_BYTES) */
   __u16 substitute_len; /* the substitute's length */
-  __u16 pad;
-  __u32 count; /* GAP: records lost; LOAD: image bytes; SAFE_STATE/EXIT: wait status */
+  __u16 flags;          /* DECISION: CONTEGO_KMOD_REC_COMPLAIN */
+  __u32 count;          /* GAP: records lost; LOAD: image bytes; SAFE_STATE/EXIT: wait status */
   __s32 fields[8];
   __u8 original[CONTEGO_KMOD_REC_BYTES];
   __u8 substitute[CONTEGO_KMOD_REC_BYTES];

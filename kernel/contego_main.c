@@ -105,6 +105,7 @@ struct ct_policy {
 	u32 sessions[CONTEGO_KMOD_MAX_TASKS];
 	u32 actuations[CONTEGO_KMOD_MAX_TASKS];
 	u32 budget_factor;
+	u32 complain; /* bit per task: complain mode (docs/learn.md) */
 	/* The over-budget hold (as the monitor's hold_if_over_budget): the
 	 * job each task's budget counts, and the transfers charged to it. */
 	u32 budget_job[CONTEGO_KMOD_MAX_TASKS];
@@ -121,6 +122,7 @@ struct ct_policy {
 /* One decision at a time (the core is not thread-safe): the lock covers the
  * checks of a call and its bus operations, as the user-space monitor's does. */
 static DEFINE_MUTEX(ct_lock);
+static bool ct_complain_now; /* under ct_lock: the call being decided complains */
 static struct ct_policy *ct_policy;
 static u64 ct_gen; /* under ct_lock: loads so far */
 static struct contego_kmod_stats ct_stats;
@@ -393,6 +395,8 @@ static void ct_audit(void *context, const contego_audit_record *a)
 	u32 n;
 
 	ct_record_start(&r, CONTEGO_KMOD_REC_DECISION, true);
+	if (ct_complain_now)
+		r.flags = CONTEGO_KMOD_REC_COMPLAIN;
 	r.time_us = a->time_us;
 	r.job = a->job;
 	r.task = a->task;
@@ -1105,8 +1109,8 @@ static u64 ct_charge(struct ct_policy *p, u16 task, u64 now)
 	u32 period, job;
 	u64 budget;
 
-	if (p->budget_factor == 0 || task >= CONTEGO_KMOD_MAX_TASKS)
-		return 0;
+	if (p->budget_factor == 0 || task >= CONTEGO_KMOD_MAX_TASKS || (p->complain >> task) & 1)
+		return 0; /* a complaining task is observed as it runs, never held */
 	period = contego_task_period_us(p->checker, task);
 	budget = (u64)p->budget_factor * p->actuations[task];
 	if (period == 0 || budget == 0)
@@ -1199,6 +1203,28 @@ static int ct_enter(bool writes, u16 *task)
 	}
 }
 
+/* Every write of the call emits the bytes the program sent, at its address. */
+static void ct_act_as_sent(u32 n)
+{
+	u32 i;
+
+	for (i = 0; i < n; i++) {
+		contego_verdict *v = &ct_verdicts[i];
+		u32 len = min_t(u32, ct_txs[i].len, CONTEGO_MAX_EMIT_BYTES);
+
+		v->decision = CONTEGO_ALLOW;
+		v->reply_errno = 0;
+		v->addr = ct_txs[i].addr;
+		v->emit_count = 0;
+		if (ct_txs[i].kind != CONTEGO_TX_WRITE)
+			continue;
+		v->emit_count = 1;
+		v->emit_len[0] = len;
+		v->emit_bytes_used = len;
+		memcpy(v->emit_bytes, ct_txs[i].bytes, len);
+	}
+}
+
 /* Decides the call of `task` (ct_enter's) in ct_txs[0..n). Under ct_lock. */
 static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 {
@@ -1244,6 +1270,7 @@ static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 		}
 	}
 	job = ct_job(p, task, now);
+	ct_complain_now = task < 32 && ((p->complain >> task) & 1);
 	contego_begin_transfer(p->checker);
 	for (i = 0; i < n; i++) {
 		contego_verdict *v = &ct_verdicts[i];
@@ -1286,6 +1313,13 @@ static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 						   action == CT_REFUSE ? CONTEGO_REJECT :
 									 CONTEGO_FAILSAFE);
 	}
+	if (ct_complain_now && action != CT_PERFORM) {
+		/* Complain mode: recorded as the policy decides, acted as sent. The
+		 * model was undone as for a drop (the monitor's act_as_sent_locked). */
+		ct_act_as_sent(n);
+		action = CT_PERFORM;
+	}
+	ct_complain_now = false;
 	switch (action) {
 	case CT_PERFORM:
 		ct_stats.performed++;
@@ -1873,6 +1907,7 @@ static long ct_load(unsigned long arg)
 		p->actuations[i] = i < req.ntasks ? req.actuations[i] : 0;
 	}
 	p->budget_factor = req.budget_factor;
+	p->complain = req.complain;
 	p->mem = kvzalloc(size + contego_checker_align(), GFP_KERNEL);
 	p->image = kvmalloc(req.size, GFP_KERNEL);
 	if (!p->mem || !p->image) {

@@ -139,6 +139,7 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
       named.uid = r.uid;
       named.mono_us = mono_us;
       named.t_us = t_us;
+      named.complain = (r.flags & CONTEGO_KMOD_REC_COMPLAIN) != 0;
       return log.decision(a, named);
     }
     case CONTEGO_KMOD_REC_SAFE_STATE: {

@@ -21,6 +21,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <map>
 #include <sys/ioctl.h>
 #include <sys/sysmacros.h>
@@ -94,8 +95,39 @@ bool fill_task_limits(contego_kmod_load* req, const image::ImageModel& model,
   return true;
 }
 
+// --complain / --complain-for TASK as the module's bit per task; false (said
+// on stderr) for a name that is no task of the image.
+bool fill_complain(contego_kmod_load* req, const image::ImageModel& model, bool all,
+                   const std::vector<std::string>& names) {
+  std::vector<std::string> named;
+  for (size_t i = 0; i < model.tasks.size() && i < 32; ++i) {
+    const bool listed = std::find(names.begin(), names.end(), model.tasks[i].name) != names.end();
+    if (!all && !listed) continue;
+    req->complain |= 1u << i;
+    named.push_back(model.tasks[i].name);
+  }
+  for (const std::string& n : names) {
+    if (std::find(named.begin(), named.end(), n) == named.end()) {
+      fmt::print(stderr,
+                 "contego kmod load: --complain-for {}: the policy has no task of that name (the "
+                 "module takes complain mode per task)\n",
+                 n);
+      return false;
+    }
+  }
+  if (!named.empty()) {
+    fmt::print(stderr,
+               "contego kmod: WARNING: COMPLAIN MODE for task(s) {}: the policy's verdicts are "
+               "only recorded; their commands act as sent. Do not run a robot unattended like "
+               "this.\n",
+               fmt::join(named, ", "));
+  }
+  return true;
+}
+
 int load(const std::string& device, const std::string& policy, const std::string& raw_image,
-         const std::vector<std::string>& binds, uint32_t budget_factor) {
+         const std::vector<std::string>& binds, uint32_t budget_factor, bool complain,
+         const std::vector<std::string>& complain_for) {
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
   contego_kmod_load req{};
@@ -124,6 +156,7 @@ int load(const std::string& device, const std::string& policy, const std::string
     }
     image = loaded->image;
     if (!fill_task_limits(&req, loaded->model, loaded->bindings)) return 2;
+    if (!fill_complain(&req, loaded->model, complain, complain_for)) return 2;
     std::map<std::string, uint16_t> ids;
     for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
       ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
@@ -201,8 +234,9 @@ int load(const std::string& device, const std::string& policy, const std::string
   }
   fmt::print(
       "contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state, budget "
-      "factor {}\n",
-      image.size(), table.size(), req.devices, budget_factor);
+      "factor {}{}\n",
+      image.size(), table.size(), req.devices, budget_factor,
+      req.complain != 0 ? fmt::format(", complain mode for task mask 0x{:x}", req.complain) : "");
   return 0;
 }
 
@@ -236,6 +270,8 @@ void register_kmod(CLI::App& app) {
     std::string device = "/dev/contego", policy, raw_image;
     std::vector<std::string> binds;
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+    bool complain = false;
+    std::vector<std::string> complain_for;
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("kmod", "Drive contego.ko, the in-kernel checked i2c-dev");
@@ -247,13 +283,14 @@ void register_kmod(CLI::App& app) {
   ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
   ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
   add_budget_option(ld, &args->budget_factor);
+  add_complain_options(ld, &args->complain, &args->complain_for);
   ld->callback([args] {
     if (args->policy.empty() == args->raw_image.empty()) {
       fmt::print(stderr, "contego kmod load: give --policy or --unverified-image\n");
       return set_exit_code(2);
     }
-    set_exit_code(
-        load(args->device, args->policy, args->raw_image, args->binds, args->budget_factor));
+    set_exit_code(load(args->device, args->policy, args->raw_image, args->binds,
+                       args->budget_factor, args->complain, args->complain_for));
   });
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", args->device, "the module's control device")->capture_default_str();

@@ -650,5 +650,30 @@ run_logged times python3 /tmp/kmod_times.py $AUDIT_LOG $t_before $t_after
   bad "the session-refused lines' time or count: $(cat "$OUT")"
 back_to_i2c_dev
 
+# --- complain mode (docs/learn.md): the gripper's commands act as sent, the
+# policy's verdicts are recorded, marked, and the log verifies.
+AUDIT_LOG=$LOGDIR/kmod-complain.jsonl
+stub_set $A 0xfe 0x79
+stub_set $A 0x01 0x04
+rmmod i2c_dev
+run_logged complain_insmod insmod $KO adapters=0 buses=1
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader
+run_logged complain_load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task \
+  --bind gripper=contego --complain-for gripper
+[ $RC = 0 ] && grep -q "COMPLAIN MODE for task(s) gripper" "$OUT" &&
+  grep -q "complain mode for task mask 0x2" "$OUT" &&
+  ok "kmod load --complain-for gripper: loaded, and loud about it" || bad "kmod load --complain-for (exit $RC)"
+run_logged complain_prescale su contego -s /bin/sh -c "exec /usr/sbin/i2cset -y 0 $A 0xfe 3"
+run_logged complain_enforced as_task i2cset -y 0 $A 0x01 0x10
+stop_reader
+back_to_i2c_dev
+expect_reg $A 0xfe 3 "complain mode: the gripper's PRE_SCALE=3 (the policy ignores it) acted as sent"
+expect_reg $A 0x01 0x04 "arm_init, not in complain mode, is still enforced: its MODE2=0x10 did not land"
+run_logged complain_verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && grep -q '"complain":true,"decision":"ignore".*"task_name":"gripper"' $AUDIT_LOG &&
+  ok "the log records the would-be verdict (ignore) marked complain, and verifies" ||
+  bad "no verified complain record of the gripper's PRE_SCALE write"
+
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
