@@ -101,7 +101,8 @@ struct contego_kmod_stats {
 enum contego_kmod_record_type {
   CONTEGO_KMOD_REC_DECISION = 1,        /* the core's audit record of one command */
   CONTEGO_KMOD_REC_SAFE_STATE = 2,      /* device's safe state driven; `why` */
-  CONTEGO_KMOD_REC_LOAD = 3,            /* an image verified and in force; count = its size */
+  CONTEGO_KMOD_REC_LOAD = 3,            /* an image verified and in force; count = its size,
+                                         * fields[0] (field_count 1) = its header's CRC-32 */
   CONTEGO_KMOD_REC_LOAD_REFUSED = 4,    /* the verifier refused an image; reason = its status */
   CONTEGO_KMOD_REC_GAP = 5,             /* count = records lost before this one */
   CONTEGO_KMOD_REC_SESSION_REFUSED = 6, /* a process of `task` (pid, uid) would have opened a

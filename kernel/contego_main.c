@@ -1982,9 +1982,15 @@ static long ct_load(unsigned long arg)
 	ct_stats.loaded = 1;
 	{
 		struct contego_kmod_record rec;
+		__le32 crc;
 
 		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
 		rec.count = req.size;
+		/* Which image: its header's CRC-32 (bytes 12..15), so that a
+		 * reader names the records that follow from this image alone. */
+		memcpy(&crc, p->image + 12, sizeof(crc));
+		rec.fields[0] = (s32)le32_to_cpu(crc);
+		rec.field_count = 1;
 		ct_push(&rec, true);
 	}
 	req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);

@@ -99,8 +99,28 @@ uint64_t decision_wall_us(uint64_t mono_us) {
   return wall_now > ago ? wall_now - ago : 0;
 }
 
+KmodNames::KmodNames(std::vector<Image> images)
+    : images_(std::move(images)), current_(images_.empty() ? &none_ : &images_.front().names) {}
+
+std::string KmodNames::follow(const contego_kmod_record& r) {
+  if (r.type != CONTEGO_KMOD_REC_LOAD) return {};
+  if (r.field_count < 1) return "; a module without image checksums: names assumed unchanged";
+  const auto crc = static_cast<uint32_t>(r.fields[0]);
+  for (const Image& i : images_) {
+    if (i.crc != crc) continue;
+    current_ = &i.names;
+    return fmt::format("; image CRC-32 {:08x}: {}, whose names the records now carry", crc,
+                       i.source);
+  }
+  current_ = &none_;
+  return fmt::format(
+      "; image CRC-32 {:08x} is none of the reader's --policy files: records "
+      "carry numbers only until one of them is loaded",
+      crc);
+}
+
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
-                       const contego_kmod_record& r) {
+                       const contego_kmod_record& r, const std::string& load_note) {
   constexpr uint32_t kKept = CONTEGO_KMOD_REC_BYTES;
   // Every record carries the module's time of what it records (its
   // CLOCK_MONOTONIC when it took the record): the line's mono_us and t_us
@@ -168,8 +188,8 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
     }
     case CONTEGO_KMOD_REC_LOAD:
       return event("policy-load",
-                   fmt::format("contego.ko: image of {} bytes verified and in force; {}", r.count,
-                               caller(r)));
+                   fmt::format("contego.ko: image of {} bytes verified and in force; {}{}", r.count,
+                               caller(r), load_note));
     case CONTEGO_KMOD_REC_LOAD_REFUSED:
       return event("policy-load-refused",
                    fmt::format("contego.ko: the verifier refused an image of {} bytes "
@@ -222,14 +242,24 @@ int kmod_audit(const KmodAuditOptions& o) {
   // Signals are taken by the signalfd below: blocked before any thread (the
   // log's grower) starts, so none of them can die of SIGTERM mid-record.
   StopSignals signals;
-  monitor::SetupOptions setup;
-  setup.policy = o.policy;
-  auto loaded = monitor::load_policy(setup);
-  if (!loaded.ok()) {
-    fmt::print(stderr, "contego kmod audit: {}\n", loaded.error());
-    return 2;
+  std::vector<KmodNames::Image> images;
+  for (const std::string& policy : o.policies) {
+    monitor::SetupOptions setup;
+    setup.policy = policy;
+    auto loaded = monitor::load_policy(setup);
+    if (!loaded.ok()) {
+      fmt::print(stderr, "contego kmod audit: {}\n", loaded.error());
+      return 2;
+    }
+    KmodNames::Image i;
+    i.source = loaded->source;
+    std::memcpy(&i.crc, loaded->image.data() + 12, sizeof(i.crc));  // the header's CRC-32
+    i.names = monitor::name_table(loaded->model);
+    images.push_back(std::move(i));
   }
-  const monitor::NameTable names = monitor::name_table(loaded->model);
+  std::string sources;
+  for (const auto& i : images) sources += (sources.empty() ? "" : ", ") + i.source;
+  KmodNames names(std::move(images));
   monitor::AuditLog log;
   if (Status s = log.open(o.audit, o.audit_options); !s.ok()) {
     fmt::print(stderr, "contego kmod audit: {}\n", s.error());
@@ -245,7 +275,9 @@ int kmod_audit(const KmodAuditOptions& o) {
     return 2;
   }
   log.event("start",
-            fmt::format("contego kmod audit: reading {} for {}", o.device, loaded->source));
+            fmt::format("contego kmod audit: reading {} for {} (names follow the policy-load "
+                        "records)",
+                        o.device, sources));
   if (!o.quiet) fmt::print(stderr, "contego kmod audit: {} -> {}\n", o.device, o.audit);
 
   // The size of the module's largest read (CT_READ_BATCH); acknowledged once
@@ -262,7 +294,11 @@ int kmod_audit(const KmodAuditOptions& o) {
     if (n > 0) {
       const size_t count = static_cast<size_t>(n) / sizeof(batch[0]);
       size_t written = 0;
-      while (written < count && write_kmod_record(log, names, batch[written])) ++written;
+      while (written < count) {
+        const std::string note = names.follow(batch[written]);
+        if (!write_kmod_record(log, names.current(), batch[written], note)) break;
+        ++written;
+      }
       // What is in the log is acknowledged; the rest stays in the module.
       if (written > 0) {
         uint64_t seq = batch[written - 1].seq;

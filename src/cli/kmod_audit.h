@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "contego_kmod.h"
 #include "monitor/audit_log.h"
@@ -13,8 +14,10 @@ namespace contego::cli {
 
 struct KmodAuditOptions {
   std::string device = "/dev/contego-audit";
-  std::string policy;  // the policy loaded into the module: the records' names
-  std::string audit;   // the log ("-" = standard error)
+  // The policies the module may run: each record is named from the image in
+  // force (KmodNames).
+  std::vector<std::string> policies;
+  std::string audit;  // the log ("-" = standard error)
   monitor::AuditOptions audit_options;
   bool quiet = false;
 };
@@ -23,12 +26,37 @@ struct KmodAuditOptions {
 // CLOCK_MONOTONIC -- the clock of contego.ko's records -- as of now.
 uint64_t decision_wall_us(uint64_t mono_us);
 
+// The names records are written with: those of the image in force, as the
+// module's policy-load records say (the CRC-32 in its image header, matched
+// against each policy the reader was given). Before the first policy-load
+// record the first policy's names are assumed (the reader is started with
+// the policy it loads); after one whose image is none of them, records carry
+// numbers only, never another policy's names.
+class KmodNames {
+ public:
+  struct Image {
+    std::string source;
+    uint32_t crc = 0;
+    monitor::NameTable names;
+  };
+  explicit KmodNames(std::vector<Image> images);
+  // Follows a policy-load record (others change nothing); returns what its
+  // line says about the names ("" for other records).
+  std::string follow(const contego_kmod_record& record);
+  const monitor::NameTable& current() const { return *current_; }
+
+ private:
+  std::vector<Image> images_;
+  monitor::NameTable none_;
+  const monitor::NameTable* current_;
+};
+
 // One module record as a line of `log` (a decision, or an event naming the
 // device and the caller). Every line carries the module's time of what it
 // records (mono_us, and t_us: that instant on the wall clock), not the time
 // the line is written. False: the line is not in the log.
 bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
-                       const contego_kmod_record& record);
+                       const contego_kmod_record& record, const std::string& load_note = {});
 
 // Reads the ring until SIGINT/SIGTERM; 0, or 1 (a record could not be
 // written: it stays in the module), or 2 (cannot start).

@@ -300,13 +300,15 @@ void register_kmod(CLI::App& app) {
       "audit",
       "Write contego.ko's audit ring to the audit log (the module fails calls closed "
       "while no reader runs)");
-  au->add_option("--policy", audit->policy, "the policy loaded into the module (names)");
+  au->add_option("--policy", audit->policies,
+                 "the policy loaded into the module (names); once per policy the module may run: "
+                 "each record is named from the image in force");
   au->add_option("--audit", audit->audit, "audit log file (- = standard error)");
   au->add_option("--device", audit->device, "the module's audit device")->capture_default_str();
   au->add_flag("--quiet", audit->quiet, "no start and stop lines on standard error");
   add_audit_options(au, &audit->audit_options);
   au->callback([audit] {
-    if (audit->policy.empty() || audit->audit.empty()) {
+    if (audit->policies.empty() || audit->audit.empty()) {
       fmt::print(stderr, "contego kmod audit: give --policy FILE and --audit LOG\n");
       return set_exit_code(2);
     }

@@ -289,5 +289,42 @@ TEST_F(KmodAudit, SessionsFullNamesTaskProcessAndCount) {
       << b;
 }
 
+// The names follow the image in force: a policy-load record's CRC-32 picks
+// the reader's policy with that image; an image of none of them leaves the
+// records with numbers only.
+TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
+  monitor::NameTable other = names_;
+  other.tasks = {"pilot", "observer"};
+  KmodNames names({{"arm.policy", 0x1111, names_}, {"other.policy", 0x2222, other}});
+  contego_kmod_record d = record(CONTEGO_KMOD_REC_DECISION);
+  d.task = 1;
+  d.device = 0;
+  d.command = 0;
+  auto write = [&](const contego_kmod_record& r) {
+    const std::string note = names.follow(r);
+    ASSERT_TRUE(write_kmod_record(log_, names.current(), r, note));
+  };
+  write(d);  // before any load record: the first policy's names
+  contego_kmod_record ld = record(CONTEGO_KMOD_REC_LOAD);
+  ld.field_count = 1;
+  ld.fields[0] = 0x2222;
+  write(ld);
+  write(d);
+  ld.fields[0] = 0x3333;
+  write(ld);
+  write(d);
+  auto l = lines();
+  ASSERT_EQ(l.size(), 5u);
+  EXPECT_EQ(l[0]["task_name"], names_.tasks[1]);
+  EXPECT_NE(l[1]["detail"].get<std::string>().find("00002222: other.policy"), std::string::npos)
+      << l[1]["detail"];
+  EXPECT_EQ(l[2]["task_name"], "observer");
+  EXPECT_NE(l[3]["detail"].get<std::string>().find("none of the reader's --policy files"),
+            std::string::npos)
+      << l[3]["detail"];
+  EXPECT_FALSE(l[4].contains("task_name")) << l[4];
+  EXPECT_EQ(l[4]["task"], 1);
+}
+
 }  // namespace
 }  // namespace contego::cli

@@ -379,7 +379,8 @@ tank_round() {  # tank_round LABEL LEVEL POLICY...
   rmmod i2c_dev
   run_logged ${round}_insmod insmod $KO adapters=0 buses=1
   wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
-  start_reader $POLICIES/tank.policy
+  # Every policy of the round: each record is named from the image in force.
+  start_reader "$(echo "$@" | sed 's/ / --policy /g')"
   n=0
   for policy in "$@"; do
     n=$((n + 1))
@@ -407,6 +408,10 @@ grep -q "sample_errors=[1-9]" "$LOGDIR/tank900_stats1.out" &&
   grep -q '"reason_name":"signal-unavailable".*"rule_name":"INV_W"' $AUDIT_LOG &&
   ok "a tank that does not answer: the failed sample is counted, tone(1) ignored as signal-unavailable" ||
   bad "the unreadable tank: $(cat "$LOGDIR/tank900_stats1.out")"
+grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*tank-missing.policy, whose names' $AUDIT_LOG &&
+  grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*/tank.policy, whose names' $AUDIT_LOG &&
+  ok "the reader's names follow each policy-load record (tank-missing.policy, then tank.policy)" ||
+  bad "the policy-load lines do not say whose names follow: $(grep policy-load $AUDIT_LOG | tail -n 2)"
 [ $TONE_RC2 = 0 ] && ok "level 900 mm: tone(1) exits 0" || bad "level 900: tone(1) exit $TONE_RC2"
 expect_reg 0x20 0x01 1 "level 900 mm (high): the buzzer's tone(1) landed"
 run_logged verify3 contego audit $AUDIT_LOG
