@@ -130,7 +130,8 @@ enum contego_kmod_safe_why {
   CONTEGO_KMOD_SAFE_EXIT = 5,       /* a session of `task` ended (docs/kernel-client.md
                                      * "Sessions"): pid/uid are the process's, count its
                                      * wait status, index 1 if the end waited for its
-                                     * process group's leader */
+                                     * process group's leader, fields[0] the register
+                                     * writes it staged and never completed (dropped) */
   CONTEGO_KMOD_SAFE_FAILED = 0x80,  /* or'ed in: the safe state could not be written */
 };
 

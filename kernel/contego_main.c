@@ -710,6 +710,7 @@ struct ct_session {
 	bool fired; /* its watch exited: the work owns it (under the wait queue's lock) */
 	u32 pid, uid; /* the process, as the records name it */
 	u32 status;   /* its wait status */
+	u32 staged_dropped; /* at its end: register writes staged, never completed */
 	struct pid *proc;   /* the process (thread group) */
 	struct pid *watch;  /* whose exit ends it: proc, then perhaps its group's leader */
 	struct pid *leader; /* set when fired: hand the end to this leader */
@@ -729,6 +730,8 @@ static void ct_session_record(struct contego_kmod_record *r, const struct ct_ses
 	r->uid = s->uid;
 	r->count = s->status;
 	r->index = s->phase == CT_S_LEADER;
+	r->fields[0] = (s32)s->staged_dropped;
+	r->field_count = 1;
 }
 
 /*
@@ -816,6 +819,10 @@ static void ct_session_end(struct ct_policy *p, struct ct_session *s)
 	u16 d;
 	int r;
 
+	/* The session's own state (a sequence's position) ends with it, and
+	 * the register writes it staged and never completed are dropped: they
+	 * never reached a device (its records say how many). */
+	s->staged_dropped = contego_end_session(p->checker, s->task);
 	for (d = 0; d < 32; d++) {
 		if (!(mask & (1u << d)))
 			continue;
@@ -831,8 +838,6 @@ static void ct_session_end(struct ct_policy *p, struct ct_session *s)
 		ct_session_record(&rec, s);
 		ct_push(&rec, true);
 	}
-	/* The session's own state (a sequence's position) ends with it. */
-	contego_end_session(p->checker, s->task);
 	ct_stats.session_ends++;
 	pr_info("contego: task %u: session of pid %u ended (wait status 0x%x%s): %u of %u devices driven to their safe state\n",
 		s->task, s->pid, s->status, s->phase == CT_S_LEADER ? ", with its group's leader" : "",

@@ -115,8 +115,9 @@ void contego_abort_transfer(contego_checker* c, uint8_t decision);
 uint8_t contego_combine_transfer(const contego_verdict* verdicts, uint32_t count,
                                  uint32_t* decider);
 void contego_reset_latch(contego_checker* c, uint16_t device);
-/* A session of `task` ended: its session-scoped state words restart (Checker::end_session). */
-void contego_end_session(contego_checker* c, uint16_t task);
+/* A session of `task` ended: its session-scoped state words restart and its
+ * staged register writes are dropped; returns how many (Checker::end_session). */
+uint32_t contego_end_session(contego_checker* c, uint16_t task);
 /* A register-map device's shadow: the registers its commands cover
  * (ascending, into `regs` of 256 entries; returns how many, 0 for another
  * profile), and one register's value as read back from the device (0: bad

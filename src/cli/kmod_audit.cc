@@ -84,8 +84,15 @@ std::string session_end(const monitor::NameTable& names, const contego_kmod_reco
                               ? fmt::format("killed by signal {}{}", status & 0x7f,
                                             (status & 0x80) ? " (core dumped)" : "")
                               : fmt::format("exited with status {}", (status >> 8) & 0xff);
-  return fmt::format("task {} ({}) exited: pid {} uid {} {}{}", r.task, task, r.pid, r.uid, how,
-                     r.index ? ", then its process group's leader exited" : "");
+  const std::string staged =
+      r.field_count >= 1 && r.fields[0] > 0
+          ? fmt::format(
+                "; {} register write(s) it staged were never completed (their group's "
+                "last register never came): they never reached the device",
+                r.fields[0])
+          : std::string();
+  return fmt::format("task {} ({}) exited: pid {} uid {} {}{}{}", r.task, task, r.pid, r.uid, how,
+                     r.index ? ", then its process group's leader exited" : "", staged);
 }
 
 }  // namespace

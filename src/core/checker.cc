@@ -745,7 +745,7 @@ void Checker::set_host(const Host& host) { state().host_ = host; }
 void Checker::check(const Transaction& tx, Verdict* out) { state().check(tx, out); }
 bool Checker::safe_state(uint16_t device, Verdict* out) { return state().safe_state(device, out); }
 void Checker::reset_latch(uint16_t device) { state().reset_latch(device); }
-void Checker::end_session(uint16_t task) { state().end_session(task); }
+uint32_t Checker::end_session(uint16_t task) { return state().end_session(task); }
 bool Checker::latched(uint16_t device) const { return state().latched(device); }
 void Checker::begin_transfer() { state().begin_transfer(); }
 void Checker::commit_transfer() { state().commit_transfer(); }

@@ -167,8 +167,8 @@ void contego_reset_latch(contego_checker* c, uint16_t device) {
   if (c != nullptr) checker(c)->reset_latch(device);
 }
 
-void contego_end_session(contego_checker* c, uint16_t task) {
-  if (c != nullptr) checker(c)->end_session(task);
+uint32_t contego_end_session(contego_checker* c, uint16_t task) {
+  return c != nullptr ? checker(c)->end_session(task) : 0;
 }
 
 uint32_t contego_command_registers(const contego_checker* c, uint16_t device, uint8_t* regs) {

@@ -45,6 +45,21 @@ TEST_F(ArmTest, ByteWiseWritesStageUntilOffHighThenCommitOnce) {
   EXPECT_EQ(again.decision, Decision::kFailsafe);
 }
 
+TEST_F(ArmTest, AStagedGroupEndsWithItsSessionAndIsCounted) {
+  // OFF_L of LED5 staged by a program that then exits: the write never
+  // reached the device, and the next run's OFF_H must not complete it.
+  EXPECT_EQ(send({kLed5 + 2, 0xA4}).reason, Reason::kStaged);
+  EXPECT_EQ(h.checker->end_session(arm::kOther), 0u);  // not its staging
+  EXPECT_EQ(h.checker->end_session(arm::kController), 1u);
+  EXPECT_EQ(h.checker->end_session(arm::kController), 0u);
+  // Completed with the dropped OFF_L the pulse would be 0x1A4 = 420 (allowed);
+  // with the shadow's OFF_L (0) it is 0x100 = 256, outside the range.
+  const Verdict v = send({kLed5 + 3, 0x01});
+  EXPECT_EQ(v.reason, Reason::kInvariantViolated);
+  ASSERT_FALSE(h.audits.empty());
+  EXPECT_EQ(h.audits.back().fields[1], 0x100);
+}
+
 TEST_F(ArmTest, WordWriteStagesLowAndCommitsInOneTransaction) {
   auto_increment_on();
   const Verdict v = send({kLed5 + 2, 0xA4, 0x01});  // WORD_DATA: OFF_L, OFF_H = 420

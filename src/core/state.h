@@ -301,7 +301,7 @@ class CheckerState {
   void journal_state(uint32_t invariant, uint16_t task);
   // The state word of invariant `i` as task `task` sees it (its scope decides).
   int64_t& state_word(uint32_t i, uint16_t task);
-  void end_session(uint16_t task);
+  uint32_t end_session(uint16_t task);
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 

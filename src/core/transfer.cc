@@ -64,13 +64,23 @@ int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
   return task_state_words_[task][i];
 }
 
-void CheckerState::end_session(uint16_t task) {
-  if (!loaded_ || task >= task_count_) return;
+uint32_t CheckerState::end_session(uint16_t task) {
+  if (!loaded_ || task >= task_count_) return 0;
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kSession)) {
       task_state_words_[task][i] = 0;
     }
   }
+  uint32_t dropped = 0;
+  for (uint32_t d = 0; d < device_count_; ++d) {
+    DeviceState& s = state_[d];
+    for (uint32_t reg = 0; reg < kMaxRegisters; ++reg) {
+      if (!internal::bit_test(s.staged_bits, reg) || s.staged_task[reg] != task) continue;
+      internal::bit_clear(s.staged_bits, reg);
+      ++dropped;
+    }
+  }
+  return dropped;
 }
 
 void CheckerState::abort_transfer(Decision decision) {

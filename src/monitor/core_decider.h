@@ -34,7 +34,7 @@ class CoreDecider final : public Decider {
   }
   bool latched(uint16_t device) const override { return checker_.latched(device); }
   void reset_latch(uint16_t device) override { checker_.reset_latch(device); }
-  void end_session(uint16_t task) override { checker_.end_session(task); }
+  uint32_t end_session(uint16_t task) override { return checker_.end_session(task); }
 
  private:
   core::Checker checker_;

@@ -41,7 +41,8 @@ class Decider {
   virtual bool latched(uint16_t /*device*/) const { return false; }
   virtual void reset_latch(uint16_t /*device*/) {}
   // A session of the task ended (core::Checker::end_session).
-  virtual void end_session(uint16_t /*task*/) {}
+  // Returns the staged register writes of the task it dropped.
+  virtual uint32_t end_session(uint16_t /*task*/) { return 0; }
 };
 
 }  // namespace contego::monitor

@@ -36,6 +36,7 @@ class DropReport {
   // Counts one decision (records of staged writes and of reads count as allowed).
   void note(const core::AuditRecord& record, const RecordNames& names, uint64_t now_us);
   const DecisionCounts& counts(uint16_t task) const;
+  std::FILE* out() const { return out_; }  // where the lines go (nullptr: nowhere)
   // "N allowed, N ignored, N substituted, N refused" for the task (and, in
   // complain mode, "; N would have been dropped but acted as sent").
   std::string summary(uint16_t task) const;

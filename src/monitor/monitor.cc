@@ -585,7 +585,19 @@ void Monitor::task_exited(uint16_t task) {
   drive_safe_state_locked(fmt::format("task {} ({}) exited", task, name), devices);
   // Its session-scoped state (a sequence's position) ends with it: the next
   // run of the task starts its sequences at their first value.
-  decider_.end_session(task);
+  if (const uint32_t dropped = decider_.end_session(task); dropped != 0) {
+    // Never silent: writes the program was told succeeded that never
+    // reached the device (a register group whose last register never came).
+    const std::string what = fmt::format(
+        "task {} ({}) exited with {} register write(s) staged and never completed (their "
+        "group's last register never came): they never reached the device",
+        task, name, dropped);
+    audit_.event("staged-dropped", what);
+    if (std::FILE* out = drops_.out(); out != nullptr) {
+      fmt::print(out, "contego: {}\n", what);
+      std::fflush(out);
+    }
+  }
   // The job grid stays: a program that reconnects or restarts under the same
   // task joins it, so leaving cannot open a fresh job (and budget).
   readings_.forget_task(task);

@@ -79,4 +79,17 @@ stop_monitor || fail "the arm's monitor exited $? on SIGTERM"
 verdicts hand "$dir/arm-monitor.jsonl" "${arm_by_design[@]}"
 grep -q '"decision":"allow".*"fields":\[0,577' "$dir/arm-monitor.jsonl" ||
   fail "hand: the second run's close did not act"
+
+# A pulse written one register at a time whose last register never comes
+# (OFF_H): the program was told each write succeeded, none reached the chip.
+# Never silent: said on stderr and audited when the program's session ends,
+# and the next run cannot complete it.
+"$contego" run --policy "$policies/arm.policy" --task gripper --virtual-bus 1 \
+  --audit "$dir/partial.jsonl" -- "$py" "$vendor/attack_writes.py" 0x40:1a,00 0x40:1b,00 \
+  0x40:1c,a4 >"$dir/partial.out" 2>"$dir/partial.err" || fail "partial: exit $?"
+grep -q "3 register write(s) staged and never completed" "$dir/partial.err" ||
+  fail "partial: the dropped staging is not on standard error"
+grep -q '"kind":"staged-dropped"' "$dir/partial.jsonl" ||
+  fail "partial: no staged-dropped record in the audit log"
+echo "partial: $(grep -o 'task 1 (gripper) exited with 3 register write(s) staged[^"]*' "$dir/partial.jsonl" | head -n1)"
 echo "ok"

@@ -97,9 +97,13 @@ class Checker {
   void reset_latch(uint16_t device);
   // A session (one run of a program bound to `task`) ended: the task's
   // session-scoped state words (StateScope::kSession) go back to their
-  // initial value, so the task's next run starts its sequences afresh. Hosts
-  // call it where they drive the task's safe state on exit.
-  void end_session(uint16_t task);
+  // initial value, so the task's next run starts its sequences afresh. The
+  // register writes the task staged and never completed (a group whose last
+  // register never came) are dropped: they never reached the device, and the
+  // next run must not complete them. Returns how many were dropped, for the
+  // host to report. Hosts call it where they drive the task's safe state on
+  // exit.
+  uint32_t end_session(uint16_t task);
   bool latched(uint16_t device) const;
 
   // Seeds the shadow copy of a register-map device (e.g. read back from the
