@@ -1484,6 +1484,75 @@ static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
 	return t;
 }
 
+/*
+ * A read of an I2C_RDWR call on an SMBus-only adapter (i2c-stub, many SoC
+ * controllers), as the monitor sends it (src/bus/smbus_plan.h): a one-byte
+ * register pointer and a read become read byte data (1 byte), read word data
+ * (2) or an I2C block read (up to 32); a lone one-byte read is receive byte.
+ * `check_only`: whether the adapter has the form, nothing sent. 0 or -errno.
+ */
+static int ct_smbus_read(struct i2c_adapter *adap, struct i2c_msg *m, const struct ct_tx *tx,
+			 bool check_only)
+{
+	u32 funcs = i2c_get_functionality(adap);
+	struct i2c_msg *rd = &m[tx->first_msg + tx->msg_count - 1];
+	union i2c_smbus_data data;
+	int size, r;
+
+	if (rd->flags & I2C_M_TEN)
+		return -EOPNOTSUPP;
+	if (tx->msg_count == 1)
+		size = rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE) ? I2C_SMBUS_BYTE : -1;
+	else if (rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE_DATA))
+		size = I2C_SMBUS_BYTE_DATA;
+	else if (rd->len == 2 && (funcs & I2C_FUNC_SMBUS_READ_WORD_DATA))
+		size = I2C_SMBUS_WORD_DATA;
+	else if (rd->len >= 1 && rd->len <= I2C_SMBUS_BLOCK_MAX &&
+		 (funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK))
+		size = I2C_SMBUS_I2C_BLOCK_DATA;
+	else
+		size = -1;
+	if (size < 0)
+		return -EOPNOTSUPP;
+	if (check_only)
+		return 0;
+	data.block[0] = rd->len;
+	r = i2c_smbus_xfer(adap, rd->addr, 0, I2C_SMBUS_READ,
+			   tx->msg_count == 2 ? tx->bytes[0] : 0, size, &data);
+	if (r < 0)
+		return r;
+	if (size == I2C_SMBUS_WORD_DATA) {
+		rd->buf[0] = data.word & 0xff;
+		rd->buf[1] = data.word >> 8;
+	} else if (size == I2C_SMBUS_I2C_BLOCK_DATA) {
+		memcpy(rd->buf, &data.block[1], rd->len);
+	} else {
+		rd->buf[0] = data.byte;
+	}
+	return 0;
+}
+
+/* The call's reads and writes all have a form on this adapter. */
+static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
+{
+	u32 funcs = i2c_get_functionality(adap), i;
+
+	if (funcs & I2C_FUNC_I2C)
+		return true;
+	for (i = 0; i < ntx; i++) {
+		const struct ct_tx *tx = &ct_txs[i];
+
+		if (tx->kind == CONTEGO_TX_READ) {
+			if (ct_smbus_read(adap, m, tx, true) < 0)
+				return false;
+		} else if (tx->ten || tx->len > 1 + I2C_SMBUS_BLOCK_MAX ||
+			   (tx->len > 3 && !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))) {
+			return false;
+		}
+	}
+	return true;
+}
+
 static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 			  u8 __user **user_bufs)
 {
@@ -1493,10 +1562,14 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	long ret = 0;
 	int r;
 
-	if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C))
-		return -EOPNOTSUPP; /* as i2c_transfer on an SMBus-only adapter */
 	mutex_lock(&ct_lock);
 	ntx = ct_plan_msgs(msgs, nmsgs);
+	if (!ct_expressible(cf->adap, msgs, ntx)) {
+		/* No form on this adapter: refused before the core decides, as
+		 * i2c_transfer refuses it on an SMBus-only adapter. */
+		mutex_unlock(&ct_lock);
+		return -EOPNOTSUPP;
+	}
 	r = ct_enter(ct_call_writes(ntx), &task);
 	if (r < 0) {
 		mutex_unlock(&ct_lock);
@@ -1515,6 +1588,8 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 			if (tx->kind == CONTEGO_TX_WRITE) {
 				ret = ct_perform_emits(cf->adap, &ct_verdicts[i],
 						       tx->ten ? I2C_M_TEN : 0);
+			} else if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C)) {
+				ret = ct_smbus_read(cf->adap, msgs, tx, false);
 			} else {
 				r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
 				ret = r == tx->msg_count ? 0 : (r < 0 ? r : -EIO);

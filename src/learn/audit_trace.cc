@@ -59,6 +59,9 @@ Result<TraceDecision> decision_of(const json& j) {
   if (auto tx = j.find("tx"); tx != j.end() && tx->is_number_unsigned()) {
     d.tx = static_cast<int64_t>(tx->get<uint64_t>());
   }
+  if (auto mono = j.find("mono_us"); mono != j.end() && mono->is_number_unsigned()) {
+    d.mono_us = static_cast<int64_t>(mono->get<uint64_t>());
+  }
   d.device = text(j, "device_name");
   d.command = text(j, "command_name");
   if (*device != 0xffff && d.device.empty()) return make_error("a device without `device_name`");
@@ -132,6 +135,12 @@ void note_event(const json& j, const std::string& kind, Trace& trace) {
 
 bool same_transaction(const TraceDecision& a, const TraceDecision& b) {
   if (a.tx >= 0 || b.tx >= 0) return a.tx == b.tx && a.file == b.file;
+  // contego.ko's records: one decision's records share the module's time of
+  // it (their t_us is mapped per line and may differ by a microsecond).
+  if (a.mono_us >= 0 || b.mono_us >= 0) {
+    return std::tie(a.task, a.bus, a.addr, a.bytes, a.mono_us, a.read) ==
+           std::tie(b.task, b.bus, b.addr, b.bytes, b.mono_us, b.read);
+  }
   return std::tie(a.task, a.bus, a.addr, a.bytes, a.t_us, a.read) ==
          std::tie(b.task, b.bus, b.addr, b.bytes, b.t_us, b.read);
 }

@@ -27,10 +27,11 @@ struct SeenReading {
 
 struct TraceDecision {
   std::string file;
-  uint64_t line = 0;  // 1-based, in `file`
-  uint64_t t_us = 0;  // when it was written (wall clock)
-  int64_t tx = -1;    // the writer's check number (-1: not recorded)
-  std::string task;   // the task's name
+  uint64_t line = 0;     // 1-based, in `file`
+  uint64_t t_us = 0;     // when it was written (wall clock)
+  int64_t tx = -1;       // the writer's check number (-1: not recorded)
+  int64_t mono_us = -1;  // contego.ko's time of the decision (-1: not recorded)
+  std::string task;      // the task's name
   uint32_t job = 0;
   uint8_t bus = 0;
   uint16_t addr = 0;
@@ -70,7 +71,8 @@ Result<Trace> read_trace(const std::vector<std::string>& paths);
 
 // Whether two records are of one checked transaction (a register-map write
 // of several commands gives one record per command): the same `tx` of one
-// file, or, in logs without it, the same task, address, bytes and time.
+// file, or, in logs without it, the same task, address, bytes and time (the
+// module's `mono_us` in contego.ko's logs).
 bool same_transaction(const TraceDecision& a, const TraceDecision& b);
 
 // "01 46 50" -> bytes; false on anything but hex pairs separated by spaces.

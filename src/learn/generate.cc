@@ -139,12 +139,50 @@ void Writer::declarations() {
   auto text = read_input_file(o.observe_policy);
   const std::vector<Statement> statements =
       split_statements(o.observe_policy, text.ok() ? *text : std::string());
+  // A device no task commanded or read in the trace is left out (commented):
+  // every command to its address is then refused, as the access matrix
+  // observed says, and `check --strict` has no unused actuator to warn of.
+  // A sampled sensor whose readings the decisions carry stays: suggestions
+  // and the invariants a human writes read it.
+  std::set<std::string> sampled;
+  for (const TraceDecision& d : trace.decisions) {
+    for (const auto& [sensor, r] : d.readings) {
+      if (r.present) sampled.insert(sensor);
+    }
+  }
+  auto in_use = [&](const std::string& device) {
+    if (sampled.contains(device)) return true;
+    return std::any_of(stats.tasks.begin(), stats.tasks.end(), [&](const auto& t) {
+      auto it = t.second.devices.find(device);
+      return it != t.second.devices.end() && (it->second.actuates || it->second.reads);
+    });
+  };
+  auto comment_out = [&](const std::string& lines) {
+    std::string line;
+    for (char c : lines) {
+      line += c;
+      if (c == '\n') {
+        policy += "# " + line;
+        line.clear();
+      }
+    }
+    if (!line.empty()) policy += "# " + line + "\n";
+  };
   std::string devices_text;
   for (const Statement& s : statements) {
-    if (s.keyword == "device") devices_text += s.text;
+    if (s.keyword == "device" && in_use(s.name)) devices_text += s.text;
   }
   for (const Statement& s : statements) {
-    if (s.keyword == "device") {
+    if (s.keyword == "device" && !in_use(s.name)) {
+      policy += s.comments +
+                "# (no task commanded or read it in the trace, nor was it sampled: left out, so "
+                "every command to it is refused)\n";
+      comment_out(s.text);
+      findings.push_back(
+          fmt::format("device {} was never commanded or read in the trace: left "
+                      "out of the generated policy (commented)",
+                      s.name));
+    } else if (s.keyword == "device") {
       policy += s.comments + s.text;
     } else if (s.keyword == "const" || s.keyword == "signal") {
       const bool used = s.keyword == "const" &&
@@ -155,15 +193,7 @@ void Writer::declarations() {
       }
       // No generated rule reads it: kept for the invariants a human writes.
       policy += s.comments + "# (kept from the observe policy, unused by the generated rules)\n";
-      std::string line;
-      for (char c : s.text) {
-        line += c;
-        if (c == '\n') {
-          policy += "# " + line;
-          line.clear();
-        }
-      }
-      if (!line.empty()) policy += "# " + line + "\n";
+      comment_out(s.text);
     }
   }
   policy += "\n";

@@ -182,6 +182,34 @@ TEST(Generate, MeasuresThePeriodAndSuggestsTheReadingThatSeparatesDirections) {
   EXPECT_TRUE(policy::compile_source("gen", taken).ok);
 }
 
+TEST(Generate, LeavesOutWhatTheTraceNeverUsedAndWhatTheObservePolicyDoesNotName) {
+  std::vector<std::string> r = follower_trace();
+  std::string foreign = frame(9000000, 90, "fwd", 0x69, 0, 999, kCentre);
+  foreign.replace(foreign.find("\"task_name\":\"follower\""), 22, "\"task_name\":\"intruder\"");
+  r.push_back(foreign);
+  auto trace = read_trace({write_log(r)});
+  ASSERT_TRUE(trace.ok()) << trace.error();
+  GenerateOptions o;
+  o.observe_policy = write_text(std::string(kObservePolicy) +
+                                "device arm : pca9685 at i2c-1 0x40 { safe led(5, off=420) }\n");
+  auto g = generate_policy(*trace, o);
+  ASSERT_TRUE(g.ok()) << g.error();
+  EXPECT_NE(g->policy.find("# device arm : pca9685"), std::string::npos) << g->policy;
+  EXPECT_EQ(g->policy.find("intruder"), std::string::npos) << g->policy;
+  policy::CompileOptions strict;
+  strict.strict = true;
+  const auto compiled = policy::compile_source("gen", g->policy, strict);
+  EXPECT_TRUE(compiled.ok) << (compiled.diagnostics.empty() ? ""
+                                                            : compiled.diagnostics[0].rendered);
+  std::string all;
+  for (const auto& f : g->findings) all += f + "\n";
+  EXPECT_NE(all.find("1 decision(s) name a task and 0 a device the observe policy does not "
+                     "declare"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("device arm was never commanded"), std::string::npos) << all;
+}
+
 TEST(Generate, RefusesATraceWhereNothingActed) {
   auto trace = read_trace({write_log({frame(1000, 1, "fwd", 0x69, 0, 1, kCentre, "ignore")})});
   ASSERT_TRUE(trace.ok()) << trace.error();

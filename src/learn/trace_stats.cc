@@ -30,6 +30,7 @@ struct Collector {
   std::map<std::string, std::map<std::pair<std::string, std::string>, std::vector<uint64_t>>>
       command_times;
   uint64_t unacted = 0, undecoded = 0, unknown_device = 0, unallowed_complain = 0;
+  uint64_t foreign_task = 0, foreign_device = 0;  // names the observe policy does not declare
 
   const devices::ProfileSpec* profile(const std::string& device) const {
     for (size_t d = 0; d < observed.model.devices.size(); ++d) {
@@ -58,6 +59,14 @@ void Collector::record(size_t i) {
   const TraceDecision& d = trace.decisions[i];
   if (d.device.empty()) {
     ++unknown_device;
+    return;
+  }
+  // Names the observe policy does not declare (a log of another policy)
+  // cannot become rules of this one.
+  const bool known_task = std::any_of(observed.model.tasks.begin(), observed.model.tasks.end(),
+                                      [&](const auto& t) { return t.name == d.task; });
+  if (!known_task || profile(d.device) == nullptr) {
+    ++(known_task ? foreign_device : foreign_task);
     return;
   }
   TaskStats& t = out.tasks[d.task];
@@ -342,6 +351,12 @@ Result<TraceStats> collect_stats(const Trace& trace, const policy::CompileOutput
         fmt::format("{} transaction(s) went to addresses no device of the observe policy "
                     "declares; the generated policy refuses them",
                     c.unknown_device));
+  }
+  if (c.foreign_task + c.foreign_device != 0) {
+    f.push_back(
+        fmt::format("{} decision(s) name a task and {} a device the observe policy does "
+                    "not declare (a log of another policy?): not learned from",
+                    c.foreign_task, c.foreign_device));
   }
   if (c.unallowed_complain != 0) {
     f.push_back(fmt::format(

@@ -85,6 +85,21 @@ run_logged set3 as_task i2cset -y 0 $A 0xfe 3
 [ $RC = 0 ] && ok "arm_init: i2cset PRE_SCALE=3 is ignored (exit 0, policy: else ignore)" ||
   bad "arm_init: i2cset PRE_SCALE=3 exit $RC"
 
+# Adafruit_PureIO's read_byte_data: one I2C_RDWR of a register pointer and a
+# one-byte read. i2c-stub speaks SMBus only: contego.ko sends it as SMBus
+# read byte data, as the monitor does, instead of refusing it.
+cat >/tmp/kmod_rdwr.py <<'PY'
+from smbus2 import SMBus, i2c_msg
+with SMBus(0) as bus:
+    w, r = i2c_msg.write(0x40, [0xFE]), i2c_msg.read(0x40, 1)
+    bus.i2c_rdwr(w, r)
+    print("prescale", list(r)[0])
+PY
+run_logged rdwr as_task python3 /tmp/kmod_rdwr.py
+grep -q "prescale 101" "$OUT" &&
+  ok "arm_init: a combined write-then-read on the SMBus-only adapter reads PRE_SCALE 101 through contego.ko" ||
+  bad "arm_init: the combined write-then-read failed on the SMBus-only adapter (exit $RC)"
+
 cat >/tmp/kmod_smbus.py <<'PY'
 import smbus
 bus = smbus.SMBus(0)
