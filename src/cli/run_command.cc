@@ -309,11 +309,18 @@ void register_run(CLI::App& app) {
       fmt::print(stderr, "contego run: --rt: task '{}' has no priority in the policy\n",
                  args->task);
     }
+    // The signal is recorded as it is taken, before the program it ends
+    // exits (whose exit drives the task's safe state): records in causal order.
+    std::atomic<int> stopped_by{0};
+    opt.on_stop = [&stop, &stopped_by, audit = &(*trusted)->audit] {
+      const int sig = stop.which();
+      stopped_by.store(sig);
+      audit->event("signal", fmt::format("contego run: {}: ended the supervised program",
+                                         signal_name(sig)));
+    };
     auto r = intercept::seccomp::run(opt, *(*trusted)->monitor);
     if (r.ok() && r->stopped) {
-      const int sig = stop.which();
-      (*trusted)->audit.event(
-          "signal", fmt::format("contego run: {}: ended the supervised program", signal_name(sig)));
+      const int sig = stopped_by.load() != 0 ? stopped_by.load() : stop.which();
       (*trusted)->monitor->drive_safe_state(fmt::format("contego run: {}", signal_name(sig)));
       fmt::print(stderr, "contego run: {}: ended the program; safe state applied\n",
                  signal_name(sig));

@@ -40,6 +40,11 @@ for sig in INT TERM HUP; do
     fail "$sig: no signal event in the audit log"
   event safe-state "contego run: SIG$sig" "$dir/$sig.jsonl" ||
     fail "$sig: no safe-state event for the signal"
+  # Causal order: the signal, then the program's exit it caused.
+  signal_line=$(grep -n '"kind":"signal"' "$dir/$sig.jsonl" | head -n1 | cut -d: -f1)
+  exit_line=$(grep -n '"detail":"task [0-9]* ([a-z]*) exited' "$dir/$sig.jsonl" | head -n1 | cut -d: -f1)
+  [[ -n "$signal_line" && -n "$exit_line" && $signal_line -lt $exit_line ]] ||
+    fail "$sig: the signal record (line $signal_line) is not before the task's exit (line $exit_line)"
   grep -q "gopigo2 0x08 motion=0x78" "$dir/$sig.state" ||
     fail "$sig: the GoPiGo2 is not stopped: $(cat "$dir/$sig.state")"
   grep -q "SIG$sig: ended the program; safe state applied" "$dir/$sig.err" ||

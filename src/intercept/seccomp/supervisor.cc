@@ -664,6 +664,7 @@ void watch(const Options& options, const Started& s, Watch& w) {
       // End the program: the direct child now, the others the loop knows
       // as soon as it sees `stop` (woken below).
       stopping = true;
+      if (options.on_stop) options.on_stop();
       w.stop.store(true, std::memory_order_release);
       if (!child_done) syscall(SYS_pidfd_send_signal, s.pidfd.get(), SIGKILL, nullptr, 0);
       pthread_kill(w.loop_thread, kWakeSignal);

@@ -79,6 +79,10 @@ struct Options {
   // then on answers every intercepted call with EIO and SIGKILLs its caller.
   // run() still returns only once no supervised process is left.
   int stop_fd = -1;
+  // Called once, on the supervisor's watcher thread, when stop_fd becomes
+  // readable and before the program is ended: `contego run` records the
+  // signal there, so the log has it before the program's exit it causes.
+  std::function<void()> on_stop;
   // The signal mask the program starts with (the caller's own mask when null:
   // a caller that blocks signals to wait for them passes its original mask).
   const sigset_t* child_sigmask = nullptr;
