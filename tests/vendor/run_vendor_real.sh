@@ -91,5 +91,12 @@ grep -q "3 register write(s) staged and never completed" "$dir/partial.err" ||
   fail "partial: the dropped staging is not on standard error"
 grep -q '"kind":"staged-dropped"' "$dir/partial.jsonl" ||
   fail "partial: no staged-dropped record in the audit log"
+# A stop() flood from a spoofing thread: stop is the safe state and always
+# allowed, but the flood is held to the task's budget per job and flagged.
+"$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/stops.jsonl" -- "$py" "$vendor/attack_writes.py" 50*0x08:01,78,00,00,00 \
+  >"$dir/stops.out" 2>"$dir/stops.err" || fail "stops: exit $?"
+grep -q '"kind":"over-budget"' "$dir/stops.jsonl" || fail "stops: the stop() flood was not flagged"
+echo "stops: $(grep -o 'over its budget of [0-9]* acting transfers per job' "$dir/stops.jsonl" | head -n1)"
 echo "partial: $(grep -o 'task 1 (gripper) exited with 3 register write(s) staged[^"]*' "$dir/partial.jsonl" | head -n1)"
 echo "ok"
