@@ -62,6 +62,22 @@ if [[ -n $runtime ]]; then
       if strings -a "$f" | grep -F -e "$dir"; then bad "$rel names $dir"; fi
     done
   done < <(find "$tmp/root" -type f -print0)
+  # Hardened as dpkg-buildflags (hardening=+all) would build them: PIE, full
+  # RELRO (BIND_NOW), stack protector and fortified libc calls.
+  for f in usr/bin/contego usr/libexec/contego/contego-bench-task "$(cd "$tmp/root" && ls usr/lib/*/libcontego_preload.so | head -n1)"; do
+    elf=$tmp/root/$f
+    [[ -f $elf ]] || continue
+    readelf -d -W "$elf" | grep -Eq 'BIND_NOW|FLAGS_1.*NOW' || bad "/$f: not linked with -z now"
+    readelf -l -W "$elf" | grep -q GNU_RELRO || bad "/$f: no RELRO segment"
+    [[ $f == *.so ]] || readelf -h "$elf" | grep -q 'DYN (' || bad "/$f: not a PIE"
+  done
+  # The small helpers may have no function that needs a canary: the daemon's
+  # symbols say whether the flags reached the compiler.
+  readelf --dyn-syms -W "$tmp/root/usr/bin/contego" | grep -q '__stack_chk_fail' ||
+    bad "/usr/bin/contego: no stack protector"
+  readelf --dyn-syms -W "$tmp/root/usr/bin/contego" | grep -Eq '__[a-z_]+_chk' ||
+    bad "/usr/bin/contego: no fortified libc call (_FORTIFY_SOURCE)"
+  echo "check_package: hardening: PIE, -z relro -z now, stack protector, _FORTIFY_SOURCE"
   grep -q "ExecStart=/usr/bin/contego monitor" "$tmp/root/usr/lib/systemd/system/contego-monitor.service" ||
     bad "the monitor unit does not run /usr/bin/contego"
 fi
