@@ -2046,6 +2046,16 @@ static long ct_load(unsigned long arg)
 		ret = -EINVAL;
 		goto fail;
 	}
+	/* A binding must name a task of the image: one that does not would
+	 * bind its processes to nothing the policy decides about. */
+	for (i = 0; i < p->nbinds; i++) {
+		if (p->binds[i].task >= req.ntasks) {
+			pr_warn("contego: binding %u names task %u, the image has %u tasks: refused\n",
+				i, p->binds[i].task, req.ntasks);
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
 	{
 		/* The host, copied by the facade: samples for p, records to the ring. */
 		const contego_host host = { .context = p, .read_sample = ct_read_sample,
