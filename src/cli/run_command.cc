@@ -315,8 +315,8 @@ void register_run(CLI::App& app) {
     opt.on_stop = [&stop, &stopped_by, audit = &(*trusted)->audit] {
       const int sig = stop.which();
       stopped_by.store(sig);
-      audit->event("signal", fmt::format("contego run: {}: ended the supervised program",
-                                         signal_name(sig)));
+      audit->event("signal",
+                   fmt::format("contego run: {}: ended the supervised program", signal_name(sig)));
     };
     auto r = intercept::seccomp::run(opt, *(*trusted)->monitor);
     if (r.ok() && r->stopped) {

@@ -273,5 +273,33 @@ TEST_F(AuditFaults, ReopenWithASizeLimitRotatesOrFollowsAMove) {
   EXPECT_EQ(verify_chain({path + ".1", path + ".moved", path}), 1u + 2 + 2);
 }
 
+// A burst of SIGHUPs rotates once: a file that recorded nothing since it
+// began (its continues record and the SIGHUP's own signal lines aside) is
+// kept, so empty files cannot push the kept ones out.
+TEST_F(AuditFaults, SighupBurstRotatesOnlyAFileThatRecordedSomething) {
+  AuditLog log;
+  AuditOptions o;
+  o.max_bytes = 1 << 20;
+  o.keep = 2;
+  ASSERT_TRUE(log.open(path, o).ok());
+  ASSERT_TRUE(log.decision(record(0), "t"));
+  auto r = log.reopen();
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->find("rotated"), std::string::npos) << *r;
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(log.event("signal", "SIGHUP"));
+    r = log.reopen();
+    ASSERT_TRUE(r.ok()) << r.error();
+    EXPECT_NE(r->find("kept, not rotated"), std::string::npos) << *r;
+  }
+  EXPECT_EQ(log.rotations(), 1u);
+  ASSERT_TRUE(log.decision(record(1), "t"));
+  r = log.reopen();
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->find("rotated"), std::string::npos) << *r;
+  // The first file's decision is still kept (LOG.2), not pushed out.
+  EXPECT_EQ(verify_chain({path + ".2", path + ".1", path}), 1u + 7 + 1);
+}
+
 }  // namespace
 }  // namespace contego::monitor

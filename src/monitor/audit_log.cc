@@ -202,6 +202,7 @@ void put_string(std::string& out, std::string_view text) {
 
 bool AuditLog::start_continuation_locked(const std::string& follows, const char* old_hash,
                                          const std::string& why) {
+  recorded_in_file_ = 0;  // a new file: its continues record is not a record of its own
   cont_.clear();
   cont_ += "{\"continues\":\"";
   cont_.append(old_hash, 64);
@@ -242,6 +243,10 @@ Result<std::string> AuditLog::reopen() {
   struct stat named {};
   const bool still_named =
       fd_ >= 0 && stat(path_.c_str(), &named) == 0 && named.st_dev == dev_ && named.st_ino == ino_;
+  if (options_.max_bytes > 0 && still_named && pos_ > 0 && recorded_in_file_ == 0) {
+    // A burst of SIGHUPs must not push the kept files out with empty ones.
+    return fmt::format("{} recorded nothing since it began: kept, not rotated", path_);
+  }
   if (options_.max_bytes > 0 && still_named && pos_ > 0) {
     if (!rotate_locked("SIGHUP")) return make_error(last_error_);
     return fmt::format("rotated: {} -> {}.1; a new {} continues the chain", path_, path_, path_);
@@ -469,6 +474,7 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   }
   w.done();
   const bool written = commit_locked(line_);
+  if (written) ++recorded_in_file_;
   if (options_.echo_violations && r.decision != core::Decision::kAllow)
     echo_violation_locked(r, names);
   return written;
@@ -516,7 +522,9 @@ bool AuditLog::event(const std::string& kind, const std::string& detail, int64_t
   put_string(line_, kind);
   if (mono_us >= 0) fmt::format_to(Out(line_), ",\"mono_us\":{}", mono_us);
   fmt::format_to(Out(line_), ",\"t_us\":{}", t);
-  return commit_locked(line_);
+  const bool written = commit_locked(line_);
+  if (written && kind != "signal") ++recorded_in_file_;
+  return written;
 }
 
 uint64_t AuditLog::failures() const {

@@ -177,6 +177,9 @@ class AuditLog {
   uint64_t lines_ = 0;
   uint64_t failures_ = 0;
   uint64_t rotations_ = 0;
+  // Lines written to the current file other than `signal` events and its
+  // `continues` record: a SIGHUP rotates only a file that recorded something.
+  uint64_t recorded_in_file_ = 0;
   std::string path_;
   AuditOptions options_;
   dev_t dev_ = 0;
