@@ -7,7 +7,7 @@ set -euo pipefail
 
 packages=(
   # toolchain and build
-  build-essential g++ cmake ninja-build pkg-config git
+  build-essential g++ cmake ninja-build pkg-config git ccache
   clang llvm libclang-rt-14-dev clang-format clang-tidy
   # libraries (see docs/libraries.md for why each one)
   libgtest-dev libgmock-dev libbenchmark-dev

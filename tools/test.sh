@@ -11,9 +11,36 @@ quick=0
 
 bash tools/bootstrap.sh
 
-# Each stage's header shows the disk space left: a full disk fails a build
-# with an error that does not say why it filled.
-step() { printf '\n==== %s ==== (%s free)\n' "$*" "$(df -h --output=avail . | tail -n1 | tr -d ' ')"; }
+# A compiler cache outside the clone (docs/libraries.md, ccache): a warm
+# machine rebuilds every stage from it in minutes; a fresh one fills it. The
+# base directory makes hits independent of where the clone is.
+if command -v ccache >/dev/null; then
+  export CCACHE_DIR="${CCACHE_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/ccache}"
+  export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true
+  export CCACHE_MAXSIZE="${CCACHE_MAXSIZE:-6G}"
+  export CMAKE_C_COMPILER_LAUNCHER=ccache CMAKE_CXX_COMPILER_LAUNCHER=ccache
+  ccache --zero-stats >/dev/null
+fi
+
+# Each stage's header shows the disk space left (a full disk fails a build
+# with an error that does not say why it filled) and the time the stage
+# before it took; the last line sums them up.
+stage_name="" stage_start=$SECONDS stage_times=()
+end_stage() {
+  if [[ -n "$stage_name" ]]; then stage_times+=("$(printf '%5ds  %s' $((SECONDS - stage_start)) "$stage_name")"); fi
+}
+step() {
+  end_stage
+  stage_name="$*" stage_start=$SECONDS
+  printf '\n==== %s ==== (%s free, %ds so far)\n' "$*" "$(df -h --output=avail . | tail -n1 | tr -d ' ')" "$SECONDS"
+}
+report_times() {
+  end_stage
+  stage_name=""
+  printf '\nstage times:\n'
+  printf '  %s\n' "${stage_times[@]}"
+  if command -v ccache >/dev/null; then ccache --show-stats 2>/dev/null | grep -iE 'hits|misses' | head -4 | sed 's/^/  ccache: /' || true; fi
+}
 
 # Under CI (CI=true) a stage's build tree is removed as soon as no later
 # stage reads it: a CI machine has run out of disk with all the trees kept
@@ -34,6 +61,7 @@ if ((quick)); then
   cmake --preset dev >/dev/null
   cmake --build --preset dev
   ctest --preset dev -E '^vm\.booted_guest$' -LE arm64
+  report_times
   exit 0
 fi
 
@@ -120,4 +148,5 @@ if ((rc != 0)) || ! grep -aq 'VM TEST BED PASSED' "$arm64_log"; then
   exit 1
 fi
 
+report_times
 step "all tests passed"
