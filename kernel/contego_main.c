@@ -50,6 +50,7 @@
 #include <linux/workqueue.h>
 
 #include "contego/core_c.h"
+#include "contego/i2c_msg_flags.h"
 #include "contego_kmod.h"
 
 #define CT_MAX_ADAPTERS 8
@@ -1633,11 +1634,13 @@ static long ct_rdwr(struct ct_file *cf, unsigned long arg)
 	}
 	ret = 0;
 	for (i = 0; i < rd.nmsgs; i++) {
-		if (msgs[i].len > CT_MAX_LEN) {
+		user_bufs[i] = (u8 __user *)msgs[i].buf;
+		/* The shared allow-list (contego/i2c_msg_flags.h): a protocol-
+		 * mangling flag would let a checked read act as a write. */
+		if (msgs[i].len > CT_MAX_LEN || contego_i2c_refused_flags(msgs[i].flags)) {
 			ret = -EINVAL;
 			break;
 		}
-		user_bufs[i] = (u8 __user *)msgs[i].buf;
 		/* The one copy everything below checks and sends. */
 		msgs[i].buf = memdup_user(user_bufs[i], msgs[i].len);
 		if (IS_ERR(msgs[i].buf)) {

@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <span>
 
+#include "contego/i2c_msg_flags.h"
+
 #include "base/result.h"
 
 namespace contego::bus {
@@ -55,6 +57,16 @@ struct Msg {
   uint16_t len = 0;
   uint8_t* buf = nullptr;
 };
+
+// Whether any message carries a flag outside the allow-list
+// (contego/i2c_msg_flags.h): every Bus refuses such a transfer with EINVAL
+// before anything reaches the wire.
+inline bool carries_refused_flags(std::span<const Msg> msgs) {
+  for (const Msg& m : msgs) {
+    if (contego_i2c_refused_flags(m.flags) != 0) return true;
+  }
+  return false;
+}
 
 class Bus {
  public:

@@ -30,6 +30,7 @@ LinuxI2cDev::~LinuxI2cDev() = default;
 
 int LinuxI2cDev::transfer(std::span<Msg> msgs) {
   if (msgs.empty() || msgs.size() > I2C_RDWR_IOCTL_MAX_MSGS) return EINVAL;
+  if (carries_refused_flags(msgs)) return EINVAL;
   const Plan plan = plan_transfer(msgs, funcs_);
   if (plan.form == Plan::Form::kRefused) return EOPNOTSUPP;
   if (plan.form == Plan::Form::kSmbus) return smbus(plan.op, msgs);

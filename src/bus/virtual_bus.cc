@@ -21,6 +21,7 @@ DeviceModel* VirtualBus::find(uint16_t addr) const {
 int VirtualBus::transfer(std::span<Msg> msgs) {
   // An adapter without plain I2C performs the SMBus form of the transfer:
   // the same bytes on the wire, so the models below see the same messages.
+  if (carries_refused_flags(msgs)) return EINVAL;
   if (!expressible(msgs).ok()) return EOPNOTSUPP;
   std::lock_guard lock(mu_);
   ++operations_;

@@ -49,6 +49,27 @@ TEST_F(VirtualBusTest, AbsentAddressIsNotAcknowledged) {
   EXPECT_EQ(bus.quick(0x40, false), 0);
 }
 
+// Every Bus applies the shared allow-list (contego/i2c_msg_flags.h) last, so
+// a flag no client should have let through never reaches a device model.
+TEST_F(VirtualBusTest, RefusesFlagsOutsideTheAllowListBeforeAnyMessageActs) {
+  std::vector<uint8_t> led[] = {{0x1A, 0x00}, {}};
+  uint8_t got[2] = {};
+  std::vector<uint8_t> pointer = {0xFE};
+  for (const unsigned flag :
+       {CONTEGO_I2C_M_NOSTART, CONTEGO_I2C_M_REV_DIR_ADDR, CONTEGO_I2C_M_IGNORE_NAK,
+        CONTEGO_I2C_M_NO_RD_ACK, CONTEGO_I2C_M_STOP}) {
+    Msg msgs[3] = {{0x40, 0, 2, led[0].data()},
+                   {0x40, 0, 1, pointer.data()},
+                   {0x40, static_cast<uint16_t>(kMsgRead | flag), 2, got}};
+    EXPECT_EQ(bus.transfer(msgs), EINVAL) << flag;
+    msgs[2].flags = kMsgRead;
+    msgs[0].flags = static_cast<uint16_t>(flag);
+    EXPECT_EQ(bus.transfer(msgs), EINVAL) << flag;
+  }
+  EXPECT_EQ(bus.operations(), 0u);
+  EXPECT_EQ(read(0x40, 1, {0x1A})[0], 0x00);
+}
+
 TEST_F(VirtualBusTest, Pca9685PowerOnAndChannelWrites) {
   EXPECT_EQ(read(0x40, 1, {0x00})[0], 0x11);
   EXPECT_EQ(read(0x40, 1, {0xFE})[0], 0x1E);

@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "contego/i2c_msg_flags.h"
+
 namespace contego::gate {
 
 bool is_probe(const Transfer& t) {
@@ -89,6 +91,10 @@ std::string validate(const Transfer& transfer) {
   };
   for (size_t i = 0; i < transfer.messages.size(); ++i) {
     const Message& m = transfer.messages[i];
+    if (const unsigned refused = contego_i2c_refused_flags(m.flags); refused != 0) {
+      return "message " + std::to_string(i) + ": flag " + contego_i2c_flag_name(refused) +
+             " is not allowed (contego/i2c_msg_flags.h)";
+    }
     if (m.addr > ((m.flags & kMsgTen) ? 0x3FF : 0x7F)) return bad(i, "address out of range");
     if (m.len > kMaxMessageLen) return bad(i, "longer than 8192 bytes");
     if (m.is_read()) {

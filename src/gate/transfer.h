@@ -30,7 +30,7 @@ inline constexpr uint16_t kMsgRecvLen = 0x0400;
 
 struct Message {
   uint16_t addr = 0;
-  uint16_t flags = 0;         // kMsgRead, kMsgTen, kMsgRecvLen (others are passed on)
+  uint16_t flags = 0;         // kMsgRead, kMsgTen, kMsgRecvLen (others refused: validate())
   uint16_t len = 0;           // read: bytes to read (RECV_LEN: 1 + up to 32); write: data.size()
   std::vector<uint8_t> data;  // write payload: the trusted side's own copy
   bool is_read() const { return (flags & kMsgRead) != 0; }

@@ -115,5 +115,30 @@ TEST(Validate, RefusesKernelLimits) {
   EXPECT_NE(validate(t), "");
 }
 
+// What a client sends over the wire meets the same allow-list as a program's
+// ioctl (contego/i2c_msg_flags.h), and the refusal names the flag.
+TEST(Validate, RefusesProtocolManglingFlagsAndNamesThem) {
+  Transfer t;
+  Message pointer = w(0x40, {0xFF});
+  Message read = r(0x40, 2);
+  read.flags = static_cast<uint16_t>(kMsgRead | 0x2000);  // I2C_M_REV_DIR_ADDR
+  t.messages = {pointer, read};
+  EXPECT_NE(validate(t).find("message 1: flag I2C_M_REV_DIR_ADDR is not allowed"),
+            std::string::npos)
+      << validate(t);
+  for (const int flag : {0x4000, 0x1000, 0x0800, 0x8000, 0x0200, 0x0100, 0x0002}) {
+    read.flags = static_cast<uint16_t>(kMsgRead | flag);
+    t.messages = {pointer, read};
+    EXPECT_NE(validate(t), "") << flag;
+    pointer.flags = static_cast<uint16_t>(flag);
+    t.messages = {pointer};
+    EXPECT_NE(validate(t), "") << flag;
+    pointer.flags = 0;
+  }
+  read.flags = static_cast<uint16_t>(kMsgRead | kMsgTen);
+  t.messages = {read};
+  EXPECT_EQ(validate(t), "");
+}
+
 }  // namespace
 }  // namespace contego::gate

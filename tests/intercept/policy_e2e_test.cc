@@ -304,6 +304,33 @@ TEST_P(PolicyE2e, ArmAttackCombinedTransferGeneralCallAndReservedAddressesActNot
   }
 }
 
+// A task that may read the arm sends reads and writes with i2c_msg flags
+// outside the allow-list (contego/i2c_msg_flags.h): protocol mangling that
+// on a bit-banged adapter makes a checked read act as a write. Every client
+// refuses each with EINVAL before the checker or the bus sees it; a plain
+// read still works; the chip is unchanged and nothing was decided.
+TEST_P(PolicyE2e, ArmReadsWithProtocolManglingFlagsAreRefusedAtEveryClient) {
+  load("arm.policy");
+  uint8_t mode1[2] = {0x00, 0x21};
+  bus::Msg m{0x40, 0, 2, mode1};
+  ASSERT_EQ(bus.transfer({&m, 1}), 0);
+  EXPECT_EQ(run("gripper", {CONTEGO_TESTCASES_DIR "/attack_msg_flags"}), 0) << output;
+  for (const char* flag :
+       {"nostart", "rev-dir-addr", "ignore-nak", "no-rd-ack", "stop", "dma-safe", "unknown"}) {
+    for (const char* step : {"read-", "lone-read-", "write-"}) {
+      const std::string line = std::string(step) + flag + " -1 22\n";
+      EXPECT_NE(output.find(line), std::string::npos) << line << output;
+    }
+  }
+  EXPECT_NE(output.find("read-plain 2 0\nmode1 0x21\n"), std::string::npos) << output;
+  EXPECT_EQ(pca->reg(0xFF), 0);
+  EXPECT_EQ(pca->reg(0x00), 0x21);
+  // Refused before the checker: nothing of them was decided.
+  const std::string log = audit_text();
+  EXPECT_EQ(log.find("\"decision\":\"ignore\""), std::string::npos);
+  EXPECT_EQ(log.find("\"bytes\":\"ff ff\""), std::string::npos);
+}
+
 INSTANTIATE_TEST_SUITE_P(Clients, PolicyE2e,
                          ::testing::Values(Client::kInProcess, Client::kSocket, Client::kPreload),
                          test_support::enum_param_names(kClientNames));

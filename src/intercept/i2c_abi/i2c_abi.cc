@@ -5,6 +5,8 @@
 #include <climits>
 #include <cstring>
 
+#include "contego/i2c_msg_flags.h"
+
 namespace contego::intercept::i2c_abi {
 namespace {
 
@@ -187,6 +189,8 @@ Decoded decode_rdwr(const FdState& s, uint64_t arg, Memory& memory) {
   for (uint32_t i = 0; i < a.nmsgs; ++i) {
     const RawMsg& r = raw[i];
     if (r.len > gate::kMaxMessageLen) return fail(EINVAL);
+    // Protocol-mangling flags would let a checked read act as a write.
+    if (contego_i2c_refused_flags(r.flags) != 0) return fail(EINVAL);
     gate::Message m;
     m.addr = r.addr;
     // I2C_RDWR uses each message's own address and flags; the fd's I2C_SLAVE

@@ -253,6 +253,29 @@ TEST_F(I2cAbi, RdwrRecvLenNeedsAPresetAndRoom) {
   EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0).err, EINVAL);
 }
 
+// The shared allow-list (contego/i2c_msg_flags.h): a read carries only RD,
+// TEN and RECV_LEN, a write only TEN; every other bit, each alone, is EINVAL
+// at the decoder, before anything is decided or sent.
+TEST_F(I2cAbi, RdwrRefusesEveryFlagOutsideTheAllowList) {
+  uint8_t buf[40] = {1};
+  for (unsigned bit = 0; bit < 16; ++bit) {
+    const auto flag = static_cast<uint16_t>(1u << bit);
+    for (const bool read : {true, false}) {
+      i2c_msg m{0x40, static_cast<uint16_t>(flag | (read ? I2C_M_RD : 0)), 2, buf};
+      if (flag == I2C_M_RECV_LEN) m.len = 40;
+      i2c_rdwr_ioctl_data a{&m, 1};
+      const Decoded d = decode_ioctl(state, I2C_RDWR, addr_of(&a), mem, 0);
+      const bool allowed =
+          flag == I2C_M_RD || flag == I2C_M_TEN || (read && flag == I2C_M_RECV_LEN);
+      if (allowed) {
+        EXPECT_EQ(d.action, Decoded::Action::kTransfer) << std::hex << flag << " read " << read;
+      } else {
+        EXPECT_EQ(d.err, EINVAL) << std::hex << flag << " read " << read;
+      }
+    }
+  }
+}
+
 TEST_F(I2cAbi, PlainWriteGoesToTheSlaveAddressCappedAt8192) {
   state.addr = 0x08;
   uint8_t frame[5] = {0x01, 0x77, 0, 0, 0};

@@ -21,7 +21,13 @@
  *     start): a write of the register byte followed by a read reads that
  *     register;
  *   - an address with no chip, or a 10-bit address, is not acknowledged:
- *     the transfer fails with -ENXIO and nothing of it acts.
+ *     the transfer fails with -ENXIO and nothing of it acts;
+ *   - protocol mangling as a bit-banged adapter (i2c-algo-bit) puts it on
+ *     the wire: a read message with I2C_M_REV_DIR_ADDR sends the address
+ *     with the write bit while the master clocks in with SDA released, so
+ *     the chip receives a write whose every byte is 0xff (the pointer byte
+ *     0xff, then 0xff stored there). contego must refuse such a read
+ *     (include/contego/i2c_msg_flags.h); scenario 61 shows the write bare.
  *
  * The I2C core serialises master_xfer calls on the adapter (its bus lock),
  * so the register files need no lock of their own.
@@ -72,7 +78,15 @@ static int plain_xfer(struct i2c_adapter *adap, struct i2c_msg *msgs, int num)
 		struct i2c_msg *m = &msgs[i];
 		struct plain_chip *chip = plain_find(m);
 
-		if (m->flags & I2C_M_RD) {
+		if ((m->flags & I2C_M_RD) && (m->flags & I2C_M_REV_DIR_ADDR)) {
+			for (j = 0; j < m->len; j++) {
+				if (j == 0)
+					chip->pointer = 0xff;
+				else
+					chip->regs[chip->pointer++] = 0xff;
+				m->buf[j] = 0xff;
+			}
+		} else if (m->flags & I2C_M_RD) {
 			j = 0;
 			if (m->flags & I2C_M_RECV_LEN) {
 				/* SMBus block read: the count first, as the device sends it. */
@@ -98,7 +112,7 @@ static int plain_xfer(struct i2c_adapter *adap, struct i2c_msg *msgs, int num)
 
 static u32 plain_func(struct i2c_adapter *adap)
 {
-	return I2C_FUNC_I2C | I2C_FUNC_SMBUS_EMUL;
+	return I2C_FUNC_I2C | I2C_FUNC_SMBUS_EMUL | I2C_FUNC_PROTOCOL_MANGLING | I2C_FUNC_NOSTART;
 }
 
 static const struct i2c_algorithm plain_algorithm = {

@@ -74,6 +74,25 @@ run_logged bare_xfer i2ctransfer -y 1 w3@0x48 0x10 0x11 0x22 w1@0x48 0x10 r2
 run_logged bare_nak i2cget -y 1 0x41 0x00
 [ $RC != 0 ] && ok "bare: no chip at 0x41, no acknowledge (exit $RC)" || bad "i2cget of 0x41 succeeded"
 
+# Protocol mangling, bare: the stub clocks a read with I2C_M_REV_DIR_ADDR as
+# a bit-banged adapter does, a write of 0xff to register 0xff. This is what
+# contego refuses below (contego/i2c_msg_flags.h), at every client.
+run_logged bare_mangle $ATTACK/attack_msg_flags /dev/i2c-1 0x48 reads
+grep -q '^read-rev-dir-addr 2 0' "$OUT" && [ "$(plain_get 0x48 0xff)" = 0xff ] &&
+  ok "bare: a register read with I2C_M_REV_DIR_ADDR acts as a write (0x48 register 0xff = 0xff)" ||
+  bad "bare: the mangled read did not write (register 0xff = $(plain_get 0x48 0xff))"
+plain_set 0x48 0xff 0
+plain_set $A 0xff 0
+check_mangling() {  # the lines of attack_msg_flags (policy_e2e_test's)
+  for f in nostart rev-dir-addr ignore-nak no-rd-ack stop dma-safe unknown; do
+    for s in read lone-read write; do
+      grep -q "^$s-$f -1 22\$" "$OUT" || { bad "$1: no '$s-$f -1 22'"; return 1; }
+    done
+  done
+  grep -q '^read-plain 2 0$' "$OUT" || { bad "$1: the plain read failed"; return 1; }
+  ok "$1: every read and write with a flag outside the allow-list refused (EINVAL), the plain read answered"
+}
+
 # Known values before contego.ko: PRE_SCALE as out of reset (30); the tank
 # (0x48) at a level of 900 mm, 20.0 degC, for the sensor round.
 plain_set $A 0xfe 0x1e
@@ -248,6 +267,8 @@ check_atomic() {  # the lines of attack_rdwr_atomic under arm.policy's gripper (
 }
 run_logged atomic su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_rdwr_atomic"
 check_atomic "attack_rdwr_atomic as the gripper, contego.ko"
+run_logged mangle su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_msg_flags"
+check_mangling "attack_msg_flags as the gripper, contego.ko"
 stop_reader
 missing=
 grep -q '"bytes":"1a 00 00 a4 01".*"decision":"allow"' $AUDIT_LOG || missing="$missing the-pulse"
@@ -284,6 +305,7 @@ plain_expect $A 0x09 0x33 "register 0x09: python3-periphery's write landed"
 plain_expect $A 0x0a 0x44 "register 0x0a: the plain write() landed"
 plain_expect $A 0x00 0x21 "MODE1 = 0x21: arm_init's landed, MODE1 = 0x31 (sleep) and the general call's reset did not"
 plain_expect $A 0x14 0 "LED3 off: the gripper's refused transfer did not land"
+plain_expect $A 0xff 0 "register 0xff: no mangled read acted as a write under contego.ko"
 [ "$(plain_word $A 0x1c)" = 420 ] && ok "LED5 off = 420 (the gripper's pulse and safe state)" ||
   bad "LED5 off = $(plain_word $A 0x1c), expected 420"
 plain_expect 0x20 0x01 1 "the buzzer's tone(1) landed (the tank sampled at 900 mm)"
@@ -301,11 +323,16 @@ if start_monitor arm.policy; then
     bad "monitor: PRE_SCALE=3 (exit $RC)"
   run_logged mon_atomic under monitor arm.policy gripper $ATTACK/attack_rdwr_atomic
   check_atomic "attack_rdwr_atomic as the gripper, contego monitor"
+  run_logged mon_mangle under monitor arm.policy gripper $ATTACK/attack_msg_flags
+  check_mangling "attack_msg_flags as the gripper, contego monitor"
   stop_monitor
 fi
+run_logged emb_mangle under embedded arm.policy gripper $ATTACK/attack_msg_flags
+check_mangling "attack_msg_flags as the gripper, contego run --policy (embedded)"
 plain_expect $A 0xfe 0x65 "monitor: PRE_SCALE=101 landed, PRE_SCALE=3 and the gripper's did not"
 plain_expect $A 0x00 0x21 "monitor: MODE1 = 0x21, no software reset"
 plain_expect $A 0x14 0 "monitor: LED3 off, the gripper's refused transfer did not land"
+plain_expect $A 0xff 0 "register 0xff: no mangled read acted as a write under the monitor or contego run"
 [ "$(plain_word $A 0x1c)" = 420 ] && ok "monitor: LED5 off = 420 after the monitor stopped" ||
   bad "monitor: LED5 off = $(plain_word $A 0x1c), expected 420"
 
