@@ -57,14 +57,15 @@ std::string why(const char* what, int rc) {
 // Other ways to the bus node than a path the supervisor resolves: a root
 // or namespace of the program's own (chroot, a new user or mount
 // namespace, mount, pivot_root, setns), a node of its own (mknod of a
-// character or block device) or a file handle (open_by_handle_at). They
-// fail with EPERM; clone3 (whose flags the filter cannot read) with ENOSYS,
+// character or block device), a file handle (open_by_handle_at) or another
+// process's descriptor (pidfd_getfd: a bus node or a ring opened outside
+// supervision). They fail with EPERM; clone3 (whose flags the filter cannot read) with ENOSYS,
 // so that the C library falls back to clone, whose flags it can.
 Status add_refusals(void* ctx) {
   const int eperm = SCMP_ACT_ERRNO(EPERM);
   constexpr int kRefused[] = {SCMP_SYS(chroot), SCMP_SYS(pivot_root),        SCMP_SYS(mount),
                               SCMP_SYS(setns),  SCMP_SYS(open_by_handle_at), SCMP_SYS(move_mount),
-                              SCMP_SYS(fsopen), SCMP_SYS(open_tree)};
+                              SCMP_SYS(fsopen), SCMP_SYS(open_tree),         SCMP_SYS(pidfd_getfd)};
   for (int nr : kRefused) {
     if (int rc = seccomp_rule_add(ctx, static_cast<uint32_t>(eperm), nr, 0); rc != 0) {
       return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
@@ -127,9 +128,13 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
       return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
     }
   }
-  if (int rc = seccomp_rule_add(ctx.get(), SCMP_ACT_ERRNO(ENOSYS), SCMP_SYS(io_uring_setup), 0);
-      rc != 0) {
-    return make_error(why("io_uring_setup", rc));
+  // io_uring, whole: a ring made by another process and received over a
+  // socket works without io_uring_setup. ENOSYS, as on a kernel built
+  // without it, so that a library that probes for it falls back.
+  for (int nr : {SCMP_SYS(io_uring_setup), SCMP_SYS(io_uring_enter), SCMP_SYS(io_uring_register)}) {
+    if (int rc = seccomp_rule_add(ctx.get(), SCMP_ACT_ERRNO(ENOSYS), nr, 0); rc != 0) {
+      return make_error(why(seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr), rc));
+    }
   }
   if (Status s = add_refusals(ctx.get()); !s.ok()) return make_error(s.error());
   // An int descriptor, compared on its low 32 bits: in the range iff its

@@ -10,12 +10,14 @@
 //  - ioctl, read/write and their vector and positional forms, close, dup,
 //    fcntl: when the descriptor (argument 0) is in the reserved range;
 //  - dup2/dup3: when either descriptor is in it.
-// io_uring_setup fails with ENOSYS (a ring would reach the bus descriptors'
-// stand-ins without a system call the filter sees). What could reach the bus
-// node by another name than a path the supervisor resolves fails with EPERM:
-// chroot, pivot_root, mount (and the new mount API), setns, unshare/clone
-// with CLONE_NEWUSER or CLONE_NEWNS, mknod/mknodat of a character or block
-// device, open_by_handle_at; clone3 fails with ENOSYS (its flags are in
+// io_uring_setup, io_uring_enter and io_uring_register fail with ENOSYS (a
+// ring, its own or one received from another process, would reach the bus
+// descriptors' stand-ins or the node without a system call the filter sees).
+// What could reach the bus node by another name than a path the supervisor
+// resolves fails with EPERM: chroot, pivot_root, mount (and the new mount
+// API), setns, unshare/clone with CLONE_NEWUSER or CLONE_NEWNS, mknod/mknodat
+// of a character or block device, open_by_handle_at, pidfd_getfd (another
+// process's descriptors); clone3 fails with ENOSYS (its flags are in
 // memory the filter cannot read; the C library then uses clone). A system call of another
 // architecture or ABI kills the process. Everything else is allowed.
 #ifndef CONTEGO_INTERCEPT_SECCOMP_FILTER_H_

@@ -64,6 +64,22 @@ TEST(SeccompFilter, OrdinaryDescriptorsPassAndReservedOnesAreNotified) {
     if (write(r.first - 1, "x", 1) != -1 || errno != EBADF) return 6;        // just below
     if (dup2(STDERR_FILENO, r.first) != -1 || errno != ENOSYS) return 7;     // either argument
     if (syscall(SYS_io_uring_setup, 1, nullptr) != -1 || errno != ENOSYS) return 8;
+    // A ring made elsewhere (its descriptor received) is as unusable.
+    if (syscall(SYS_io_uring_enter, 3, 1, 0, 0, nullptr, 0) != -1 || errno != ENOSYS) return 10;
+    if (syscall(SYS_io_uring_register, 3, 0, nullptr, 0) != -1 || errno != ENOSYS) return 11;
+    // Another process's descriptors, even its own child's (which ptrace
+    // access rules, Yama's included, would let it take).
+    const pid_t child = fork();
+    if (child == 0) {
+      pause();
+      _exit(0);
+    }
+    const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, child, 0));
+    const long taken = pidfd >= 0 ? syscall(SYS_pidfd_getfd, pidfd, 0, 0) : -1;
+    const int taken_errno = errno;
+    kill(child, SIGKILL);
+    waitpid(child, nullptr, 0);
+    if (pidfd >= 0 && (taken != -1 || taken_errno != EPERM)) return 12;
     // A negative descriptor is not in the range (low 32 bits compared).
     if (write(-1, "x", 1) != -1 || errno != EBADF) return 9;
     return 0;
