@@ -172,6 +172,7 @@ void register_run(CLI::App& app) {
     intercept::seccomp::Options opt;
     opt.argv = args->program;
     opt.stop_fd = stop.fd.get();
+    opt.subreaper = true;
     opt.child_sigmask = &stop.original;
     opt.cpu = args->cpu;
     if (args->realtime) warn_if_rt_spans_cpus(args->cpu);

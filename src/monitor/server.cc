@@ -354,6 +354,12 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       return wire::Type::kJobEndOk;
     case wire::Type::kBusInfo: {
       if (payload.size() != 1) return refuse(EPROTO, "malformed bus info request");
+      if (std::string why = message_refusal(s, wire::Type::kBusInfo); !why.empty()) {
+        client_event(s.conn->uid, "request-refused",
+                     fmt::format("pid {} uid {}: bus info: {}", s.conn->pid, s.conn->uid, why));
+        s.out = wire::encode_error({EPERM, why});
+        return wire::Type::kError;
+      }
       wire::BusInfo info{monitor_.has_bus(payload[0]), monitor_.funcs(payload[0])};
       s.out = wire::encode_bus_info(info);
       return wire::Type::kBusInfoOk;
@@ -376,6 +382,10 @@ wire::Type Server::reset(Session& s, std::span<const uint8_t> payload) {
   };
   if (std::string e = wire::decode_hello(payload, &device); !e.empty()) {
     return answer_error(EPROTO, "malformed reset request (a device name of 1..64 bytes expected)");
+  }
+  if (std::string why = message_refusal(s, wire::Type::kReset); !why.empty()) {
+    audit_.event("reset-refused", fmt::format("device {}: uid {}: {}", device, uid, why));
+    return answer_error(EPERM, why);
   }
   if (uid != 0 && uid != geteuid()) {
     audit_.event("reset-refused", fmt::format("device {}: uid {} is neither root nor the "

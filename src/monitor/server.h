@@ -141,6 +141,8 @@ class Server {
   std::string identity_refusal(const Conn& c, const std::string& name,
                                const gate::wire::Vouch& vouch);
   bool descends_from_supervised(pid_t pid);  // mu_ held
+  // The peer rules for every message but hello ("" when it may be answered).
+  std::string message_refusal(const Session& s, gate::wire::Type type);
   // Whether a bound session of `task` has a peer that hung up: its
   // connection's thread has yet to notice and end it. mu_ held.
   bool session_ending(uint16_t task) const;

@@ -29,6 +29,40 @@ bool Server::descends_from_supervised(pid_t pid) {
   return false;
 }
 
+// Hello's rule holds for every message: a supervised program and its
+// descendants, whatever their uid, speak to the monitor only through their
+// supervisor's session. A task's session (bound by its hello) transfers,
+// ends jobs and asks bus facts; it never administers the monitor, so a task
+// cannot clear the latch its own violations set.
+std::string Server::message_refusal(const Session& s, wire::Type type) {
+  switch (type) {
+    case wire::Type::kTransfer:
+    case wire::Type::kJobEnd:
+      return {};  // bound sessions only (checked where they are answered)
+    case wire::Type::kBusInfo:
+      if (s.bound) return {};
+      break;
+    case wire::Type::kReset:
+      if (s.bound) {
+        return fmt::format(
+            "the connection speaks for task {}: a task's session may not "
+            "administer the monitor",
+            s.task);
+      }
+      break;
+    default:
+      return {};
+  }
+  std::lock_guard lock(mu_);
+  if (descends_from_supervised(s.conn->pid)) {
+    return fmt::format(
+        "the peer (pid {}) is a program supervised by contego (or its child): it "
+        "may not act on the monitor",
+        s.conn->pid);
+  }
+  return {};
+}
+
 std::string Server::identity_refusal(const Conn& c, const std::string& name,
                                      const wire::Vouch& vouch) {
   auto binding = bindings_.find(name);

@@ -612,6 +612,60 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
   t.join();
 }
 
+// Every message meets the peer rules, not only hello: a connection bound to
+// a task by its hello transfers and asks bus facts, but a reset sent on it
+// is refused (and audited), whatever the peer's uid; an operator's own
+// connection (no hello) is answered.
+TEST(MonitorServer, ATaskSessionNeverAdministersTheMonitor) {
+  monitor::AuditLog audit;
+  std::string audit_path;
+  ASSERT_NO_FATAL_FAILURE(
+      test_support::open_temp_audit(audit, &audit_path, "/tmp/contego-admin-audit-XXXXXX"));
+  ScriptedDecider decider;
+  bus::VirtualBus vbus;
+  monitor::Monitor mon{decider, audit};
+  mon.add_bus(1, &vbus);
+  const std::string path = "/tmp/contego-admin-" + std::to_string(getpid()) + ".sock";
+  monitor::Server server(mon, audit, {{"t0", 0}}, {getuid()});
+  ASSERT_TRUE(server.listen(path).ok());
+  std::thread t([&] { server.serve(); });
+  auto ask = [](int fd, gate::wire::Type type, std::span<const uint8_t> payload,
+                gate::wire::Header* h, std::vector<uint8_t>* answer) {
+    ASSERT_TRUE(gate::send_frame(fd, type, 1, payload));
+    ASSERT_EQ(gate::recv_frame(fd, h, answer), "");
+  };
+  const int fd = connect_raw(path);
+  ASSERT_GE(fd, 0);
+  gate::wire::Header h;
+  std::vector<uint8_t> answer;
+  ask(fd, gate::wire::Type::kHello, gate::wire::encode_hello("t0"), &h, &answer);
+  ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kHelloOk));
+  const uint8_t bus_one[1] = {1};
+  ask(fd, gate::wire::Type::kBusInfo, bus_one, &h, &answer);
+  EXPECT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kBusInfoOk));
+  ask(fd, gate::wire::Type::kReset, gate::wire::encode_hello("gopigo"), &h, &answer);
+  ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
+  gate::wire::ErrorMsg e;
+  ASSERT_EQ(gate::wire::decode_error(answer, &e), "");
+  EXPECT_EQ(e.err, EPERM);
+  EXPECT_NE(e.reason.find("a task's session may not administer the monitor"), std::string::npos)
+      << e.reason;
+  close(fd);
+  // The operator's own connection: past the peer rules (the device is unknown here).
+  const int op = connect_raw(path);
+  ASSERT_GE(op, 0);
+  ask(op, gate::wire::Type::kReset, gate::wire::encode_hello("gopigo"), &h, &answer);
+  ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
+  ASSERT_EQ(gate::wire::decode_error(answer, &e), "");
+  EXPECT_EQ(e.err, ENOENT) << e.reason;
+  close(op);
+  server.stop();
+  t.join();
+  EXPECT_NE(test_support::file_text(audit_path).find("\"kind\":\"reset-refused\""),
+            std::string::npos);
+  unlink(audit_path.c_str());
+}
+
 // No action without a record: an audit log that fails every record
 // (/dev/full, allowed with allow_unsafe) refuses every transfer with EIO and
 // nothing reaches the bus but the safe state.

@@ -644,6 +644,18 @@ struct Watch {
 // it) or for the stop descriptor, then interrupts the loop's RECV with
 // kWakeSignal, repeating until the loop has seen it (a signal that lands
 // just before the loop enters RECV would otherwise be lost).
+// Reaps the orphans a subreaper adopted (never the direct child, whose
+// status its watcher keeps): an unreaped zombie would hold the filter, and
+// the listener would never hang up.
+void reap_orphans(pid_t child) {
+  for (;;) {
+    siginfo_t info{};
+    if (waitid(P_ALL, 0, &info, WEXITED | WNOHANG | WNOWAIT) != 0 || info.si_pid == 0) return;
+    if (info.si_pid == child) return;  // first in line: reaped by its watcher, then the rest
+    waitpid(info.si_pid, nullptr, WNOHANG);
+  }
+}
+
 void watch(const Options& options, const Started& s, Watch& w) {
   bool child_done = false;
   bool stopping = options.stop_fd < 0;
@@ -652,7 +664,9 @@ void watch(const Options& options, const Started& s, Watch& w) {
     pollfd fds[3] = {{s.listener.get(), 0, 0}, {-1, POLLIN, 0}, {-1, POLLIN, 0}};
     fds[1].fd = child_done ? -1 : s.pidfd.get();
     fds[2].fd = stopping ? -1 : options.stop_fd;
-    if (poll(fds, 3, -1) < 0) {
+    if (options.subreaper) reap_orphans(child_done ? -1 : s.child);
+    // Adopted orphans are looked for every 50 ms (their exit signals no descriptor).
+    if (poll(fds, 3, options.subreaper ? 50 : -1) < 0) {
       if (errno == EINTR) continue;
       break;
     }
@@ -747,6 +761,9 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);
   const std::string program = resolve_program(options.argv[0]);
+  if (options.subreaper && prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) != 0) {
+    return make_error(std::string("contego run: PR_SET_CHILD_SUBREAPER: ") + std::strerror(errno));
+  }
   auto started = start_child(options, program, argv.data(), prog);
   if (!started.ok()) return make_error(started.error());
   // From here the program may run: out of its reach.

@@ -79,6 +79,12 @@ struct Options {
   // then on answers every intercepted call with EIO and SIGKILLs its caller.
   // run() still returns only once no supervised process is left.
   int stop_fd = -1;
+  // Make the calling process a child subreaper (PR_SET_CHILD_SUBREAPER) for
+  // the run, and reap the orphans it adopts: a program's descendant that
+  // double-forks stays below its supervisor, so the monitor still knows it
+  // for a supervised program's (docs/threat-model.md). `contego run` sets
+  // it; a caller with children of its own to wait for (a test) must not.
+  bool subreaper = false;
   // Called once, on the supervisor's watcher thread, when stop_fd becomes
   // readable and before the program is ended: `contego run` records the
   // signal there, so the log has it before the program's exit it causes.
