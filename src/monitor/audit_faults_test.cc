@@ -100,6 +100,35 @@ TEST_F(AuditFaults, UnsafeDevFullFailsEveryRecord) {
   EXPECT_EQ(log.failures(), 2u);
 }
 
+// --audit-unsafe on a FIFO: opened write-only, so the monitor is never a
+// reader of its own log. No reader at open: refused, saying so. A reader that
+// leaves: every later record fails (EPIPE, no SIGPIPE that would end the
+// monitor), so what it would record does not act.
+TEST_F(AuditFaults, UnsafeFifoNoticesItsReaderLeaving) {
+  const std::string fifo = dir + "/fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  AuditOptions o;
+  o.allow_unsafe = true;
+  AuditLog lonely;
+  const Status s = lonely.open(fifo, o);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().find("no process reads it"), std::string::npos) << s.error();
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  AuditLog log;
+  ASSERT_TRUE(log.open(fifo, o).ok());
+  EXPECT_TRUE(log.event("start", "x"));
+  char buf[4096];
+  EXPECT_GT(::read(reader, buf, sizeof buf), 0);
+  ::close(reader);
+  EXPECT_FALSE(log.event("after", "the reader left"));
+  EXPECT_FALSE(log.decision(record(1), "t"));
+  EXPECT_EQ(log.failures(), 2u);
+  sigset_t pending;
+  sigpending(&pending);
+  EXPECT_EQ(sigismember(&pending, SIGPIPE), 0) << "a SIGPIPE was left pending";
+}
+
 TEST_F(AuditFaults, ASecondWriterIsRefusedAndNamesTheHolder) {
   AuditLog first;
   ASSERT_TRUE(first.open(path).ok());

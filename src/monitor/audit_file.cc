@@ -415,8 +415,20 @@ Status AuditLog::open_file_locked() {
           "locked or rotated (give --audit-unsafe to log there anyway, or - for standard error)",
           path_, file_kind(st.st_mode)));
     }
+    if (S_ISFIFO(st.st_mode)) {
+      // Write-only: opened read-write, the monitor would be a reader of its
+      // own FIFO, so a departed reader would never be noticed (no EPIPE) and
+      // a full pipe would block every check. Without a reader: refused now.
+      owned.reset();  // first: open read-write, it would count as the reader
+      owned.reset(::open(path_.c_str(), O_WRONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK));
+      if (!owned.valid()) {
+        return make_error(fmt::format("cannot open audit FIFO {}: {}", path_,
+                                      errno == ENXIO ? "no process reads it" : strerror(errno)));
+      }
+    }
     // --audit-unsafe: write(2) per line, blocking (a FIFO reader paces us).
-    (void)fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    const int stream = owned.get();
+    (void)fcntl(stream, F_SETFL, fcntl(stream, F_GETFL) & ~O_NONBLOCK);
     mode_ = Mode::kStream;
     fd_ = owned.release();
     owned_ = true;

@@ -275,10 +275,36 @@ void AuditLog::report_failure_locked(const std::string& why) {
   unreported_ = 0;
 }
 
+// write(2) without SIGPIPE: a stream whose reader left answers EPIPE, a
+// failure the log reports (and the monitor then refuses what it records),
+// instead of a signal that would end the monitor. SIGPIPE is blocked in this
+// thread for the call and a pending one taken back.
+static ssize_t write_no_sigpipe(int fd, const char* data, size_t size) {
+  sigset_t pipe_only, old;
+  sigemptyset(&pipe_only);
+  sigaddset(&pipe_only, SIGPIPE);
+  sigset_t pending;
+  sigpending(&pending);
+  const bool was_pending = sigismember(&pending, SIGPIPE) == 1;
+  pthread_sigmask(SIG_BLOCK, &pipe_only, &old);
+  const ssize_t n = ::write(fd, data, size);
+  const int saved = errno;
+  if (n < 0 && saved == EPIPE && !was_pending) {
+    const timespec zero{0, 0};
+    while (sigtimedwait(&pipe_only, nullptr, &zero) < 0 && errno == EINTR) {
+    }
+  }
+  pthread_sigmask(SIG_SETMASK, &old, nullptr);
+  errno = saved;
+  return n;
+}
+
 bool AuditLog::write_fd_locked(const std::string& line) {
   size_t off = 0;
   while (off < line.size()) {
-    const ssize_t n = ::write(fd_, line.data() + off, line.size() - off);
+    const ssize_t n = mode_ == Mode::kStream
+                          ? write_no_sigpipe(fd_, line.data() + off, line.size() - off)
+                          : ::write(fd_, line.data() + off, line.size() - off);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       last_error_ = n < 0 ? strerror(errno) : "short write";
