@@ -117,6 +117,7 @@ void register_run(CLI::App& app) {
     std::vector<std::string> buses;
     std::vector<int> virtual_buses;
     std::vector<std::string> program;
+    std::vector<int> pass_fds;
     uint32_t spin_us = gate::SpinPolicy{}.spin_us;
     bool no_channel = false;
     bool realtime = false;
@@ -163,6 +164,11 @@ void register_run(CLI::App& app) {
   cmd->add_flag("--same-user", args->same_user,
                 "run the program as root although the embedded monitor holds real buses (by "
                 "default refused: give --user)");
+  cmd->add_option("--pass-fd", args->pass_fds,
+                  "a descriptor beyond 0-2 the program inherits (repeatable); every other one "
+                  "left open is closed at exec, and none may be an I2C bus node")
+      ->allow_extra_args(false)
+      ->check(CLI::Range(3, 1 << 20));
   cmd->add_option("program", args->program, "program and its arguments (after --)")->required();
   cmd->callback([args] {
     // SIGINT, SIGTERM and SIGHUP end the program, not the supervisor: they are
@@ -173,6 +179,7 @@ void register_run(CLI::App& app) {
     opt.argv = args->program;
     opt.stop_fd = stop.fd.get();
     opt.subreaper = true;
+    opt.pass_fds = args->pass_fds;
     opt.child_sigmask = &stop.original;
     opt.cpu = args->cpu;
     if (args->realtime) warn_if_rt_spans_cpus(args->cpu);

@@ -28,6 +28,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
+#include <sys/sysmacros.h>
 #include <sys/uio.h>
 #include <sys/wait.h>
 #include <thread>
@@ -536,6 +537,11 @@ struct ChildStart {
   char ack;
   if (read(c.to_child, &ack, 1) != 1) _exit(126);
   close(fd);  // a raw close: between fork and exec (see above)
+  // Nothing the launcher left open goes on, but what the caller passes.
+  if (syscall(SYS_close_range, 3u, ~0u, CLOSE_RANGE_CLOEXEC) != 0) _exit(126);
+  for (int keep : c.options.pass_fds) {
+    if (fcntl(keep, F_SETFD, 0) != 0) _exit(126);
+  }
   if (!c.program.empty()) {
     execv(c.program.c_str(), c.argv);
   } else {
@@ -644,6 +650,29 @@ struct Watch {
 // it) or for the stop descriptor, then interrupts the loop's RECV with
 // kWakeSignal, repeating until the loop has seen it (a signal that lands
 // just before the loop enters RECV would otherwise be lost).
+// The descriptors the program will inherit (0-2 and the passed ones): open,
+// and none of them a bus node (i2c-dev's major) the program could use
+// without a call the filter sends to the supervisor.
+Status check_inherited(const std::vector<int>& pass_fds) {
+  std::vector<int> fds = {0, 1, 2};
+  fds.insert(fds.end(), pass_fds.begin(), pass_fds.end());
+  for (int fd : fds) {
+    struct stat st {};
+    if (fstat(fd, &st) != 0) {
+      if (fd <= 2) continue;  // a closed standard descriptor passes nothing
+      return make_error("contego run: --pass-fd " + std::to_string(fd) +
+                        ": not an open descriptor");
+    }
+    if (S_ISCHR(st.st_mode) && major(st.st_rdev) == kI2cDevMajor) {
+      return make_error("contego run: descriptor " + std::to_string(fd) +
+                        " is an I2C bus node (/dev/i2c-" + std::to_string(minor(st.st_rdev)) +
+                        "): the program would reach the bus unchecked through it; refusing to "
+                        "start");
+    }
+  }
+  return {};
+}
+
 // Reaps the orphans a subreaper adopted (never the direct child, whose
 // status its watcher keeps): an unreaped zombie would hold the filter, and
 // the listener would never hang up.
@@ -761,6 +790,7 @@ Result<RunResult> run(const Options& options, gate::Endpoint& endpoint) {
   for (const auto& s : options.argv) argv.push_back(const_cast<char*>(s.c_str()));
   argv.push_back(nullptr);
   const std::string program = resolve_program(options.argv[0]);
+  if (Status s = check_inherited(options.pass_fds); !s.ok()) return make_error(s.error());
   if (options.subreaper && prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) != 0) {
     return make_error(std::string("contego run: PR_SET_CHILD_SUBREAPER: ") + std::strerror(errno));
   }

@@ -85,6 +85,12 @@ struct Options {
   // for a supervised program's (docs/threat-model.md). `contego run` sets
   // it; a caller with children of its own to wait for (a test) must not.
   bool subreaper = false;
+  // The descriptors beyond 0, 1 and 2 the program inherits (`contego run
+  // --pass-fd`). Every other one its launcher left open without O_CLOEXEC is
+  // closed at exec: a bus node opened by whoever started `contego run`
+  // would otherwise reach the bus unchecked. None of these, nor 0-2, may be
+  // an I2C bus node: run() refuses to start (fail closed).
+  std::vector<int> pass_fds;
   // Called once, on the supervisor's watcher thread, when stop_fd becomes
   // readable and before the program is ended: `contego run` records the
   // signal there, so the log has it before the program's exit it causes.
