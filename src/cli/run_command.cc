@@ -43,6 +43,8 @@ class VouchedClient final : public gate::Endpoint {
 
 // `contego run --socket`'s exit status when its monitor went away.
 constexpr int kExitMonitorLost = 3;
+// ... when the program executed a file the monitor refused for the task.
+constexpr int kExitIdentityRefused = 4;
 
 // Watches the monitor connection of `contego run --socket`; when the monitor
 // closes it, raises SIGTERM in this process, which the supervisor takes
@@ -223,6 +225,9 @@ void register_run(CLI::App& app) {
         }
         return {};
       };
+      // What the program executes later acts for the task only if the
+      // monitor checks the task's binding against it again.
+      opt.on_exec = [&](pid_t pid) { return endpoint.client->revouch(pid, args->task); };
       auto r = intercept::seccomp::run(opt, endpoint);
       watch.stop();
       if (!r.ok()) {
@@ -231,6 +236,13 @@ void register_run(CLI::App& app) {
       }
       if (!r->realtime_error.empty()) {
         fmt::print(stderr, "contego run: --rt refused ({}); ran without it\n", r->realtime_error);
+      }
+      if (!r->identity_refused.empty()) {
+        fmt::print(stderr,
+                   "contego run: the program executed a file that may not act for task '{}' "
+                   "({}): ended it\n",
+                   args->task, r->identity_refused);
+        return set_exit_code(kExitIdentityRefused);
       }
       const StopCause cause = r->stopped ? stop_cause(stop) : StopCause{};
       if (cause.monitor_lost) {

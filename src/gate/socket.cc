@@ -267,6 +267,29 @@ wire::BusInfo SocketClient::bus_info(uint8_t bus) {
   return info;
 }
 
+std::string SocketClient::revouch(pid_t pid, const std::string& task) {
+  // The path is for the record: the monitor reads the process's executable itself.
+  char exe[4096] = {};
+  const std::string link = "/proc/" + std::to_string(pid) + "/exe";
+  const ssize_t n = readlink(link.c_str(), exe, sizeof exe - 1);
+  const std::string path = n > 0 ? std::string(exe, static_cast<size_t>(n)) : "/";
+  std::lock_guard lock(mu_);
+  wire::Header h;
+  std::span<const uint8_t> answer;
+  const std::vector<uint8_t> request =
+      wire::encode_hello(task, {static_cast<uint32_t>(pid), path[0] == '/' ? path : "/"});
+  if (!exchange(wire::Type::kRevouch, request, &h, &answer)) {
+    return "the monitor cannot be asked (connection lost)";
+  }
+  if (h.type == static_cast<uint8_t>(wire::Type::kRevouchOk)) return {};
+  wire::ErrorMsg e;
+  if (h.type == static_cast<uint8_t>(wire::Type::kError) &&
+      wire::decode_error(answer, &e).empty()) {
+    return e.reason;
+  }
+  return "unexpected answer to a re-vouch";
+}
+
 bool SocketClient::has_bus(uint8_t bus) { return bus_info(bus).present; }
 uint64_t SocketClient::funcs(uint8_t bus) { return bus_info(bus).funcs; }
 

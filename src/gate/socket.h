@@ -80,6 +80,10 @@ class SocketClient final : public Endpoint {
   void job_boundary(uint16_t task) override;
   void task_exited(uint16_t task) override;
   bool has_bus(uint8_t bus) override;
+  // After a supervised process (pid) called execve: asks the monitor to
+  // check the task's binding against what it now executes. "" when it may
+  // go on acting for the task, else why not (the connection unusable too).
+  std::string revouch(pid_t pid, const std::string& task);
   uint64_t funcs(uint8_t bus) override;
 
  private:

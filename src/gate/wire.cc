@@ -102,6 +102,8 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kJobEndOk:
     case Type::kReset:
     case Type::kResetOk:
+    case Type::kRevouch:
+    case Type::kRevouchOk:
     case Type::kError:
       return {};
   }

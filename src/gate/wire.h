@@ -37,7 +37,9 @@ enum class Type : uint8_t {
   kJobEndOk = 10,  // server, channel only: the job-end was taken
   kReset = 11,     // operator: device name; clears its latch -> kResetOk | kError
   kResetOk = 12,   // server: u8 1 if the device was latched
-  kError = 0x7F,   // server: errno and reason text
+  kRevouch = 13,   // supervisor: task name + Vouch, after the program's exec -> kRevouchOk | kError
+  kRevouchOk = 14,  // server: empty; the new executable may act for the task
+  kError = 0x7F,    // server: errno and reason text
 };
 
 struct Header {

@@ -366,6 +366,8 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
     }
     case wire::Type::kReset:
       return reset(s, payload);
+    case wire::Type::kRevouch:
+      return revouch(s, payload);
     default:
       return refuse(EPROTO, fmt::format("unexpected message type {}", type));
   }

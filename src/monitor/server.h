@@ -98,6 +98,7 @@ class Server {
     bool bound = false;
     uint16_t task = 0;
     pid_t vouched = 0;        // the supervised program's pid (a supervisor's session)
+    std::string task_name;    // as the hello named it
     gate::Transfer transfer;  // reused: no allocation per exchange once grown
     std::vector<uint8_t> out;
   };
@@ -143,6 +144,9 @@ class Server {
   bool descends_from_supervised(pid_t pid);  // mu_ held
   // The peer rules for every message but hello ("" when it may be answered).
   std::string message_refusal(const Session& s, gate::wire::Type type);
+  // A supervisor's re-vouch after its program's exec ("" = may go on).
+  std::string revouch_refusal(const Session& s, pid_t pid);
+  gate::wire::Type revouch(Session& s, std::span<const uint8_t> payload);
   // Whether a bound session of `task` has a peer that hung up: its
   // connection's thread has yet to notice and end it. mu_ held.
   bool session_ending(uint16_t task) const;

@@ -38,6 +38,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
   switch (type) {
     case wire::Type::kTransfer:
     case wire::Type::kJobEnd:
+    case wire::Type::kRevouch:
       return {};  // bound sessions only (checked where they are answered)
     case wire::Type::kBusInfo:
       if (s.bound) return {};
@@ -148,12 +149,70 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   s.conn->task = task;
   s.bound = true;
   s.task = task;
+  s.task_name = name;
   if (vouch.pid != 0) {
     s.vouched = static_cast<pid_t>(vouch.pid);
     supervised_.insert(c.pid);
     supervised_.insert(s.vouched);
   }
   return {};
+}
+
+// The identity a hello established can change when the program executes
+// another file: its supervisor sees the execve and asks again before the
+// new image's first call is answered. The process must be below the
+// supervisor (`contego run` is a subreaper, so its descendants stay there);
+// the binding is checked against the executable the kernel reports now.
+std::string Server::revouch_refusal(const Session& s, pid_t pid) {
+  {
+    std::lock_guard lock(mu_);
+    bool below = false;
+    pid_t p = pid;
+    for (int depth = 0; depth < 64 && p > 1 && !below; ++depth) {
+      const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, p, 0)));
+      if (!fd.valid()) break;
+      auto facts = process_facts(fd.get(), p);
+      if (!facts.ok()) break;
+      below = facts->ppid == s.conn->pid;
+      p = facts->ppid;
+    }
+    if (!below)
+      return fmt::format("pid {} is not a process of the supervisor (pid {})", pid, s.conn->pid);
+  }
+  auto binding = bindings_.find(s.task_name);
+  if (binding == bindings_.end() || !binding->second.has_exe) return {};  // exe alone can change
+  const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, pid, 0)));
+  if (!fd.valid()) return fmt::format("pid {} is gone", pid);
+  auto facts = process_facts(fd.get(), pid);
+  if (!facts.ok()) return "the program: " + facts.error();
+  if (!facts->exe_known) {
+    return "the program's executable cannot be read, so a task bound by `exe` cannot be checked "
+           "after an exec (the monitor needs root or CAP_SYS_PTRACE)";
+  }
+  return binding_mismatch(s.task_name, binding->second, *facts);
+}
+
+wire::Type Server::revouch(Session& s, std::span<const uint8_t> payload) {
+  std::string name;
+  wire::Vouch vouch;
+  auto refuse = [&](int err, const std::string& why) {
+    s.out = wire::encode_error({err, why});
+    return wire::Type::kError;
+  };
+  if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty() || vouch.pid == 0) {
+    return refuse(EPROTO, e.empty() ? "a re-vouch names no process" : e);
+  }
+  if (!s.bound || s.vouched == 0 || name != s.task_name) {
+    return refuse(EPERM, "a re-vouch comes only from the supervisor that vouched for the task");
+  }
+  const auto pid = static_cast<pid_t>(vouch.pid);
+  const std::string why = revouch_refusal(s, pid);
+  audit_.event(why.empty() ? "identity" : "identity-refused",
+               fmt::format("task {} ({}): pid {} executed {}{}", s.task, name, pid, vouch.exe,
+                           why.empty() ? "" : ": " + why));
+  if (!why.empty()) return refuse(EACCES, why);
+  s.out.clear();
+  return wire::Type::kRevouchOk;
 }
 
 bool Server::session_ending(uint16_t task) const {

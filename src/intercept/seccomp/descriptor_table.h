@@ -39,6 +39,9 @@ struct Process {
   // Names this very process, not its number: once it is reaped the number may
   // be handed to a new process, which must not inherit these descriptors.
   base::UniqueFd pidfd;
+  // It called execve: its identity is checked again (Options::on_exec) at
+  // its next intercepted call, before that call is answered.
+  bool exec_pending = false;
   bool alive() const;
 };
 

@@ -39,6 +39,7 @@
 #include "intercept/seccomp/audit_arch.h"
 #include "intercept/seccomp/bus_path.h"
 #include "intercept/seccomp/descriptor_table.h"
+#include "intercept/seccomp/lineage.h"
 #include "intercept/seccomp/reach.h"
 #include "intercept/seccomp/remote_memory.h"
 #include "intercept/seccomp/scheduling.h"
@@ -125,6 +126,7 @@ class Loop {
   std::map<pid_t, Process> processes_;  // by thread-group id
   std::map<pid_t, pid_t> tgid_;         // thread id -> thread-group id
   size_t sweep_at_ = 256;               // tgid_ size that triggers forget_the_dead()
+  size_t execs_pending_ = 0;            // processes with exec_pending: no short way meanwhile
   bool closing_ = false;
 };
 
@@ -194,7 +196,12 @@ Process* Loop::process_of(pid_t tid, uint64_t id) {
 // that keeps creating threads does not grow these maps without bound.
 void Loop::forget_the_dead() {
   for (auto it = processes_.begin(); it != processes_.end();) {
-    it = it->second.alive() ? std::next(it) : processes_.erase(it);
+    if (it->second.alive()) {
+      ++it;
+      continue;
+    }
+    if (it->second.exec_pending) --execs_pending_;
+    it = processes_.erase(it);
   }
   for (auto it = tgid_.begin(); it != tgid_.end();) {
     it = thread_of(it->second, it->first) ? std::next(it) : tgid_.erase(it);
@@ -376,7 +383,8 @@ void Loop::handle(const seccomp_notif& n) {
   // command): a stale entry passes kcmp only with the very file the caller
   // holds. Anything else (not cached, kcmp fails or is missing) goes the
   // full way below.
-  if (!closing_ && (nr == __NR_write || nr == __NR_ioctl || nr == __NR_read)) {
+  if (!closing_ && execs_pending_ == 0 &&
+      (nr == __NR_write || nr == __NR_ioctl || nr == __NR_read)) {
     const int fd = static_cast<int>(n.data.args[0]);
     if (auto h = cached_handle(static_cast<pid_t>(n.pid), fd);
         h != nullptr &&
@@ -391,6 +399,16 @@ void Loop::handle(const seccomp_notif& n) {
     return reply(n.id, 0, EIO);
   }
   Process& p = *found;
+  if (p.exec_pending) {
+    // The first call of what it executed: is that still the task's program?
+    p.exec_pending = false;
+    --execs_pending_;
+    if (std::string why = options_.on_exec(static_cast<pid_t>(n.pid)); !why.empty()) {
+      if (result_.identity_refused.empty()) result_.identity_refused = why;
+      close_down();
+      return reply(n.id, 0, EIO);
+    }
+  }
   const auto& a = n.data.args;
   bool is_open = nr == __NR_openat || nr == __NR_openat2;
 #ifdef __NR_open
@@ -407,6 +425,10 @@ void Loop::handle(const seccomp_notif& n) {
     // /dev/null answers ENOTTY, nothing reaches a bus.)
     for (int fd : p.cloexec) p.fds.erase(fd);
     p.cloexec.clear();
+    if (options_.on_exec && !p.exec_pending) {
+      p.exec_pending = true;
+      ++execs_pending_;
+    }
     return continue_call(n.id);
   }
   if (nr == __NR_close) {
@@ -464,26 +486,6 @@ void install_wake_handler() {
     sigaction(kWakeSignal, &sa, nullptr);
   });
 }
-
-struct ChildStatus {
-  bool reaped = false;
-  int exit_code = 0;
-  int signal = 0;
-  void reap(pid_t child) {
-    int status = 0;
-    pid_t r;
-    do {
-      r = waitpid(child, &status, 0);
-    } while (r < 0 && errno == EINTR);
-    if (r != child) return;
-    reaped = true;
-    if (WIFEXITED(status)) exit_code = WEXITSTATUS(status);
-    if (WIFSIGNALED(status)) {
-      signal = WTERMSIG(status);
-      exit_code = 128 + signal;
-    }
-  }
-};
 
 // A credential failure in the child, told to the parent through the pipe.
 constexpr int kCredentialsFailed = 1 << 16;
@@ -650,41 +652,6 @@ struct Watch {
 // it) or for the stop descriptor, then interrupts the loop's RECV with
 // kWakeSignal, repeating until the loop has seen it (a signal that lands
 // just before the loop enters RECV would otherwise be lost).
-// The descriptors the program will inherit (0-2 and the passed ones): open,
-// and none of them a bus node (i2c-dev's major) the program could use
-// without a call the filter sends to the supervisor.
-Status check_inherited(const std::vector<int>& pass_fds) {
-  std::vector<int> fds = {0, 1, 2};
-  fds.insert(fds.end(), pass_fds.begin(), pass_fds.end());
-  for (int fd : fds) {
-    struct stat st {};
-    if (fstat(fd, &st) != 0) {
-      if (fd <= 2) continue;  // a closed standard descriptor passes nothing
-      return make_error("contego run: --pass-fd " + std::to_string(fd) +
-                        ": not an open descriptor");
-    }
-    if (S_ISCHR(st.st_mode) && major(st.st_rdev) == kI2cDevMajor) {
-      return make_error("contego run: descriptor " + std::to_string(fd) +
-                        " is an I2C bus node (/dev/i2c-" + std::to_string(minor(st.st_rdev)) +
-                        "): the program would reach the bus unchecked through it; refusing to "
-                        "start");
-    }
-  }
-  return {};
-}
-
-// Reaps the orphans a subreaper adopted (never the direct child, whose
-// status its watcher keeps): an unreaped zombie would hold the filter, and
-// the listener would never hang up.
-void reap_orphans(pid_t child) {
-  for (;;) {
-    siginfo_t info{};
-    if (waitid(P_ALL, 0, &info, WEXITED | WNOHANG | WNOWAIT) != 0 || info.si_pid == 0) return;
-    if (info.si_pid == child) return;  // first in line: reaped by its watcher, then the rest
-    waitpid(info.si_pid, nullptr, WNOHANG);
-  }
-}
-
 void watch(const Options& options, const Started& s, Watch& w) {
   bool child_done = false;
   bool stopping = options.stop_fd < 0;

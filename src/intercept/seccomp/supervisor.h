@@ -91,6 +91,13 @@ struct Options {
   // would otherwise reach the bus unchecked. None of these, nor 0-2, may be
   // an I2C bus node: run() refuses to start (fail closed).
   std::vector<int> pass_fds;
+  // Called with a supervised process's pid at its first intercepted call
+  // after it called execve (before that call is answered, and before any
+  // bus call of the new image): "" to go on, or why its new executable may
+  // not act for the task. Then every supervised process is ended, as by
+  // stop_fd, and RunResult::identity_refused says why. `contego run --socket`
+  // asks the monitor to check the task's binding again (docs/threat-model.md).
+  std::function<std::string(pid_t pid)> on_exec;
   // Called once, on the supervisor's watcher thread, when stop_fd becomes
   // readable and before the program is ended: `contego run` records the
   // signal there, so the log has it before the program's exit it causes.
@@ -119,10 +126,11 @@ struct RunResult {
   uint64_t emulated = 0;              // bus calls emulated
   uint64_t peak_threads_tracked = 0;  // most threads remembered at once (bounded)
   bool sync_wakeup = false;
-  bool realtime = false;       // SCHED_FIFO was applied
-  bool one_cpu = false;        // the program and the supervising thread shared one CPU
-  std::string realtime_error;  // why not, when it was asked for
-  bool stopped = false;        // ended through stop_fd
+  bool realtime = false;         // SCHED_FIFO was applied
+  bool one_cpu = false;          // the program and the supervising thread shared one CPU
+  std::string realtime_error;    // why not, when it was asked for
+  bool stopped = false;          // ended through stop_fd
+  std::string identity_refused;  // why an exec ended the program (Options::on_exec)
 };
 
 // Runs the program to completion under supervision. Fails (without running

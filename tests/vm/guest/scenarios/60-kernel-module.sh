@@ -371,6 +371,27 @@ run_logged id_exe in_cgroup /robot python3 /tmp/kmod_smbus.py
 [ $RC != 0 ] && ok "python3 in /robot (another exe) is no task: refused (exit $RC)" ||
   bad "python3 with the wrong exe succeeded"
 
+# The exec case: identity is the caller's at each call, not the opener's. A
+# process that acts as arm_init (python3, bound by exe in this policy) keeps
+# its bus descriptor across an execve into a shell: the shell's write on the
+# very same open file is refused, and so would any other binary's be.
+awk '{ print } /^task arm_init \{/ { print "  exe \"/usr/bin/python3\"" }' \
+  $POLICIES/arm.policy >/tmp/arm-py.policy
+run_logged load4 contego kmod load --policy /tmp/arm-py.policy --bind gripper=contego
+cat >/tmp/kmod_exec.py <<'PY'
+import fcntl, os, sys
+fd = os.open("/dev/i2c-0", os.O_RDWR)
+os.set_inheritable(fd, True)           # kept across the exec
+fcntl.ioctl(fd, 0x0703, 0x40)          # I2C_SLAVE
+os.write(fd, bytes([0xfd, 0x00]))      # ALL_LED_OFF_H = 0: arm_init may
+print("python3 wrote", flush=True)
+os.execv("/bin/sh", ["sh", "-c", "printf '\\375\\020' >&%d && echo shell wrote" % fd])
+PY
+run_logged id_exec as_task python3 /tmp/kmod_exec.py
+grep -q "python3 wrote" "$OUT" && ! grep -q "shell wrote" "$OUT" &&
+  ok "exec: python3 acts as arm_init; after its execve the shell's write on the same descriptor is refused" ||
+  bad "exec: the descriptor kept acting after the exec into another binary"
+
 stop_reader
 run_logged verify2 contego audit $AUDIT_LOG
 [ $RC = 0 ] && grep -q '"kind":"audit-gap"' $AUDIT_LOG &&
