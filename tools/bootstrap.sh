@@ -25,8 +25,9 @@ packages=(
   # the booted Debian guest (tests/vm/booted): a Debian 12 root file system
   # made from Debian's archive, systemd as PID 1
   mmdebstrap
-  # package checks (tools/check_package.sh)
-  lintian
+  # package checks (tools/check_package.sh): lintian, and devscripts for
+  # hardening-check
+  lintian devscripts
   # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
   # package's module with DKMS's own tool against Debian's headers
   dkms

@@ -19,6 +19,7 @@
 #include "cli/trusted_setup.h"
 #include "cli/user_spec.h"
 #include "gate/socket.h"
+#include "intercept/seccomp/lineage.h"
 #include "intercept/seccomp/supervisor.h"
 
 namespace contego::cli {
@@ -177,6 +178,12 @@ void register_run(CLI::App& app) {
     // blocked here (every thread inherits that) and read from a signalfd that
     // the supervisor watches; the program starts with the original mask.
     StopSignals stop;
+    // Before anything else (the embedded monitor's start drives the safe
+    // state): a bus descriptor the program would inherit refuses the run.
+    if (Status inherited = intercept::seccomp::check_inherited(args->pass_fds); !inherited.ok()) {
+      fmt::print(stderr, "{}\n", inherited.error());
+      return set_exit_code(2);
+    }
     intercept::seccomp::Options opt;
     opt.argv = args->program;
     opt.stop_fd = stop.fd.get();

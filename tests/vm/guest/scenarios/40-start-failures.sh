@@ -34,12 +34,14 @@ grep -q "arm2" "$OUT" && ok "the message names device arm2" || bad "the message 
 run_logged busmismatch sh -c "contego run --policy $POLICIES/arm.policy --bus 2=$ADAPTER --task arm_init -- $prog"
 refused busmismatch "i2c-1\|bus 1" "run: policy bus i2c-1 without a --bus 1 (only 2 given): refused, naming bus 1"
 
-# A bus descriptor left open by whoever starts `contego run` (here the shell,
-# fd 9, no O_CLOEXEC) would reach the bus unchecked: refused, naming it.
-run_logged inherited sh -c "exec 9<>$ADAPTER; contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init -- $prog"
-refused inherited "descriptor 9 is an I2C bus node" "run: a bus descriptor inherited from the launcher: refused"
-run_logged inherited_pass sh -c "exec 9<>$ADAPTER; contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init --pass-fd 9 -- $prog"
+# A bus descriptor the program would inherit from whoever starts `contego
+# run` (fd 9 passed on with --pass-fd, or standard input) would reach the bus
+# unchecked: refused before anything starts, naming it. (One left open and
+# not passed is closed at exec: cli.inherited_fds.)
+run_logged inherited_pass sh -c "exec 9<>$ADAPTER; contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init --user 1000 --pass-fd 9 -- $prog"
 refused inherited_pass "descriptor 9 is an I2C bus node" "run: --pass-fd of a bus descriptor: refused"
+run_logged inherited_stdin sh -c "contego run --policy $POLICIES/arm.policy $BUS_ARGS --task arm_init --user 1000 -- $prog <>$ADAPTER"
+refused inherited_stdin "descriptor 0 is an I2C bus node" "run: a bus node as standard input: refused"
 
 run_logged nonode sh -c "contego run --policy $POLICIES/arm.policy --bus 1=/dev/i2c-7 --task arm_init -- $prog"
 refused nonode "/dev/i2c-7" "run: adapter /dev/i2c-7 does not exist: refused, naming it"
