@@ -1612,28 +1612,20 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	return nmsgs;
 }
 
-static long ct_rdwr(struct ct_file *cf, unsigned long arg)
+/* I2C_RDWR on messages copied in (their buffers still the caller's): the
+ * native and the compat call both end here, as in i2c-dev. The caller frees
+ * msgs. */
+static long ct_rdwr_msgs(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs)
 {
-	struct i2c_rdwr_ioctl_data rd;
-	struct i2c_msg *msgs;
 	u8 __user **user_bufs;
 	long ret;
 	u32 i;
 
-	if (copy_from_user(&rd, (void __user *)arg, sizeof(rd)))
-		return -EFAULT;
-	if (!rd.msgs || rd.nmsgs == 0 || rd.nmsgs > CT_MAX_MSGS)
-		return -EINVAL;
-	msgs = memdup_user(rd.msgs, rd.nmsgs * sizeof(*msgs));
-	if (IS_ERR(msgs))
-		return PTR_ERR(msgs);
-	user_bufs = kcalloc(rd.nmsgs, sizeof(*user_bufs), GFP_KERNEL);
-	if (!user_bufs) {
-		kfree(msgs);
+	user_bufs = kcalloc(nmsgs, sizeof(*user_bufs), GFP_KERNEL);
+	if (!user_bufs)
 		return -ENOMEM;
-	}
 	ret = 0;
-	for (i = 0; i < rd.nmsgs; i++) {
+	for (i = 0; i < nmsgs; i++) {
 		user_bufs[i] = (u8 __user *)msgs[i].buf;
 		/* The shared allow-list (contego/i2c_msg_flags.h): a protocol-
 		 * mangling flag would let a checked read act as a write. */
@@ -1658,20 +1650,37 @@ static long ct_rdwr(struct ct_file *cf, unsigned long arg)
 			msgs[i].len = msgs[i].buf[0];
 	}
 	if (ret == 0)
-		ret = ct_ioctl_rdwr(cf, msgs, rd.nmsgs, user_bufs);
+		ret = ct_ioctl_rdwr(cf, msgs, nmsgs, user_bufs);
 	while (i-- > 0)
 		if (!IS_ERR_OR_NULL(msgs[i].buf))
 			kfree(msgs[i].buf);
 	kfree(user_bufs);
+	return ret;
+}
+
+static long ct_rdwr(struct ct_file *cf, unsigned long arg)
+{
+	struct i2c_rdwr_ioctl_data rd;
+	struct i2c_msg *msgs;
+	long ret;
+
+	if (copy_from_user(&rd, (void __user *)arg, sizeof(rd)))
+		return -EFAULT;
+	if (!rd.msgs || rd.nmsgs == 0 || rd.nmsgs > CT_MAX_MSGS)
+		return -EINVAL;
+	msgs = memdup_user(rd.msgs, rd.nmsgs * sizeof(*msgs));
+	if (IS_ERR(msgs))
+		return PTR_ERR(msgs);
+	ret = ct_rdwr_msgs(cf, msgs, rd.nmsgs);
 	kfree(msgs);
 	return ret;
 }
 
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
-static long ct_smbus(struct ct_file *cf, unsigned long arg)
+/* I2C_SMBUS with its arguments copied in (native or compat). */
+static long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 {
-	struct i2c_smbus_ioctl_data a;
 	union i2c_smbus_data data;
 	u8 wire[2 + I2C_SMBUS_BLOCK_MAX + 1]; /* command, count, data: the write's bytes */
 	u8 pointer;
@@ -1681,8 +1690,6 @@ static long ct_smbus(struct ct_file *cf, unsigned long arg)
 	u16 task;
 	long ret;
 
-	if (copy_from_user(&a, (void __user *)arg, sizeof(a)))
-		return -EFAULT;
 	if (a.size != I2C_SMBUS_BYTE && a.size != I2C_SMBUS_QUICK && a.size != I2C_SMBUS_BYTE_DATA &&
 	    a.size != I2C_SMBUS_WORD_DATA && a.size != I2C_SMBUS_PROC_CALL &&
 	    a.size != I2C_SMBUS_BLOCK_DATA && a.size != I2C_SMBUS_I2C_BLOCK_BROKEN &&
@@ -1836,15 +1843,20 @@ static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		return put_user(i2c_get_functionality(cf->adap), (unsigned long __user *)arg);
 	case I2C_RDWR:
 		return ct_rdwr(cf, arg);
-	case I2C_SMBUS:
-		return ct_smbus(cf, arg);
+	case I2C_SMBUS: {
+		struct i2c_smbus_ioctl_data a;
+
+		if (copy_from_user(&a, (void __user *)arg, sizeof(a)))
+			return -EFAULT;
+		return ct_smbus(cf, a);
+	}
 	case I2C_RETRIES:
 		if (arg > INT_MAX)
 			return -EINVAL;
 		cf->adap->retries = arg;
 		return 0;
 	case I2C_TIMEOUT:
-		if (arg > INT_MAX)
+		if (arg > INT_MAX / 10) /* as i2c-dev: arg * 10 must not wrap */
 			return -EINVAL;
 		cf->adap->timeout = msecs_to_jiffies(arg * 10);
 		return 0;
@@ -1852,6 +1864,86 @@ static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		return -ENOTTY;
 	}
 }
+
+#ifdef CONFIG_COMPAT
+/* 32-bit programs on a 64-bit kernel (armhf Raspberry Pi OS on its arm64
+ * kernel, i386 on amd64): i2c-dev's compat layouts, converted, then the
+ * native paths. Scalar requests are the same in both ABIs. */
+struct ct_msg32 {
+	u16 addr;
+	u16 flags;
+	u16 len;
+	compat_caddr_t buf;
+};
+
+struct ct_rdwr32 {
+	compat_caddr_t msgs;
+	u32 nmsgs;
+};
+
+struct ct_smbus32 {
+	u8 read_write;
+	u8 command;
+	u32 size;
+	compat_caddr_t data;
+};
+
+static long ct_compat_rdwr(struct ct_file *cf, unsigned long arg)
+{
+	struct ct_msg32 __user *umsgs;
+	struct ct_rdwr32 rd;
+	struct i2c_msg *msgs;
+	long ret = 0;
+	u32 i;
+
+	if (copy_from_user(&rd, compat_ptr(arg), sizeof(rd)))
+		return -EFAULT;
+	if (!rd.msgs || rd.nmsgs == 0 || rd.nmsgs > CT_MAX_MSGS)
+		return -EINVAL;
+	msgs = kcalloc(rd.nmsgs, sizeof(*msgs), GFP_KERNEL);
+	if (!msgs)
+		return -ENOMEM;
+	umsgs = compat_ptr(rd.msgs);
+	for (i = 0; i < rd.nmsgs; i++) {
+		struct ct_msg32 m;
+
+		if (copy_from_user(&m, &umsgs[i], sizeof(m))) {
+			ret = -EFAULT;
+			goto out;
+		}
+		msgs[i] = (struct i2c_msg){ .addr = m.addr, .flags = m.flags, .len = m.len,
+					    .buf = (__force u8 *)compat_ptr(m.buf) };
+	}
+	ret = ct_rdwr_msgs(cf, msgs, rd.nmsgs);
+out:
+	kfree(msgs);
+	return ret;
+}
+
+static long ct_compat_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
+{
+	struct ct_file *cf = file->private_data;
+
+	switch (cmd) {
+	case I2C_FUNCS:
+		return put_user(i2c_get_functionality(cf->adap),
+				(compat_ulong_t __user *)compat_ptr(arg));
+	case I2C_RDWR:
+		return ct_compat_rdwr(cf, arg);
+	case I2C_SMBUS: {
+		struct ct_smbus32 a;
+
+		if (copy_from_user(&a, compat_ptr(arg), sizeof(a)))
+			return -EFAULT;
+		return ct_smbus(cf, (struct i2c_smbus_ioctl_data){
+			.read_write = a.read_write, .command = a.command, .size = a.size,
+			.data = compat_ptr(a.data) });
+	}
+	default:
+		return ct_ioctl(file, cmd, arg);
+	}
+}
+#endif
 
 static int ct_open(struct inode *inode, struct file *file)
 {
@@ -1891,6 +1983,9 @@ static const struct file_operations ct_node_fops = {
 	.read = ct_read,
 	.write = ct_write,
 	.unlocked_ioctl = ct_ioctl,
+#ifdef CONFIG_COMPAT
+	.compat_ioctl = ct_compat_ioctl,
+#endif
 	.open = ct_open,
 	.release = ct_release,
 };

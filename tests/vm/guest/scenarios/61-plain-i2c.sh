@@ -269,6 +269,20 @@ run_logged atomic su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_rdwr_
 check_atomic "attack_rdwr_atomic as the gripper, contego.ko"
 run_logged mangle su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_msg_flags"
 check_mangling "attack_msg_flags as the gripper, contego.ko"
+# A 32-bit program (i386 on this x86-64 kernel, as armhf on a Pi's arm64
+# one): every i2c ioctl goes through contego.ko's compat_ioctl, checked alike.
+if [ -x $ATTACK/attack_compat32 ]; then
+  run_logged compat32 su contego -s /bin/sh -c "cd /tmp && exec $ATTACK/attack_compat32"
+  missing=
+  for line in "funcs 0 1" "slave 0" "smbus-read 0 33" "rdwr-read 2 33" "rdwr-mangled -22" \
+      "smbus-prescale 0" "rdwr-prescale 1"; do
+    grep -q "^$line\$" "$OUT" || missing="$missing '$line'"
+  done
+  [ -z "$missing" ] && ok "32-bit program through compat_ioctl: funcs, register reads by SMBus and I2C_RDWR (MODE1 0x21), mangled read refused, PRE_SCALE writes ignored" ||
+    bad "32-bit program through compat_ioctl: missing$missing"
+else
+  echo "VM-CHECK SKIP $SCENARIO: no 32-bit test program (built on x86-64 hosts only)"
+fi
 stop_reader
 missing=
 grep -q '"bytes":"1a 00 00 a4 01".*"decision":"allow"' $AUDIT_LOG || missing="$missing the-pulse"
