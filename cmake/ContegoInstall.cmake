@@ -51,6 +51,11 @@ install(FILES ${CONTEGO_SYSTEM_DIR}/contego.default DESTINATION ${CONTEGO_ETC_DI
 install(DIRECTORY DESTINATION ${CONTEGO_ETC_DIR}/contego/run COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/contego-run.conf.example ${PROJECT_SOURCE_DIR}/README.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT runtime)
+# The documentation on the robot, where the README and the man pages point:
+# the policy language, deployment, kernel client, threat model, examples
+# (docs/performance-journal.md, the measurement history, stays in the tree).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR} COMPONENT runtime
+        PATTERN "performance-journal.md" EXCLUDE)
 
 # Man pages and bash completion, generated from the CLI's --help
 # (tools/cli_docs.py); a cross build runs the CLI under its emulator.

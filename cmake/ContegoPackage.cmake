@@ -44,7 +44,8 @@ set(CPACK_DEBIAN_RUNTIME_PACKAGE_SECTION admin)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "adduser | systemd (>= 245)")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "systemd, logrotate")
-set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "i2c-tools")
+# gnuplot draws `contego demo`/`sim` figures; without it they write CSV only.
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "i2c-tools, gnuplot-nox")
 set(CPACK_DEBIAN_RUNTIME_DEBUGINFO_PACKAGE ON)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA
     ${PROJECT_SOURCE_DIR}/packaging/deb/postinst ${PROJECT_SOURCE_DIR}/packaging/deb/prerm

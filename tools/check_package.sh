@@ -53,6 +53,10 @@ if [[ -n $runtime ]]; then
     [[ -e $tmp/root/$f ]] || bad "$runtime has no /$f"
   done
   ls "$tmp"/root/usr/lib/*/libcontego_preload.so >/dev/null 2>&1 || bad "$runtime has no preload library"
+  # The documentation the README and the man pages point at is on the robot.
+  for doc in policy-language.md deployment.md kernel-client.md threat-model.md; do
+    [[ -f $tmp/root/usr/share/doc/contego/$doc ]] || bad "$runtime has no /usr/share/doc/contego/$doc"
+  done
   # Every ELF file: stripped, and no path of the tree it was built from.
   while IFS= read -r -d '' f; do
     head -c 4 "$f" | grep -q $'\x7fELF' || continue

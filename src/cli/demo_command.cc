@@ -30,6 +30,7 @@ void register_demo(CLI::App& app) {
     };
     const uint64_t start_us = monotonic_us();
     std::vector<std::string> figures;
+    std::string note;
     for (const auto& item : items) {
       SimRequest req;
       req.scenario_path = find_data_file(item.scenario);
@@ -43,11 +44,20 @@ void register_demo(CLI::App& app) {
         return;
       }
       fmt::print("== {}\n{}\n", item.what, r->summary);
-      figures.push_back(*out + "/" + item.figure + ".png");
-      figures.push_back(*out + "/" + item.figure + ".svg");
+      note = r->note;
+      if (note.empty()) {
+        figures.push_back(*out + "/" + item.figure + ".png");
+        figures.push_back(*out + "/" + item.figure + ".svg");
+      } else {
+        for (const auto& f : r->files) figures.push_back(f);
+      }
     }
     const double secs = static_cast<double>(monotonic_us() - start_us) * 1e-6;
-    fmt::print("figures (traces as CSV beside them):\n");
+    if (note.empty()) {
+      fmt::print("figures (traces as CSV beside them):\n");
+    } else {
+      fmt::print("{}:\n", note);
+    }
     for (const auto& f : figures) fmt::print("  {}\n", f);
     fmt::print("done in {:.1f} s\n", secs);
   });

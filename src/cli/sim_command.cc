@@ -72,7 +72,9 @@ int run_realtime_command(const Options& o) {
     fmt::print(stderr, "contego sim: {}\n", traces.error());
     return 1;
   }
-  if (!o.no_plots) {
+  if (!o.no_plots && !sim::gnuplot_available()) {
+    fmt::print("{}\n", sim::kNoGnuplotNote);
+  } else if (!o.no_plots) {
     auto plots = sim::plot_runs(*sc, runs, o.out, stem);
     if (!plots) {
       fmt::print(stderr, "contego sim: {}\n", plots.error());
@@ -123,6 +125,7 @@ void register_sim(CLI::App& app) {
       return;
     }
     fmt::print("{}\n", r->summary);
+    if (!r->note.empty()) fmt::print("{}\n", r->note);
     fmt::print("written to {}:\n", o->out);
     for (const auto& f : r->files) fmt::print("  {}\n", f);
   });

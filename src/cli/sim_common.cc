@@ -47,7 +47,9 @@ Result<ScenarioOutcome> run_scenario_files(const SimRequest& req) {
   auto traces = sim::write_traces(out.runs, req.out_dir, stem);
   if (!traces) return make_error(traces.error());
   out.files = *traces;
-  if (req.plots) {
+  if (req.plots && !sim::gnuplot_available()) {
+    out.note = sim::kNoGnuplotNote;
+  } else if (req.plots) {
     auto plots = sim::plot_runs(*sc, out.runs, req.out_dir, stem, req.figure);
     if (!plots) return make_error(plots.error());
     out.files.insert(out.files.end(), plots->begin(), plots->end());

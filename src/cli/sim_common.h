@@ -21,6 +21,7 @@ struct ScenarioOutcome {
   std::vector<sim::RunResult> runs;  // baseline, unprotected, protected
   std::vector<std::string> files;    // everything written
   std::string summary;
+  std::string note;  // e.g. why no plot was drawn
 };
 
 struct SimRequest {

@@ -26,6 +26,13 @@ Status write_file(const std::string& path, const std::string& text);
 Result<std::vector<std::string>> write_traces(const std::vector<RunResult>& runs,
                                               const std::string& dir, const std::string& stem);
 
+// Whether `gnuplot` is on PATH: plots are optional (the package only
+// suggests gnuplot); without it the traces are written and no figure is drawn.
+bool gnuplot_available();
+inline constexpr const char* kNoGnuplotNote =
+    "gnuplot is not installed: wrote the traces (CSV) only; `apt-get install gnuplot-nox` draws "
+    "the figures";
+
 // Writes <dir>/<stem>.gp and renders <stem>.svg and <stem>.png with gnuplot
 // (the CSV traces must already be in `dir`). `figure` names the layout:
 // "auto" picks the platform's; "fig1", "fig4a", "fig4b" are the paper's.
