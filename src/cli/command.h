@@ -14,6 +14,7 @@ namespace contego::cli {
 // Every register_* adds one subcommand whose callback sets the process exit
 // code through set_exit_code().
 void register_version(CLI::App& app);
+void register_doctor(CLI::App& app);
 void register_sched(CLI::App& app);
 void register_bench(CLI::App& app);
 void register_audit(CLI::App& app);

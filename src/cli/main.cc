@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", contego::cli::version_line());
   contego::cli::register_version(app);
+  contego::cli::register_doctor(app);
   contego::cli::register_sched(app);
   contego::cli::register_bench(app);
   contego::cli::register_audit(app);

@@ -23,4 +23,9 @@ expect_reg 0x40 0xfe 0x1e "i2cset/i2cget round trip on the plain adapter"
 run_logged direct as_task i2cget -y 0 0x40 0xfe
 [ $RC != 0 ] && grep -q "/dev/i2c-0.*Permission denied" "$OUT" &&
   ok "uid $TASK_UID cannot open $ADAPTER itself" || bad "uid $TASK_UID opened $ADAPTER"
+# `contego doctor` where an adapter exists: the kernel, i2c-dev, the node
+# and its owner (the monitor user's alone in the test bed), no problem.
+run_logged doctor contego doctor
+[ $RC = 0 ] && grep -q '^\[ ok \] i2c-dev is loaded' "$OUT" && grep -q '^\[ ok \] /dev/i2c-0 (SMBus stub driver)' "$OUT" &&
+  ok "contego doctor: kernel, i2c-dev and /dev/i2c-0 (i2c-stub, the monitor user's alone) reported, exit 0" || bad "contego doctor (exit $RC)"
 finish
