@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);
   contego::cli::register_reset(app);
+  contego::cli::register_status(app);
   contego::cli::register_kmod(app);
   contego::cli::register_test(app);
   contego::cli::register_sim(app);

@@ -119,6 +119,7 @@ void register_monitor(CLI::App& app) {
     monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
                            args->realtime, args->limits);
     server.set_bindings((*trusted)->bindings);
+    server.set_policy_source((*trusted)->source);
     if (Status s = server.listen(args->socket); !s.ok()) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);

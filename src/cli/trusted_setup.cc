@@ -105,7 +105,12 @@ Result<LoadedPolicy> load_policy(const SetupOptions& o) {
   }
   if (o.image.empty()) {
     if (!compiled) return make_error("no policy: give a policy file or an image");
-    p.source = o.policy;
+    // The image's hash names what is enforced, in the start record and the
+    // status, as for an image given with --image.
+    p.source = fmt::format(
+        "{} (SHA-256 {})", o.policy,
+        sha256_hex(std::string_view(reinterpret_cast<const char*>(compiled->image.data()),
+                                    compiled->image.size())));
     p.image = std::move(compiled->image);
     p.model = std::move(compiled->model);
     return p;
@@ -205,6 +210,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   auto loaded = load_policy(o);
   if (!loaded.ok()) return make_error(loaded.error());
   const LoadedPolicy& out = *loaded;
+  t->source = out.source;
   t->decider = std::make_unique<CoreDecider>();
   const core::LoadResult lr =
       t->decider->checker().load(out.image.data(), static_cast<uint32_t>(out.image.size()));

@@ -62,6 +62,7 @@ struct Trusted {
   // Who may run each task (the policy's user/group/exe/unit/cgroup/sessions),
   // resolved on this host: an unknown user or group, or a missing exe, fails setup.
   std::map<std::string, TaskBinding> bindings;
+  std::string source;                 // the policy or image file, with the image's SHA-256
   std::vector<std::string> warnings;  // e.g. an adapter no device uses
   std::vector<std::string> degraded;  // with allow_degraded: what was wrong at start
   // The models on the virtual buses, for virtual_state().

@@ -32,4 +32,28 @@ Result<bool> request_reset(const std::string& socket_path, const std::string& de
   return answer[0] != 0;
 }
 
+Result<std::string> request_status(const std::string& socket_path) {
+  auto connected = connect_to_monitor(socket_path);
+  if (!connected) return make_error(connected.error());
+  const int fd = connected->get();
+  if (!send_frame(fd, wire::Type::kStatus, 1, {})) {
+    return make_error("the monitor at " + socket_path + " closed the connection");
+  }
+  FrameReader reader(fd);
+  wire::Header h;
+  std::span<const uint8_t> answer;
+  if (const FrameStatus got = reader.next(&h, &answer); !got.ok()) {
+    return make_error("no answer from the monitor at " + socket_path + ": " + got.why);
+  }
+  if (h.type == static_cast<uint8_t>(wire::Type::kError)) {
+    wire::ErrorMsg e;
+    (void)wire::decode_error(answer, &e);
+    return make_error("the monitor refused: " + e.reason);
+  }
+  if (h.type != static_cast<uint8_t>(wire::Type::kStatusOk)) {
+    return make_error("unexpected answer from the monitor at " + socket_path);
+  }
+  return std::string(answer.begin(), answer.end());
+}
+
 }  // namespace contego::gate

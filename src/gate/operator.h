@@ -14,6 +14,10 @@ namespace contego::gate {
 // to its own uid only, and audits every request.
 Result<bool> request_reset(const std::string& socket_path, const std::string& device);
 
+// Asks the monitor at `socket_path` for its state (`contego status`): JSON
+// text. Granted to root and to the monitor's own uid only.
+Result<std::string> request_status(const std::string& socket_path);
+
 }  // namespace contego::gate
 
 #endif  // CONTEGO_GATE_OPERATOR_H_

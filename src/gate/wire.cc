@@ -104,6 +104,8 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kResetOk:
     case Type::kRevouch:
     case Type::kRevouchOk:
+    case Type::kStatus:
+    case Type::kStatusOk:
     case Type::kError:
       return {};
   }

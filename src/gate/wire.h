@@ -39,6 +39,8 @@ enum class Type : uint8_t {
   kResetOk = 12,   // server: u8 1 if the device was latched
   kRevouch = 13,   // supervisor: task name + Vouch, after the program's exec -> kRevouchOk | kError
   kRevouchOk = 14,  // server: empty; the new executable may act for the task
+  kStatus = 15,     // operator: empty; the monitor's state  -> kStatusOk | kError
+  kStatusOk = 16,   // server: JSON text (docs/deployment.md, "contego status")
   kError = 0x7F,    // server: errno and reason text
 };
 

@@ -568,6 +568,16 @@ std::string AuditLog::path() const {
   return path_;
 }
 
+std::string AuditLog::last_hash() const {
+  std::lock_guard lock(mu_);
+  return prev_;
+}
+
+uint64_t AuditLog::position() const {
+  std::lock_guard lock(mu_);
+  return static_cast<uint64_t>(pos_);
+}
+
 uint64_t AuditLog::lines() const {
   std::lock_guard lock(mu_);
   return lines_;

@@ -126,6 +126,8 @@ class AuditLog {
   uint64_t failures() const;   // records that could not be written
   uint64_t rotations() const;  // files started after the first
   std::string path() const;
+  std::string last_hash() const;  // SHA-256 (hex) of the last line: the chain's anchor
+  uint64_t position() const;      // the current file's offset past its last record
 
  private:
   // Appends ,"prev":"..."} and the newline to body, hashes, writes; on

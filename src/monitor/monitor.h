@@ -148,6 +148,9 @@ class Monitor final : public gate::Endpoint {
   // Transfers refused because their decision's audit record could not be
   // written (each also drove the safe state).
   uint64_t audit_refusals() const { return audit_refusals_.load(); }
+  // Tasks (job, budget use, decisions by verdict), devices (latched),
+  // totals: `contego status` (monitor_status.cc). JSON text.
+  std::string status_json() const;
 
  private:
   struct Budget {

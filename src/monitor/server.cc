@@ -368,6 +368,8 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       return reset(s, payload);
     case wire::Type::kRevouch:
       return revouch(s, payload);
+    case wire::Type::kStatus:
+      return status(s);
     default:
       return refuse(EPROTO, fmt::format("unexpected message type {}", type));
   }

@@ -147,6 +147,15 @@ class Server {
   // A supervisor's re-vouch after its program's exec ("" = may go on).
   std::string revouch_refusal(const Session& s, pid_t pid);
   gate::wire::Type revouch(Session& s, std::span<const uint8_t> payload);
+  gate::wire::Type status(Session& s);  // `contego status` (server_status.cc)
+ public:
+  // What the status answer names the running policy by (its source and
+  // image SHA-256), set once before serve().
+  void set_policy_source(std::string source) { policy_source_ = std::move(source); }
+
+ private:
+  std::string policy_source_;
+  const uint64_t started_us_ = monotonic_us();
   // Whether a bound session of `task` has a peer that hung up: its
   // connection's thread has yet to notice and end it. mu_ held.
   bool session_ending(uint16_t task) const;

@@ -44,6 +44,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
       if (s.bound) return {};
       break;
     case wire::Type::kReset:
+    case wire::Type::kStatus:
       if (s.bound) {
         return fmt::format(
             "the connection speaks for task {}: a task's session may not "

@@ -1,0 +1,55 @@
+// Monitor::status_json(): the monitor's state for `contego status`, as JSON.
+// A cold path (an operator's request): it takes the monitor's lock once.
+#include <nlohmann/json.hpp>
+
+#include "monitor/monitor.h"
+
+namespace contego::monitor {
+
+std::string Monitor::status_json() const {
+  nlohmann::json tasks = nlohmann::json::array();
+  nlohmann::json devices = nlohmann::json::array();
+  std::lock_guard lock(mu_);
+  const uint64_t now = clock_.now_us();
+  for (size_t i = 0; i < names_.tasks.size(); ++i) {
+    const auto task = static_cast<uint16_t>(i);
+    const DecisionCounts c = drops_.counts(task);
+    nlohmann::json t = {{"id", i},
+                        {"name", names_.tasks[i]},
+                        {"period_us", decider_.task_period_us(task)},
+                        {"decisions",
+                         {{"allowed", c.allowed},
+                          {"ignored", c.ignored},
+                          {"substituted", c.substituted},
+                          {"refused", c.refused},
+                          {"complained", c.complained}}},
+                        {"complain", complains_task_locked(task)}};
+    const auto phase = job_phase_us_.find(task);
+    const uint64_t period = decider_.task_period_us(task);
+    // The job now on the task's grid (monitor.cc's grid_job): 0 before contact.
+    uint64_t job = 0;
+    if (phase != job_phase_us_.end() && period != 0) {
+      job = now <= phase->second ? 1 : (now - phase->second) / period + 1;
+    }
+    t["job"] = job;
+    if (auto b = budgets_.find(task); b != budgets_.end()) {
+      t["budget"] = {
+          {"job", b->second.job}, {"acted", b->second.acted}, {"dropped", b->second.dropped}};
+    }
+    tasks.push_back(std::move(t));
+  }
+  for (uint32_t d = 0; d < decider_.device_count(); ++d) {
+    devices.push_back({{"id", d},
+                       {"name", d < names_.devices.size() ? names_.devices[d] : std::to_string(d)},
+                       {"latched", decider_.latched(static_cast<uint16_t>(d))}});
+  }
+  const nlohmann::json out = {{"tasks", std::move(tasks)},
+                              {"devices", std::move(devices)},
+                              {"decisions", decisions_.load()},
+                              {"holds", holds_.load()},
+                              {"audit_refusals", audit_refusals_.load()},
+                              {"complain", complain_.any()}};
+  return out.dump();
+}
+
+}  // namespace contego::monitor

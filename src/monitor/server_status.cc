@@ -1,0 +1,50 @@
+// `contego status`: the monitor's state for an operator, as JSON. Answered
+// to root and the monitor's own uid only, never on a task's session nor to a
+// supervised program or its descendants (Server::message_refusal).
+#include <errno.h>
+#include <unistd.h>
+
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+#include "base/clock.h"
+#include "monitor/server.h"
+
+namespace contego::monitor {
+
+namespace wire = gate::wire;
+
+wire::Type Server::status(Session& s) {
+  auto refuse = [&](const std::string& why) {
+    client_event(s.conn->uid, "request-refused",
+                 fmt::format("pid {} uid {}: status: {}", s.conn->pid, s.conn->uid, why));
+    s.out = wire::encode_error({EPERM, why});
+    return wire::Type::kError;
+  };
+  if (std::string why = message_refusal(s, wire::Type::kStatus); !why.empty()) return refuse(why);
+  if (s.conn->uid != 0 && s.conn->uid != geteuid()) {
+    return refuse("only root or the monitor's uid may read its status");
+  }
+  nlohmann::json j = nlohmann::json::parse(monitor_.status_json());
+  j["policy"] = policy_source_;
+  j["pid"] = getpid();
+  j["uptime_s"] = (monotonic_us() - started_us_) / 1000000u;
+  {
+    std::lock_guard lock(mu_);
+    for (auto& t : j["tasks"]) {
+      const auto id = t["id"].get<uint16_t>();
+      const auto live = live_sessions_.find(id);
+      t["sessions"] = live == live_sessions_.end() ? 0u : live->second;
+    }
+  }
+  j["audit"] = {{"path", audit_.path()},
+                {"position", audit_.position()},
+                {"records", audit_.lines()},
+                {"failures", audit_.failures()},
+                {"last_hash", audit_.last_hash()}};
+  const std::string text = j.dump();
+  s.out.assign(text.begin(), text.end());
+  return wire::Type::kStatusOk;
+}
+
+}  // namespace contego::monitor

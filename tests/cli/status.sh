@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# `contego status` against a running monitor with a live supervised task:
+# the policy with its image's SHA-256, the task's live session and its
+# decisions, the devices, the audit log's path and last hash (as the log's
+# own last line says); the same as JSON. Refused to a supervised program and
+# to another uid (audited), each with its reason.
+# Usage: status.sh CONTEGO POLICIES_DIR
+set -euo pipefail
+contego="$1" policies="$2"
+dir="$(mktemp -d)"
+chmod 755 "$dir"
+mon="" prog=""
+cleanup() {
+  [ -n "$prog" ] && kill "$prog" 2>/dev/null && wait "$prog" 2>/dev/null
+  [ -n "$mon" ] && kill "$mon" 2>/dev/null && wait "$mon" 2>/dev/null
+  rm -rf "$dir"
+}
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; cat "$dir/st.out" 2>/dev/null; exit 1; }
+"$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$dir/m.sock" \
+  --audit "$dir/audit.jsonl" --client-uid "$(id -u)" --client-uid 65534 2>"$dir/mon.err" &
+mon=$!
+for _ in $(seq 100); do [ -S "$dir/m.sock" ] && break; sleep 0.1; done
+[ -S "$dir/m.sock" ] || { cat "$dir/mon.err"; fail "the monitor did not start"; }
+grep -q 'rover.policy (SHA-256 [0-9a-f]\{64\}).*"kind":"start"' "$dir/audit.jsonl" ||
+  fail "the start record does not name the policy's image hash"
+
+# A live task: two commands, then it waits.
+"$contego" run --socket "$dir/m.sock" --task follower -- /bin/sh -c \
+  "i2cset -y 1 0x08 0x01 0x46 i; i2cset -y 1 0x08 0x01 0x46 i; touch $dir/sent; exec sleep 30" \
+  >"$dir/prog.out" 2>&1 &
+prog=$!
+for _ in $(seq 100); do [ -e "$dir/sent" ] && break; sleep 0.1; done
+[ -e "$dir/sent" ] || { cat "$dir/prog.out"; fail "the program did not send"; }
+
+"$contego" status --socket "$dir/m.sock" --json >"$dir/st.out" || fail "status --json exit $?"
+python3 - "$dir/st.out" "$dir/audit.jsonl" <<'PY' || fail "the JSON status"
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert "rover.policy (SHA-256 " in s["policy"], s["policy"]
+follower = next(t for t in s["tasks"] if t["name"] == "follower")
+assert follower["sessions"] == 1, follower
+assert sum(follower["decisions"].values()) >= 2, follower
+assert follower["job"] >= 1, follower
+assert any(d["name"] == "gopigo" and d["latched"] is False for d in s["devices"]), s["devices"]
+assert s["audit"]["path"] == sys.argv[2], s["audit"]
+import hashlib
+# The chain's anchor: the SHA-256 of the last record's line (no newline; the
+# file may end in preallocated zeros).
+last = [l for l in open(sys.argv[2], "rb").read().split(b"\n") if l.startswith(b"{")][-1]
+assert s["audit"]["last_hash"] == hashlib.sha256(last).hexdigest(), "last hash"
+assert s["complain"] is False and s["uptime_s"] >= 0
+PY
+"$contego" status --socket "$dir/m.sock" >"$dir/st.out" || fail "status exit $?"
+grep -q '^  follower .*sessions 1' "$dir/st.out" || fail "the human status has no live follower"
+grep -q '^  gopigo .* ok$' "$dir/st.out" || fail "the human status has no gopigo"
+
+# A supervised program asks (the task's one session free again): refused,
+# whatever its uid.
+kill "$prog" && wait "$prog" 2>/dev/null || true
+prog=""
+sleep 0.5
+if "$contego" run --socket "$dir/m.sock" --task follower -- "$contego" status --socket "$dir/m.sock" \
+    >"$dir/st.out" 2>&1; then
+  fail "a supervised program read the status"
+fi
+grep -q "supervised by contego" "$dir/st.out" || fail "no reason for the supervised program"
+if [ "$(id -u)" = 0 ]; then
+  chmod o+rw "$dir/m.sock"
+  if setpriv --reuid 65534 --regid 65534 --clear-groups "$contego" status --socket "$dir/m.sock" \
+      >"$dir/st.out" 2>&1; then
+    fail "uid 65534 read the status"
+  fi
+  # A client uid (it may connect, to run tasks), not an operator.
+  grep -q "only root or the monitor's uid" "$dir/st.out" || fail "no reason for uid 65534"
+  grep -q '"kind":"request-refused"\|request-refused' "$dir/audit.jsonl" || fail "the refusal is not audited"
+fi
+echo "ok"
