@@ -3,9 +3,12 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
+#include <mutex>
 #include <thread>
 
 #include "cli/audit_args.h"
@@ -15,9 +18,58 @@
 #include "cli/stop_signals.h"
 #include "cli/systemd_notify.h"
 #include "cli/trusted_setup.h"
+#include "monitor/metrics.h"
 #include "monitor/server.h"
 
 namespace contego::cli {
+namespace {
+
+// Rewrites the metrics file every interval on its own thread, and once more
+// when stopped; a failed write is said on standard error (rate: once per
+// interval) and never stops the monitor.
+class MetricsWriter {
+ public:
+  MetricsWriter(monitor::Server& server, std::string path, uint32_t interval_s)
+      : server_(server), path_(std::move(path)), interval_(interval_s) {
+    if (!path_.empty()) thread_ = std::thread([this] { loop(); });
+  }
+  ~MetricsWriter() { stop(); }
+  void stop() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard lock(mu_);
+      stopping_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+    write();
+  }
+
+ private:
+  void loop() {
+    std::unique_lock lock(mu_);
+    while (!cv_.wait_for(lock, interval_, [this] { return stopping_; })) {
+      lock.unlock();
+      write();
+      lock.lock();
+    }
+  }
+  void write() {
+    if (Status s = monitor::write_metrics_file(path_, monitor::metrics_text(server_.status_json()));
+        !s.ok()) {
+      fmt::print(stderr, "contego monitor: {}\n", s.error());
+    }
+  }
+  monitor::Server& server_;
+  std::string path_;
+  std::chrono::seconds interval_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
 
 void register_monitor(CLI::App& app) {
   auto* cmd = app.add_subcommand("monitor", "The trusted-side daemon: sole owner of the buses");
@@ -35,6 +87,8 @@ void register_monitor(CLI::App& app) {
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
     monitor::AuditOptions audit_options;
     monitor::ServerLimits limits;
+    std::string metrics_file;
+    uint32_t metrics_interval_s = 15;
   };
   auto args = std::make_shared<Args>();
   cmd->add_option("--policy", args->policy, "policy file");
@@ -61,6 +115,14 @@ void register_monitor(CLI::App& app) {
                   "and second; the rest are counted in a `suppressed` summary (0 = no limit)")
       ->capture_default_str();
   add_bus_options(cmd, &args->buses, &args->virtual_buses, &args->virtual_state);
+  cmd->add_option("--metrics-file", args->metrics_file,
+                  "write counters and gauges in Prometheus's text format to this file, "
+                  "atomically, for node_exporter's textfile collector (e.g. "
+                  "/run/contego/metrics/contego.prom)");
+  cmd->add_option("--metrics-interval", args->metrics_interval_s,
+                  "seconds between two writes of --metrics-file")
+      ->check(CLI::Range(1u, 3600u))
+      ->capture_default_str();
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
@@ -124,6 +186,17 @@ void register_monitor(CLI::App& app) {
       fmt::print(stderr, "contego monitor: {}\n", s.error());
       return set_exit_code(2);
     }
+    // The metrics file: written once now, so that a directory the monitor
+    // cannot write refuses the start with the reason, then every interval.
+    if (!args->metrics_file.empty()) {
+      if (Status s = monitor::write_metrics_file(args->metrics_file,
+                                                 monitor::metrics_text(server.status_json()));
+          !s.ok()) {
+        fmt::print(stderr, "contego monitor: {}\n", s.error());
+        return set_exit_code(2);
+      }
+    }
+    MetricsWriter metrics(server, args->metrics_file, args->metrics_interval_s);
     const std::string serving = args->image.empty() ? args->policy : args->image;
     fmt::print(stderr, "contego monitor: serving {} on {}\n", serving, args->socket);
     SystemdNotifier systemd;
@@ -151,6 +224,7 @@ void register_monitor(CLI::App& app) {
       }
     });
     server.serve();
+    metrics.stop();
     served.store(true);
     pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
     waiter.join();

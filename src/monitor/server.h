@@ -152,6 +152,9 @@ class Server {
   // What the status answer names the running policy by (its source and
   // image SHA-256), set once before serve().
   void set_policy_source(std::string source) { policy_source_ = std::move(source); }
+  // The monitor's state as `contego status --json` shows it (and the
+  // metrics file is made of): the monitor's, the sessions, the audit log.
+  std::string status_json();
 
  private:
   std::string policy_source_;

@@ -25,6 +25,12 @@ wire::Type Server::status(Session& s) {
   if (s.conn->uid != 0 && s.conn->uid != geteuid()) {
     return refuse("only root or the monitor's uid may read its status");
   }
+  const std::string text = status_json();
+  s.out.assign(text.begin(), text.end());
+  return wire::Type::kStatusOk;
+}
+
+std::string Server::status_json() {
   nlohmann::json j = nlohmann::json::parse(monitor_.status_json());
   j["policy"] = policy_source_;
   j["pid"] = getpid();
@@ -42,9 +48,7 @@ wire::Type Server::status(Session& s) {
                 {"records", audit_.lines()},
                 {"failures", audit_.failures()},
                 {"last_hash", audit_.last_hash()}};
-  const std::string text = j.dump();
-  s.out.assign(text.begin(), text.end());
-  return wire::Type::kStatusOk;
+  return j.dump();
 }
 
 }  // namespace contego::monitor

@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# `contego monitor --metrics-file`: the Prometheus text format, written
+# atomically at start and every interval (node_exporter's textfile
+# collector reads it); a live task's decisions appear in it; a file the
+# monitor cannot write refuses the start, naming it.
+# Usage: metrics.sh CONTEGO POLICIES_DIR
+set -euo pipefail
+contego="$1" policies="$2"
+dir="$(mktemp -d)"
+mon=""
+cleanup() { [ -n "$mon" ] && kill "$mon" 2>/dev/null && wait "$mon" 2>/dev/null; rm -rf "$dir"; }
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; cat "$dir/m.prom" 2>/dev/null; exit 1; }
+
+if "$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$dir/x.sock" \
+    --metrics-file /proc/contego-nowhere/contego.prom 2>"$dir/err"; then
+  fail "the monitor started with an unwritable metrics file"
+fi
+grep -q "cannot write the metrics file /proc/contego-nowhere/contego.prom.tmp" "$dir/err" ||
+  { cat "$dir/err"; fail "no reason for the unwritable metrics file"; }
+
+"$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$dir/m.sock" \
+  --audit "$dir/audit.jsonl" --metrics-file "$dir/m.prom" --metrics-interval 1 2>"$dir/mon.err" &
+mon=$!
+for _ in $(seq 100); do [ -S "$dir/m.sock" ] && break; sleep 0.1; done
+[ -S "$dir/m.sock" ] || { cat "$dir/mon.err"; fail "the monitor did not start"; }
+grep -q '^contego_info{policy=".*rover.policy (SHA-256 [0-9a-f]*)",complain="0"} 1$' "$dir/m.prom" ||
+  fail "no contego_info at start"
+"$contego" run --socket "$dir/m.sock" --task follower -- /bin/sh -c \
+  "i2cset -y 1 0x08 0x01 0x46 i; i2cset -y 1 0x08 0x01 0x46 i" >/dev/null 2>&1 || true
+for _ in $(seq 40); do
+  grep -qE '^contego_decisions_total\{task="follower",verdict="[a-z]+"\} [1-9]' "$dir/m.prom" && break
+  sleep 0.1
+done
+grep -qE '^contego_decisions_total\{task="follower",verdict="[a-z]+"\} [1-9]' "$dir/m.prom" ||
+  fail "the follower's decisions are not in the metrics file"
+# Every sample line is `name{labels} value`, every family has HELP and TYPE.
+python3 - "$dir/m.prom" <<'PY' || fail "not the text exposition format"
+import re, sys
+typed = set()
+for line in open(sys.argv[1]):
+    line = line.rstrip("\n")
+    if line.startswith("# TYPE "):
+        name, kind = line.split()[2:4]
+        assert kind in ("counter", "gauge"), line
+        typed.add(name)
+    elif line.startswith("# HELP ") or not line:
+        continue
+    else:
+        m = re.fullmatch(r'([a-z_]+)(\{[^}]*\})? ([0-9]+)', line)
+        assert m and m.group(1) in typed, line
+PY
+[ ! -e "$dir/m.prom.tmp" ] || fail "a temporary file was left"
+kill "$mon"
+wait "$mon" || true
+mon=""
+echo "ok"
