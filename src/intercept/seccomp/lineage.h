@@ -29,6 +29,15 @@ struct ChildStatus {
 // holds the seccomp filter, and the listener would never hang up.
 void reap_orphans(pid_t child);
 
+// SIGKILLs every process below `self` (its children, theirs, ...) that runs
+// under a seccomp filter (the program's, never a helper of the supervisor
+// such as `contego run`'s guardian), as /proc shows them now, each pinned by a pidfd and its parent
+// checked again first (a number reused meanwhile is left alone). A subreaper's orphans are its
+// children, so nothing the program started escapes; called again until the
+// listener hangs up, it also ends what was forked meanwhile. Returns how
+// many were signalled.
+size_t kill_descendants(pid_t self);
+
 }  // namespace contego::intercept::seccomp
 
 #endif  // CONTEGO_INTERCEPT_SECCOMP_LINEAGE_H_

@@ -132,6 +132,7 @@ class Loop {
 
 void Loop::close_down() {
   closing_ = true;
+  if (options_.subreaper) kill_descendants(getpid());  // also those never seen
   for (auto& [tgid, p] : processes_) {
     if (p.pidfd.valid()) syscall(SYS_pidfd_send_signal, p.pidfd.get(), SIGKILL, nullptr, 0);
   }
@@ -661,6 +662,9 @@ void watch(const Options& options, const Started& s, Watch& w) {
     fds[1].fd = child_done ? -1 : s.pidfd.get();
     fds[2].fd = stopping ? -1 : options.stop_fd;
     if (options.subreaper) reap_orphans(child_done ? -1 : s.child);
+    // Ending the program ends all it started, whether or not the loop has
+    // seen it (a grandchild asleep since before the stop).
+    if (stopping && options.stop_fd >= 0 && options.subreaper) kill_descendants(getpid());
     // Adopted orphans are looked for every 50 ms (their exit signals no descriptor).
     if (poll(fds, 3, options.subreaper ? 50 : -1) < 0) {
       if (errno == EINTR) continue;
