@@ -444,8 +444,8 @@ grep -q "sample_errors=[1-9]" "$LOGDIR/tank900_stats1.out" &&
   grep -q '"reason_name":"signal-unavailable".*"rule_name":"INV_W"' $AUDIT_LOG &&
   ok "a tank that does not answer: the failed sample is counted, tone(1) ignored as signal-unavailable" ||
   bad "the unreadable tank: $(cat "$LOGDIR/tank900_stats1.out")"
-grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*tank-missing.policy, whose names' $AUDIT_LOG &&
-  grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*/tank.policy, whose names' $AUDIT_LOG &&
+grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*tank-missing.policy (SHA-256 [0-9a-f]*), whose names' $AUDIT_LOG &&
+  grep -q '"detail":"contego.ko: image of [0-9]* bytes verified and in force;.*/tank.policy (SHA-256 [0-9a-f]*), whose names' $AUDIT_LOG &&
   ok "the reader's names follow each policy-load record (tank-missing.policy, then tank.policy)" ||
   bad "the policy-load lines do not say whose names follow: $(grep policy-load $AUDIT_LOG | tail -n 2)"
 [ $TONE_RC2 = 0 ] && ok "level 900 mm: tone(1) exits 0" || bad "level 900: tone(1) exit $TONE_RC2"
