@@ -47,7 +47,7 @@ t0=$SECONDS
 (cd "$src" && cmake --preset arm64-test -B "$build" >/dev/null)
 # The attack programs of scenario 61 too: only some test binaries depend on them.
 attacks=(attack_rdwr_race attack_pid_reuse attack_static attack_signal_storm attack_rdwr_atomic
-  attack_identity)
+  attack_identity attack_msg_flags)
 cmake --build "$build" --target contego contego_preload vm_i2c_write_loop "${tests[@]}" \
   "${attacks[@]}" -- -j2
 echo "arm64.sh: cross build $((SECONDS - t0))s"
