@@ -51,7 +51,8 @@ class Batch {
   // One set: `text` is a JSON line or a CSV block starting at `line`.
   void one(size_t line, const std::string& text, bool json) {
     const std::string where = source_ + ":" + std::to_string(line);
-    Result<TaskSet> set = json ? parse_json(text, where) : parse_csv(text, source_);
+    Result<TaskSet> set =
+        json ? parse_json(text, where) : parse_csv(text, source_, static_cast<int>(line));
     if (!set) return error(line, set.error());
     TaskSet s = resolve_overheads(std::move(*set), options_.overhead, 0);
     Assignment how = Assignment::kGiven;
@@ -142,7 +143,7 @@ BatchSummary run_batch(std::istream& in, const std::string& source, const BatchO
                        std::ostream& out, std::ostream* errors) {
   Batch batch(source, options, out, errors);
   std::string line;
-  std::string block;  // the CSV block under way, padded so its line numbers are the stream's
+  std::string block;  // the CSV block under way; block_line is its first line in the stream
   size_t block_line = 0;
   size_t line_no = 0;
   auto flush_block = [&] {
@@ -163,7 +164,6 @@ BatchSummary run_batch(std::istream& in, const std::string& source, const BatchO
     } else {
       if (block_line == 0) {
         block_line = line_no;
-        block.assign(line_no - 1, '\n');
       }
       block += line;
       block += '\n';

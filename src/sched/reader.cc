@@ -67,10 +67,10 @@ Result<TaskSet> finish(TaskSet set, const std::string& source) {
 
 }  // namespace
 
-Result<TaskSet> parse_csv(const std::string& text, const std::string& source) {
+Result<TaskSet> parse_csv(const std::string& text, const std::string& source, int first_line) {
   std::istringstream in(text);
   std::string line;
-  int line_no = 0;
+  int line_no = first_line - 1;
   std::vector<Column> columns;
   bool has_deadline = false;
   TaskSet set;

@@ -23,7 +23,9 @@
 
 namespace contego::sched {
 
-Result<TaskSet> parse_csv(const std::string& text, const std::string& source);
+// `first_line` is the line number of text's first line in its source (a
+// block inside a --batch stream), so errors name the stream's line.
+Result<TaskSet> parse_csv(const std::string& text, const std::string& source, int first_line = 1);
 Result<TaskSet> parse_json(const std::string& text, const std::string& source);
 
 // The set in the JSON form parse_json reads, on one line ending in '\n' (a

@@ -59,6 +59,13 @@ TEST(ReaderTest, CsvErrorsNameFileLineAndField) {
   expect_error(parse_csv("name,wcet,period\n", "s.csv"), "empty");
 }
 
+// A block cut from a longer stream names the stream's lines, without the
+// caller padding the block to its offset (that padding made --batch quadratic).
+TEST(ReaderTest, CsvBlockFromAStreamNamesTheStreamsLine) {
+  expect_error(parse_csv("name,wcet,period\na,1,4ms\n", "stream", 7001), "stream:7002: wcet:");
+  expect_error(parse_csv("name,wcet,period,prio\n", "stream", 40), "stream:40: unknown column");
+}
+
 TEST(ReaderTest, DeadlineBeyondPeriodIsRefusedClearly) {
   expect_error(parse_csv("name,wcet,period,deadline\nslow,1ms,10ms,15ms\n", "s.csv"),
                "task 'slow': deadline 15ms exceeds period 10ms");
