@@ -25,7 +25,7 @@ else()
 endif()
 
 # --- runtime ---------------------------------------------------------------
-install(TARGETS contego RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+install(TARGETS contego contego-monitor RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
 install(TARGETS contego_preload LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime)
 install(TARGETS contego-bench-task RUNTIME DESTINATION ${CMAKE_INSTALL_LIBEXECDIR}/contego
         COMPONENT runtime)

@@ -28,6 +28,9 @@ packages=(
   # package checks (tools/check_package.sh): lintian, and devscripts for
   # hardening-check
   lintian devscripts
+  # signed policy bundles (src/bundle/minisign.h): the real tool signs in
+  # the tests, which verify with libcrypto
+  minisign
   # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
   # package's module with DKMS's own tool against Debian's headers
   dkms

@@ -42,7 +42,7 @@ done
 [[ -n $runtime ]] || bad "no contego runtime package among $*"
 if [[ -n $runtime ]]; then
   dpkg-deb -x "$runtime" "$tmp/root"
-  for f in usr/bin/contego usr/share/man/man1/contego.1 usr/share/man/man1/contego-monitor.1 \
+  for f in usr/bin/contego usr/bin/contego-monitor usr/share/man/man1/contego.1 usr/share/man/man1/contego-monitor.1 \
     usr/share/bash-completion/completions/contego usr/lib/systemd/system/contego-monitor.service \
     usr/lib/systemd/system/contego-run@.service usr/lib/systemd/system/contego-kmod-audit.service \
     usr/lib/systemd/system/contego-kmod-load.service \
@@ -70,7 +70,7 @@ if [[ -n $runtime ]]; then
   # RELRO (BIND_NOW), stack protector and fortified libc calls. (Each readelf
   # output is taken whole before grep: `grep -q` in a pipe under pipefail
   # would fail the check with readelf's SIGPIPE.)
-  for f in usr/bin/contego usr/libexec/contego/contego-bench-task "$(cd "$tmp/root" && ls usr/lib/*/libcontego_preload.so | head -n1)"; do
+  for f in usr/bin/contego usr/bin/contego-monitor usr/libexec/contego/contego-bench-task "$(cd "$tmp/root" && ls usr/lib/*/libcontego_preload.so | head -n1)"; do
     elf=$tmp/root/$f
     [[ -f $elf ]] || continue
     dynamic=$(readelf -d -W "$elf") program=$(readelf -l -W "$elf") header=$(readelf -h "$elf")

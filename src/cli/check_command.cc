@@ -1,4 +1,4 @@
-// `contego check POLICY [--strict] [--json] [--emit IMAGE]`: compiles a
+// `contego check POLICY [--strict] [--json] [--emit IMAGE] [--emit-bundle BUNDLE]`: compiles a
 // policy, verifies the image with the core's own verifier and prints what
 // the policy means: tasks, the access matrix, signals, rate limits,
 // invariants, the image size and the worst-case cost of one check.
@@ -9,7 +9,9 @@
 #include <string>
 
 #include "base/json_text.h"
+#include "bundle/bundle.h"
 #include "cli/command.h"
+#include "cli/policy_load.h"
 #include "cli/sched_closure.h"
 #include "monitor/sha256.h"
 #include "policy/compile.h"
@@ -17,6 +19,14 @@
 
 namespace contego::cli {
 namespace {
+
+bool write_output(const std::string& path, std::string_view bytes) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  f.close();
+  if (!f) fmt::print(stderr, "contego check: cannot write `{}`\n", path);
+  return static_cast<bool>(f);
+}
 
 std::string format_us(uint64_t us) {
   if (us == 0) return "0";
@@ -163,30 +173,37 @@ nlohmann::json summary_json(const policy::CompileOutput& out) {
 
 void register_check(CLI::App& app) {
   auto* cmd = app.add_subcommand("check", "Compile a policy, verify its image, print a summary");
-  static std::string path, emit;
+  static std::string path, emit, emit_bundle;
   static bool strict = false, json = false;
   cmd->add_option("POLICY", path, "policy file")->required();
   cmd->add_flag("--strict", strict, "treat warnings as errors");
   cmd->add_flag("--json", json, "print the diagnostics and the summary as JSON");
   cmd->add_option("--emit", emit, "write the verified policy image to this file");
+  cmd->add_option("--emit-bundle", emit_bundle,
+                  "write the policy bundle (the image and the task bindings, all that decides; "
+                  "contego-monitor --bundle loads it) to this file");
   cmd->callback([] {
     policy::CompileOptions options;
     options.strict = strict;
     options.task_model_check = sched_closure;
     const policy::CompileOutput out = policy::compile_file(path, options);
     if (out.ok && !emit.empty()) {
-      std::ofstream f(emit, std::ios::binary | std::ios::trunc);
-      f.write(reinterpret_cast<const char*>(out.image.data()),
-              static_cast<std::streamsize>(out.image.size()));
-      if (!f) {
-        fmt::print(stderr, "contego check: cannot write `{}`\n", emit);
-        set_exit_code(2);
-        return;
-      }
+      const std::string_view image(reinterpret_cast<const char*>(out.image.data()),
+                                   out.image.size());
+      if (!write_output(emit, image)) return set_exit_code(2);
       // The hash `contego monitor --image IMAGE --image-sha256 HASH` pins.
       fmt::print(stderr, "contego check: wrote {} ({} bytes, SHA-256 {})\n", emit, out.image.size(),
-                 monitor::sha256_hex(std::string_view(
-                     reinterpret_cast<const char*>(out.image.data()), out.image.size())));
+                 monitor::sha256_hex(image));
+    }
+    if (out.ok && !emit_bundle.empty()) {
+      const std::string text =
+          bundle::encode_bundle({path, out.image, monitor::bundle_tasks(out.summary)});
+      if (!write_output(emit_bundle, text)) return set_exit_code(2);
+      fmt::print(stderr,
+                 "contego check: wrote {} ({} bytes, SHA-256 {}; image SHA-256 {}); to sign it: "
+                 "minisign -Sm {}\n",
+                 emit_bundle, text.size(), monitor::sha256_hex(text),
+                 bundle::image_sha256(out.image), emit_bundle);
     }
     if (json) {
       nlohmann::json j;

@@ -4,6 +4,8 @@
 #define CONTEGO_CLI_COMMAND_H_
 
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -43,6 +45,17 @@ int exit_code();
 
 // "SIGTERM", "SIGINT", ... ("signal N" for one without a name).
 std::string signal_name(int sig);
+
+// main() keeps its arguments; a subcommand that hands its own arguments to
+// another program takes those after its name (the first argument equal to
+// `word`).
+void set_command_line(int argc, char** argv);
+std::vector<std::string> arguments_after(std::string_view word);
+
+// A program installed beside this executable (installed, and in the build
+// tree): contego-monitor for `contego monitor`, contego for contego-monitor.
+std::string sibling_path(const char* name);
+inline std::string daemon_path() { return sibling_path("contego-monitor"); }
 
 }  // namespace contego::cli
 

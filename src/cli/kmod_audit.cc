@@ -26,6 +26,7 @@
 #include "contego/core_c.h"
 
 #include "base/unique_fd.h"
+#include "cli/policy_load.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"

@@ -33,6 +33,7 @@
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
 #include "cli/kmod_load_error.h"
+#include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
 #include "contego_kmod.h"
 #include "image/image_model.h"
@@ -78,7 +79,7 @@ Result<contego_kmod_bind> kmod_binding(uint16_t task, const monitor::TaskBinding
 // Each task's actuations per job (from the image's task records) and its
 // `sessions` (the policy's, 1 where it says nothing, as the monitor admits).
 bool fill_task_limits(contego_kmod_load* req, const image::ImageModel& model,
-                      const std::vector<policy::PolicySummary::Task>& bindings) {
+                      const std::vector<bundle::BundleTask>& bindings) {
   if (model.tasks.size() > CONTEGO_KMOD_MAX_TASKS) {
     fmt::print(stderr, "contego kmod: the image has {} tasks, the module takes {}\n",
                model.tasks.size(), CONTEGO_KMOD_MAX_TASKS);

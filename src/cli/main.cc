@@ -1,6 +1,4 @@
 // contego: actuator command firewall for real-time control systems.
-#include <string.h>
-
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <cstdlib>
@@ -11,16 +9,6 @@
 #include "cli/command.h"
 
 namespace contego::cli {
-namespace {
-int g_exit_code = 0;
-}
-void set_exit_code(int code) { g_exit_code = code; }
-int exit_code() { return g_exit_code; }
-std::string signal_name(int sig) {
-  const char* abbrev = sigabbrev_np(sig);
-  return abbrev != nullptr ? std::string("SIG") + abbrev : "signal " + std::to_string(sig);
-}
-
 namespace {
 // `contego --parse-only CMD ...`: every subcommand parses and checks its
 // arguments as usual (conversions, validators, required options), then
@@ -43,6 +31,7 @@ void make_parse_only(CLI::App& app, const std::string& path) {
 }  // namespace contego::cli
 
 int main(int argc, char** argv) {
+  contego::cli::set_command_line(argc, argv);
   CLI::App app{"contego: every actuation command checked against a policy"};
   app.require_subcommand(1);
   app.set_version_flag("--version", contego::cli::version_line());

@@ -14,6 +14,7 @@
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/guardian.h"
+#include "cli/policy_load.h"
 #include "cli/setup_args.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"

@@ -1,17 +1,20 @@
 #include "cli/trusted_setup.h"
 
 #include <string.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <fmt/core.h>
 #include <fmt/format.h>
 #include <optional>
 #include <set>
+#include <sys/stat.h>
 
 #include "base/read_file.h"
+#include "bundle/minisign.h"
 #include "bus/linux_i2cdev.h"
 #include "gate/transfer.h"
 #include "monitor/sha256.h"
-#include "policy/compile.h"
 
 namespace contego::monitor {
 namespace {
@@ -91,53 +94,132 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
   return notes;
 }
 
-Result<LoadedPolicy> load_policy(const SetupOptions& o) {
-  LoadedPolicy p;
-  std::optional<policy::CompileOutput> compiled;
-  if (!o.policy.empty()) {
-    compiled = policy::compile_file(o.policy);
-    if (!compiled->ok) {
-      std::string msg = "policy " + o.policy + " does not compile:";
-      for (const auto& d : compiled->diagnostics) msg += "\n" + d.rendered;
-      return make_error(msg);
+namespace {
+
+Result<std::string> read_descriptor(int fd) {
+  std::string text;
+  char buf[65536];
+  for (;;) {
+    const ssize_t n = ::pread(fd, buf, sizeof(buf), static_cast<off_t>(text.size()));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return make_error(fmt::format("descriptor {}: {}", fd, errno_text(errno)));
+    if (n == 0) return text;
+    if (text.size() + static_cast<size_t>(n) > bundle::kMaxBundleBytes) {
+      return make_error(
+          fmt::format("descriptor {}: more than {} bytes", fd, bundle::kMaxBundleBytes));
     }
-    p.bindings = compiled->summary.tasks;
+    text.append(buf, static_cast<size_t>(n));
+  }
+}
+
+// The signer of a bundle file: "" if it has no signature and none is
+// required. The signature covers the bytes read once (`text`), which are
+// the bytes decoded: nothing can change between the check and the use.
+Result<std::string> check_signature(const SetupOptions& o, std::string_view text) {
+  const std::string path = o.signature.empty() ? o.bundle + ".minisig" : o.signature;
+  struct stat st {};
+  const bool present = ::stat(path.c_str(), &st) == 0;
+  if (!present && o.signature.empty() && !o.require_signed) return std::string();
+  if (!present) {
+    return make_error(fmt::format(
+        "{}bundle {} has no signature {} (sign it with `minisign -Sm {}`, the public key in {})",
+        o.require_signed ? "--require-signed: " : "", o.bundle, path, o.bundle, o.keys_dir));
+  }
+  auto signature = read_input_file(path);
+  if (!signature.ok()) return make_error("signature " + signature.error());
+  auto keys = bundle::load_trusted_keys(o.keys_dir);
+  if (!keys.ok()) {
+    return make_error(
+        fmt::format("bundle {} is signed ({}), but {}", o.bundle, path, keys.error()));
+  }
+  auto v = bundle::verify_minisign(text, *signature, path, *keys);
+  if (!v.ok()) return make_error(v.error() + ": refusing bundle " + o.bundle);
+  return fmt::format("signed by key ID {} ({}), trusted comment \"{}\"", v->key_id_hex,
+                     v->key_source, v->trusted_comment);
+}
+
+Result<LoadedPolicy> load_bundle(const SetupOptions& o) {
+  const bool from_fd = o.bundle_fd >= 0;
+  if (from_fd && o.require_signed) {
+    return make_error(
+        "--require-signed: a policy compiled by `contego monitor --policy` is not signed; give "
+        "--bundle FILE with its minisign signature");
+  }
+  auto text = from_fd ? read_descriptor(o.bundle_fd) : read_input_file(o.bundle);
+  if (!text.ok()) return make_error("bundle " + text.error());
+  std::string signer;
+  if (!from_fd) {
+    auto checked = check_signature(o, *text);
+    if (!checked.ok()) return make_error(checked.error());
+    signer = *checked;
+  }
+  const std::string name =
+      from_fd ? (o.policy.empty() ? fmt::format("bundle on descriptor {}", o.bundle_fd) : o.policy)
+              : o.bundle;
+  auto b = bundle::decode_bundle(*text, name);
+  if (!b.ok()) return make_error(b.error());
+  const std::string hash = bundle::image_sha256(b->image);
+  if (!o.image_sha256.empty() && hash != o.image_sha256) {
+    return make_error(
+        fmt::format("{}: its image has SHA-256 {}; --image-sha256 expects {}: "
+                    "refusing it",
+                    name, hash, o.image_sha256));
+  }
+  if (!o.image.empty()) {
+    auto bytes = read_input_file(o.image);
+    if (!bytes.ok()) return make_error("image " + bytes.error());
+    if (std::string_view(reinterpret_cast<const char*>(b->image.data()), b->image.size()) !=
+        *bytes) {
+      return make_error(
+          fmt::format("image {} (SHA-256 {}) is not the image {} {} (SHA-256 {}): refusing it",
+                      o.image, sha256_hex(*bytes), from_fd ? "policy" : "bundle", name,
+                      from_fd ? "compiles to" : "carries", hash));
+    }
+  }
+  LoadedPolicy p;
+  // From `contego monitor --policy`: named as before, the policy and its image.
+  p.source = from_fd ? fmt::format("{} (SHA-256 {})", o.image.empty() ? name : o.image, hash)
+                     : fmt::format("{} (bundle of {}, SHA-256 {}{}{})", name, b->policy, hash,
+                                   signer.empty() ? "" : ", ", signer);
+  auto model = image::deserialize(b->image);
+  if (!model.ok()) return make_error(fmt::format("{}: {}", name, model.error()));
+  p.model = std::move(*model);
+  p.image = std::move(b->image);
+  p.bindings = std::move(b->tasks);
+  return p;
+}
+
+}  // namespace
+
+Result<LoadedPolicy> load_verified(const SetupOptions& o) {
+  if (!o.bundle.empty() || o.bundle_fd >= 0) return load_bundle(o);
+  if (o.require_signed) {
+    return make_error(
+        "--require-signed: an image alone carries no signature (nor the task bindings); give "
+        "--bundle FILE (`contego check --emit-bundle`) and its minisign signature");
   }
   if (o.image.empty()) {
-    if (!compiled) return make_error("no policy: give a policy file or an image");
-    // The image's hash names what is enforced, in the start record and the
-    // status, as for an image given with --image.
-    p.source = fmt::format(
-        "{} (SHA-256 {})", o.policy,
-        sha256_hex(std::string_view(reinterpret_cast<const char*>(compiled->image.data()),
-                                    compiled->image.size())));
-    p.image = std::move(compiled->image);
-    p.model = std::move(compiled->model);
-    return p;
+    return make_error(
+        "no policy: give a bundle (`contego check --emit-bundle`) or an image pinned by its "
+        "SHA-256");
   }
   // A verified image (`contego check --emit`): it is used only when its
-  // SHA-256 is the one given, or equals the image the policy compiles to.
+  // SHA-256 is the one given (the tool compares it with its policy instead).
   auto bytes = read_input_file(o.image);
   if (!bytes.ok()) return make_error("image " + bytes.error());
   const std::string hash = sha256_hex(*bytes);
-  if (!o.image_sha256.empty() && hash != o.image_sha256) {
-    return make_error(fmt::format("image {} has SHA-256 {}; --image-sha256 expects {}: refusing it",
-                                  o.image, hash, o.image_sha256));
-  }
-  if (o.image_sha256.empty() && !compiled) {
+  if (o.image_sha256.empty()) {
     return make_error(fmt::format(
         "image {} (SHA-256 {}) is not pinned: give --image-sha256 or the --policy it was "
         "emitted from",
         o.image, hash));
   }
-  p.image.assign(bytes->begin(), bytes->end());
-  if (compiled && compiled->image != p.image) {
-    return make_error(fmt::format(
-        "image {} (SHA-256 {}) is not the image policy {} compiles to (SHA-256 {}): refusing it",
-        o.image, hash, o.policy,
-        sha256_hex(std::string_view(reinterpret_cast<const char*>(compiled->image.data()),
-                                    compiled->image.size()))));
+  if (hash != o.image_sha256) {
+    return make_error(fmt::format("image {} has SHA-256 {}; --image-sha256 expects {}: refusing it",
+                                  o.image, hash, o.image_sha256));
   }
+  LoadedPolicy p;
+  p.image.assign(bytes->begin(), bytes->end());
   auto model = image::deserialize(p.image);
   if (!model.ok()) return make_error(fmt::format("image {}: {}", o.image, model.error()));
   p.model = std::move(*model);
@@ -204,12 +286,9 @@ Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
 
 }  // namespace
 
-Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
+Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy& out) {
   auto t = std::make_unique<Trusted>();
   if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
-  auto loaded = load_policy(o);
-  if (!loaded.ok()) return make_error(loaded.error());
-  const LoadedPolicy& out = *loaded;
   t->source = out.source;
   t->decider = std::make_unique<CoreDecider>();
   const core::LoadResult lr =
@@ -224,8 +303,8 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
   }
   if (out.bindings.empty() && !out.model.tasks.empty()) {
     t->warnings.push_back(
-        "the image names no task bindings (user, group, exe, unit, cgroup): give --policy too "
-        "to enforce them; any peer --client-uid allows can claim any task");
+        "the image names no task bindings (user, group, exe, unit, cgroup): give its bundle or "
+        "--policy to enforce them; any peer --client-uid allows can claim any task");
   }
   for (const auto& task : out.bindings) {
     auto b = resolve_binding(

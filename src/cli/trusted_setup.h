@@ -23,19 +23,27 @@
 #include <vector>
 
 #include "base/result.h"
+#include "bundle/bundle.h"
 #include "bus/virtual_bus.h"
 #include "image/image_model.h"
 #include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"
 #include "monitor/peer_identity.h"
-#include "policy/compile.h"
 
 namespace contego::monitor {
 
 struct SetupOptions {
-  std::string policy;          // policy source file
-  std::string image;           // a verified image (`contego check --emit`) instead of compiling
+  std::string policy;  // policy source file (compiled by the tool, never by the daemon)
+  std::string image;   // a verified image (`contego check --emit`) instead of compiling
+  std::string bundle;  // a policy bundle (`contego check --emit-bundle`)
+  int bundle_fd = -1;  // a bundle on a descriptor: `contego monitor` compiled `policy`
+  // minisign: a bundle file with a signature (`signature`, default
+  // BUNDLE.minisig) must verify with a key of `keys_dir`; `require_signed`
+  // refuses everything else (an unsigned bundle, an image, a compiled policy).
+  bool require_signed = false;
+  std::string signature;
+  std::string keys_dir = "/etc/contego/keys";
   std::string image_sha256;    // the image's expected SHA-256 (hex); or `policy` must compile to it
   std::string audit = "-";     // audit log path ("-" = stderr)
   AuditOptions audit_options;  // --audit-unsafe, --audit-max-bytes, --audit-keep
@@ -85,13 +93,15 @@ struct LoadedPolicy {
   std::string source;  // what the start event and errors name
   std::vector<uint8_t> image;
   image::ImageModel model;
-  // Who may run each task (user, exe, ...): from the policy source, which the
-  // image does not carry; empty for an image given without its policy.
-  std::vector<policy::PolicySummary::Task> bindings;
+  // Who may run each task (user, exe, ...): from the policy source or a
+  // bundle; an image alone does not carry them (then empty).
+  std::vector<bundle::BundleTask> bindings;
 };
-// The image to enforce: compiled from `policy`, or read from `image` and
-// accepted only if its SHA-256 matches `image_sha256` or the compiled policy.
-Result<LoadedPolicy> load_policy(const SetupOptions& options);
+// What the trusted daemon loads, never compiling: a bundle (a file, or the
+// descriptor `contego monitor` passes after compiling `policy`), or an image
+// pinned by `image_sha256`. With a bundle, `image` and `image_sha256` must
+// name the bundle's image. cli/policy_load.h adds compiling a policy.
+Result<LoadedPolicy> load_verified(const SetupOptions& options);
 
 // Reads every register the commands of each register-map device cover back
 // from the device and seeds the checker's shadow with them (a device that
@@ -102,7 +112,7 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
 // The image's names by id, for the audit records.
 NameTable name_table(const image::ImageModel& model);
 
-Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options);
+Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options, const LoadedPolicy& policy);
 
 }  // namespace contego::monitor
 

@@ -37,7 +37,16 @@ Server::Server(Monitor& monitor, AuditLog& audit, std::map<std::string, uint16_t
       spin_(spin),
       realtime_(realtime),
       limits_(limits) {
-  own_exe_known_ = own_exe(&own_dev_, &own_ino_);
+  dev_t dev = 0;
+  ino_t ino = 0;
+  if (own_exe(&dev, &ino)) supervisors_.emplace_back(dev, ino);
+}
+
+bool Server::trust_supervisor(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return false;
+  supervisors_.emplace_back(st.st_dev, st.st_ino);
+  return true;
 }
 
 void Server::set_bindings(std::map<std::string, TaskBinding> bindings) {

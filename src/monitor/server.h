@@ -152,6 +152,10 @@ class Server {
   // What the status answer names the running policy by (its source and
   // image SHA-256), set once before serve().
   void set_policy_source(std::string source) { policy_source_ = std::move(source); }
+  // contego-monitor serves `contego run`, another executable installed
+  // beside it: its vouches for a program's `exe` are taken as the monitor's
+  // own would be. Fails if `path` cannot be stat'ed (the caller says so).
+  bool trust_supervisor(const std::string& path);
   // The monitor's state as `contego status --json` shows it (and the
   // metrics file is made of): the monitor's, the sessions, the audit log.
   std::string status_json();
@@ -183,9 +187,9 @@ class Server {
   std::map<uint16_t, uint32_t> live_sessions_;  // per task; mu_
   std::condition_variable session_ended_;       // a session ended; with mu_
   std::multiset<pid_t> supervised_;             // live supervisors and their programs; mu_
-  bool own_exe_known_ = false;
-  dev_t own_dev_ = 0;
-  ino_t own_ino_ = 0;
+  // The executables whose word on a program's `exe` is taken: this one, and
+  // the supervisor trusted with trust_supervisor() (device, inode).
+  std::vector<std::pair<dev_t, ino_t>> supervisors_;
   std::mutex events_mu_;
   std::map<uid_t, EventBudget> budgets_;  // events_mu_
   std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0},

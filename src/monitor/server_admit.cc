@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fmt/core.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
@@ -97,14 +98,15 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
     if (binds && binding->second.has_exe) {
       // The program has not executed yet: the path it will execute is the
       // supervisor's word, taken only from this very contego binary.
-      if (!own_exe_known_ || !peer->exe_known) {
+      if (supervisors_.empty() || !peer->exe_known) {
         return "the peer's executable cannot be read, so its word on the program's executable "
                "cannot be taken (a monitor checking `exe` must be able to read /proc/PID/exe of "
                "its peers: root or CAP_SYS_PTRACE)";
       }
-      if (peer->exe_dev != own_dev_ || peer->exe_ino != own_ino_) {
+      if (std::find(supervisors_.begin(), supervisors_.end(),
+                    std::pair{peer->exe_dev, peer->exe_ino}) == supervisors_.end()) {
         return "the peer vouches for a program but is not a contego supervisor (its executable "
-               "is not the monitor's own)";
+               "is neither the monitor's own nor the contego beside it)";
       }
       struct stat st {};
       facts.exe_known = stat(vouch.exe.c_str(), &st) == 0;

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "base/test_temp.h"
+#include "cli/policy_load.h"
 #include "gate/transfer.h"
 
 namespace contego::monitor {

@@ -17,6 +17,7 @@
 #include "contego/core_c.h"
 
 #include "base/test_temp.h"
+#include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
 
 namespace contego::cli {

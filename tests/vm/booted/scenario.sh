@@ -105,6 +105,10 @@ check "contego-run@gripper.service active" systemctl is-active contego-run@gripp
 uid=$(id -u contego-gripper)
 muid=$(awk '/^Uid:/ { print $2 }' /proc/"$(systemctl show -p MainPID --value contego-monitor)"/status)
 [ "$muid" = "$(id -u contego)" ] && ok "the monitor runs as the user contego (uid $muid)" || bad "the monitor runs as uid $muid"
+# The unit's `contego monitor --policy` compiled the policy and became the
+# small daemon (same main PID): what decides is contego-monitor.
+mexe=$(readlink /proc/"$(systemctl show -p MainPID --value contego-monitor)"/exe)
+[ "$mexe" = /usr/bin/contego-monitor ] && ok "the unit's main process is $mexe" || bad "the unit's main process is $mexe, not /usr/bin/contego-monitor"
 
 # The program's own view, in its journal.
 for i in $(seq 1 100); do
@@ -263,7 +267,7 @@ set_word 0x41
 if apt-get remove -q contego >/tmp/remove.out 2>&1; then ok "apt-get remove contego"; else bad "apt-get remove contego"; show /tmp/remove.out; fi
 [ "$(word)" = 420 ] && ok "remove stopped the monitor: safe state (LED5 off=420)" || bad "after remove LED5 off=$(word)"
 check "remove: /usr/bin/contego gone" test ! -e /usr/bin/contego
-check "remove: no contego process left" sh -c '! pgrep -x contego'
+check "remove: no contego process left" sh -c '! pgrep -x "contego|contego-monitor"'
 check "remove: conffiles kept (/etc/default/contego)" test -e /etc/default/contego
 if readme "$last"; then ok "README Install block $last (removal) runs as written"; else bad "README Install block $last failed"; fi
 check "purge: dpkg knows no contego" sh -c '! dpkg-query -W -f="\${Status}" contego 2>/dev/null | grep -q "[a-z]"'

@@ -1,0 +1,283 @@
+#include "cli/monitor_daemon.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <fmt/core.h>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include "cli/audit_args.h"
+#include "cli/bus_args.h"
+#include "cli/command.h"
+#include "cli/setup_args.h"
+#include "cli/stop_signals.h"
+#include "cli/systemd_notify.h"
+#include "cli/trusted_setup.h"
+#include "monitor/metrics.h"
+#include "monitor/server.h"
+
+namespace contego::cli {
+namespace {
+
+// Rewrites the metrics file every interval on its own thread, and once more
+// when stopped; a failed write is said on standard error (rate: once per
+// interval) and never stops the monitor.
+class MetricsWriter {
+ public:
+  MetricsWriter(monitor::Server& server, std::string path, uint32_t interval_s)
+      : server_(server), path_(std::move(path)), interval_(interval_s) {
+    if (!path_.empty()) thread_ = std::thread([this] { loop(); });
+  }
+  ~MetricsWriter() { stop(); }
+  void stop() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard lock(mu_);
+      stopping_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+    write();
+  }
+
+ private:
+  void loop() {
+    std::unique_lock lock(mu_);
+    while (!cv_.wait_for(lock, interval_, [this] { return stopping_; })) {
+      lock.unlock();
+      write();
+      lock.lock();
+    }
+  }
+  void write() {
+    if (Status s = monitor::write_metrics_file(path_, monitor::metrics_text(server_.status_json()));
+        !s.ok()) {
+      fmt::print(stderr, "contego monitor: {}\n", s.error());
+    }
+  }
+  monitor::Server& server_;
+  std::string path_;
+  std::chrono::seconds interval_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
+
+void add_monitor_options(CLI::App* cmd, MonitorArgs* args, bool daemon) {
+  if (daemon) {
+    cmd->add_option("--policy", args->policy,
+                    "the policy the --bundle-fd bundle was compiled from (`contego monitor "
+                    "--policy` passes both; contego-monitor never compiles a policy)");
+    cmd->add_option("--bundle-fd", args->bundle_fd, "read the bundle from this descriptor")
+        ->group("");
+  } else {
+    cmd->add_option("--policy", args->policy,
+                    "policy file: compiled here, then enforced by contego-monitor");
+  }
+  cmd->add_option("--bundle", args->bundle,
+                  "a policy bundle (`contego check --emit-bundle`): the image and the task "
+                  "bindings, all that decides");
+  cmd->add_flag("--require-signed", args->require_signed,
+                "enforce only a --bundle whose minisign signature verifies with a key of "
+                "--keys-dir (no image alone, no policy compiled at start)");
+  cmd->add_option("--signature", args->signature,
+                  "the bundle's minisign signature (default: BUNDLE.minisig; one that exists is "
+                  "always checked)");
+  cmd->add_option("--keys-dir", args->keys_dir,
+                  "trusted minisign public keys (*.pub) for bundle signatures")
+      ->capture_default_str();
+  cmd->add_option("--image", args->image,
+                  "a verified policy image (`contego check --emit`) to enforce; it must match "
+                  "--image-sha256 or the image --policy compiles to");
+  cmd->add_option("--image-sha256", args->image_sha256,
+                  "the SHA-256 (hex) the --image file must have");
+  cmd->add_option("--socket", args->socket, "Unix socket to serve");
+  cmd->add_option("--audit", args->audit, "audit log (JSON lines; - = stderr)");
+  add_audit_options(cmd, &args->audit_options);
+  cmd->add_option("--max-connections-per-uid", args->limits.max_per_uid,
+                  "live connections one peer uid may hold; more are refused (0 = no cap)")
+      ->capture_default_str();
+  cmd->add_option("--hello-timeout-ms", args->limits.hello_timeout_ms,
+                  "close a connection that has not said hello within this many ms (0 = never)")
+      ->capture_default_str();
+  cmd->add_option("--max-connects-per-second", args->limits.connects_per_second,
+                  "new connections one peer uid may open per second; more are refused (0 = no "
+                  "limit)")
+      ->capture_default_str();
+  cmd->add_option("--client-events-per-second", args->limits.events_per_second,
+                  "client-error events (malformed requests, refused peers...) written per peer uid "
+                  "and second; the rest are counted in a `suppressed` summary (0 = no limit)")
+      ->capture_default_str();
+  add_bus_options(cmd, &args->buses, &args->virtual_buses, &args->virtual_state);
+  cmd->add_option("--metrics-file", args->metrics_file,
+                  "write counters and gauges in Prometheus's text format to this file, "
+                  "atomically, for node_exporter's textfile collector (e.g. "
+                  "/run/contego/metrics/contego.prom)");
+  cmd->add_option("--metrics-interval", args->metrics_interval_s,
+                  "seconds between two writes of --metrics-file")
+      ->check(CLI::Range(1u, 3600u))
+      ->capture_default_str();
+  cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
+  cmd->add_option("--spin-us", args->spin_us,
+                  "busy-wait this long for a channel client's next request before sleeping")
+      ->check(CLI::Range(0u, gate::kMaxSpinUs))
+      ->capture_default_str();
+  add_budget_option(cmd, &args->budget_factor);
+  add_complain_options(cmd, &args->complain, &args->complain_for);
+  cmd->add_flag("--allow-degraded", args->allow_degraded,
+                "start even if a device does not answer, a sensor cannot be read, a safe state "
+                "cannot be applied or a device's bus has no adapter (audited: degraded-start)");
+  cmd->add_flag("--rt", args->realtime,
+                "serve each connection under SCHED_FIFO at its task's policy priority");
+}
+
+std::string monitor_usage_error(const MonitorArgs& args, bool daemon) {
+  if (daemon && !args.policy.empty() && args.bundle_fd < 0) {
+    return "contego-monitor does not compile policies: run `contego monitor --policy FILE` "
+           "(it compiles the policy, then starts contego-monitor with it) or give --bundle FILE "
+           "(`contego check --emit-bundle`)";
+  }
+  if (!args.policy.empty() && !args.bundle.empty()) {
+    return "give --policy FILE or --bundle FILE, not both";
+  }
+  if (args.require_signed && args.bundle.empty()) {
+    return "--require-signed enforces a signed --bundle FILE only (`contego check --emit-bundle`, "
+           "then `minisign -Sm FILE`)";
+  }
+  if (!args.signature.empty() && args.bundle.empty()) return "--signature needs --bundle FILE";
+  if (args.policy.empty() && args.image.empty() && args.bundle.empty() && args.bundle_fd < 0) {
+    return "give --policy FILE, --bundle FILE or --image FILE";
+  }
+  if (!args.image_sha256.empty() && args.image.empty() && args.bundle.empty()) {
+    return "--image-sha256 needs --image FILE or --bundle FILE";
+  }
+  if (args.buses.empty() && args.virtual_buses.empty()) {
+    return "give at least one --bus or --virtual-bus";
+  }
+  return "";
+}
+
+int run_monitor_daemon(const MonitorArgs& args) {
+  StopSignals stop;
+  const sigset_t& set = stop.set;
+  monitor::SetupOptions so;
+  so.policy = args.policy;
+  so.image = args.image;
+  so.image_sha256 = args.image_sha256;
+  so.bundle = args.bundle;
+  so.bundle_fd = args.bundle_fd;
+  so.require_signed = args.require_signed;
+  so.signature = args.signature;
+  so.keys_dir = args.keys_dir;
+  if (const std::string e = monitor_usage_error(args, /*daemon=*/true); !e.empty()) {
+    fmt::print(stderr, "contego monitor: {}\n", e);
+    return 2;
+  }
+  if (const Status applied = apply_setup_args(args, so); !applied.ok()) {
+    fmt::print(stderr, "contego monitor: {}\n", applied.error());
+    return 2;
+  }
+  // Under systemd (stderr is the journal): violations go there too.
+  so.audit_options.echo_violations = std::getenv("JOURNAL_STREAM") != nullptr;
+  auto loaded = monitor::load_verified(so);
+  if (so.bundle_fd >= 0) ::close(so.bundle_fd);  // read whole; no descriptor outlives the load
+  if (!loaded.ok()) {
+    fmt::print(stderr, "contego monitor: {}\n", loaded.error());
+    return 2;
+  }
+  auto trusted = monitor::setup(so, *loaded);
+  if (!trusted.ok()) {
+    fmt::print(stderr, "contego monitor: {}\n", trusted.error());
+    return 2;
+  }
+  for (const auto& w : (*trusted)->warnings)
+    fmt::print(stderr, "contego monitor: warning: {}\n", w);
+  for (const auto& d : (*trusted)->degraded) {
+    fmt::print(stderr, "contego monitor: --allow-degraded: starting although {}\n", d);
+  }
+  std::set<uid_t> uids{getuid(), 0};
+  for (unsigned u : args.uids) uids.insert(u);
+  gate::SpinPolicy spin;
+  spin.spin_us = args.spin_us;
+  monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
+                         args.realtime, args.limits);
+  server.set_bindings((*trusted)->bindings);
+  server.set_policy_source((*trusted)->source);
+  // `contego run` speaks for the programs it starts (their `exe` before
+  // they execute it): the contego installed beside this daemon.
+  if (const std::string tool = sibling_path("contego"); !server.trust_supervisor(tool)) {
+    fmt::print(stderr,
+               "contego monitor: warning: {} not found: `exe` bindings of programs `contego run` "
+               "starts are refused\n",
+               tool);
+  }
+  if (Status s = server.listen(args.socket); !s.ok()) {
+    fmt::print(stderr, "contego monitor: {}\n", s.error());
+    return 2;
+  }
+  // The metrics file: written once now, so that a directory the monitor
+  // cannot write refuses the start with the reason, then every interval.
+  if (!args.metrics_file.empty()) {
+    if (Status s = monitor::write_metrics_file(args.metrics_file,
+                                               monitor::metrics_text(server.status_json()));
+        !s.ok()) {
+      fmt::print(stderr, "contego monitor: {}\n", s.error());
+      return 2;
+    }
+  }
+  MetricsWriter metrics(server, args.metrics_file, args.metrics_interval_s);
+  const std::string serving = !args.image.empty()    ? args.image
+                              : !args.bundle.empty() ? args.bundle
+                                                     : args.policy;
+  fmt::print(stderr, "contego monitor: serving {} on {}\n", serving, args.socket);
+  SystemdNotifier systemd;
+  systemd.ready(fmt::format("serving {} on {}", serving, args.socket));
+  std::atomic<bool> served{false};
+  std::string why = "monitor stopping";
+  std::thread waiter([&] {
+    for (;;) {
+      int sig = 0;
+      if (sigwait(&set, &sig) != 0 || served.load()) return;
+      if (sig == SIGHUP) {
+        // logrotate's postrotate: the log is reopened (a file moved away
+        // is replaced by a new one that continues the chain; with
+        // --audit-max-bytes the log is rotated now).
+        auto r = (*trusted)->audit.reopen();
+        const std::string what = r.ok() ? *r : "cannot reopen the audit log: " + r.error();
+        (*trusted)->audit.event("signal", "SIGHUP: still serving; " + what);
+        fmt::print(stderr, "contego monitor: SIGHUP: still serving; {}\n", what);
+        continue;
+      }
+      why = fmt::format("monitor stopping ({})", signal_name(sig));
+      (*trusted)->audit.event("signal", fmt::format("{}: stopping", signal_name(sig)));
+      server.stop();
+      return;
+    }
+  });
+  server.serve();
+  metrics.stop();
+  served.store(true);
+  pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
+  waiter.join();
+  systemd.stopping(why);
+  (*trusted)->monitor->drive_safe_state(why);
+  (*trusted)->monitor->stop_sampling();
+  if (!args.virtual_state.empty()) {
+    std::ofstream(args.virtual_state) << monitor::virtual_state(**trusted);
+  }
+  fmt::print(stderr, "contego monitor: {}; safe state applied\n", why);
+  return 0;
+}
+
+}  // namespace contego::cli
