@@ -18,6 +18,7 @@ set(CONTEGO_UNIT_DIR lib/systemd/system)
 set(CONTEGO_SYSUSERS_DIR lib/sysusers.d)
 set(CONTEGO_TMPFILES_DIR lib/tmpfiles.d)
 set(CONTEGO_UDEV_DIR lib/udev/rules.d)
+set(CONTEGO_CATALOG_DIR lib/systemd/catalog)
 if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
   set(CONTEGO_ETC_DIR ${CMAKE_INSTALL_FULL_SYSCONFDIR})
 else()
@@ -42,6 +43,10 @@ install(FILES ${CONTEGO_SYSTEM_DIR}/contego.sysusers DESTINATION ${CONTEGO_SYSUS
         RENAME contego.conf COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/contego.tmpfiles DESTINATION ${CONTEGO_TMPFILES_DIR}
         RENAME contego.conf COMPONENT runtime)
+# The journal's catalog of the monitor's MESSAGE_IDs (systemd's dpkg trigger
+# runs journalctl --update-catalog).
+install(FILES ${CONTEGO_SYSTEM_DIR}/contego.catalog DESTINATION ${CONTEGO_CATALOG_DIR}
+        COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/99-contego-i2c.rules DESTINATION ${CONTEGO_UDEV_DIR}
         COMPONENT runtime)
 install(FILES ${CONTEGO_SYSTEM_DIR}/contego.logrotate DESTINATION ${CONTEGO_ETC_DIR}/logrotate.d

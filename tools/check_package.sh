@@ -46,7 +46,7 @@ if [[ -n $runtime ]]; then
     usr/share/bash-completion/completions/contego usr/lib/systemd/system/contego-monitor.service \
     usr/lib/systemd/system/contego-run@.service usr/lib/systemd/system/contego-kmod-audit.service \
     usr/lib/systemd/system/contego-kmod-load.service \
-    usr/lib/sysusers.d/contego.conf \
+    usr/lib/sysusers.d/contego.conf usr/lib/systemd/catalog/contego.catalog \
     usr/lib/tmpfiles.d/contego.conf usr/lib/udev/rules.d/99-contego-i2c.rules \
     etc/logrotate.d/contego etc/default/contego usr/share/contego/policies/rover.policy \
     usr/share/contego/scenarios/rover_spoof.scn usr/libexec/contego/contego-bench-task; do

@@ -14,9 +14,11 @@
 #include <set>
 #include <thread>
 
+#include "bundle/bundle.h"
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
+#include "cli/journal_sink.h"
 #include "cli/setup_args.h"
 #include "cli/stop_signals.h"
 #include "cli/systemd_notify.h"

@@ -268,11 +268,20 @@ void AuditLog::report_failure_locked(const std::string& why) {
   const uint64_t now = monotonic_us();
   if (now < next_report_us_) return;
   next_report_us_ = now + 1000000;
-  fmt::print(stderr,
-             "contego: AUDIT LOG FAILURE: {}: {}; what it records does not act ({} record(s) "
-             "not written since the last message)\n",
-             path_, why, unreported_);
+  std::string message = fmt::format(
+      "contego: AUDIT LOG FAILURE: {}: {}; what it records does not act ({} record(s) "
+      "not written since the last message)",
+      path_, why, unreported_);
   unreported_ = 0;
+  if (options_.journal) {
+    JournalEntry e;
+    e.priority = Priority::kError;
+    e.kind = "audit-failure";
+    e.message = std::move(message);
+    options_.journal(e);
+  } else {
+    fmt::print(stderr, "{}\n", message);
+  }
 }
 
 // write(2) without SIGPIPE: a stream whose reader left answers EPIPE, a
@@ -501,7 +510,7 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   w.done();
   const bool written = commit_locked(line_);
   if (written) ++recorded_in_file_;
-  if (options_.echo_violations && r.decision != core::Decision::kAllow)
+  if ((options_.echo_violations || options_.journal) && r.decision != core::Decision::kAllow)
     echo_violation_locked(r, names);
   return written;
 }
@@ -523,10 +532,47 @@ void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNam
   std::string left_out;
   if (unechoed_ > 0) left_out = fmt::format(" ({} more left out before this one)", unechoed_);
   unechoed_ = 0;
-  fmt::print(stderr, "contego: task {}: {} of command {} on device {} ({}, rule {}){}\n",
-             or_number(names.task, r.task), core::decision_name(r.decision),
-             or_number(names.command, r.command), or_number(names.device, r.device),
-             core::reason_name(r.reason), or_number(names.rule, r.rule), left_out);
+  JournalEntry e;
+  e.task = or_number(names.task, r.task);
+  e.verdict = core::decision_name(r.decision);
+  e.command = or_number(names.command, r.command);
+  e.device = or_number(names.device, r.device);
+  e.reason = core::reason_name(r.reason);
+  e.rule = or_number(names.rule, r.rule);
+  e.message = fmt::format("contego: task {}: {} of command {} on device {} ({}, rule {}){}", e.task,
+                          e.verdict, e.command, e.device, e.reason, e.rule, left_out);
+  if (!options_.journal) {
+    fmt::print(stderr, "{}\n", e.message);
+    return;
+  }
+  // A latch or a substituted command is a warning; a command dropped, a notice.
+  const bool latch = e.rule == "latch";
+  e.kind = latch ? "latch" : "decision";
+  e.priority =
+      latch || r.decision == core::Decision::kFailsafe ? Priority::kWarning : Priority::kNotice;
+  options_.journal(e);
+}
+
+void AuditLog::journal_event_locked(const std::string& kind, const std::string& detail) {
+  const uint64_t now = monotonic_us();
+  if (now - event_window_us_ >= 1000000) {
+    event_window_us_ = now;
+    events_sent_ = 0;
+  }
+  if (events_sent_ >= 20) {
+    ++events_unsent_;
+    return;
+  }
+  ++events_sent_;
+  JournalEntry e;
+  e.kind = kind;
+  e.priority = event_priority(kind);
+  e.message = fmt::format("contego: {}: {}", kind, detail);
+  if (events_unsent_ > 0) {
+    e.message += fmt::format(" ({} more events left out before this one)", events_unsent_);
+    events_unsent_ = 0;
+  }
+  options_.journal(e);
 }
 
 bool AuditLog::event(const std::string& kind, const std::string& detail) {
@@ -550,6 +596,7 @@ bool AuditLog::event(const std::string& kind, const std::string& detail, int64_t
   fmt::format_to(Out(line_), ",\"t_us\":{}", t);
   const bool written = commit_locked(line_);
   if (written && kind != "signal") ++recorded_in_file_;
+  if (options_.journal) journal_event_locked(kind, detail);
   return written;
 }
 

@@ -41,6 +41,7 @@
 #include "contego/core/verdict.h"
 
 #include "base/result.h"
+#include "monitor/journal_entry.h"
 
 namespace contego::monitor {
 
@@ -55,6 +56,10 @@ struct AuditOptions {
   // (at most 10 a second, then a count of those left out): the monitor under
   // systemd sets it (JOURNAL_STREAM), so violations reach the journal too.
   bool echo_violations = false;
+  // The journal (cli/journal_sink.h): when set, those lines go here instead,
+  // with priorities and fields, and so does every event (at most 20 a
+  // second) and every report of the log's own failure.
+  JournalSink journal;
 };
 
 // The policy's names of the numbers in a decision record (any may be null:
@@ -186,16 +191,20 @@ class AuditLog {
   AuditOptions options_;
   dev_t dev_ = 0;
   ino_t ino_ = 0;
-  uint64_t next_check_us_ = 0;   // monotonic: when the file is next checked
-  uint64_t next_report_us_ = 0;  // monotonic: stderr rate limit
-  uint64_t unreported_ = 0;      // failures not yet on stderr
-  uint64_t echo_window_us_ = 0;  // monotonic: start of the violation echo's second
-  unsigned echoed_ = 0;          // violations echoed in that second
-  uint64_t unechoed_ = 0;        // violations left out since the last echo
-  std::string cont_;             // a continues or audit-gap record being formatted
-  uint64_t gap_ = 0;             // records lost since the last one written
-  uint64_t gap_since_us_ = 0;    // wall clock of the first of them
-  std::string gap_why_;          // the last reason
+  uint64_t next_check_us_ = 0;    // monotonic: when the file is next checked
+  uint64_t next_report_us_ = 0;   // monotonic: stderr rate limit
+  uint64_t unreported_ = 0;       // failures not yet on stderr
+  uint64_t echo_window_us_ = 0;   // monotonic: start of the violation echo's second
+  unsigned echoed_ = 0;           // violations echoed in that second
+  uint64_t unechoed_ = 0;         // violations left out since the last echo
+  uint64_t event_window_us_ = 0;  // the same for events sent to the journal
+  unsigned events_sent_ = 0;
+  uint64_t events_unsent_ = 0;
+  void journal_event_locked(const std::string& kind, const std::string& detail);
+  std::string cont_;           // a continues or audit-gap record being formatted
+  uint64_t gap_ = 0;           // records lost since the last one written
+  uint64_t gap_since_us_ = 0;  // wall clock of the first of them
+  std::string gap_why_;        // the last reason
   // The grower: extends the file and faults its pages in ahead of the
   // writer. Lock order: mu_, then grow_mu_. The writer takes no lock but
   // mu_ below allocated_ (below ready_ without a page fault): it takes

@@ -145,6 +145,23 @@ journalctl -u contego-monitor --no-pager -o cat >/tmp/monitor.log
 show /tmp/monitor.log | tail -n 8
 grep -qE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log && ok "violations in the journal: $(grep -cE 'contego: task .*: (ignore|failsafe|reject) of' /tmp/monitor.log) lines (journalctl -u contego-monitor)" ||
   bad "no violation in the journal (journalctl -u contego-monitor)"
+# Structured: each violation an entry with a priority, its MESSAGE_ID and the
+# policy's names as fields; the start a notice with the image's hash; the
+# catalog explains them (journalctl -x).
+journalctl -u contego-monitor CONTEGO_KIND=decision --no-pager -o export >/tmp/decisions.export
+grep -aE '^(PRIORITY|MESSAGE_ID|CONTEGO_[A-Z_]+)=' /tmp/decisions.export | head -n 9 | show
+grep -aqx 'MESSAGE_ID=334d55ae757948bf9f52f566d57d4744' /tmp/decisions.export &&
+  grep -aqE '^PRIORITY=[45]$' /tmp/decisions.export && grep -aqx 'CONTEGO_TASK=gripper' /tmp/decisions.export &&
+  grep -aqE '^CONTEGO_VERDICT=(ignore|failsafe|reject)$' /tmp/decisions.export &&
+  ok "journal entries: $(grep -ac '^MESSAGE_ID=334d55ae757948bf9f52f566d57d4744$' /tmp/decisions.export) decisions with PRIORITY, MESSAGE_ID and CONTEGO_TASK/DEVICE/RULE/VERDICT (journalctl CONTEGO_KIND=decision)" ||
+  bad "no structured decision entry in the journal"
+journalctl -u contego-monitor CONTEGO_KIND=start -p notice --no-pager -o export >/tmp/start.export
+grep -aqE '^CONTEGO_IMAGE_SHA256=[0-9a-f]{64}$' /tmp/start.export &&
+  ok "the start entry is a notice with CONTEGO_IMAGE_SHA256 (journalctl CONTEGO_KIND=start -p notice)" ||
+  bad "no start entry with the image's hash in the journal"
+journalctl --list-catalog 2>/dev/null | grep -q '^334d55ae757948bf9f52f566d57d4744 ' &&
+  ok "the journal's catalog explains the monitor's entries (journalctl --list-catalog)" ||
+  bad "contego.catalog is not in the journal's catalog"
 
 # ---- stop: the safe state -----------------------------------------------------
 set_word 0x41 # anything but the safe state

@@ -1,0 +1,36 @@
+// What the audit log tells the operator besides the file: one entry per
+// decision that is not `allow` and per event, with a syslog priority and the
+// names as fields, for the systemd journal (cli/journal_sink.h sends them
+// with sd_journal_send). The hash-chained file stays the record of truth;
+// these entries are rate-limited and may be lost.
+#ifndef CONTEGO_MONITOR_JOURNAL_ENTRY_H_
+#define CONTEGO_MONITOR_JOURNAL_ENTRY_H_
+
+#include <functional>
+#include <string>
+#include <string_view>
+
+namespace contego::monitor {
+
+// syslog(3) priorities, as the journal's PRIORITY= field takes them.
+enum class Priority : int { kError = 3, kWarning = 4, kNotice = 5, kInfo = 6 };
+
+struct JournalEntry {
+  Priority priority = Priority::kInfo;
+  // "decision", "latch" (a decision of the latch rule), "audit-failure", or
+  // the audit event's kind ("start", "safe-state", "fault", ...).
+  std::string_view kind;
+  std::string message;
+  // Of a decision: the policy's names (numbers where a name is unknown).
+  std::string task, device, command, rule, verdict, reason;
+};
+
+using JournalSink = std::function<void(const JournalEntry&)>;
+
+// An audit event's priority: faults and refused starts are errors, a safe
+// state driven or a session refused a warning, a start or a reset a notice.
+Priority event_priority(std::string_view kind);
+
+}  // namespace contego::monitor
+
+#endif  // CONTEGO_MONITOR_JOURNAL_ENTRY_H_
