@@ -251,9 +251,10 @@ int kmod_audit(const KmodAuditOptions& o) {
   // log's grower) starts, so none of them can die of SIGTERM mid-record.
   StopSignals signals;
   std::vector<KmodNames::Image> images;
-  for (const std::string& policy : o.policies) {
-    monitor::SetupOptions setup;
-    setup.policy = policy;
+  std::vector<monitor::SetupOptions> inputs;
+  for (const std::string& policy : o.policies) inputs.emplace_back().policy = policy;
+  for (const std::string& bundle : o.bundles) inputs.emplace_back().bundle = bundle;
+  for (const monitor::SetupOptions& setup : inputs) {
     auto loaded = monitor::load_policy(setup);
     if (!loaded.ok()) {
       fmt::print(stderr, "contego kmod audit: {}\n", loaded.error());

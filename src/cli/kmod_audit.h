@@ -17,7 +17,8 @@ struct KmodAuditOptions {
   // The policies the module may run: each record is named from the image in
   // force (KmodNames).
   std::vector<std::string> policies;
-  std::string audit;  // the log ("-" = standard error)
+  std::vector<std::string> bundles;  // the same from policy bundles
+  std::string audit;                 // the log ("-" = standard error)
   monitor::AuditOptions audit_options;
   bool quiet = false;
 };

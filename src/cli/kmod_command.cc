@@ -126,9 +126,9 @@ bool fill_complain(contego_kmod_load* req, const image::ImageModel& model, bool 
   return true;
 }
 
-int load(const std::string& device, const std::string& policy, const std::string& raw_image,
-         const std::vector<std::string>& binds, uint32_t budget_factor, bool complain,
-         const std::vector<std::string>& complain_for) {
+int load(const std::string& device, const monitor::SetupOptions& source,
+         const std::string& raw_image, const std::vector<std::string>& binds,
+         uint32_t budget_factor, bool complain, const std::vector<std::string>& complain_for) {
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
   contego_kmod_load req{};
@@ -148,9 +148,7 @@ int load(const std::string& device, const std::string& policy, const std::string
       return 2;
     }
   } else {
-    monitor::SetupOptions o;
-    o.policy = policy;
-    auto loaded = monitor::load_policy(o);
+    auto loaded = monitor::load_policy(source);
     if (!loaded.ok()) {
       fmt::print(stderr, "contego kmod: {}\n", loaded.error());
       return 2;
@@ -268,7 +266,9 @@ int stats(const std::string& device) {
 
 void register_kmod(CLI::App& app) {
   struct Args {
-    std::string device = "/dev/contego", policy, raw_image;
+    std::string device = "/dev/contego", policy, raw_image, bundle, signature;
+    std::string keys_dir = "/etc/contego/keys";
+    bool require_signed = false;
     std::vector<std::string> binds;
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
     bool complain = false;
@@ -279,6 +279,16 @@ void register_kmod(CLI::App& app) {
   cmd->require_subcommand(1);
   auto* ld = cmd->add_subcommand("load", "Load a policy into contego.ko (verified there)");
   ld->add_option("--policy", args->policy, "policy file");
+  ld->add_option(
+      "--bundle", args->bundle,
+      "a policy bundle (`contego check --emit-bundle`): the image and the task bindings");
+  ld->add_flag("--require-signed", args->require_signed,
+               "load only a --bundle whose minisign signature verifies with a key of --keys-dir");
+  ld->add_option("--signature", args->signature,
+                 "the bundle's minisign signature (default: BUNDLE.minisig; one that exists is "
+                 "always checked)");
+  ld->add_option("--keys-dir", args->keys_dir, "trusted minisign public keys (*.pub)")
+      ->capture_default_str();
   ld->add_option("--unverified-image", args->raw_image,
                  "send this file's bytes as the image unchecked here (the module verifies)");
   ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
@@ -286,12 +296,26 @@ void register_kmod(CLI::App& app) {
   add_budget_option(ld, &args->budget_factor);
   add_complain_options(ld, &args->complain, &args->complain_for);
   ld->callback([args] {
-    if (args->policy.empty() == args->raw_image.empty()) {
-      fmt::print(stderr, "contego kmod load: give --policy or --unverified-image\n");
+    const int sources = !args->policy.empty() + !args->bundle.empty() + !args->raw_image.empty();
+    if (sources != 1) {
+      fmt::print(stderr,
+                 "contego kmod load: give one of --policy, --bundle or --unverified-image\n");
       return set_exit_code(2);
     }
-    set_exit_code(load(args->device, args->policy, args->raw_image, args->binds,
-                       args->budget_factor, args->complain, args->complain_for));
+    if (args->require_signed && args->bundle.empty()) {
+      fmt::print(stderr,
+                 "contego kmod load: --require-signed loads a signed --bundle FILE only "
+                 "(`contego check --emit-bundle`, then `minisign -Sm FILE`)\n");
+      return set_exit_code(2);
+    }
+    monitor::SetupOptions source;
+    source.policy = args->policy;
+    source.bundle = args->bundle;
+    source.require_signed = args->require_signed;
+    source.signature = args->signature;
+    source.keys_dir = args->keys_dir;
+    set_exit_code(load(args->device, source, args->raw_image, args->binds, args->budget_factor,
+                       args->complain, args->complain_for));
   });
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", args->device, "the module's control device")->capture_default_str();
@@ -304,13 +328,16 @@ void register_kmod(CLI::App& app) {
   au->add_option("--policy", audit->policies,
                  "the policy loaded into the module (names); once per policy the module may run: "
                  "each record is named from the image in force");
+  au->add_option("--bundle", audit->bundles,
+                 "the same for a policy bundle the module may run (`contego kmod load --bundle`)");
   au->add_option("--audit", audit->audit, "audit log file (- = standard error)");
   au->add_option("--device", audit->device, "the module's audit device")->capture_default_str();
   au->add_flag("--quiet", audit->quiet, "no start and stop lines on standard error");
   add_audit_options(au, &audit->audit_options);
   au->callback([audit] {
-    if (audit->policies.empty() || audit->audit.empty()) {
-      fmt::print(stderr, "contego kmod audit: give --policy FILE and --audit LOG\n");
+    if ((audit->policies.empty() && audit->bundles.empty()) || audit->audit.empty()) {
+      fmt::print(stderr,
+                 "contego kmod audit: give --policy FILE (or --bundle FILE) and --audit LOG\n");
       return set_exit_code(2);
     }
     set_exit_code(kmod_audit(*audit));

@@ -198,6 +198,11 @@ int run_monitor_daemon(const MonitorArgs& args) {
     fmt::print(stderr, "contego monitor: {}\n", loaded.error());
     return 2;
   }
+  // Under systemd: violations and events go to the journal as structured
+  // entries (priority, MESSAGE_ID, CONTEGO_* fields).
+  if (so.audit_options.echo_violations) {
+    so.audit_options.journal = make_journal_sink(bundle::image_sha256(loaded->image));
+  }
   auto trusted = monitor::setup(so, *loaded);
   if (!trusted.ok()) {
     fmt::print(stderr, "contego monitor: {}\n", trusted.error());

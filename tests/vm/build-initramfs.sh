@@ -6,6 +6,7 @@
 #   /lib/modules/*.ko         i2c-stub and i2c-dev of the kernel under test;
 #                             contego.ko and i2c-plain-stub.ko when built
 #   /usr/bin/contego          a stripped copy of the freshly built binary
+#   /usr/bin/contego-monitor  the same of the trusted daemon beside it
 #   /usr/sbin/i2c*            the host's i2c-tools (the real clients)
 #   /usr/bin/python3          Debian's python3 (never a pyenv shim), a pruned
 #                             stdlib, python3-smbus, -smbus2 and -periphery
@@ -155,9 +156,14 @@ if [[ -n "${CONTEGO_PLAIN_STUB:-}" ]]; then
   cp "$CONTEGO_PLAIN_STUB" "$root/lib/modules/i2c-plain-stub.ko"
 fi
 
-# contego, stripped (the debug build is tens of MB with its symbols).
+# contego, stripped (the debug build is tens of MB with its symbols), and the
+# trusted daemon beside it (`contego monitor` executes it from there).
 "$strip" -o "$root/usr/bin/contego" "$contego"
 put_libs "$contego"
+daemon="$(dirname "$contego")/contego-monitor"
+[[ -x "$daemon" ]] || die "no contego-monitor beside $contego (build it first)"
+"$strip" -o "$root/usr/bin/contego-monitor" "$daemon"
+put_libs "$daemon"
 cp "$bench_client" "$root/usr/bin/i2c-write-loop"
 if [[ -n "${CONTEGO_STATIC_CLIENT:-}" ]]; then
   cp "$CONTEGO_STATIC_CLIENT" "$root/usr/bin/i2c-write-loop-static"
@@ -272,6 +278,21 @@ mkdir -p "$root/vm/policies/observe"
 cp "$src"/policies/observe/*.policy "$root/vm/policies/observe/"
 # The vendor-style Hand and the raw-write attacker of the learn scenario.
 cp "$src"/tests/vendor/sixdof_hand.py "$src"/tests/vendor/attack_writes.py "$root/vm/clients/"
+# A signed policy bundle for `contego kmod load --require-signed` (scenario
+# 60): made and signed here with the host's contego (CONTEGO_HOST_TOOL) and
+# the real minisign; the guest only verifies. Without either, the scenario
+# says it skips those checks.
+if [[ -x "${CONTEGO_HOST_TOOL:-}" ]] && command -v minisign >/dev/null; then
+  keys=$(mktemp -d)
+  mkdir -p "$root/vm/keys"
+  minisign -G -W -p "$root/vm/keys/robot.pub" -s "$keys/robot.key" >/dev/null
+  (cd "$src" && "$CONTEGO_HOST_TOOL" check policies/arm.policy \
+    --emit-bundle "$root/vm/policies/arm.bundle" >/dev/null 2>&1) || die "contego check --emit-bundle"
+  minisign -S -s "$keys/robot.key" -m "$root/vm/policies/arm.bundle" -t "test bed arm" >/dev/null
+  sed 's/"sessions": 1/"sessions": 9/' "$root/vm/policies/arm.bundle" >"$root/vm/policies/arm-changed.bundle"
+  cp "$root/vm/policies/arm.bundle.minisig" "$root/vm/policies/arm-changed.bundle.minisig"
+  rm -rf "$keys"
+fi
 
 (cd "$root" && find . -print0 | LC_ALL=C sort -z | cpio --null -o -H newc --quiet -R 0:0) >"$out.tmp"
 mv "$out.tmp" "$out"

@@ -134,8 +134,10 @@ static_client=$workdir/i2c-write-loop-static
 "$static_cc" -static -O2 -o "$static_client" "$here/bench/i2c_write_loop.c" ||
   fail "cannot link the static bench client with $static_cc (libc6-dev's libc.a)"
 t_kmod=$(date +%s.%N)
+host_tool=$src/build/dev/src/cli/contego  # runs here: makes the signed bundle
+[[ -x "$host_tool" ]] || host_tool=
 CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod CONTEGO_PLAIN_STUB=$plain_stub \
-  bash "$here/build-initramfs.sh" \
+  CONTEGO_HOST_TOOL=$host_tool bash "$here/build-initramfs.sh" \
   "${userland_args[@]}" "${mirrors[@]}" "${attack_binaries[@]}" "$workdir/initrd.cpio" \
   "$contego" "$kdir" "$bench_client" "${test_binaries[@]}" ||
   fail "cannot build the guest initramfs"

@@ -716,5 +716,37 @@ run_logged complain_verify contego audit $AUDIT_LOG
   ok "the log records the would-be verdict (ignore) marked complain, and verifies" ||
   bad "no verified complain record of the gripper's PRE_SCALE write"
 
+# --- signed bundles (docs/deployment.md): `kmod load --require-signed` loads
+# a bundle whose minisign signature verifies, and refuses a changed one
+# before the module sees it (the policy in force stays).
+if [ -f /vm/keys/robot.pub ]; then
+  AUDIT_LOG=$LOGDIR/kmod-signed.jsonl
+  rmmod i2c_dev
+  run_logged signed_insmod insmod $KO adapters=0 buses=1
+  wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+  start_reader
+  run_logged signed_load contego kmod load --bundle /vm/policies/arm.bundle --require-signed \
+    --keys-dir /vm/keys --bind arm_init=task --bind gripper=contego
+  [ $RC = 0 ] && grep -q "loaded" "$OUT" &&
+    ok "kmod load --bundle --require-signed: a signed bundle verified and in force" ||
+    bad "kmod load of the signed bundle (exit $RC)"
+  run_logged changed_load contego kmod load --bundle /vm/policies/arm-changed.bundle \
+    --require-signed --keys-dir /vm/keys --bind arm_init=task --bind gripper=contego
+  [ $RC = 2 ] && grep -q "does not match the signed data" "$OUT" &&
+    ok "a changed bundle is refused before the module sees it: $(grep -o 'signature by key ID [0-9A-F]*' "$OUT")" ||
+    bad "a changed signed bundle: exit $RC"
+  run_logged unsigned_load contego kmod load --policy $POLICIES/arm.policy --require-signed
+  [ $RC = 2 ] && grep -q "require-signed" "$OUT" && ok "--require-signed refuses a policy source" ||
+    bad "--require-signed with --policy: exit $RC"
+  run_logged signed_stats contego kmod stats
+  grep -q "loaded=1 loads=1 refused_loads=0" "$OUT" &&
+    ok "module counters after the refusals: the one signed load, nothing else reached it" ||
+    bad "module counters after the signed loads: $(cat "$OUT")"
+  stop_reader
+  back_to_i2c_dev
+else
+  echo "  skipped: the signed bundle checks (no minisign or host contego when the initramfs was made)"
+fi
+
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
