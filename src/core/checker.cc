@@ -472,7 +472,9 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
     return;  // already held: no new violation
   } else {
     bool decided = false;
-    for (uint32_t r = 0; r < rate_count_; ++r) {
+    const uint64_t rates = tx.task < kMaxTasks && dev < kMaxDevices ? rates_of_[tx.task][dev] : 0;
+    for (uint64_t bits = rates; bits != 0; bits &= bits - 1) {
+      const uint32_t r = static_cast<uint32_t>(__builtin_ctzll(bits));
       const RateRecord& rr = rates_[r];
       if (!selects(rr, tx, d)) continue;
       rates_hit |= uint64_t{1} << r;
@@ -486,34 +488,40 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
       Env env{&tx, &d, kNone, nullptr};
       unrepaired = true;  // an invariant decides from here on, unless it repairs
       Subst subst{};
-      for (uint32_t i = 0; i < invariant_count_; ++i) {
-        const InvariantRecord& inv = invariants_[i];
-        if (inv.device != dev || !internal::mask_has(inv.commands, d.command)) continue;
-        env.invariant = static_cast<uint16_t>(i);
-        subst.active = false;
-        env.subst = &subst;
-        int64_t unused = 0;
-        const Exit exit = run(inv.code_first, inv.code_len, env, &unused);
-        const uint16_t rule = static_cast<uint16_t>(i);
-        if (exit == Exit::kPass) continue;
-        if (exit == Exit::kFail) {
-          respond(o, inv.response, inv.reply_errno, inv.template_id, Reason::kInvariantViolated,
-                  RuleKind::kInvariant, rule);
-        } else if (exit == Exit::kFailSubst) {
-          decide(o, Decision::kFailsafe, Reason::kInvariantViolated, RuleKind::kInvariant, rule, 0);
-          if (!emit_substitute(subst, o)) {
-            decide(o, Decision::kIgnore, Reason::kEncodeFailed, RuleKind::kInvariant, rule, 0);
+      bool stop = false;
+      for (uint32_t w = 0; w < kInvariantWords && !stop && dev < kMaxDevices; ++w) {
+        for (uint64_t bits = invariants_of_[dev][w]; bits != 0; bits &= bits - 1) {
+          const uint32_t i = w * 64 + static_cast<uint32_t>(__builtin_ctzll(bits));
+          const InvariantRecord& inv = invariants_[i];
+          if (!internal::mask_has(inv.commands, d.command)) continue;
+          env.invariant = static_cast<uint16_t>(i);
+          subst.active = false;
+          env.subst = &subst;
+          int64_t unused = 0;
+          const Exit exit = run(inv.code_first, inv.code_len, env, &unused);
+          const uint16_t rule = static_cast<uint16_t>(i);
+          if (exit == Exit::kPass) continue;
+          if (exit == Exit::kFail) {
+            respond(o, inv.response, inv.reply_errno, inv.template_id, Reason::kInvariantViolated,
+                    RuleKind::kInvariant, rule);
+          } else if (exit == Exit::kFailSubst) {
+            decide(o, Decision::kFailsafe, Reason::kInvariantViolated, RuleKind::kInvariant, rule,
+                   0);
+            if (!emit_substitute(subst, o)) {
+              decide(o, Decision::kIgnore, Reason::kEncodeFailed, RuleKind::kInvariant, rule, 0);
+            } else {
+              unrepaired = false;  // the device got the command the policy expects
+            }
           } else {
-            unrepaired = false;  // the device got the command the policy expects
+            // A fault is a violation: fail closed with the invariant's template.
+            const Reason why =
+                exit == Exit::kUnavailable ? Reason::kSignalUnavailable : Reason::kProgramFault;
+            respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
+                    RuleKind::kInvariant, rule);
           }
-        } else {
-          // A fault is a violation: fail closed with the invariant's template.
-          const Reason why =
-              exit == Exit::kUnavailable ? Reason::kSignalUnavailable : Reason::kProgramFault;
-          respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
-                  RuleKind::kInvariant, rule);
+          stop = true;  // the first invariant that does not pass decides
+          break;
         }
-        break;
       }
     }
   }

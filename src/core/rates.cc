@@ -5,6 +5,19 @@
 
 namespace contego::core::internal {
 
+void CheckerState::index_rules() {
+  for (uint32_t r = 0; r < rate_count_; ++r) {
+    const RateRecord& rr = rates_[r];
+    if (rr.task >= kMaxTasks || rr.device >= kMaxDevices) continue;  // selects nothing
+    rates_of_[rr.task][rr.device] |= uint64_t{1} << r;
+    task_rates_[rr.task] |= uint64_t{1} << r;
+  }
+  for (uint32_t i = 0; i < invariant_count_; ++i) {
+    const uint16_t dev = invariants_[i].device;
+    if (dev < kMaxDevices) invariants_of_[dev][i / 64] |= uint64_t{1} << (i % 64);
+  }
+}
+
 void CheckerState::update_window(const Transaction& tx) {
   const uint32_t period = tasks_[tx.task].period_us;
   TaskWindow& w = windows_[tx.task];
@@ -25,8 +38,8 @@ void CheckerState::update_window(const Transaction& tx) {
   w.valid = true;
   w.key = key;
   __builtin_memset(job_count_[tx.task], 0, sizeof(job_count_[tx.task]));
-  for (uint32_t r = 0; r < rate_count_; ++r) {
-    if (rates_[r].task == tx.task) rate_used_[r] = 0;
+  for (uint64_t bits = task_rates_[tx.task]; bits != 0; bits &= bits - 1) {
+    rate_used_[__builtin_ctzll(bits)] = 0;
   }
 }
 
@@ -37,7 +50,9 @@ bool CheckerState::selects(const RateRecord& rr, const Transaction& tx, const De
 }
 
 uint16_t CheckerState::refusing_rate(const Transaction& tx, const Decoded& d) const {
-  for (uint32_t r = 0; r < rate_count_; ++r) {
+  if (tx.task >= kMaxTasks || d.device >= kMaxDevices) return kNone;
+  for (uint64_t bits = rates_of_[tx.task][d.device]; bits != 0; bits &= bits - 1) {
+    const uint32_t r = static_cast<uint32_t>(__builtin_ctzll(bits));
     const RateRecord& rr = rates_[r];
     if (selects(rr, tx, d) && rr.response == static_cast<uint8_t>(Response::kReject) &&
         rate_used_[r] >= rr.max_per_job) {

@@ -229,6 +229,8 @@ class CheckerState {
   void compute_costs();
   // interpreter.cc: after compute_costs, the superinstructions (Fused).
   void fuse_programs();
+  // rates.cc: after verify, the rule index (rates_of_, task_rates_, invariants_of_).
+  void index_rules();
   bool inside_every_program(uint32_t at, uint32_t len) const;
 
   // checker.cc: the check path, its combination of outcomes, latches.
@@ -325,6 +327,18 @@ class CheckerState {
   uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
   uint64_t derived_mask_ = 0;
   uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
+  // The rule index (rates.cc, index_rules), built at load: which rate limits
+  // and invariants can apply to a command, so that a check costs the rules
+  // of its task and device, not every rule of the policy. Bit r of
+  // rates_of_[task][device]: rates_[r] counts that task's commands to that
+  // device; bit r of task_rates_[task]: rates_[r] is the task's; bit i of
+  // invariants_of_[device]: invariants_[i] guards that device. Iterated in
+  // bit order, which is the table's: the first rule still decides.
+  static_assert(kMaxRateLimits <= 64 && kMaxInvariants % 64 == 0);
+  static constexpr uint32_t kInvariantWords = kMaxInvariants / 64;
+  uint64_t rates_of_[kMaxTasks][kMaxDevices]{};
+  uint64_t task_rates_[kMaxTasks]{};
+  uint64_t invariants_of_[kMaxDevices][kInvariantWords]{};
   // Runtime state.
   uint32_t epoch_ = 0;
   uint64_t executed_ = 0;

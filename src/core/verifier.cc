@@ -64,6 +64,9 @@ void CheckerState::clear_tables() {
   derived_mask_ = 0;
   __builtin_memset(signal_deps_, 0, sizeof(signal_deps_));
   __builtin_memset(signal_devices_, 0, sizeof(signal_devices_));
+  __builtin_memset(rates_of_, 0, sizeof(rates_of_));
+  __builtin_memset(task_rates_, 0, sizeof(task_rates_));
+  __builtin_memset(invariants_of_, 0, sizeof(invariants_of_));
   __builtin_memset(state_, 0, sizeof(state_));
   __builtin_memset(last_, 0, sizeof(last_));
   __builtin_memset(last_first_, 0, sizeof(last_first_));
@@ -87,6 +90,7 @@ LoadResult CheckerState::load(const uint8_t* image, uint32_t size) {
   }
   compute_costs();
   fuse_programs();  // after the costs: they count the image's instructions
+  index_rules();
   loaded_ = true;
   return r;
 }
