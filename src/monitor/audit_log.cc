@@ -516,22 +516,14 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
 }
 
 void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNames& names) {
-  const uint64_t now = monotonic_us();
-  if (now - echo_window_us_ >= 1000000) {
-    echo_window_us_ = now;
-    echoed_ = 0;
-  }
-  if (echoed_ >= 10) {
-    ++unechoed_;
-    return;
-  }
-  ++echoed_;
+  if (!violation_limit_.admit(monotonic_us())) return;
   auto or_number = [](const char* name, unsigned number) {
     return name != nullptr ? std::string(name) : std::to_string(number);
   };
   std::string left_out;
-  if (unechoed_ > 0) left_out = fmt::format(" ({} more left out before this one)", unechoed_);
-  unechoed_ = 0;
+  if (const uint64_t n = violation_limit_.take_left_out(); n > 0) {
+    left_out = fmt::format(" ({} more left out before this one)", n);
+  }
   JournalEntry e;
   e.task = or_number(names.task, r.task);
   e.verdict = core::decision_name(r.decision);
@@ -554,23 +546,13 @@ void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNam
 }
 
 void AuditLog::journal_event_locked(const std::string& kind, const std::string& detail) {
-  const uint64_t now = monotonic_us();
-  if (now - event_window_us_ >= 1000000) {
-    event_window_us_ = now;
-    events_sent_ = 0;
-  }
-  if (events_sent_ >= 20) {
-    ++events_unsent_;
-    return;
-  }
-  ++events_sent_;
+  if (!event_limit_.admit(monotonic_us())) return;
   JournalEntry e;
   e.kind = kind;
   e.priority = event_priority(kind);
   e.message = fmt::format("contego: {}: {}", kind, detail);
-  if (events_unsent_ > 0) {
-    e.message += fmt::format(" ({} more events left out before this one)", events_unsent_);
-    events_unsent_ = 0;
+  if (const uint64_t n = event_limit_.take_left_out(); n > 0) {
+    e.message += fmt::format(" ({} more events left out before this one)", n);
   }
   options_.journal(e);
 }

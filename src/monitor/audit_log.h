@@ -191,15 +191,11 @@ class AuditLog {
   AuditOptions options_;
   dev_t dev_ = 0;
   ino_t ino_ = 0;
-  uint64_t next_check_us_ = 0;    // monotonic: when the file is next checked
-  uint64_t next_report_us_ = 0;   // monotonic: stderr rate limit
-  uint64_t unreported_ = 0;       // failures not yet on stderr
-  uint64_t echo_window_us_ = 0;   // monotonic: start of the violation echo's second
-  unsigned echoed_ = 0;           // violations echoed in that second
-  uint64_t unechoed_ = 0;         // violations left out since the last echo
-  uint64_t event_window_us_ = 0;  // the same for events sent to the journal
-  unsigned events_sent_ = 0;
-  uint64_t events_unsent_ = 0;
+  uint64_t next_check_us_ = 0;          // monotonic: when the file is next checked
+  uint64_t next_report_us_ = 0;         // monotonic: stderr rate limit
+  uint64_t unreported_ = 0;             // failures not yet on stderr
+  PerSecondLimit violation_limit_{10};  // violations echoed or sent to the journal
+  PerSecondLimit event_limit_{20};      // events sent to the journal
   void journal_event_locked(const std::string& kind, const std::string& detail);
   std::string cont_;           // a continues or audit-gap record being formatted
   uint64_t gap_ = 0;           // records lost since the last one written

@@ -6,9 +6,11 @@
 #ifndef CONTEGO_MONITOR_JOURNAL_ENTRY_H_
 #define CONTEGO_MONITOR_JOURNAL_ENTRY_H_
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace contego::monitor {
 
@@ -26,6 +28,28 @@ struct JournalEntry {
 };
 
 using JournalSink = std::function<void(const JournalEntry&)>;
+
+// At most `limit` messages a second: admit() says whether this one goes,
+// and take_left_out() how many did not since the last that went.
+struct PerSecondLimit {
+  unsigned limit;
+  uint64_t window_us = 0;  // monotonic: start of the current second
+  unsigned sent = 0;
+  uint64_t left_out = 0;
+  bool admit(uint64_t now_us) {
+    if (now_us - window_us >= 1000000) {
+      window_us = now_us;
+      sent = 0;
+    }
+    if (sent >= limit) {
+      ++left_out;
+      return false;
+    }
+    ++sent;
+    return true;
+  }
+  uint64_t take_left_out() { return std::exchange(left_out, 0); }
+};
 
 // An audit event's priority: faults and refused starts are errors, a safe
 // state driven or a session refused a warning, a start or a reset a notice.
