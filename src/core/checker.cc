@@ -763,6 +763,9 @@ bool Checker::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
   return state().shadow(device, reg, value);
 }
 uint32_t Checker::model_crc() const { return state().model_crc(); }
+Checker::CarryResult Checker::carry_from(const Checker& old, const CarryMap& map) {
+  return state().carry_from(old.state(), map);
+}
 uint32_t Checker::worst_case_cost() const { return state().worst_case_cost_; }
 uint64_t Checker::executed_instructions() const { return state().executed_; }
 uint32_t Checker::task_count() const { return state().task_count_; }

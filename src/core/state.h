@@ -304,6 +304,10 @@ class CheckerState {
   // The state word of invariant `i` as task `task` sees it (its scope decides).
   int64_t& state_word(uint32_t i, uint16_t task);
   uint32_t end_session(uint16_t task);
+  // carry.cc: reload in place (Checker::carry_from).
+  bool carry_pairs_agree(const CheckerState& old, const Checker::CarryMap& map) const;
+  uint32_t carry_devices(const CheckerState& old, const Checker::CarryMap& map);
+  Checker::CarryResult carry_from(const CheckerState& old, const Checker::CarryMap& map);
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 

@@ -136,6 +136,32 @@ class Checker {
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 
+  // Reload in place: takes over the run-time model of `old`, the checker this
+  // freshly loaded one replaces, for the records `map` pairs (the host pairs
+  // them by name). A paired device keeps its register shadows, staged writes
+  // (of paired tasks), violations and latch; a paired task its job window and
+  // per-device job counts; a paired rate limit its count in the current job;
+  // a paired invariant its state words; a paired command its history. The
+  // rest starts as after load(). Refused (nothing taken) when either checker
+  // is in a transfer or not loaded, or a pair disagrees: an id out of range,
+  // devices of another bus, address or profile, commands of unpaired devices
+  // or other field counts, rate limits or invariants of other tasks, devices
+  // or scope.
+  struct CarryMap {
+    // One entry per record of this checker's image, in its order: the old
+    // image's id of the same record, or kNone.
+    const uint16_t* tasks = nullptr;
+    const uint16_t* devices = nullptr;
+    const uint16_t* commands = nullptr;
+    const uint16_t* rates = nullptr;
+    const uint16_t* invariants = nullptr;
+  };
+  struct CarryResult {
+    bool ok;
+    uint32_t staged_dropped;  // staged register writes of tasks not paired
+  };
+  CarryResult carry_from(const Checker& old, const CarryMap& map);
+
   // Upper bound of bytecode instructions executed by one check() of a
   // single command, over all commands of the image (computed at load).
   uint32_t worst_case_cost() const;
