@@ -36,6 +36,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   (void)wire::decode_bus_info(in, &b);
   wire::ErrorMsg e;
   (void)wire::decode_error(in, &e);
+  wire::ReloadRequest reload;
+  if (wire::decode_reload(in, &reload).empty()) {
+    const auto again = wire::encode_reload(reload);
+    if (again.size() != in.size() || !std::equal(again.begin(), again.end(), in.begin())) {
+      __builtin_trap();
+    }
+  }
   wire::HelloOk ok;
   if (wire::decode_hello_ok(in, &ok).empty() && wire::encode_hello_ok(ok).size() != in.size()) {
     __builtin_trap();

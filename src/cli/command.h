@@ -24,6 +24,7 @@ void register_audit(CLI::App& app);
 void register_run(CLI::App& app);
 void register_monitor(CLI::App& app);
 void register_reset(CLI::App& app);
+void register_reload(CLI::App& app);
 void register_status(CLI::App& app);
 void register_kmod(CLI::App& app);
 void register_test(CLI::App& app);

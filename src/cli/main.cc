@@ -44,6 +44,7 @@ int main(int argc, char** argv) {
   contego::cli::register_run(app);
   contego::cli::register_monitor(app);
   contego::cli::register_reset(app);
+  contego::cli::register_reload(app);
   contego::cli::register_status(app);
   contego::cli::register_kmod(app);
   contego::cli::register_test(app);

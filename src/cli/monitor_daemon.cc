@@ -19,6 +19,7 @@
 #include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/journal_sink.h"
+#include "cli/policy_reload.h"
 #include "cli/setup_args.h"
 #include "cli/stop_signals.h"
 #include "cli/systemd_notify.h"
@@ -221,6 +222,11 @@ int run_monitor_daemon(const MonitorArgs& args) {
                          args.realtime, args.limits);
   server.set_bindings((*trusted)->bindings);
   server.set_policy_source((*trusted)->source);
+  // `contego reload`: a new bundle in place, sessions and state kept.
+  const bool journal = so.audit_options.journal != nullptr;
+  server.set_reloader(make_reloader(so, **trusted, server, [&](const std::string& sha256) {
+    if (journal) (*trusted)->audit.set_journal(make_journal_sink(sha256));
+  }));
   // `contego run` speaks for the programs it starts (their `exe` before
   // they execute it): the contego installed beside this daemon.
   if (const std::string tool = sibling_path("contego"); !server.trust_supervisor(tool)) {
@@ -259,7 +265,8 @@ int run_monitor_daemon(const MonitorArgs& args) {
       if (sig == SIGHUP) {
         // logrotate's postrotate: the log is reopened (a file moved away
         // is replaced by a new one that continues the chain; with
-        // --audit-max-bytes the log is rotated now).
+        // --audit-max-bytes the log is rotated now). SIGHUP never reloads
+        // the policy: that is `contego reload`, which sends the new bundle.
         auto r = (*trusted)->audit.reopen();
         const std::string what = r.ok() ? *r : "cannot reopen the audit log: " + r.error();
         (*trusted)->audit.event("signal", "SIGHUP: still serving; " + what);

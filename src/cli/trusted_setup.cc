@@ -242,10 +242,6 @@ monitor::NameTable name_table(const image::ImageModel& model) {
   return n;
 }
 
-namespace {
-
-// The monitor's complain scope from --complain / --complain-for, and the
-// mode's words for the start record and the banner.
 Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
     const SetupOptions& o, const image::ImageModel& model) {
   Monitor::ComplainScope scope;
@@ -284,12 +280,13 @@ Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
   return std::make_pair(std::move(scope), std::move(words));
 }
 
-}  // namespace
-
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy& out) {
   auto t = std::make_unique<Trusted>();
   if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
   t->source = out.source;
+  t->model = out.model;
+  t->image_sha256 = sha256_hex(
+      std::string_view(reinterpret_cast<const char*>(out.image.data()), out.image.size()));
   t->decider = std::make_unique<CoreDecider>();
   const core::LoadResult lr =
       t->decider->checker().load(out.image.data(), static_cast<uint32_t>(out.image.size()));

@@ -70,7 +70,9 @@ struct Trusted {
   // Who may run each task (the policy's user/group/exe/unit/cgroup/sessions),
   // resolved on this host: an unknown user or group, or a missing exe, fails setup.
   std::map<std::string, TaskBinding> bindings;
-  std::string source;                 // the policy or image file, with the image's SHA-256
+  std::string source;       // the policy or image file, with the image's SHA-256
+  image::ImageModel model;  // what the core enforces: for the names a reload pairs
+  std::string image_sha256;
   std::vector<std::string> warnings;  // e.g. an adapter no device uses
   std::vector<std::string> degraded;  // with allow_degraded: what was wrong at start
   // The models on the virtual buses, for virtual_state().
@@ -113,6 +115,12 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
 NameTable name_table(const image::ImageModel& model);
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options, const LoadedPolicy& policy);
+
+// The monitor's complain scope from --complain / --complain-for, and the
+// mode's words for the start record and the banner. Fails for a name the
+// policy does not have.
+Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
+    const SetupOptions& options, const image::ImageModel& model);
 
 }  // namespace contego::monitor
 

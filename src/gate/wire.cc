@@ -106,6 +106,8 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kRevouchOk:
     case Type::kStatus:
     case Type::kStatusOk:
+    case Type::kReload:
+    case Type::kReloadOk:
     case Type::kError:
       return {};
   }
@@ -288,6 +290,31 @@ std::string decode_error(std::span<const uint8_t> p, ErrorMsg* e) {
   }
   e->err = static_cast<int32_t>(err);
   e->reason.assign(b.begin(), b.end());
+  return {};
+}
+
+std::vector<uint8_t> encode_reload(const ReloadRequest& r) {
+  Writer w;
+  for (const std::string* part : {&r.bundle, &r.signature}) {
+    w.u32(static_cast<uint32_t>(part->size()));
+    w.bytes({reinterpret_cast<const uint8_t*>(part->data()), part->size()});
+  }
+  return std::move(w.out);
+}
+
+std::string decode_reload(std::span<const uint8_t> p, ReloadRequest* r) {
+  Reader reader(p);
+  for (std::string* part : {&r->bundle, &r->signature}) {
+    uint32_t n = 0;
+    std::vector<uint8_t> b;
+    if (!reader.u32(&n) || n > kMaxPayload || !reader.bytes(n, &b)) {
+      return "malformed reload request (a bundle and a signature, each a u32 length and bytes)";
+    }
+    part->assign(b.begin(), b.end());
+  }
+  if (!reader.done() || r->bundle.empty()) {
+    return "malformed reload request (a bundle and a signature, each a u32 length and bytes)";
+  }
   return {};
 }
 

@@ -41,6 +41,8 @@ enum class Type : uint8_t {
   kRevouchOk = 14,  // server: empty; the new executable may act for the task
   kStatus = 15,     // operator: empty; the monitor's state  -> kStatusOk | kError
   kStatusOk = 16,   // server: JSON text (docs/deployment.md, "contego status")
+  kReload = 17,     // operator: a policy bundle and its signature -> kReloadOk | kError
+  kReloadOk = 18,   // server: what the reload kept and started afresh (text)
   kError = 0x7F,    // server: errno and reason text
 };
 
@@ -97,6 +99,15 @@ std::vector<uint8_t> encode_bus_info(const BusInfo& b);
 std::string decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);
 std::vector<uint8_t> encode_error(const ErrorMsg& e);
 std::string decode_error(std::span<const uint8_t> payload, ErrorMsg* e);
+
+// `contego reload`: a policy bundle (contego check --emit-bundle) and its
+// minisign signature (empty: none), as u32 length + bytes each.
+struct ReloadRequest {
+  std::string bundle;
+  std::string signature;
+};
+std::vector<uint8_t> encode_reload(const ReloadRequest& r);
+std::string decode_reload(std::span<const uint8_t> payload, ReloadRequest* r);
 
 }  // namespace contego::gate::wire
 

@@ -91,5 +91,22 @@ TEST(Wire, HelloAnswerCarriesTheTaskAndItsPriority) {
   EXPECT_NE(decode_hello_ok(id_only, &ok), "");  // the id alone is malformed
 }
 
+TEST(Wire, ReloadCarriesABundleAndItsSignature) {
+  ReloadRequest r;
+  ASSERT_EQ(decode_reload(encode_reload({"{bundle}", "sig"}), &r), "");
+  EXPECT_EQ(r.bundle, "{bundle}");
+  EXPECT_EQ(r.signature, "sig");
+  ASSERT_EQ(decode_reload(encode_reload({"{bundle}", ""}), &r), "");
+  EXPECT_EQ(r.signature, "");
+  EXPECT_NE(decode_reload(encode_reload({"", "sig"}), &r), "");  // no bundle
+  std::vector<uint8_t> bytes = encode_reload({"{bundle}", "sig"});
+  bytes.push_back(0);
+  EXPECT_NE(decode_reload(bytes, &r), "");  // trailing bytes
+  bytes.resize(bytes.size() - 3);
+  EXPECT_NE(decode_reload(bytes, &r), "");  // truncated signature
+  const std::vector<uint8_t> huge = {0xFF, 0xFF, 0xFF, 0xFF};
+  EXPECT_NE(decode_reload(huge, &r), "");
+}
+
 }  // namespace
 }  // namespace contego::gate::wire

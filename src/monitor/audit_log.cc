@@ -545,6 +545,11 @@ void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNam
   options_.journal(e);
 }
 
+void AuditLog::set_journal(JournalSink journal) {
+  std::lock_guard lock(mu_);
+  options_.journal = std::move(journal);
+}
+
 void AuditLog::journal_event_locked(const std::string& kind, const std::string& detail) {
   if (!event_limit_.admit(monotonic_us())) return;
   JournalEntry e;

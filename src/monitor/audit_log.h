@@ -127,6 +127,9 @@ class AuditLog {
   // logrotate, deleted), opens the path anew and continues the chain there.
   // With max_bytes set, rotates now. Returns what it did.
   Result<std::string> reopen();
+  // Replaces where entries go to the journal (a reload stamps them with the
+  // new image's hash).
+  void set_journal(JournalSink journal);
   uint64_t lines() const;      // lines written (or discarded: no log)
   uint64_t failures() const;   // records that could not be written
   uint64_t rotations() const;  // files started after the first

@@ -36,6 +36,10 @@ class DropReport {
   // Counts one decision (records of staged writes and of reads count as allowed).
   void note(const core::AuditRecord& record, const RecordNames& names, uint64_t now_us);
   const DecisionCounts& counts(uint16_t task) const;
+  // Starts the task's counts afresh (a reload gave its id to another task).
+  void forget(uint16_t task) {
+    if (task < tasks_.size()) tasks_[task] = PerTask{};
+  }
   std::FILE* out() const { return out_; }  // where the lines go (nullptr: nowhere)
   // "N allowed, N ignored, N substituted, N refused" for the task (and, in
   // complain mode, "; N would have been dropped but acted as sent").

@@ -12,14 +12,15 @@
 namespace contego::monitor {
 
 Monitor::Monitor(Decider& decider, AuditLog& audit, Clock& clock)
-    : decider_(decider), audit_(audit), clock_(clock) {
+    : decider_(&decider), audit_(audit), clock_(clock) {
   core::Host host{};
   host.context = this;
   host.read_sample = &Monitor::host_read_sample;
   host.audit = &Monitor::host_audit;
-  decider_.set_host(host);
-  readings_.reset(decider_.device_count());
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) readings_.describe(d, decider_.device(d));
+  decider_->set_host(host);
+  readings_.reset(decider_->device_count());
+  for (uint16_t d = 0; d < decider_->device_count(); ++d)
+    readings_.describe(d, decider_->device(d));
 }
 
 Monitor::~Monitor() { stop_sampling(); }
@@ -73,8 +74,8 @@ void Monitor::describe_readings_locked() {
   readings_json_seq_ = check_seq_;
   readings_json_.clear();
   static constexpr char kHex[] = "0123456789abcdef";
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    if (decider_.device(d).sample_len == 0) continue;
+  for (uint16_t d = 0; d < decider_->device_count(); ++d) {
+    if (decider_->device(d).sample_len == 0) continue;
     readings_json_ += readings_json_.empty() ? "{\"" : ",\"";
     readings_json_ += d < names_.devices.size() ? names_.devices[d] : std::to_string(d);
     const readings::Reading* r = readings_.for_check(checking_task_, d, checking_now_us_);
@@ -111,8 +112,8 @@ bool Monitor::complains_locked(uint16_t task, const gate::Transfer& t) const {
   if (complains_task_locked(task)) return true;
   if (complain_.devices == 0) return false;
   auto complaining = [&](uint16_t addr) {
-    for (uint16_t d = 0; d < decider_.device_count() && d < 32; ++d) {
-      const core::DeviceRecord& rec = decider_.device(d);
+    for (uint16_t d = 0; d < decider_->device_count() && d < 32; ++d) {
+      const core::DeviceRecord& rec = decider_->device(d);
       if (rec.bus == t.bus && rec.addr == addr) return ((complain_.devices >> d) & 1u) != 0;
     }
     return false;  // no device of the policy there: enforced
@@ -197,13 +198,13 @@ Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
   const auto it = std::find(names.begin(), names.end(), device);
   if (it == names.end()) return make_error("the policy has no device '" + device + "'");
   const auto d = static_cast<uint16_t>(it - names.begin());
-  const bool was = decider_.latched(d);
+  const bool was = decider_->latched(d);
   // No action without a record.
   if (!audit_.event("reset", fmt::format("device {} ({}) reset by uid {}; it was {}", d, device,
                                          uid, was ? "latched" : "not latched"))) {
     return make_error("the audit record of the reset could not be written; nothing was reset");
   }
-  decider_.reset_latch(d);
+  decider_->reset_latch(d);
   return was;
 }
 
@@ -226,8 +227,8 @@ void Monitor::hold_if_over_budget(uint16_t task) {
   {
     std::lock_guard lock(mu_);
     if (complains_task_locked(task)) return;  // observed as it runs, never held
-    const uint64_t period = decider_.task_period_us(task);
-    const uint64_t budget = uint64_t{factor} * decider_.task_actuations_per_job(task);
+    const uint64_t period = decider_->task_period_us(task);
+    const uint64_t budget = uint64_t{factor} * decider_->task_actuations_per_job(task);
     if (period == 0 || budget == 0) return;
     const uint64_t now = clock_.now_us();
     const uint32_t job = job_at_locked(task, now);
@@ -288,8 +289,8 @@ void Monitor::report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_
 uint64_t Monitor::charge_transfer_locked(uint16_t task, bool acted) {
   const uint32_t factor = budget_factor_.load(std::memory_order_relaxed);
   if (factor == 0) return 0;
-  const uint64_t period = decider_.task_period_us(task);
-  const uint64_t actuations = decider_.task_actuations_per_job(task);
+  const uint64_t period = decider_->task_period_us(task);
+  const uint64_t actuations = decider_->task_actuations_per_job(task);
   if (period == 0 || actuations == 0 || complains_task_locked(task)) return 0;
   const uint64_t now = clock_.now_us();
   const uint32_t job = job_at_locked(task, now);
@@ -365,13 +366,13 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
       if (planned[i].kind != core::TxKind::kWrite) continue;
       if (std::string why = emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit);
           !why.empty()) {
-        decider_.abort_transfer(core::Decision::kReject);
+        decider_->abort_transfer(core::Decision::kReject);
         audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
         reply.err = EOPNOTSUPP;
         return reply;
       }
     }
-    decider_.commit_transfer();
+    decider_->commit_transfer();
     // It acted if a write of it reached a device (not only staged).
     for (size_t i = 0; i < planned.size() && i < checked; ++i) {
       const core::Verdict& v = verdicts_[i];
@@ -383,7 +384,7 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     return perform_transfer(task, t, planned);
   }
   audit_lost_ = false;
-  decider_.abort_transfer(core::transfer_decision(tv.action));
+  decider_->abort_transfer(core::transfer_decision(tv.action));
   if (audit_lost_) {
     audit_refusals_.fetch_add(1);
     drive_safe_state_locked("an audit record could not be written: failing closed");
@@ -427,7 +428,7 @@ int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
   checking_now_us_ = now;
   complain_now_ = complain_.any() && complains_locked(task, t);
   verdicts_.resize(planned.size());
-  decider_.begin_transfer();
+  decider_->begin_transfer();
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
     core::Transaction tx{};
@@ -449,14 +450,14 @@ int Monitor::check_transfer(uint16_t task, const gate::Transfer& t,
     v.reply_errno = EPERM;
     audit_lost_ = false;
     ++check_seq_;
-    decider_.check(tx, &v);
+    decider_->check(tx, &v);
     decisions_.fetch_add(1);
     *checked = i + 1;
     if (audit_lost_) {
       // The record of this decision could not be written: it does not act,
       // nothing of the call does, and the actuators go to their safe state
       // (best effort: the records of that may fail too).
-      decider_.abort_transfer(core::Decision::kReject);
+      decider_->abort_transfer(core::Decision::kReject);
       audit_refusals_.fetch_add(1);
       drive_safe_state_locked("an audit record could not be written: failing closed");
       return EIO;
@@ -473,17 +474,17 @@ void Monitor::drive_transfer_safe_states(uint16_t task, size_t checked) {
   uint32_t driven = 0;  // device bits (kMaxDevices <= 32)
   for (size_t i = 0; i < checked; ++i) {
     const core::Verdict& v = verdicts_[i];
-    if (v.decision != core::Decision::kFailsafe || v.device >= decider_.device_count() ||
+    if (v.decision != core::Decision::kFailsafe || v.device >= decider_->device_count() ||
         ((driven >> v.device) & 1u) != 0) {
       continue;
     }
     driven |= 1u << v.device;
-    const core::DeviceRecord& rec = decider_.device(v.device);
+    const core::DeviceRecord& rec = decider_->device(v.device);
     audit_.event("safe-state", fmt::format("task {}: a message of a combined transfer failed "
                                            "safe; device {} driven to its safe state instead",
                                            task, v.device));
     core::Verdict safe{};
-    if (!decider_.safe_state(v.device, &safe)) continue;
+    if (!decider_->safe_state(v.device, &safe)) continue;
     if (int err = perform_emits(safe, rec.ten_bit != 0); err != 0) {
       audit_.event("fault", fmt::format("safe state of device {} failed: errno {}", v.device, err));
     }
@@ -544,7 +545,7 @@ uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
 }  // namespace
 
 uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
-  const uint64_t period = decider_.task_period_us(task);
+  const uint64_t period = decider_->task_period_us(task);
   if (period == 0) return 0;  // no declared task: the core's own windows
   auto it = job_phase_us_.find(task);
   if (it == job_phase_us_.end()) {
@@ -557,7 +558,7 @@ uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
 }
 
 uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
-  const uint64_t period = decider_.task_period_us(task);
+  const uint64_t period = decider_->task_period_us(task);
   auto it = job_phase_us_.find(task);
   if (period == 0 || it == job_phase_us_.end()) return 0;
   return it->second + uint64_t{job} * period;
@@ -565,13 +566,13 @@ uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
 
 uint16_t Monitor::task_priority(uint16_t task) const {
   std::lock_guard lock(mu_);
-  return decider_.task_priority(task);
+  return decider_->task_priority(task);
 }
 
 uint32_t Monitor::job(uint16_t task) const {
   std::lock_guard lock(mu_);
   auto it = job_phase_us_.find(task);
-  const uint64_t period = decider_.task_period_us(task);
+  const uint64_t period = decider_->task_period_us(task);
   if (it == job_phase_us_.end() || period == 0) return 0;
   return grid_job(it->second, period, clock_.now_us());
 }
@@ -585,7 +586,7 @@ void Monitor::task_exited(uint16_t task) {
   drive_safe_state_locked(fmt::format("task {} ({}) exited", task, name), devices);
   // Its session-scoped state (a sequence's position) ends with it: the next
   // run of the task starts its sequences at their first value.
-  if (const uint32_t dropped = decider_.end_session(task); dropped != 0) {
+  if (const uint32_t dropped = decider_->end_session(task); dropped != 0) {
     // Never silent: writes the program was told succeeded that never
     // reached the device (a register group whose last register never came).
     const std::string what = fmt::format(
@@ -614,12 +615,12 @@ std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& w
   checking_task_ = core::kNoTask;  // a computed safe state reads the newest readings
   checking_now_us_ = clock_.now_us();
   std::vector<DeviceFailure> failed;
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
+  for (uint16_t d = 0; d < decider_->device_count(); ++d) {
     if (d < 32 && (devices & (1u << d)) == 0) continue;
-    const core::DeviceRecord& rec = decider_.device(d);
+    const core::DeviceRecord& rec = decider_->device(d);
     if ((rec.role & core::kRoleActuator) == 0) continue;
     core::Verdict v{};
-    if (!decider_.safe_state(d, &v)) continue;
+    if (!decider_->safe_state(d, &v)) continue;
     if (int err = perform_emits(v, rec.ten_bit != 0); err != 0) {
       auto it = buses_.find(v.bus);
       const std::string cause =
@@ -634,7 +635,7 @@ std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& w
 }
 
 int Monitor::sample_device_locked(uint16_t d) {
-  const core::DeviceRecord& rec = decider_.device(d);
+  const core::DeviceRecord& rec = decider_->device(d);
   if (rec.sample_len == 0 || rec.sample_len > core::kMaxSampleBytes) return 0;
   auto it = buses_.find(rec.bus);
   if (it == buses_.end()) return ENODEV;
@@ -668,8 +669,8 @@ int Monitor::sample_device_locked(uint16_t d) {
 std::vector<DeviceFailure> Monitor::sample_all() {
   std::lock_guard lock(mu_);
   std::vector<DeviceFailure> failed;
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    if ((decider_.device(d).role & core::kRoleSensor) == 0) continue;
+  for (uint16_t d = 0; d < decider_->device_count(); ++d) {
+    if ((decider_->device(d).role & core::kRoleSensor) == 0) continue;
     if (int err = sample_device_locked(d); err != 0) failed.push_back({d, err});
   }
   return failed;
@@ -683,8 +684,8 @@ uint64_t Monitor::sample_due() {
 uint64_t Monitor::sample_due_locked() {
   const uint64_t now = clock_.now_us();
   uint64_t next = now + 100000;
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    const core::DeviceRecord& rec = decider_.device(d);
+  for (uint16_t d = 0; d < decider_->device_count(); ++d) {
+    const core::DeviceRecord& rec = decider_->device(d);
     if (!(rec.role & core::kRoleSensor) || rec.sample_period_us == 0) continue;
     uint64_t& at = sample_due_us_[d];
     if (at <= now) {
@@ -702,8 +703,8 @@ void Monitor::start_sampling() {
   // No sensor with a sample period: a thread would only wake to find
   // nothing due (every 100 ms, for the life of the monitor).
   bool periodic = false;
-  for (uint16_t d = 0; d < decider_.device_count(); ++d) {
-    const core::DeviceRecord& rec = decider_.device(d);
+  for (uint16_t d = 0; d < decider_->device_count(); ++d) {
+    const core::DeviceRecord& rec = decider_->device(d);
     periodic = periodic || ((rec.role & core::kRoleSensor) && rec.sample_period_us != 0);
   }
   if (!periodic) return;

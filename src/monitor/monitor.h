@@ -17,6 +17,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -104,6 +105,26 @@ class Monitor final : public gate::Endpoint {
     bool any() const;
   };
   void set_complain(ComplainScope scope);
+
+  // Reload in place (`contego reload`): what the monitor enforces from now
+  // on. The caller checked that the new image has the same devices under the
+  // same ids. Under the monitor's lock, between two transfers (one in
+  // progress finishes under the old policy), `carry` takes the old decider's
+  // model into `decider` (already loaded) and returns the `reload` record's
+  // detail; the record is written, then `decider` decides. An error from
+  // `carry`, or a record that cannot be written, changes nothing. Tasks not
+  // `kept` (another task under the same id, or none) start afresh: job grid,
+  // budget, readings, decision counts. `decider` must outlive the monitor or
+  // the next reload; the old one is no longer used once this returns.
+  struct Policy {
+    NameTable names;
+    std::vector<uint32_t> task_devices;
+    ComplainScope complain;
+    std::map<uint16_t, uint64_t> declared_phases;
+    std::vector<bool> kept;  // by task id of the new image
+  };
+  Result<std::string> reload(Decider& decider, Policy policy,
+                             const std::function<Result<std::string>()>& carry);
 
   // Drives every actuator to its safe state; logs `why`. Returns the
   // actuators whose safe state did not reach the bus (each also audited as a
@@ -197,7 +218,7 @@ class Monitor final : public gate::Endpoint {
   std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why,
                                                      uint32_t devices = UINT32_MAX);
 
-  Decider& decider_;
+  Decider* decider_;  // under mu_ (reload swaps it)
   AuditLog& audit_;
   Clock& clock_;
   mutable std::mutex mu_;

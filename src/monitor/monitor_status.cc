@@ -16,7 +16,7 @@ std::string Monitor::status_json() const {
     const DecisionCounts c = drops_.counts(task);
     nlohmann::json t = {{"id", i},
                         {"name", names_.tasks[i]},
-                        {"period_us", decider_.task_period_us(task)},
+                        {"period_us", decider_->task_period_us(task)},
                         {"decisions",
                          {{"allowed", c.allowed},
                           {"ignored", c.ignored},
@@ -25,7 +25,7 @@ std::string Monitor::status_json() const {
                           {"complained", c.complained}}},
                         {"complain", complains_task_locked(task)}};
     const auto phase = job_phase_us_.find(task);
-    const uint64_t period = decider_.task_period_us(task);
+    const uint64_t period = decider_->task_period_us(task);
     // The job now on the task's grid (monitor.cc's grid_job): 0 before contact.
     uint64_t job = 0;
     if (phase != job_phase_us_.end() && period != 0) {
@@ -38,10 +38,10 @@ std::string Monitor::status_json() const {
     }
     tasks.push_back(std::move(t));
   }
-  for (uint32_t d = 0; d < decider_.device_count(); ++d) {
+  for (uint32_t d = 0; d < decider_->device_count(); ++d) {
     devices.push_back({{"id", d},
                        {"name", d < names_.devices.size() ? names_.devices[d] : std::to_string(d)},
-                       {"latched", decider_.latched(static_cast<uint16_t>(d))}});
+                       {"latched", decider_->latched(static_cast<uint16_t>(d))}});
   }
   const nlohmann::json out = {{"tasks", std::move(tasks)},
                               {"devices", std::move(devices)},

@@ -379,6 +379,8 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       return revouch(s, payload);
     case wire::Type::kStatus:
       return status(s);
+    case wire::Type::kReload:
+      return reload(s, payload);
     default:
       return refuse(EPROTO, fmt::format("unexpected message type {}", type));
   }

@@ -38,6 +38,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -148,10 +149,32 @@ class Server {
   std::string revouch_refusal(const Session& s, pid_t pid);
   gate::wire::Type revouch(Session& s, std::span<const uint8_t> payload);
   gate::wire::Type status(Session& s);  // `contego status` (server_status.cc)
+  gate::wire::Type reload(Session& s, std::span<const uint8_t> payload);  // server_reload.cc
  public:
   // What the status answer names the running policy by (its source and
   // image SHA-256), set once before serve().
   void set_policy_source(std::string source) { policy_source_ = std::move(source); }
+  // `contego reload`: the daemon's hook that verifies and loads a new policy
+  // (this library knows no bundles nor signatures). It gets the request and
+  // the peer's uid once the peer may reload (root or the monitor's uid, not
+  // a task's session nor a supervised program), and answers with the text
+  // for the operator or an errno and reason. A refusal is audited
+  // (`reload-refused`). Unset: reloads are refused (ENOTSUP).
+  struct ReloadAnswer {
+    int err = 0;
+    std::string text;
+  };
+  using Reloader = std::function<ReloadAnswer(const gate::wire::ReloadRequest&, uid_t)>;
+  void set_reloader(Reloader reloader) { reloader_ = std::move(reloader); }
+  // The reloader's last step, once the new policy is verified and loaded:
+  // under the server's lock (no hello, no session end meanwhile) it checks
+  // that every task with a live session keeps its name and id in `tasks`,
+  // then runs `monitor_reload` (Monitor::reload) and, if that succeeds,
+  // serves the new tasks, bindings and source.
+  Result<std::string> apply_reload(std::map<std::string, uint16_t> tasks,
+                                   std::map<std::string, TaskBinding> bindings, std::string source,
+                                   const std::function<Result<std::string>()>& monitor_reload);
+
   // contego-monitor serves `contego run`, another executable installed
   // beside it: its vouches for a program's `exe` are taken as the monitor's
   // own would be. Fails if `path` cannot be stat'ed (the caller says so).
@@ -161,7 +184,8 @@ class Server {
   std::string status_json();
 
  private:
-  std::string policy_source_;
+  std::string policy_source_;  // mu_ (a reload replaces it)
+  Reloader reloader_;          // set before serve()
   const uint64_t started_us_ = monotonic_us();
   // Whether a bound session of `task` has a peer that hung up: its
   // connection's thread has yet to notice and end it. mu_ held.

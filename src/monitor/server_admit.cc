@@ -46,6 +46,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
       break;
     case wire::Type::kReset:
     case wire::Type::kStatus:
+    case wire::Type::kReload:
       if (s.bound) {
         return fmt::format(
             "the connection speaks for task {}: a task's session may not "

@@ -32,11 +32,11 @@ wire::Type Server::status(Session& s) {
 
 std::string Server::status_json() {
   nlohmann::json j = nlohmann::json::parse(monitor_.status_json());
-  j["policy"] = policy_source_;
   j["pid"] = getpid();
   j["uptime_s"] = (monotonic_us() - started_us_) / 1000000u;
   {
     std::lock_guard lock(mu_);
+    j["policy"] = policy_source_;
     for (auto& t : j["tasks"]) {
       const auto id = t["id"].get<uint16_t>();
       const auto live = live_sessions_.find(id);

@@ -23,6 +23,18 @@ void SensorReadings::reset(uint32_t device_count) {
   sensors_.resize(device_count);
 }
 
+void SensorReadings::redescribe(uint16_t device, const core::DeviceRecord& rec) {
+  if (device >= sensors_.size()) return;
+  Sensor old = std::move(sensors_[device]);
+  describe(device, rec);
+  Sensor& s = sensors_[device];
+  if (s.is_sensor && old.is_sensor && s.request == old.request && s.sample_len == old.sample_len) {
+    s.request_pending = old.request_pending;
+    s.newest = old.newest;
+    s.by_task = std::move(old.by_task);
+  }
+}
+
 void SensorReadings::describe(uint16_t device, const core::DeviceRecord& rec) {
   if (device >= sensors_.size()) return;
   Sensor& s = sensors_[device];

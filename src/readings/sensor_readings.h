@@ -42,6 +42,9 @@ class SensorReadings {
   // sensors' sampling fields are kept.
   void reset(uint32_t device_count);
   void describe(uint16_t device, const core::DeviceRecord& rec);
+  // `describe` for a reloaded policy: a sensor sampled as before (the same
+  // request and length) keeps its readings; its limits are the new record's.
+  void redescribe(uint16_t device, const core::DeviceRecord& rec);
 
   // A write the bus performed on (bus, addr), from anyone: it moves a
   // sensor's register pointer / command state.

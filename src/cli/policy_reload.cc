@@ -1,0 +1,244 @@
+#include "cli/policy_reload.h"
+
+#include <errno.h>
+
+#include <algorithm>
+#include <fmt/core.h>
+#include <fmt/format.h>
+#include <memory>
+#include <mutex>
+
+#include "contego/core/image.h"
+
+#include "bundle/bundle.h"
+#include "bundle/minisign.h"
+
+namespace contego::cli {
+namespace {
+
+using monitor::Server;
+
+struct Refusal {
+  int err;
+  std::string why;
+};
+
+// The record ids of the running image (`old`) that the new image's records
+// continue, by name, and the names of those that start afresh.
+struct Pairing {
+  std::vector<uint16_t> tasks, devices, commands, rates, invariants;
+  std::vector<bool> kept;
+  std::vector<std::string> afresh;
+  size_t paired = 0;
+};
+
+template <typename Records, typename Same>
+std::vector<uint16_t> pair_by_name(const Records& now, const Records& old, const char* kind,
+                                   Same same, Pairing& p) {
+  std::vector<uint16_t> ids(now.size(), core::kNone);
+  for (size_t i = 0; i < now.size(); ++i) {
+    for (size_t o = 0; o < old.size(); ++o) {
+      if (old[o].name == now[i].name && same(now[i].record, old[o].record)) {
+        ids[i] = static_cast<uint16_t>(o);
+        ++p.paired;
+        break;
+      }
+    }
+    if (ids[i] == core::kNone) p.afresh.push_back(fmt::format("{} {}", kind, now[i].name));
+  }
+  return ids;
+}
+
+Result<Pairing> pair(const image::ImageModel& now, const image::ImageModel& old) {
+  Pairing p;
+  if (now.devices.size() != old.devices.size()) {
+    return make_error(fmt::format(
+        "the new policy has {} devices, the running one {}: a reload keeps the devices (restart "
+        "the monitor to add or remove one)",
+        now.devices.size(), old.devices.size()));
+  }
+  for (size_t d = 0; d < now.devices.size(); ++d) {
+    const auto& a = now.devices[d];
+    const auto& b = old.devices[d];
+    if (a.name != b.name || a.record.bus != b.record.bus || a.record.addr != b.record.addr ||
+        a.record.ten_bit != b.record.ten_bit || a.record.profile != b.record.profile) {
+      return make_error(fmt::format(
+          "device {} of the new policy (bus {}, address 0x{:02x}) is not the running policy's "
+          "device {} (bus {}, address 0x{:02x}) with the same profile: a reload keeps the "
+          "devices, in their order (restart the monitor to change them)",
+          a.name, a.record.bus, a.record.addr, b.name, b.record.bus, b.record.addr));
+    }
+    p.devices.push_back(static_cast<uint16_t>(d));
+  }
+  for (size_t t = 0; t < now.tasks.size(); ++t) {
+    const bool kept = t < old.tasks.size() && old.tasks[t].name == now.tasks[t].name;
+    p.kept.push_back(kept);
+    p.tasks.push_back(kept ? static_cast<uint16_t>(t) : core::kNone);
+    if (!kept) p.afresh.push_back("task " + now.tasks[t].name);
+  }
+  auto task_pair = [&](uint16_t t) { return t < p.tasks.size() ? p.tasks[t] : core::kNone; };
+  p.commands = pair_by_name(
+      now.commands, old.commands, "command",
+      [](const core::CommandRecord& a, const core::CommandRecord& b) {
+        return a.device == b.device && a.field_count == b.field_count;
+      },
+      p);
+  p.rates = pair_by_name(
+      now.rates, old.rates, "rate limit",
+      [&](const core::RateRecord& a, const core::RateRecord& b) {
+        return a.device == b.device && task_pair(a.task) == b.task;
+      },
+      p);
+  p.invariants = pair_by_name(
+      now.invariants, old.invariants, "invariant",
+      [](const core::InvariantRecord& a, const core::InvariantRecord& b) {
+        return a.device == b.device && a.scope == b.scope;
+      },
+      p);
+  return p;
+}
+
+class Reloader {
+ public:
+  Reloader(const monitor::SetupOptions& options, monitor::Trusted& trusted, Server& server,
+           std::function<void(const std::string&)> reloaded)
+      : options_(options), trusted_(trusted), server_(server), reloaded_(std::move(reloaded)) {}
+
+  Server::ReloadAnswer operator()(const gate::wire::ReloadRequest& request, uid_t uid) {
+    std::lock_guard lock(mu_);  // one reload at a time
+    auto done = reload(request, uid);
+    if (!done.ok()) return {done.error().err, done.error().why};
+    return {0, *done};
+  }
+
+ private:
+  struct Done {
+    bool ok() const { return refusal.err == 0; }
+    const Refusal& error() const { return refusal; }
+    const std::string& operator*() const { return text; }
+    std::string text;
+    Refusal refusal{0, {}};
+  };
+  static Done refuse(int err, std::string why) { return {{}, {err, std::move(why)}}; }
+
+  // "" when unsigned and none is required; else who signed it.
+  Result<std::string> signer(const gate::wire::ReloadRequest& r) const {
+    if (r.signature.empty()) {
+      if (!options_.require_signed) return std::string();
+      return make_error(
+          "--require-signed: the bundle has no signature (sign it with `minisign -Sm FILE`; "
+          "`contego reload --bundle FILE` sends FILE.minisig)");
+    }
+    auto keys = bundle::load_trusted_keys(options_.keys_dir);
+    if (!keys.ok()) return make_error("the bundle is signed, but " + keys.error());
+    auto v = bundle::verify_minisign(r.bundle, r.signature, "the reload's signature", *keys);
+    if (!v.ok()) return make_error(v.error());
+    return fmt::format("signed by key ID {} ({}), trusted comment \"{}\"", v->key_id_hex,
+                       v->key_source, v->trusted_comment);
+  }
+
+  Done reload(const gate::wire::ReloadRequest& request, uid_t uid) {
+    auto signed_by = signer(request);
+    if (!signed_by.ok()) return refuse(EPERM, signed_by.error());
+    auto b = bundle::decode_bundle(request.bundle, "the reload's bundle");
+    if (!b.ok()) return refuse(EINVAL, b.error());
+    const std::string hash = bundle::image_sha256(b->image);
+    auto model = image::deserialize(b->image);
+    if (!model.ok()) return refuse(EINVAL, "the reload's image: " + model.error());
+    auto next = std::make_unique<monitor::CoreDecider>();
+    const core::LoadResult lr =
+        next->checker().load(b->image.data(), static_cast<uint32_t>(b->image.size()));
+    if (lr.status != core::LoadStatus::kOk) {
+      return refuse(EINVAL, fmt::format("the reload's image is refused by the verifier: {} "
+                                        "(section {}, record {})",
+                                        core::load_status_name(lr.status), lr.section, lr.index));
+    }
+    auto pairing = pair(*model, trusted_.model);
+    if (!pairing.ok()) return refuse(EINVAL, pairing.error());
+    const std::string source =
+        fmt::format("{} (bundle reloaded by uid {}, SHA-256 {}{}{})", b->policy, uid, hash,
+                    signed_by->empty() ? "" : ", ", *signed_by);
+    std::map<std::string, uint16_t> tasks;
+    for (size_t i = 0; i < model->tasks.size(); ++i) {
+      tasks[model->tasks[i].name] = static_cast<uint16_t>(i);
+    }
+    std::map<std::string, monitor::TaskBinding> bindings;
+    std::vector<std::string> warnings;
+    monitor::Monitor::Policy policy;
+    for (const auto& task : b->tasks) {
+      auto bound = monitor::resolve_binding(
+          task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
+      if (!bound.ok()) return refuse(EINVAL, bound.error());
+      if (!bound->unresolved.empty()) {
+        warnings.push_back(bound->unresolved + ": every hello for it is refused");
+      }
+      bindings[task.name] = *bound;
+      const auto id = tasks.find(task.name);
+      if (task.phase_us && id != tasks.end()) policy.declared_phases[id->second] = *task.phase_us;
+    }
+    auto complain = monitor::complain_scope(options_, *model);
+    if (!complain.ok()) return refuse(EINVAL, complain.error());
+    policy.names = monitor::name_table(*model);
+    for (const auto& a : model->access) policy.task_devices.push_back(a.actuate_devices);
+    policy.complain = complain->first;
+    policy.kept = pairing->kept;
+
+    const std::string old_hash = trusted_.image_sha256;
+    const Pairing& p = *pairing;
+    auto carry = [&]() -> Result<std::string> {
+      const core::Checker::CarryMap map{p.tasks.data(), p.devices.data(), p.commands.data(),
+                                        p.rates.data(), p.invariants.data()};
+      const core::Checker::CarryResult r =
+          next->checker().carry_from(trusted_.decider->checker(), map);
+      if (!r.ok) return make_error("the core refused to carry the running model over");
+      std::string detail = fmt::format(
+          "policy {} by uid {}: image SHA-256 {} -> {}{}; kept the state of {} device(s) and {} "
+          "task(s), command(s), rate limit(s) and invariant(s); {}{}",
+          b->policy, uid, old_hash, hash, signed_by->empty() ? "" : ", " + *signed_by,
+          p.devices.size(),
+          p.paired + static_cast<size_t>(std::count(p.kept.begin(), p.kept.end(), true)),
+          p.afresh.empty() ? "nothing started afresh"
+                           : fmt::format("started afresh: {}", fmt::join(p.afresh, ", ")),
+          r.staged_dropped == 0
+              ? ""
+              : fmt::format("; {} staged register write(s) of tasks the new policy does not "
+                            "keep dropped",
+                            r.staged_dropped));
+      return detail;
+    };
+    auto applied = server_.apply_reload(std::move(tasks), bindings, source, [&] {
+      return trusted_.monitor->reload(*next, std::move(policy), carry);
+    });
+    if (!applied.ok()) return refuse(EBUSY, applied.error());
+    // The monitor decides with `next` now: the old core is no longer used.
+    trusted_.decider = std::move(next);
+    trusted_.model = std::move(*model);
+    trusted_.image_sha256 = hash;
+    trusted_.source = source;
+    trusted_.bindings = std::move(bindings);
+    trusted_.tasks.clear();
+    for (size_t i = 0; i < trusted_.model.tasks.size(); ++i) {
+      trusted_.tasks[trusted_.model.tasks[i].name] = static_cast<uint16_t>(i);
+    }
+    if (reloaded_) reloaded_(hash);
+    std::string text = "reloaded: " + *applied;
+    for (const auto& w : warnings) text += "\nwarning: " + w;
+    return {text, {0, {}}};
+  }
+
+  const monitor::SetupOptions& options_;
+  monitor::Trusted& trusted_;
+  Server& server_;
+  std::function<void(const std::string&)> reloaded_;
+  std::mutex mu_;
+};
+
+}  // namespace
+
+Server::Reloader make_reloader(const monitor::SetupOptions& options, monitor::Trusted& trusted,
+                               Server& server, std::function<void(const std::string&)> reloaded) {
+  auto r = std::make_shared<Reloader>(options, trusted, server, std::move(reloaded));
+  return [r](const gate::wire::ReloadRequest& request, uid_t uid) { return (*r)(request, uid); };
+}
+
+}  // namespace contego::cli
