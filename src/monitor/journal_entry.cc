@@ -6,7 +6,7 @@
 namespace contego::monitor {
 
 Priority event_priority(std::string_view kind) {
-  static constexpr std::array<std::pair<std::string_view, Priority>, 22> kPriorities{{
+  static constexpr std::array<std::pair<std::string_view, Priority>, 24> kPriorities{{
       {"fault", Priority::kError},
       {"bus-error", Priority::kError},
       {"audit-gap", Priority::kError},
@@ -20,6 +20,7 @@ Priority event_priority(std::string_view kind) {
       {"hello-refused", Priority::kWarning},
       {"identity-refused", Priority::kWarning},
       {"reset-refused", Priority::kWarning},
+      {"reload-refused", Priority::kWarning},
       {"malformed", Priority::kWarning},
       {"inexpressible", Priority::kWarning},
       {"staged-dropped", Priority::kWarning},
@@ -28,6 +29,7 @@ Priority event_priority(std::string_view kind) {
       {"start", Priority::kNotice},
       {"stop", Priority::kNotice},
       {"reset", Priority::kNotice},
+      {"reload", Priority::kNotice},
       {"policy-load", Priority::kNotice},
   }};
   for (const auto& [name, priority] : kPriorities) {

@@ -53,7 +53,7 @@ set_word 0
 # fail-safe replaces by the expected 577.
 mkdir -p /opt/robot
 cat >/opt/robot/gripper.py <<'EOF'
-import errno, os, time
+import errno, os, signal, time
 from smbus2 import SMBus
 
 def attempt(what, fn):
@@ -82,6 +82,18 @@ with SMBus(1) as bus:
     except OSError as e:
         print("GRIPPER led5", errno.errorcode.get(e.errno, e.errno), flush=True)
 print("GRIPPER holding", flush=True)
+# SIGUSR1 (once the scenario reloaded the policy): two pulses on LED0, one
+# per job: 560, then 590, which the reloaded policy's servo window refuses.
+signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGUSR1})
+signal.sigwait({signal.SIGUSR1})
+with SMBus(1) as bus:
+    def pulse0(p):
+        for reg, value in ((0x06, 0), (0x07, 0), (0x08, p & 0xFF), (0x09, p >> 8)):
+            bus.write_byte_data(0x40, reg, value)
+    attempt("after-reload led0-560", lambda: pulse0(560))
+    time.sleep(1.05)
+    attempt("after-reload led0-590", lambda: pulse0(590))
+print("GRIPPER after-reload done", flush=True)
 while True:
     time.sleep(3600)
 EOF
@@ -163,6 +175,61 @@ journalctl --list-catalog 2>/dev/null | grep -q '^334d55ae757948bf9f52f566d57d47
   ok "the journal's catalog explains the monitor's entries (journalctl --list-catalog)" ||
   bad "contego.catalog is not in the journal's catalog"
 
+# ---- reload in place: a changed limit while the program runs ------------------
+led0() { echo $(($(i2cget -y 0 $A 0x08) | $(i2cget -y 0 $A 0x09) << 8)); }
+hash_of_status() { contego status --json | python3 -c 'import json, re, sys; print(re.search("SHA-256 ([0-9a-f]{64})", json.load(sys.stdin)["policy"])[1])'; }
+mpid=$(systemctl show -p MainPID --value contego-monitor)
+gpid=$(systemctl show -p MainPID --value contego-run@gripper)
+old=$(hash_of_status)
+led5_before=$(word)
+printf 'task broken {\n' >/tmp/broken.policy
+contego reload --policy /tmp/broken.policy >/tmp/reload-broken.out 2>&1
+rc=$?
+[ $rc = 2 ] && grep -q 'does not compile' /tmp/reload-broken.out &&
+  ok "contego reload of a policy that does not compile: exit 2, $(head -n1 /tmp/reload-broken.out)" ||
+  bad "contego reload of a broken policy: exit $rc"
+contego check /etc/contego/robot.policy --emit-bundle /tmp/robot.bundle >/dev/null 2>&1
+python3 - /tmp/robot.bundle /tmp/bad.bundle <<'PY'
+import hashlib, json, sys
+b = json.load(open(sys.argv[1]))
+image = bytearray.fromhex(b["image"])
+image[-1] ^= 0xFF  # the image's last byte: its checksum no longer holds
+b["image"], b["image_sha256"] = image.hex(), hashlib.sha256(image).hexdigest()
+json.dump(b, open(sys.argv[2], "w"))
+PY
+contego reload --bundle /tmp/bad.bundle >/tmp/reload-bad.out 2>&1
+rc=$?
+[ $rc = 1 ] && [ "$(hash_of_status)" = "$old" ] &&
+  ok "a corrupt image refused (exit 1), the old policy stays: $(head -n1 /tmp/reload-bad.out | cut -c1-160)" ||
+  bad "a corrupt bundle's reload: exit $rc, policy now $(hash_of_status)"
+sed -i 's/^const SERVO_MAX = 600 /const SERVO_MAX = 580 /' /etc/contego/robot.policy
+if contego reload --policy /etc/contego/robot.policy >/tmp/reload.out 2>&1; then
+  ok "contego reload --policy /etc/contego/robot.policy: $(cut -c1-200 /tmp/reload.out)"
+else
+  bad "contego reload failed: $(cat /tmp/reload.out)"
+fi
+new=$(hash_of_status)
+pkill -USR1 -f '^/usr/bin/python3 /opt/robot/gripper.py'
+for i in $(seq 1 100); do
+  journalctl -u contego-run@gripper --no-pager -o cat | grep -q 'GRIPPER after-reload done' && break
+  sleep 0.2
+done
+journalctl -u contego-run@gripper --no-pager -o cat | grep 'after-reload' | show
+[ "$(systemctl show -p MainPID --value contego-monitor)" = "$mpid" ] &&
+  [ "$(systemctl show -p MainPID --value contego-run@gripper)" = "$gpid" ] &&
+  ok "the monitor (pid $mpid) and the supervised program's unit (pid $gpid) kept running through the reload" ||
+  bad "a reload restarted the monitor or the program"
+[ "$new" != "$old" ] && grep -a '"kind":"reload"' /var/log/contego/audit.jsonl | grep -q "$old -> $new" &&
+  ok "the reload record names both images: ${old:0:12}... -> ${new:0:12}... (contego status names the new one)" ||
+  bad "no reload record with both hashes (status: $new)"
+[ "$(word)" = "$led5_before" ] &&
+  ! sed -n '/"kind":"reload"/,$p' /var/log/contego/audit.jsonl | grep -q '"kind":"safe-state"' &&
+  ok "no safe state driven by the reload (LED5 off stays $led5_before)" ||
+  bad "the reload drove the safe state (LED5 off $led5_before -> $(word))"
+[ "$(led0)" = 560 ] && grep -a '"rule_name":"SERVO_WINDOW"' /var/log/contego/audit.jsonl | grep -q '"fields":\[0,590,' &&
+  ok "the new limit is in effect: LED0 560 allowed, 590 ignored by the reloaded SERVO_WINDOW (LED0 off=$(led0))" ||
+  bad "after the reload LED0 off=$(led0), the 590 pulse not refused by the new window"
+
 # ---- stop: the safe state -----------------------------------------------------
 set_word 0x41 # anything but the safe state
 systemctl stop contego-monitor
@@ -171,9 +238,26 @@ systemctl stop contego-monitor
 check "contego-run@gripper stopped with the monitor" sh -c '! systemctl is-active -q contego-run@gripper'
 
 # ---- restart: the chain stays verifiable --------------------------------------
-systemctl start contego-monitor contego-run@gripper && systemctl restart contego-monitor ||
-  bad "systemctl start/restart contego-monitor failed"
+systemctl start contego-monitor contego-run@gripper || bad "systemctl start contego-monitor failed"
+gpid=$(systemctl show -p MainPID --value contego-run@gripper)
+systemctl restart contego-monitor || bad "systemctl restart contego-monitor failed"
 check "contego-monitor active after restart" systemctl is-active contego-monitor
+# The task units follow the monitor: restarted with it (PartOf=), and back
+# by themselves after a monitor that was killed is started again by systemd.
+active_gripper() {
+  for i in $(seq 1 100); do
+    systemctl is-active -q contego-monitor && systemctl is-active -q contego-run@gripper &&
+      [ "$(systemctl show -p MainPID --value contego-run@gripper)" != "$1" ] && return 0
+    sleep 0.2
+  done
+  return 1
+}
+active_gripper "$gpid" && ok "systemctl restart contego-monitor restarts contego-run@gripper after it (PartOf=)" ||
+  bad "contego-run@gripper not back after systemctl restart contego-monitor ($(systemctl is-active contego-run@gripper))"
+gpid=$(systemctl show -p MainPID --value contego-run@gripper)
+systemctl kill -s KILL contego-monitor
+active_gripper "$gpid" && ok "after SIGKILL of the monitor, systemd starts it again and contego-run@gripper comes back" ||
+  bad "after SIGKILL of the monitor: monitor $(systemctl is-active contego-monitor), gripper $(systemctl is-active contego-run@gripper)"
 sleep 1
 if contego audit /var/log/contego/audit.jsonl >/tmp/audit.out 2>&1; then
   ok "after stop, start and restart: contego audit verifies the chain ($(wc -l </var/log/contego/audit.jsonl) records)"
