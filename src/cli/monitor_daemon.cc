@@ -221,7 +221,7 @@ int run_monitor_daemon(const MonitorArgs& args) {
   monitor::Server server(*(*trusted)->monitor, (*trusted)->audit, (*trusted)->tasks, uids, spin,
                          args.realtime, args.limits);
   server.set_bindings((*trusted)->bindings);
-  server.set_policy_source((*trusted)->source);
+  server.set_policy_source((*trusted)->source, (*trusted)->image_sha256);
   // `contego reload`: a new bundle in place, sessions and state kept.
   const bool journal = so.audit_options.journal != nullptr;
   server.set_reloader(make_reloader(so, **trusted, server, [&](const std::string& sha256) {

@@ -206,7 +206,7 @@ class Reloader {
                             r.staged_dropped));
       return detail;
     };
-    auto applied = server_.apply_reload(std::move(tasks), bindings, source, [&] {
+    auto applied = server_.apply_reload(std::move(tasks), bindings, source, hash, [&] {
       return trusted_.monitor->reload(*next, std::move(policy), carry);
     });
     if (!applied.ok()) return refuse(EBUSY, applied.error());

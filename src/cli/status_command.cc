@@ -37,8 +37,13 @@ void print_human(const nlohmann::json& j) {
   }
   fmt::print("devices:\n");
   for (const auto& d : j["devices"]) {
-    fmt::print("  {:<16} {}\n", d.value("name", ""),
-               d.value("latched", false) ? "LATCHED (contego reset clears it)" : "ok");
+    std::string more;
+    if (d.contains("sample_age_ms"))
+      more += fmt::format(", newest reading {} ms old", d.value("sample_age_ms", 0));
+    if (d.contains("safe_state_age_s"))
+      more += fmt::format(", safe state driven {} s ago", d.value("safe_state_age_s", 0));
+    fmt::print("  {:<16} {}{}\n", d.value("name", ""),
+               d.value("latched", false) ? "LATCHED (contego reset clears it)" : "ok", more);
   }
   const auto& a = j["audit"];
   fmt::print("audit:    {} at byte {}, {} records, {} failures, last SHA-256 {}\n",

@@ -39,8 +39,9 @@ std::string metrics_text(const std::string& status_json) {
   if (j.is_discarded()) return {};
   std::string out;
   family(out, "contego_info", "gauge", "The policy the monitor enforces (value 1).");
-  out += fmt::format("contego_info{{policy=\"{}\",complain=\"{}\"}} 1\n",
-                     label(j.value("policy", "")), j.value("complain", false) ? "1" : "0");
+  out += fmt::format("contego_info{{policy=\"{}\",image_sha256=\"{}\",complain=\"{}\"}} 1\n",
+                     label(j.value("policy", "")), label(j.value("image_sha256", "")),
+                     j.value("complain", false) ? "1" : "0");
   family(out, "contego_uptime_seconds", "gauge", "Seconds since the monitor started serving.");
   out += fmt::format("contego_uptime_seconds {}\n", j.value("uptime_s", 0));
   family(out, "contego_decisions_total", "counter", "Checked commands by task and verdict.");
@@ -64,6 +65,13 @@ std::string metrics_text(const std::string& status_json) {
   for (const auto& d : j["devices"]) {
     out += fmt::format("contego_device_latched{{device=\"{}\"}} {}\n", label(d.value("name", "")),
                        d.value("latched", false) ? 1 : 0);
+  }
+  family(out, "contego_device_sample_age_seconds", "gauge",
+         "Age of the sensor's newest reading (sensors that have one).");
+  for (const auto& d : j["devices"]) {
+    if (!d.contains("sample_age_ms")) continue;
+    out += fmt::format("contego_device_sample_age_seconds{{device=\"{}\"}} {:.3f}\n",
+                       label(d.value("name", "")), d.value("sample_age_ms", 0) / 1000.0);
   }
   family(out, "contego_holds_total", "counter", "Transfers held over a task's budget.");
   out += fmt::format("contego_holds_total {}\n", j.value("holds", 0));

@@ -629,6 +629,8 @@ std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& w
                    fmt::format("safe state of device {} (i2c-{} 0x{:02x}) failed: errno {}{}{}", d,
                                rec.bus, rec.addr, err, cause.empty() ? "" : ": ", cause));
       failed.push_back({d, err});
+    } else {
+      safe_at_us_[d] = checking_now_us_;
     }
   }
   return failed;

@@ -245,6 +245,7 @@ class Monitor final : public gate::Endpoint {
   std::atomic<uint64_t> audit_refusals_{0};
   bool audit_lost_ = false;  // under mu_: the last check()'s record was not written
   std::map<uint16_t, uint64_t> sample_due_us_;  // under mu_: each periodic sensor's next sample
+  std::map<uint16_t, uint64_t> safe_at_us_;     // under mu_: each actuator's last safe state
   std::thread sampler_;
   std::condition_variable sampler_cv_;
   bool sampler_stop_ = false;

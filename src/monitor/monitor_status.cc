@@ -39,9 +39,19 @@ std::string Monitor::status_json() const {
     tasks.push_back(std::move(t));
   }
   for (uint32_t d = 0; d < decider_->device_count(); ++d) {
-    devices.push_back({{"id", d},
-                       {"name", d < names_.devices.size() ? names_.devices[d] : std::to_string(d)},
-                       {"latched", decider_->latched(static_cast<uint16_t>(d))}});
+    const auto id = static_cast<uint16_t>(d);
+    nlohmann::json dev = {
+        {"id", d},
+        {"name", d < names_.devices.size() ? names_.devices[d] : std::to_string(d)},
+        {"latched", decider_->latched(id)}};
+    // A sensor's newest reading (the monitor's sample or a task's read).
+    if (const readings::Reading* r = readings_.for_check(core::kNoTask, id, now)) {
+      dev["sample_age_ms"] = now >= r->taken_at_us ? (now - r->taken_at_us) / 1000 : 0;
+    }
+    if (auto s = safe_at_us_.find(id); s != safe_at_us_.end()) {
+      dev["safe_state_age_s"] = now >= s->second ? (now - s->second) / 1000000 : 0;
+    }
+    devices.push_back(std::move(dev));
   }
   const nlohmann::json out = {{"tasks", std::move(tasks)},
                               {"devices", std::move(devices)},

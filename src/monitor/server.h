@@ -153,7 +153,10 @@ class Server {
  public:
   // What the status answer names the running policy by (its source and
   // image SHA-256), set once before serve().
-  void set_policy_source(std::string source) { policy_source_ = std::move(source); }
+  void set_policy_source(std::string source, std::string image_sha256 = {}) {
+    policy_source_ = std::move(source);
+    image_sha256_ = std::move(image_sha256);
+  }
   // `contego reload`: the daemon's hook that verifies and loads a new policy
   // (this library knows no bundles nor signatures). It gets the request and
   // the peer's uid once the peer may reload (root or the monitor's uid, not
@@ -173,6 +176,7 @@ class Server {
   // serves the new tasks, bindings and source.
   Result<std::string> apply_reload(std::map<std::string, uint16_t> tasks,
                                    std::map<std::string, TaskBinding> bindings, std::string source,
+                                   std::string image_sha256,
                                    const std::function<Result<std::string>()>& monitor_reload);
 
   // contego-monitor serves `contego run`, another executable installed
@@ -185,6 +189,7 @@ class Server {
 
  private:
   std::string policy_source_;  // mu_ (a reload replaces it)
+  std::string image_sha256_;   // mu_
   Reloader reloader_;          // set before serve()
   const uint64_t started_us_ = monotonic_us();
   // Whether a bound session of `task` has a peer that hung up: its

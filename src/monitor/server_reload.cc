@@ -38,7 +38,8 @@ wire::Type Server::reload(Session& s, std::span<const uint8_t> payload) {
 
 Result<std::string> Server::apply_reload(
     std::map<std::string, uint16_t> tasks, std::map<std::string, TaskBinding> bindings,
-    std::string source, const std::function<Result<std::string>()>& monitor_reload) {
+    std::string source, std::string image_sha256,
+    const std::function<Result<std::string>()>& monitor_reload) {
   std::lock_guard lock(mu_);
   for (const auto& [name, id] : tasks_) {
     const auto live = live_sessions_.find(id);
@@ -62,6 +63,7 @@ Result<std::string> Server::apply_reload(
   tasks_ = std::move(tasks);
   bindings_ = std::move(bindings);
   policy_source_ = std::move(source);
+  image_sha256_ = std::move(image_sha256);
   return done;
 }
 

@@ -37,6 +37,7 @@ std::string Server::status_json() {
   {
     std::lock_guard lock(mu_);
     j["policy"] = policy_source_;
+    j["image_sha256"] = image_sha256_;
     for (auto& t : j["tasks"]) {
       const auto id = t["id"].get<uint16_t>();
       const auto live = live_sessions_.find(id);

@@ -24,7 +24,7 @@ grep -q "cannot write the metrics file /proc/contego-nowhere/contego.prom.tmp" "
 mon=$!
 for _ in $(seq 100); do [ -S "$dir/m.sock" ] && break; sleep 0.1; done
 [ -S "$dir/m.sock" ] || { cat "$dir/mon.err"; fail "the monitor did not start"; }
-grep -q '^contego_info{policy=".*rover.policy (SHA-256 [0-9a-f]*)",complain="0"} 1$' "$dir/m.prom" ||
+grep -q '^contego_info{policy=".*rover.policy (SHA-256 [0-9a-f]*)",image_sha256="[0-9a-f]\{64\}",complain="0"} 1$' "$dir/m.prom" ||
   fail "no contego_info at start"
 "$contego" run --socket "$dir/m.sock" --task follower -- /bin/sh -c \
   "i2cset -y 1 0x08 0x01 0x46 i; i2cset -y 1 0x08 0x01 0x46 i" >/dev/null 2>&1 || true
@@ -47,9 +47,11 @@ for line in open(sys.argv[1]):
     elif line.startswith("# HELP ") or not line:
         continue
     else:
-        m = re.fullmatch(r'([a-z_]+)(\{[^}]*\})? ([0-9]+)', line)
+        m = re.fullmatch(r'([a-z_]+)(\{[^}]*\})? ([0-9]+(\.[0-9]+)?)', line)
         assert m and m.group(1) in typed, line
 PY
+grep -qE '^contego_device_sample_age_seconds\{device="line"\} [0-9]+\.[0-9]{3}$' "$dir/m.prom" ||
+  fail "no sample age of the line sensor"
 [ ! -e "$dir/m.prom.tmp" ] || fail "a temporary file was left"
 kill "$mon"
 wait "$mon" || true

@@ -50,10 +50,16 @@ import hashlib
 last = [l for l in open(sys.argv[2], "rb").read().split(b"\n") if l.startswith(b"{")][-1]
 assert s["audit"]["last_hash"] == hashlib.sha256(last).hexdigest(), "last hash"
 assert s["complain"] is False and s["uptime_s"] >= 0
+line = next(d for d in s["devices"] if d["name"] == "line")
+assert 0 <= line["sample_age_ms"] < 60000, line          # the sensor's newest reading
+gopigo = next(d for d in s["devices"] if d["name"] == "gopigo")
+assert gopigo["safe_state_age_s"] >= 0 and "sample_age_ms" not in gopigo, gopigo
+assert len(s["image_sha256"]) == 64 and s["image_sha256"] in s["policy"], s["image_sha256"]
 PY
 "$contego" status --socket "$dir/m.sock" >"$dir/st.out" || fail "status exit $?"
 grep -q '^  follower .*sessions 1' "$dir/st.out" || fail "the human status has no live follower"
-grep -q '^  gopigo .* ok$' "$dir/st.out" || fail "the human status has no gopigo"
+grep -q '^  gopigo .* ok, safe state driven [0-9]* s ago' "$dir/st.out" || fail "the human status has no gopigo"
+grep -q '^  line .* ok, newest reading [0-9]* ms old' "$dir/st.out" || fail "the human status has no reading age"
 
 # A supervised program asks (the task's one session free again): refused,
 # whatever its uid.

@@ -31,7 +31,10 @@ release=$(cat "$kdir/version")
 # packages' own Depends and Recommends (first of each alternative, versions
 # dropped: bookworm's are the ones they were built against; a package of the
 # set itself, as contego-dkms recommends contego, comes from its .deb).
-base=(systemd-sysv udev kmod dbus i2c-tools python3-smbus2 sudo adduser apt)
+# The fleet's own tools the scenario ships the monitor's output with:
+# node_exporter (the metrics file), curl, systemd-journal-remote.
+base=(systemd-sysv udev kmod dbus i2c-tools python3-smbus2 sudo adduser apt
+  prometheus-node-exporter curl systemd-journal-remote)
 deps=$(for deb in "$@"; do dpkg-deb -f "$deb" Depends Recommends; done | sed 's/^[A-Za-z-]*: //' |
   tr ',' '\n' | sed 's/|.*//; s/(.*)//; s/:any//; s/^ *//; s/ *$//' | grep -v '^$' || true)
 own=$(for deb in "$@"; do dpkg-deb -f "$deb" Package; done)

@@ -121,6 +121,11 @@ muid=$(awk '/^Uid:/ { print $2 }' /proc/"$(systemctl show -p MainPID --value con
 # small daemon (same main PID): what decides is contego-monitor.
 mexe=$(readlink /proc/"$(systemctl show -p MainPID --value contego-monitor)"/exe)
 [ "$mexe" = /usr/bin/contego-monitor ] && ok "the unit's main process is $mexe" || bad "the unit's main process is $mexe, not /usr/bin/contego-monitor"
+# The units' exposure as systemd rates it (recorded in docs/packaging.md).
+for unit in contego-monitor.service contego-run@gripper.service; do
+  sec=$(systemd-analyze security --no-pager "$unit" 2>&1 | grep 'Overall exposure level')
+  [ -n "$sec" ] && ok "systemd-analyze security $unit: ${sec#*: }" || bad "systemd-analyze security $unit printed no exposure level"
+done
 
 # The program's own view, in its journal.
 for i in $(seq 1 100); do
@@ -240,6 +245,9 @@ check "contego-run@gripper stopped with the monitor" sh -c '! systemctl is-activ
 # ---- restart: the chain stays verifiable --------------------------------------
 systemctl start contego-monitor contego-run@gripper || bad "systemctl start contego-monitor failed"
 gpid=$(systemctl show -p MainPID --value contego-run@gripper)
+# The restart takes the metrics file (docs/deployment.md, "Metrics").
+sed -i 's#^CONTEGO_MONITOR_OPTS="\(.*\)"$#CONTEGO_MONITOR_OPTS="\1 --metrics-file /run/contego-metrics/contego.prom"#' /etc/default/contego
+grep -q 'metrics-file' /etc/default/contego || bad "--metrics-file not added to /etc/default/contego"
 systemctl restart contego-monitor || bad "systemctl restart contego-monitor failed"
 check "contego-monitor active after restart" systemctl is-active contego-monitor
 # The task units follow the monitor: restarted with it (PartOf=), and back
@@ -258,6 +266,40 @@ gpid=$(systemctl show -p MainPID --value contego-run@gripper)
 systemctl kill -s KILL contego-monitor
 active_gripper "$gpid" && ok "after SIGKILL of the monitor, systemd starts it again and contego-run@gripper comes back" ||
   bad "after SIGKILL of the monitor: monitor $(systemctl is-active contego-monitor), gripper $(systemctl is-active contego-run@gripper)"
+
+# ---- the fleet's tools: node_exporter serves the metrics, the journal ships ----
+# The metrics file, as docs/deployment.md sets it up (the restart above took
+# --metrics-file from /etc/default/contego), scraped over loopback.
+for i in $(seq 1 50); do [ -s /run/contego-metrics/contego.prom ] && break; sleep 0.2; done
+prometheus-node-exporter --web.listen-address=127.0.0.1:9111 \
+  --collector.textfile.directory=/run/contego-metrics >/tmp/node-exporter.log 2>&1 &
+nepid=$!
+for i in $(seq 1 100); do
+  curl -sf http://127.0.0.1:9111/metrics >/tmp/scrape.txt 2>/dev/null && grep -q '^contego_info' /tmp/scrape.txt && break
+  sleep 0.2
+done
+kill $nepid 2>/dev/null
+grep '^contego_' /tmp/scrape.txt | head -n 6 | show
+grep -q '^contego_decisions_total{' /tmp/scrape.txt && grep -q '^contego_info{.*image_sha256="[0-9a-f]\{64\}"' /tmp/scrape.txt &&
+  ok "node_exporter's textfile collector serves the monitor's metrics (curl http://127.0.0.1:9111/metrics: $(grep -c '^contego_' /tmp/scrape.txt) contego_ samples)" ||
+  bad "the metrics are not served by node_exporter ($(stat -c '%U:%G %a' /run/contego-metrics/contego.prom 2>&1))"
+# The journal's structured entries to a systemd-journal-remote on loopback.
+mkdir -p /var/log/journal/remote
+/lib/systemd/systemd-journal-remote --listen-http=127.0.0.1:19532 --output=/var/log/journal/remote/ \
+  >/tmp/journal-remote.log 2>&1 &
+jrpid=$!
+sleep 1
+timeout 60 /lib/systemd/systemd-journal-upload --url=http://127.0.0.1:19532 --follow=no \
+  --save-state=/tmp/journal-upload.state >/tmp/journal-upload.log 2>&1
+rc=$?
+sleep 1
+kill $jrpid 2>/dev/null
+n=$(journalctl -D /var/log/journal/remote CONTEGO_KIND=decision CONTEGO_TASK=gripper --no-pager -o export 2>/dev/null |
+  grep -ac '^MESSAGE_ID=334d55ae757948bf9f52f566d57d4744$')
+[ $rc = 0 ] && [ "$n" -gt 0 ] &&
+  ok "systemd-journal-upload -> systemd-journal-remote (loopback): $n decision entries of the gripper received with their fields (journalctl -D /var/log/journal/remote CONTEGO_KIND=decision)" ||
+  bad "the journal's entries did not reach systemd-journal-remote (upload exit $rc, $n decisions received)"
+journalctl -D /var/log/journal/remote CONTEGO_KIND=reload --no-pager -o cat 2>/dev/null | head -n 1 | cut -c1-160 | show
 sleep 1
 if contego audit /var/log/contego/audit.jsonl >/tmp/audit.out 2>&1; then
   ok "after stop, start and restart: contego audit verifies the chain ($(wc -l </var/log/contego/audit.jsonl) records)"
