@@ -330,3 +330,100 @@ Result<std::vector<MinisignKey>> load_trusted_keys(const std::string& dir) {
 }
 
 }  // namespace contego::bundle
+
+namespace contego::bundle {
+namespace {
+
+std::string encode_base64(const uint8_t* bytes, size_t n) {
+  std::string out(4 * ((n + 2) / 3) + 1, '\0');
+  const int len =
+      EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()), bytes, static_cast<int>(n));
+  out.resize(len < 0 ? 0 : static_cast<size_t>(len));
+  return out;
+}
+
+// `key`'s Ed25519 signature of `data`, or why libcrypto could not make it.
+Result<std::array<uint8_t, 64>> ed25519_sign(const MinisignSecretKey& key, std::string_view data) {
+  static const unsigned char kEmpty = 0;
+  const auto* bytes = data.empty() ? &kEmpty : reinterpret_cast<const unsigned char*>(data.data());
+  std::unique_ptr<EVP_PKEY, PkeyFree> pkey(
+      EVP_PKEY_new_raw_private_key(EVP_PKEY_ED25519, nullptr, key.seed.data(), key.seed.size()));
+  std::unique_ptr<EVP_MD_CTX, MdCtxFree> ctx(EVP_MD_CTX_new());
+  std::array<uint8_t, 64> sig{};
+  size_t n = sig.size();
+  if (!pkey || !ctx || EVP_DigestSignInit(ctx.get(), nullptr, nullptr, nullptr, pkey.get()) != 1 ||
+      EVP_DigestSign(ctx.get(), sig.data(), &n, bytes, data.size()) != 1 || n != sig.size()) {
+    ERR_clear_error();
+    return make_error("libcrypto cannot make Ed25519 signatures");
+  }
+  return sig;
+}
+
+}  // namespace
+
+Result<MinisignSecretKey> parse_minisign_secret_key(std::string_view text,
+                                                    const std::string& source) {
+  constexpr const char* kWhat = "a minisign secret key file";
+  try {
+    Result<std::vector<std::string_view>> lines = split_lines(text, source, 2, kWhat);
+    if (!lines) return make_error(lines.error());
+    if (!(*lines)[0].starts_with(kUntrustedPrefix)) {
+      return make_error(source + ": line 1: expected 'untrusted comment: ...' as in " + kWhat);
+    }
+    Result<std::vector<uint8_t>> b =
+        decode_line((*lines)[1], source, 2, 158, "158 bytes: a minisign secret key");
+    if (!b) return make_error(b.error());
+    const std::string_view alg(reinterpret_cast<const char*>(b->data()), 2);
+    const std::string_view kdf(reinterpret_cast<const char*>(b->data() + 2), 2);
+    if (alg != "Ed") return make_error(source + ": not an Ed25519 minisign key " + quote(alg));
+    if (kdf != std::string_view("\0\0", 2)) {
+      return make_error(source +
+                        ": the key is encrypted with a password; the monitor signs unattended: "
+                        "make its key with `minisign -G -W`");
+    }
+    MinisignSecretKey key;
+    key.source = source;
+    constexpr size_t kKeynum = 2 + 2 + 2 + 32 + 8 + 8;
+    std::copy_n(b->begin() + kKeynum, 8, key.id.begin());
+    std::copy_n(b->begin() + kKeynum + 8, 32, key.seed.begin());
+    std::copy_n(b->begin() + kKeynum + 40, 32, key.public_key.begin());
+    // The public half must be the seed's: a damaged file never signs.
+    std::unique_ptr<EVP_PKEY, PkeyFree> pkey(
+        EVP_PKEY_new_raw_private_key(EVP_PKEY_ED25519, nullptr, key.seed.data(), key.seed.size()));
+    std::array<uint8_t, 32> derived{};
+    size_t n = derived.size();
+    if (!pkey || EVP_PKEY_get_raw_public_key(pkey.get(), derived.data(), &n) != 1 ||
+        derived != key.public_key) {
+      ERR_clear_error();
+      return make_error(source + ": damaged: its public half is not its secret half's");
+    }
+    return key;
+  } catch (const std::exception& e) {
+    return make_error(source + ": " + e.what());
+  }
+}
+
+Result<std::string> sign_minisign(std::string_view message, const MinisignSecretKey& key,
+                                  std::string_view trusted_comment) {
+  if (trusted_comment.find_first_of("\r\n") != std::string_view::npos) {
+    return make_error("a trusted comment is one line");
+  }
+  Result<std::array<uint8_t, 64>> digest = blake2b512(message);
+  if (!digest) return make_error(digest.error());
+  Result<std::array<uint8_t, 64>> sig = ed25519_sign(
+      key, std::string_view(reinterpret_cast<const char*>(digest->data()), digest->size()));
+  if (!sig) return make_error(sig.error());
+  std::vector<uint8_t> line2 = {'E', 'D'};
+  line2.insert(line2.end(), key.id.begin(), key.id.end());
+  line2.insert(line2.end(), sig->begin(), sig->end());
+  std::string global(reinterpret_cast<const char*>(sig->data()), sig->size());
+  global.append(trusted_comment);
+  Result<std::array<uint8_t, 64>> global_sig = ed25519_sign(key, global);
+  if (!global_sig) return make_error(global_sig.error());
+  return std::string(kUntrustedPrefix) + "signature from contego, key ID " +
+         minisign_key_id_hex(key.id) + "\n" + encode_base64(line2.data(), line2.size()) + "\n" +
+         std::string(kTrustedPrefix) + std::string(trusted_comment) + "\n" +
+         encode_base64(global_sig->data(), global_sig->size()) + "\n";
+}
+
+}  // namespace contego::bundle

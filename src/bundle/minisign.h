@@ -1,7 +1,7 @@
 // Verifies minisign signatures (Ed25519; https://jedisct1.github.io/minisign/)
-// of policy bundles, with OpenSSL's libcrypto. Only verification: bundles are
-// signed with the `minisign` tool. Every function returns a Result whose error
-// names the file (its `source`) and what is wrong with it; none throws.
+// of policy bundles, with OpenSSL's libcrypto, and makes them for the audit
+// log's checkpoints (bundles are signed with the `minisign` tool). Every function returns a Result
+// whose error names the file (its `source`) and what is wrong with it; none throws.
 //
 // Files, as minisign writes them (each line ends in LF; CRLF is accepted):
 //   public key: `untrusted comment: ...` / base64("Ed" || key id[8] || key[32])
@@ -48,6 +48,25 @@ Result<MinisignVerified> verify_minisign(std::string_view message, std::string_v
 // Every `*.pub` file of `dir`, in name order, each parsed. A file that does
 // not parse, an unreadable, missing or key-less directory is an error.
 Result<std::vector<MinisignKey>> load_trusted_keys(const std::string& dir);
+
+// An unencrypted minisign secret key (`minisign -G -W`): base64("Ed" || kdf
+// "\0\0" || "B2" || salt[32] || opslimit[8] || memlimit[8] || key id[8] ||
+// seed[32] || public key[32] || checksum[32]) after an untrusted comment.
+// An encrypted key (kdf "Sc") is refused with the way to make one; the
+// public half must be the seed's.
+struct MinisignSecretKey {
+  std::array<uint8_t, 8> id{};
+  std::array<uint8_t, 32> seed{};
+  std::array<uint8_t, 32> public_key{};
+  std::string source;
+};
+Result<MinisignSecretKey> parse_minisign_secret_key(std::string_view text,
+                                                    const std::string& source);
+
+// A minisign signature file's text for `message` (prehashed, "ED"), with
+// `trusted_comment` (one line) signed beside it: `minisign -Vm` verifies it.
+Result<std::string> sign_minisign(std::string_view message, const MinisignSecretKey& key,
+                                  std::string_view trusted_comment);
 
 // The key id as minisign prints it: a little-endian uint64 in uppercase hex.
 std::string minisign_key_id_hex(const std::array<uint8_t, 8>& id);

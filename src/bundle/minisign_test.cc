@@ -429,5 +429,52 @@ TEST_F(MinisignToolTest, RefusesSignatureByAnotherKeyNamingItsId) {
                            ", not by any trusted key");
 }
 
+// A key made with `minisign -G -W` (unencrypted): the monitor's checkpoint key.
+constexpr std::string_view kSecretKey =
+    "untrusted comment: minisign encrypted secret key\n"
+    "RWQAAEIyAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAXyzufampJEwsZ6cFGDIub"
+    "NQ+4vL5eCboHv7FNECNaGnfKfXz0kZ3r4Fk0EhJQLfA6lbD5NtX+"
+    "ICT8bwjsBSYR2XeMZqJVP4AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA=\n";
+constexpr std::string_view kSecretKeysPublic =
+    "untrusted comment: minisign public key\n"
+    "RWQBfLO59qakkb4Fk0EhJQLfA6lbD5NtX+ICT8bwjsBSYR2XeMZqJVP4\n";
+
+TEST(MinisignTest, SignsWhatItsVerifierAndMinisignAccept) {
+  Result<MinisignSecretKey> key = parse_minisign_secret_key(kSecretKey, "checkpoint.key");
+  ASSERT_TRUE(key.ok()) << key.error();
+  Result<MinisignKey> pub = parse_minisign_public_key(kSecretKeysPublic, "checkpoint.pub");
+  ASSERT_TRUE(pub.ok()) << pub.error();
+  EXPECT_EQ(key->id, pub->id);
+  Result<std::string> sig = sign_minisign("records 12, last SHA-256 ab", *key, "checkpoint 1");
+  ASSERT_TRUE(sig.ok()) << sig.error();
+  Result<MinisignVerified> v =
+      verify_minisign("records 12, last SHA-256 ab", *sig, "checkpoint", {*pub});
+  ASSERT_TRUE(v.ok()) << v.error();
+  EXPECT_TRUE(v->prehashed);
+  EXPECT_EQ(v->trusted_comment, "checkpoint 1");
+  EXPECT_FALSE(verify_minisign("records 13, last SHA-256 ab", *sig, "checkpoint", {*pub}).ok());
+  EXPECT_FALSE(sign_minisign("m", *key, "two\nlines").ok());
+}
+
+TEST(MinisignTest, RefusesEncryptedAndDamagedSecretKeys) {
+  const std::string encrypted =
+      "untrusted comment: "
+      "k\nRWRTY0IyAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAXyzufampJEwsZ6cF"
+      "GDIubNQ+4vL5eCboHv7FNECNaGnfKfXz0kZ3r4Fk0EhJQLfA6lbD5NtX+"
+      "ICT8bwjsBSYR2XeMZqJVP4AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA=\n";
+  Result<MinisignSecretKey> e = parse_minisign_secret_key(encrypted, "enc.key");
+  ASSERT_FALSE(e.ok());
+  EXPECT_THAT(e.error(), HasSubstr("minisign -G -W"));
+  const std::string damaged =
+      "untrusted comment: "
+      "k\nRWQAAEIyAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAXyzufampJEwsZ6cF"
+      "GDIubNQ+4vL5eCboHv7FNECNaGnfKfXz0kZ3r4Fk0EhJQLfA6lbD5NtX+"
+      "ICT8bwjsBSYR2XeMZqJVP5AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAA=\n";
+  Result<MinisignSecretKey> d = parse_minisign_secret_key(damaged, "dam.key");
+  ASSERT_FALSE(d.ok());
+  EXPECT_THAT(d.error(), HasSubstr("damaged"));
+  EXPECT_FALSE(parse_minisign_secret_key(kSecretKeysPublic, "pub.key").ok());
+}
+
 }  // namespace
 }  // namespace contego::bundle

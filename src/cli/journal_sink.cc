@@ -14,7 +14,7 @@ namespace contego::cli {
 
 std::string_view journal_message_id(std::string_view kind) {
   // Made once (random), never changed: the catalog and users' queries name them.
-  static constexpr std::array<std::pair<std::string_view, std::string_view>, 11> kIds{{
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 12> kIds{{
       {"decision", "334d55ae757948bf9f52f566d57d4744"},
       {"latch", "c27b77bf0db14c9087e89c4f03878cde"},
       {"audit-failure", "969724f62f4545f98ce89cf5a10817ca"},
@@ -26,6 +26,7 @@ std::string_view journal_message_id(std::string_view kind) {
       {"stop", "2e880b3021aa47e8825fed4e34147f3d"},
       {"reload", "fb6c3a66e1f8439c97153c1461357e0b"},
       {"reload-refused", "d89ee09a2dde4d55b0ffd79b502e780e"},
+      {"checkpoint", "41e0c6f03c064eab929ee55a9f38db73"},
   }};
   for (const auto& [name, id] : kIds) {
     if (name == kind) return id;

@@ -10,11 +10,15 @@
 #include <cstdlib>
 #include <fmt/core.h>
 #include <fstream>
+#include <functional>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 
+#include "base/read_file.h"
 #include "bundle/bundle.h"
+#include "bundle/minisign.h"
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
 #include "cli/command.h"
@@ -30,16 +34,16 @@
 namespace contego::cli {
 namespace {
 
-// Rewrites the metrics file every interval on its own thread, and once more
-// when stopped; a failed write is said on standard error (rate: once per
-// interval) and never stops the monitor.
-class MetricsWriter {
+// Runs `fn` every interval on its own thread until stopped (when stopped,
+// once more if `at_stop`). `fn` says what went wrong on standard error
+// itself and never stops the monitor.
+class Periodic {
  public:
-  MetricsWriter(monitor::Server& server, std::string path, uint32_t interval_s)
-      : server_(server), path_(std::move(path)), interval_(interval_s) {
-    if (!path_.empty()) thread_ = std::thread([this] { loop(); });
+  Periodic(std::function<void()> fn, uint32_t interval_s, bool enabled, bool at_stop)
+      : fn_(std::move(fn)), interval_(interval_s), at_stop_(at_stop) {
+    if (enabled) thread_ = std::thread([this] { loop(); });
   }
-  ~MetricsWriter() { stop(); }
+  ~Periodic() { stop(); }
   void stop() {
     if (!thread_.joinable()) return;
     {
@@ -48,7 +52,7 @@ class MetricsWriter {
     }
     cv_.notify_all();
     thread_.join();
-    write();
+    if (at_stop_) fn_();
   }
 
  private:
@@ -56,24 +60,44 @@ class MetricsWriter {
     std::unique_lock lock(mu_);
     while (!cv_.wait_for(lock, interval_, [this] { return stopping_; })) {
       lock.unlock();
-      write();
+      fn_();
       lock.lock();
     }
   }
-  void write() {
-    if (Status s = monitor::write_metrics_file(path_, monitor::metrics_text(server_.status_json()));
-        !s.ok()) {
-      fmt::print(stderr, "contego monitor: {}\n", s.error());
-    }
-  }
-  monitor::Server& server_;
-  std::string path_;
+  std::function<void()> fn_;
   std::chrono::seconds interval_;
+  bool at_stop_;
   std::mutex mu_;
   std::condition_variable cv_;
   bool stopping_ = false;
   std::thread thread_;
 };
+
+// A signed checkpoint: the chain's anchor (the last record's SHA-256 and the
+// count) in a `checkpoint` record, signed with the monitor's minisign key,
+// so that a copy off the robot (the journal, a fleet's log store) proves
+// what the log held then. The signed text is the detail's first line; the
+// rest is the signature file (`minisign -Vm` verifies it too).
+bool write_checkpoint(monitor::AuditLog& audit, const bundle::MinisignSecretKey& key) {
+  std::string error;
+  const bool written =
+      audit.anchored_event("checkpoint", [&](const std::string& prev, uint64_t records) {
+        const std::string signed_text =
+            fmt::format("contego audit checkpoint: {} records, last SHA-256 {}", records,
+                        prev.empty() ? "-" : prev);
+        auto signature = bundle::sign_minisign(signed_text, key, signed_text);
+        if (!signature.ok()) {
+          error = signature.error();
+          return std::string();
+        }
+        return signed_text + "\n" + *signature;
+      });
+  if (!written) {
+    fmt::print(stderr, "contego monitor: the signed checkpoint was not written{}{}\n",
+               error.empty() ? "" : ": ", error);
+  }
+  return written;
+}
 
 }  // namespace
 
@@ -130,6 +154,14 @@ void add_monitor_options(CLI::App* cmd, MonitorArgs* args, bool daemon) {
   cmd->add_option("--metrics-interval", args->metrics_interval_s,
                   "seconds between two writes of --metrics-file")
       ->check(CLI::Range(1u, 3600u))
+      ->capture_default_str();
+  cmd->add_option("--checkpoint-key", args->checkpoint_key,
+                  "an unencrypted minisign secret key (`minisign -G -W`): every "
+                  "--checkpoint-interval, and at stop, a `checkpoint` record signed with it "
+                  "anchors the log's chain (`contego audit --keys-dir` verifies them)");
+  cmd->add_option("--checkpoint-interval", args->checkpoint_interval_s,
+                  "seconds between two signed checkpoints")
+      ->check(CLI::Range(1u, 86400u))
       ->capture_default_str();
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
   cmd->add_option("--spin-us", args->spin_us,
@@ -193,6 +225,20 @@ int run_monitor_daemon(const MonitorArgs& args) {
   }
   // Under systemd (stderr is the journal): violations go there too.
   so.audit_options.echo_violations = std::getenv("JOURNAL_STREAM") != nullptr;
+  // The checkpoint key is read before anything starts: a key that does not
+  // parse refuses the start.
+  std::optional<bundle::MinisignSecretKey> checkpoint_key;
+  if (!args.checkpoint_key.empty()) {
+    auto text = read_input_file(args.checkpoint_key);
+    auto key =
+        text.ok() ? bundle::parse_minisign_secret_key(*text, args.checkpoint_key)
+                  : Result<bundle::MinisignSecretKey>(make_error("checkpoint key " + text.error()));
+    if (!key.ok()) {
+      fmt::print(stderr, "contego monitor: --checkpoint-key: {}\n", key.error());
+      return 2;
+    }
+    checkpoint_key = std::move(*key);
+  }
   auto loaded = monitor::load_verified(so);
   if (so.bundle_fd >= 0) ::close(so.bundle_fd);  // read whole; no descriptor outlives the load
   if (!loaded.ok()) {
@@ -249,7 +295,17 @@ int run_monitor_daemon(const MonitorArgs& args) {
       return 2;
     }
   }
-  MetricsWriter metrics(server, args.metrics_file, args.metrics_interval_s);
+  Periodic metrics(
+      [&] {
+        if (Status s = monitor::write_metrics_file(args.metrics_file,
+                                                   monitor::metrics_text(server.status_json()));
+            !s.ok()) {
+          fmt::print(stderr, "contego monitor: {}\n", s.error());
+        }
+      },
+      args.metrics_interval_s, !args.metrics_file.empty(), /*at_stop=*/true);
+  Periodic checkpoints([&] { write_checkpoint((*trusted)->audit, *checkpoint_key); },
+                       args.checkpoint_interval_s, checkpoint_key.has_value(), /*at_stop=*/false);
   const std::string serving = !args.image.empty()    ? args.image
                               : !args.bundle.empty() ? args.bundle
                                                      : args.policy;
@@ -281,12 +337,15 @@ int run_monitor_daemon(const MonitorArgs& args) {
   });
   server.serve();
   metrics.stop();
+  checkpoints.stop();
   served.store(true);
   pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it if it still waits
   waiter.join();
   systemd.stopping(why);
   (*trusted)->monitor->drive_safe_state(why);
   (*trusted)->monitor->stop_sampling();
+  // The last checkpoint covers the stop and its safe state.
+  if (checkpoint_key) write_checkpoint((*trusted)->audit, *checkpoint_key);
   if (!args.virtual_state.empty()) {
     std::ofstream(args.virtual_state) << monitor::virtual_state(**trusted);
   }

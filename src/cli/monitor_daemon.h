@@ -41,6 +41,8 @@ struct MonitorArgs {
   monitor::ServerLimits limits;
   std::string metrics_file;
   uint32_t metrics_interval_s = 15;
+  std::string checkpoint_key;  // minisign secret key: signed checkpoints in the log
+  uint32_t checkpoint_interval_s = 3600;
 };
 
 // Every option of the monitor on `cmd`. `daemon`: contego-monitor's own

@@ -587,6 +587,26 @@ bool AuditLog::event(const std::string& kind, const std::string& detail, int64_t
   return written;
 }
 
+bool AuditLog::anchored_event(
+    const std::string& kind,
+    const std::function<std::string(const std::string& prev_hash, uint64_t records)>& detail) {
+  const uint64_t t = wall_us();
+  std::lock_guard lock(mu_);
+  if (mode_ == Mode::kNone) return false;
+  const std::string text = detail(prev_, lines_);
+  if (text.empty()) return false;
+  line_.clear();
+  line_ += "{\"detail\":";
+  put_string(line_, text);
+  line_ += ",\"kind\":";
+  put_string(line_, kind);
+  fmt::format_to(Out(line_), ",\"t_us\":{}", t);
+  const bool written = commit_locked(line_);
+  if (written) ++recorded_in_file_;
+  if (options_.journal) journal_event_locked(kind, text);
+  return written;
+}
+
 uint64_t AuditLog::failures() const {
   std::lock_guard lock(mu_);
   return failures_;

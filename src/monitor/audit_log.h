@@ -29,6 +29,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <istream>
 #include <map>
 #include <mutex>
@@ -119,6 +120,13 @@ class AuditLog {
   }
   // Monitor events: start, safe-state, fault, task-exit, peer ...
   bool event(const std::string& kind, const std::string& detail);
+  // An event whose detail is made under the log's lock from the chain's
+  // anchor at that point: the SHA-256 of the record it will follow and the
+  // records written so far (a signed checkpoint). "" from `detail`: nothing
+  // is written (false).
+  bool anchored_event(
+      const std::string& kind,
+      const std::function<std::string(const std::string& prev_hash, uint64_t records)>& detail);
   // An event the writer did not see happen (contego.ko's records, written
   // later by `contego kmod audit`): its time as RecordNames's mono_us and
   // t_us (-1: the writer's own time, and no mono_us).

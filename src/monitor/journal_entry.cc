@@ -6,7 +6,7 @@
 namespace contego::monitor {
 
 Priority event_priority(std::string_view kind) {
-  static constexpr std::array<std::pair<std::string_view, Priority>, 24> kPriorities{{
+  static constexpr std::array<std::pair<std::string_view, Priority>, 25> kPriorities{{
       {"fault", Priority::kError},
       {"bus-error", Priority::kError},
       {"audit-gap", Priority::kError},
@@ -30,6 +30,7 @@ Priority event_priority(std::string_view kind) {
       {"stop", Priority::kNotice},
       {"reset", Priority::kNotice},
       {"reload", Priority::kNotice},
+      {"checkpoint", Priority::kNotice},
       {"policy-load", Priority::kNotice},
   }};
   for (const auto& [name, priority] : kPriorities) {

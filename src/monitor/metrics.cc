@@ -86,6 +86,25 @@ std::string metrics_text(const std::string& status_json) {
   out += fmt::format("contego_audit_failures_total {}\n", a.value("failures", 0));
   family(out, "contego_audit_bytes", "gauge", "The audit file's size up to its last record.");
   out += fmt::format("contego_audit_bytes {}\n", a.value("position", 0));
+  if (j.contains("check_cost")) {
+    const auto& c = j["check_cost"];
+    family(out, "contego_check_duration_seconds", "histogram",
+           "Wall-clock time of deciding a transfer (the core's checks, not the bus I/O).");
+    uint64_t cumulative = 0;
+    const auto& bounds = c["bounds_ns"];
+    const auto& counts = c["counts"];
+    for (size_t i = 0; i < counts.size(); ++i) {
+      cumulative += counts[i].get<uint64_t>();
+      const std::string le =
+          i < bounds.size()
+              ? fmt::format("{:g}", static_cast<double>(bounds[i].get<uint64_t>()) / 1e9)
+              : "+Inf";
+      out += fmt::format("contego_check_duration_seconds_bucket{{le=\"{}\"}} {}\n", le, cumulative);
+    }
+    out += fmt::format("contego_check_duration_seconds_sum {:.9f}\n",
+                       static_cast<double>(c.value("sum_ns", uint64_t{0})) / 1e9);
+    out += fmt::format("contego_check_duration_seconds_count {}\n", c.value("count", 0));
+  }
   return out;
 }
 

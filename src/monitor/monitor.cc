@@ -353,8 +353,11 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
   // the call acts unless the core's combination of the verdicts says so, and
   // then the core's model holds exactly what acts (docs/core.md, "Transfers").
   size_t checked = 0;
-  if (int err = check_transfer(task, t, planned, &checked); err != 0) {
-    reply.err = err;
+  const uint64_t check_started_ns = monotonic_ns();
+  const int check_err = check_transfer(task, t, planned, &checked);
+  check_cost_.add(monotonic_ns() - check_started_ns);
+  if (check_err != 0) {
+    reply.err = check_err;
     return reply;
   }
   const core::TransferVerdict tv =

@@ -45,6 +45,23 @@ namespace contego::monitor {
 uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
                           uint64_t contact_us);
 
+// The wall-clock cost of deciding transfers (`contego status`, the metrics'
+// contego_check_duration_seconds histogram).
+inline constexpr std::array<uint64_t, 9> kCheckCostBoundsNs = {1000,  2000,   5000,   10000,  20000,
+                                                               50000, 100000, 250000, 1000000};
+struct CheckCost {
+  std::array<uint64_t, kCheckCostBoundsNs.size() + 1> counts{};
+  uint64_t sum_ns = 0;
+  uint64_t count = 0;
+  void add(uint64_t ns) {
+    size_t i = 0;
+    while (i < kCheckCostBoundsNs.size() && ns > kCheckCostBoundsNs[i]) ++i;
+    ++counts[i];
+    sum_ns += ns;
+    ++count;
+  }
+};
+
 // A device the monitor could not read or drive: its id in the image and the
 // bus's errno (ENODEV: no adapter for its bus).
 struct DeviceFailure {
@@ -246,6 +263,10 @@ class Monitor final : public gate::Endpoint {
   bool audit_lost_ = false;  // under mu_: the last check()'s record was not written
   std::map<uint16_t, uint64_t> sample_due_us_;  // under mu_: each periodic sensor's next sample
   std::map<uint16_t, uint64_t> safe_at_us_;     // under mu_: each actuator's last safe state
+  // What deciding a transfer cost (check_transfer: the core's checks, not the
+  // bus), as a histogram for the metrics: counts per upper bound in
+  // kCheckCostBoundsNs (the last: above every bound), their sum and count.
+  CheckCost check_cost_;  // under mu_
   std::thread sampler_;
   std::condition_variable sampler_cv_;
   bool sampler_stop_ = false;

@@ -53,12 +53,15 @@ std::string Monitor::status_json() const {
     }
     devices.push_back(std::move(dev));
   }
-  const nlohmann::json out = {{"tasks", std::move(tasks)},
-                              {"devices", std::move(devices)},
-                              {"decisions", decisions_.load()},
-                              {"holds", holds_.load()},
-                              {"audit_refusals", audit_refusals_.load()},
-                              {"complain", complain_.any()}};
+  nlohmann::json cost = {{"bounds_ns", kCheckCostBoundsNs},
+                         {"counts", check_cost_.counts},
+                         {"sum_ns", check_cost_.sum_ns},
+                         {"count", check_cost_.count}};
+  const nlohmann::json out = {
+      {"tasks", std::move(tasks)},     {"check_cost", std::move(cost)},
+      {"devices", std::move(devices)}, {"decisions", decisions_.load()},
+      {"holds", holds_.load()},        {"audit_refusals", audit_refusals_.load()},
+      {"complain", complain_.any()}};
   return out.dump();
 }
 

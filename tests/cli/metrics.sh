@@ -42,14 +42,21 @@ for line in open(sys.argv[1]):
     line = line.rstrip("\n")
     if line.startswith("# TYPE "):
         name, kind = line.split()[2:4]
-        assert kind in ("counter", "gauge"), line
+        assert kind in ("counter", "gauge", "histogram"), line
         typed.add(name)
     elif line.startswith("# HELP ") or not line:
         continue
     else:
         m = re.fullmatch(r'([a-z_]+)(\{[^}]*\})? ([0-9]+(\.[0-9]+)?)', line)
-        assert m and m.group(1) in typed, line
+        base = re.sub(r'_(bucket|sum|count)$', '', m.group(1)) if m else ""
+        assert m and (m.group(1) in typed or base in typed), line
 PY
+# The cost of deciding: a histogram whose +Inf bucket counts every decided transfer.
+grep -qE '^contego_check_duration_seconds_bucket\{le="\+Inf"\} [1-9][0-9]*$' "$dir/m.prom" &&
+  grep -qE '^contego_check_duration_seconds_bucket\{le="1e-06"\} [0-9]+$' "$dir/m.prom" &&
+  [ "$(sed -n 's/^contego_check_duration_seconds_count //p' "$dir/m.prom")" = \
+    "$(sed -n 's/^contego_check_duration_seconds_bucket{le="+Inf"} //p' "$dir/m.prom")" ] ||
+  fail "no check-cost histogram"
 grep -qE '^contego_device_sample_age_seconds\{device="line"\} [0-9]+\.[0-9]{3}$' "$dir/m.prom" ||
   fail "no sample age of the line sensor"
 [ ! -e "$dir/m.prom.tmp" ] || fail "a temporary file was left"

@@ -214,7 +214,11 @@ else
   bad "contego reload failed: $(cat /tmp/reload.out)"
 fi
 new=$(hash_of_status)
-pkill -USR1 -f '^/usr/bin/python3 /opt/robot/gripper.py'
+# The program (no procps in the guest: its pid from /proc).
+for p in /proc/[0-9]*; do
+  [ "$(tr '\0' ' ' <"$p/cmdline" 2>/dev/null)" = "/usr/bin/python3 /opt/robot/gripper.py " ] &&
+    kill -USR1 "${p#/proc/}"
+done
 for i in $(seq 1 100); do
   journalctl -u contego-run@gripper --no-pager -o cat | grep -q 'GRIPPER after-reload done' && break
   sleep 0.2
