@@ -3,8 +3,9 @@
 // empty). The key parsed from the first part, if any, and a fixed key (that
 // signed the seeds, so mutations get past the parsers) verify the second part
 // over the third; the whole input is also tried as a signature file and as a
-// key file. An error must name its source; an accepted signature's trusted
-// comment must come from the signature file.
+// key file, and as a checkpoint secret key. An error must name its source;
+// an accepted signature's trusted comment must come from the signature file;
+// an accepted secret key's signature must verify with its public half.
 // Seeds (fuzz/corpus/minisign/): files made by minisign 0.11.
 #include <cstddef>
 #include <cstdint>
@@ -63,5 +64,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (Result<MinisignKey> k = parse_minisign_public_key(input, "fuzz.pub"); !k) {
     check_error(k.error(), "fuzz.pub");
   }
+  // The whole input as the monitor's checkpoint key: an accepted one signs
+  // what its own public half verifies.
+  Result<MinisignSecretKey> secret = parse_minisign_secret_key(input, "fuzz.key");
+  if (!secret) return check_error(secret.error(), "fuzz.key"), 0;
+  MinisignKey pub;
+  pub.id = secret->id;
+  pub.key = secret->public_key;
+  pub.source = "fuzz.key";
+  Result<std::string> signature = sign_minisign(rest, *secret, "fuzz");
+  if (!signature || !verify_minisign(rest, *signature, "fuzz.minisig", {pub})) __builtin_trap();
   return 0;
 }

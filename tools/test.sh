@@ -91,7 +91,7 @@ ctest --preset dev -L 'vm|bench|tree' -E '^vm\.booted_guest$' -LE arm64
 step "tsan build + monitor, supervisor and gate tests"
 cmake --preset tsan >/dev/null
 cmake --build --preset tsan --target supervisor_test monitor_test policy_e2e_test gate_test \
-  seccomp_filter_test identity_test monitor_reading_test readings_test
+  seccomp_filter_test identity_test monitor_reading_test readings_test reload_race_test
 ctest --preset tsan -L 'monitor|supervisor|gate'
 done_with build/tsan
 

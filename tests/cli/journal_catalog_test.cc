@@ -19,14 +19,15 @@ TEST(JournalCatalog, ExplainsEveryKindsMessageIdAndNoOther) {
     if (line.rfind("-- ", 0) == 0) catalog.insert(line.substr(3));
   }
   std::set<std::string> sent;
-  for (const char* kind : {"decision", "latch", "audit-failure", "start", "start-refused",
-                           "safe-state", "fault", "reset", "stop"}) {
+  for (const char* kind :
+       {"decision", "latch", "audit-failure", "start", "start-refused", "safe-state", "fault",
+        "reset", "stop", "reload", "reload-refused", "checkpoint"}) {
     const std::string id(journal_message_id(kind));
     EXPECT_EQ(id.size(), 32u) << kind;
     EXPECT_TRUE(catalog.contains(id)) << kind << " (" << id << ") is not in the catalog";
     sent.insert(id);
   }
-  EXPECT_EQ(sent.size(), 9u) << "two kinds share an id";
+  EXPECT_EQ(sent.size(), 12u) << "two kinds share an id";
   for (const std::string& id : catalog) EXPECT_TRUE(sent.contains(id)) << id << " is sent by none";
   EXPECT_FALSE(sent.contains(std::string(journal_message_id("shadow"))));
 }
