@@ -96,7 +96,7 @@ class ReloadRace : public ::testing::Test {
   monitor::Server::Reloader reloader_;
 };
 
-TEST_F(ReloadRace, ReloadsBetweenTransfersKeepEveryAnswerAndTheSequence) {
+TEST_F(ReloadRace, ReloadsBetweenTransfersKeepEveryAnswer) {
   const std::string a = bundle_text(dir_ + "/a.policy");
   const std::string b = bundle_text(dir_ + "/b.policy");
   const uint16_t gripper = trusted_->tasks.at("gripper");
