@@ -30,16 +30,6 @@ namespace {
 
 constexpr uint64_t kRatePerSecond = 15;  // the rover: 3 commands per 200 ms
 
-monitor::NameTable names_of(const image::ImageModel& m) {
-  monitor::NameTable n;
-  for (const auto& r : m.tasks) n.tasks.push_back(r.name);
-  for (const auto& r : m.devices) n.devices.push_back(r.name);
-  for (const auto& r : m.commands) n.commands.push_back(r.name);
-  for (const auto& r : m.rates) n.rates.push_back(r.name);
-  for (const auto& r : m.invariants) n.invariants.push_back(r.name);
-  return n;
-}
-
 uint64_t file_size(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_size) : 0;
@@ -82,7 +72,7 @@ int run(int argc, char** argv) {
   bus.attach(line);
   ManualClock clock(1'000'000);
   auto mon = std::make_unique<monitor::Monitor>(decider, *audit, clock);
-  mon->set_names(names_of(*model));
+  mon->set_names(monitor::name_table(*model));
   mon->add_bus(1, &bus);
   mon->set_drop_report(nullptr);
   mon->sample_all();

@@ -227,21 +227,6 @@ Result<LoadedPolicy> load_verified(const SetupOptions& o) {
   return p;
 }
 
-monitor::NameTable name_table(const image::ImageModel& model) {
-  monitor::NameTable n;
-  auto names = [](const auto& records) {
-    std::vector<std::string> v;
-    for (const auto& r : records) v.push_back(r.name);
-    return v;
-  };
-  n.tasks = names(model.tasks);
-  n.devices = names(model.devices);
-  n.commands = names(model.commands);
-  n.rates = names(model.rates);
-  n.invariants = names(model.invariants);
-  return n;
-}
-
 Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
     const SetupOptions& o, const image::ImageModel& model) {
   Monitor::ComplainScope scope;

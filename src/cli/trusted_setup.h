@@ -111,8 +111,6 @@ Result<LoadedPolicy> load_verified(const SetupOptions& options);
 std::vector<std::string> seed_shadows(core::Checker& checker, const image::ImageModel& model,
                                       const std::map<int, bus::Bus*>& adapters);
 
-// The image's names by id, for the audit records.
-NameTable name_table(const image::ImageModel& model);
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options, const LoadedPolicy& policy);
 

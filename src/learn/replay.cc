@@ -18,16 +18,6 @@ std::string hex(const uint8_t* bytes, size_t n) {
   return s;
 }
 
-monitor::NameTable names_of(const image::ImageModel& model) {
-  monitor::NameTable n;
-  for (const auto& r : model.tasks) n.tasks.push_back(r.name);
-  for (const auto& r : model.devices) n.devices.push_back(r.name);
-  for (const auto& r : model.commands) n.commands.push_back(r.name);
-  for (const auto& r : model.rates) n.rates.push_back(r.name);
-  for (const auto& r : model.invariants) n.invariants.push_back(r.name);
-  return n;
-}
-
 // The checker's host while one recorded transaction is re-decided: its
 // readings as the samples, and the verdicts it audits collected.
 struct Replayer {
@@ -133,7 +123,7 @@ Result<ReplayReport> replay(const Trace& trace, const image::ImageModel& model,
   }
   Replayer host_state;
   host_state.model = &model;
-  host_state.names = names_of(model);
+  host_state.names = monitor::name_table(model);
   core::Host host{};
   host.context = &host_state;
   host.read_sample = &Replayer::read_sample;

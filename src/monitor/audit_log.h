@@ -97,6 +97,19 @@ struct NameTable {
   RecordNames of(const core::AuditRecord& record) const;
 };
 
+// The names of an image's records (image::ImageModel, whose record lists
+// each carry a `name`), by id.
+template <typename Model>
+NameTable name_table(const Model& model) {
+  auto names = [](const auto& records) {
+    std::vector<std::string> v;
+    for (const auto& r : records) v.push_back(r.name);
+    return v;
+  };
+  return {names(model.tasks), names(model.devices), names(model.commands), names(model.rates),
+          names(model.invariants)};
+}
+
 class AuditLog {
  public:
   AuditLog() = default;  // discards everything
