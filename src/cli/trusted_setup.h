@@ -111,7 +111,6 @@ Result<LoadedPolicy> load_verified(const SetupOptions& options);
 std::vector<std::string> seed_shadows(core::Checker& checker, const image::ImageModel& model,
                                       const std::map<int, bus::Bus*>& adapters);
 
-
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options, const LoadedPolicy& policy);
 
 // The monitor's complain scope from --complain / --complain-for, and the
