@@ -18,11 +18,6 @@ namespace {
 
 using monitor::Server;
 
-struct Refusal {
-  int err;
-  std::string why;
-};
-
 // The record ids of the running image (`old`) that the new image's records
 // continue, by name, and the names of those that start afresh.
 struct Pairing {
@@ -106,20 +101,11 @@ class Reloader {
 
   Server::ReloadAnswer operator()(const gate::wire::ReloadRequest& request, uid_t uid) {
     std::lock_guard lock(mu_);  // one reload at a time
-    auto done = reload(request, uid);
-    if (!done.ok()) return {done.error().err, done.error().why};
-    return {0, *done};
+    return reload(request, uid);
   }
 
  private:
-  struct Done {
-    bool ok() const { return refusal.err == 0; }
-    const Refusal& error() const { return refusal; }
-    const std::string& operator*() const { return text; }
-    std::string text;
-    Refusal refusal{0, {}};
-  };
-  static Done refuse(int err, std::string why) { return {{}, {err, std::move(why)}}; }
+  static Server::ReloadAnswer refuse(int err, std::string why) { return {err, std::move(why)}; }
 
   // "" when unsigned and none is required; else who signed it.
   Result<std::string> signer(const gate::wire::ReloadRequest& r) const {
@@ -137,7 +123,7 @@ class Reloader {
                        v->key_source, v->trusted_comment);
   }
 
-  Done reload(const gate::wire::ReloadRequest& request, uid_t uid) {
+  Server::ReloadAnswer reload(const gate::wire::ReloadRequest& request, uid_t uid) {
     auto signed_by = signer(request);
     if (!signed_by.ok()) return refuse(EPERM, signed_by.error());
     auto b = bundle::decode_bundle(request.bundle, "the reload's bundle");
@@ -223,7 +209,7 @@ class Reloader {
     if (reloaded_) reloaded_(hash);
     std::string text = "reloaded: " + *applied;
     for (const auto& w : warnings) text += "\nwarning: " + w;
-    return {text, {0, {}}};
+    return {0, text};
   }
 
   const monitor::SetupOptions& options_;
