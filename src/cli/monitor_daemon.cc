@@ -1,5 +1,6 @@
 #include "cli/monitor_daemon.h"
 
+#include <grp.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -33,6 +34,17 @@
 
 namespace contego::cli {
 namespace {
+
+// A group by name, or by number whether or not the host names it.
+Result<gid_t> parse_group(const std::string& group) {
+  if (!group.empty() && group.size() <= 9 &&
+      group.find_first_not_of("0123456789") == std::string::npos) {
+    return static_cast<gid_t>(std::stoul(group));
+  }
+  const struct group* gr = getgrnam(group.c_str());
+  if (gr == nullptr) return make_error(fmt::format("no group '{}' on this host", group));
+  return gr->gr_gid;
+}
 
 // Runs `fn` every interval on its own thread until stopped (when stopped,
 // once more if `at_stop`). `fn` says what went wrong on standard error
@@ -150,7 +162,7 @@ void add_monitor_options(CLI::App* cmd, MonitorArgs* args, bool daemon) {
   cmd->add_option("--metrics-file", args->metrics_file,
                   "write counters and gauges in Prometheus's text format to this file, "
                   "atomically, for node_exporter's textfile collector (e.g. "
-                  "/run/contego/metrics/contego.prom)");
+                  "/run/contego-metrics/contego.prom)");
   cmd->add_option("--metrics-interval", args->metrics_interval_s,
                   "seconds between two writes of --metrics-file")
       ->check(CLI::Range(1u, 3600u))
@@ -164,6 +176,12 @@ void add_monitor_options(CLI::App* cmd, MonitorArgs* args, bool daemon) {
       ->check(CLI::Range(1u, 86400u))
       ->capture_default_str();
   cmd->add_option("--client-uid", args->uids, "uid allowed to connect (default: own uid, root)");
+  cmd->add_option("--status-socket", args->status_socket,
+                  "a second, read-only Unix socket: it answers `contego status` and nothing else, "
+                  "to root, the monitor's uid and --status-group");
+  cmd->add_option("--status-group", args->status_group,
+                  "a group (name or gid) whose members may read the status: on --status-socket, "
+                  "and on --socket if their uid may connect");
   cmd->add_option("--spin-us", args->spin_us,
                   "busy-wait this long for a channel client's next request before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
@@ -284,6 +302,20 @@ int run_monitor_daemon(const MonitorArgs& args) {
   if (Status s = server.listen(args.socket); !s.ok()) {
     fmt::print(stderr, "contego monitor: {}\n", s.error());
     return 2;
+  }
+  if (!args.status_group.empty()) {
+    Result<gid_t> group = parse_group(args.status_group);
+    if (!group.ok()) {
+      fmt::print(stderr, "contego monitor: --status-group: {}\n", group.error());
+      return 2;
+    }
+    server.set_status_group(*group);
+  }
+  if (!args.status_socket.empty()) {
+    if (Status s = server.listen_status(args.status_socket); !s.ok()) {
+      fmt::print(stderr, "contego monitor: --status-socket: {}\n", s.error());
+      return 2;
+    }
   }
   // The metrics file: written once now, so that a directory the monitor
   // cannot write refuses the start with the reason, then every interval.

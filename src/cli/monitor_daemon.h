@@ -30,6 +30,8 @@ struct MonitorArgs {
   std::vector<std::string> buses;
   std::vector<int> virtual_buses;
   std::vector<unsigned> uids;
+  std::string status_socket;  // the read-only status socket, if any
+  std::string status_group;   // name or gid: may read the status
   uint32_t spin_us = gate::SpinPolicy{}.spin_us;
   bool realtime = false;
   bool allow_degraded = false;

@@ -58,13 +58,27 @@ void register_status(CLI::App& app) {
     std::string socket = "/run/contego/monitor.sock";
     bool json = false;
   };
+  // Without --socket: the monitor's socket, else the package's read-only
+  // status socket (a member of contego-status cannot enter /run/contego).
+  static constexpr const char* kStatusSocket = "/run/contego-status/status.sock";
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
-      "status", "Show what the running monitor enforces and how (root or the monitor's uid)");
-  cmd->add_option("--socket", args->socket, "the monitor's Unix socket")->capture_default_str();
+      "status",
+      "Show what the running monitor enforces and how (root, the monitor's uid or its status "
+      "group)");
+  auto* socket = cmd->add_option("--socket", args->socket,
+                                 fmt::format("the monitor's Unix socket or its --status-socket "
+                                             "(default: {}, else {})",
+                                             args->socket, kStatusSocket));
   cmd->add_flag("--json", args->json, "the monitor's answer as JSON");
-  cmd->callback([args] {
-    const Result<std::string> r = gate::request_status(args->socket);
+  cmd->callback([args, socket] {
+    Result<std::string> r = gate::request_status(args->socket);
+    if (!r.ok() && socket->count() == 0 && r.error().find("cannot reach") != std::string::npos) {
+      if (Result<std::string> other = gate::request_status(kStatusSocket);
+          other.ok() || other.error().find("cannot reach") == std::string::npos) {
+        r = std::move(other);
+      }
+    }
     if (!r.ok()) {
       fmt::print(stderr, "contego status: {}\n", r.error());
       const bool unreachable = r.error().find("cannot reach") != std::string::npos;

@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fmt/core.h>
 #include <sys/eventfd.h>
@@ -65,26 +66,58 @@ Server::~Server() {
   }
   flush_suppressed(true);
   listen_fd_.reset();
+  status_fd_.reset();
   if (!path_.empty()) unlink(path_.c_str());
+  if (!status_path_.empty()) unlink(status_path_.c_str());
 }
 
-Status Server::listen(const std::string& path) {
+namespace {
+
+// A listening Unix socket at `path` (a stale file replaced), mode 0660.
+Status listen_at(const std::string& path, base::UniqueFd* fd) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) return make_error("socket path too long: " + path);
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  listen_fd_.reset(socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
-  if (!listen_fd_.valid()) return make_error(std::string("socket: ") + strerror(errno));
+  fd->reset(socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0));
+  if (!fd->valid()) return make_error(std::string("socket: ") + strerror(errno));
   unlink(path.c_str());
-  if (bind(listen_fd_.get(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+  if (bind(fd->get(), reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     return make_error("cannot bind " + path + ": " + strerror(errno));
   }
   chmod(path.c_str(), 0660);
-  if (::listen(listen_fd_.get(), 64) != 0)
-    return make_error(std::string("listen: ") + strerror(errno));
+  if (::listen(fd->get(), 64) != 0) return make_error(std::string("listen: ") + strerror(errno));
+  return {};
+}
+
+// Whether the peer on `fd` has `group` as its primary or a supplementary
+// group, as the kernel recorded them when it connected.
+bool peer_in_group(int fd, const ucred& cred, gid_t group) {
+  if (cred.gid == group) return true;
+  std::vector<gid_t> groups(64);
+  socklen_t len = static_cast<socklen_t>(groups.size() * sizeof(gid_t));
+  if (getsockopt(fd, SOL_SOCKET, SO_PEERGROUPS, groups.data(), &len) != 0) {
+    if (errno != ERANGE) return false;
+    groups.resize(len / sizeof(gid_t));
+    if (getsockopt(fd, SOL_SOCKET, SO_PEERGROUPS, groups.data(), &len) != 0) return false;
+  }
+  groups.resize(len / sizeof(gid_t));
+  return std::find(groups.begin(), groups.end(), group) != groups.end();
+}
+
+}  // namespace
+
+Status Server::listen(const std::string& path) {
+  if (Status st = listen_at(path, &listen_fd_); !st.ok()) return st;
   wake_fd_.reset(eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK));
   if (!wake_fd_.valid()) return make_error(std::string("eventfd: ") + strerror(errno));
   path_ = path;
+  return {};
+}
+
+Status Server::listen_status(const std::string& path) {
+  if (Status st = listen_at(path, &status_fd_); !st.ok()) return st;
+  status_path_ = path;
   return {};
 }
 
@@ -197,107 +230,122 @@ int Server::housekeeping() {
 }
 
 void Server::serve() {
-  uint64_t accept_reported_us = 0, accept_unreported = 0;
+  AcceptReports reports;
   while (!stopping_) {
     const int timeout_ms = housekeeping();
-    pollfd p[2] = {{listen_fd_.get(), POLLIN, 0}, {wake_fd_.get(), POLLIN, 0}};
-    const int ready = poll(p, 2, timeout_ms);
+    pollfd p[3] = {{wake_fd_.get(), POLLIN, 0},
+                   {listen_fd_.get(), POLLIN, 0},
+                   {status_fd_.get(), POLLIN, 0}};  // -1 (no status socket): ignored
+    const int ready = poll(p, 3, timeout_ms);
     if (stopping_) break;
     if (ready <= 0) continue;
-    if (p[1].revents & POLLIN) {
+    if (p[0].revents & POLLIN) {
       uint64_t count = 0;
       (void)!read(wake_fd_.get(), &count, sizeof count);
     }
-    if ((p[0].revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
-    base::UniqueFd fd(accept4(listen_fd_.get(), nullptr, nullptr, SOCK_CLOEXEC));
-    if (!fd.valid()) {
-      const int err = errno;
-      if (stopping_) break;
-      if (err == EINTR || err == EAGAIN || err == ECONNABORTED) continue;
-      // Out of descriptors or memory (EMFILE, ENFILE, ENOBUFS, ENOMEM) or
-      // anything else: never the end of the monitor. The connections already
-      // open are served on their own threads; the hello timeout and the
-      // per-uid cap free descriptors; this loop retries after a pause.
-      accept_failures_.fetch_add(1);
-      ++accept_unreported;
-      const uint64_t now = now_us();
-      if (now >= accept_reported_us + 1000000) {
-        const std::string what = fmt::format(
-            "accept failed: {} ({} time(s) since the last report); still serving the "
-            "open connections, retrying",
-            strerror(err), accept_unreported);
-        audit_.event("accept-failed", what);
-        fmt::print(stderr, "contego monitor: {}\n", what);
-        accept_reported_us = now;
-        accept_unreported = 0;
-      }
-      usleep(50000);
-      continue;
+    for (int i = 1; i < 3 && !stopping_; ++i) {
+      if (p[i].revents & (POLLIN | POLLHUP | POLLERR)) accept_one(p[i].fd, i == 2, &reports);
     }
-    ucred cred{};
-    socklen_t len = sizeof cred;
-    if (getsockopt(fd.get(), SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 ||
-        allowed_.count(cred.uid) == 0) {
-      refuse_peer(fd.get(), cred.pid, cred.uid, "", EACCES, "peer uid not allowed");
-      continue;
-    }
-    if (limits_.connects_per_second > 0) {
-      if (connects_.size() > 4096) connects_.clear();  // bounded; a fresh window for all
-      auto& [window_us, opened] = connects_[cred.uid];
-      const uint64_t now = now_us();
-      if (now >= window_us + 1000000) {
-        window_us = now;
-        opened = 0;
-      }
-      if (++opened > limits_.connects_per_second) {
-        over_rate_.fetch_add(1);
-        refuse_peer(
-            fd.get(), cred.pid, cred.uid,
-            fmt::format(": over {} new connections per second", limits_.connects_per_second),
-            EAGAIN, "reconnecting too fast for this uid");
-        continue;
-      }
-    }
-    std::unique_lock lock(mu_);
-    uint32_t& live = per_uid_[cred.uid];
-    if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
-      lock.unlock();
-      over_cap_.fetch_add(1);
-      refuse_peer(fd.get(), cred.pid, cred.uid,
-                  fmt::format(": over the cap of {} connections per uid", limits_.max_per_uid),
-                  EAGAIN, "too many connections for this uid");
-      continue;
-    }
-    ++live;
-    auto c = std::make_unique<Conn>();
-    c->pidfd.reset(peer_pidfd(fd.get(), cred.pid));  // -1: a hello for a bound task is refused
-    c->fd = std::move(fd);
-    c->uid = cred.uid;
-    c->pid = cred.pid;
-    c->hello_deadline_us =
-        limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
-    Conn* raw = c.get();
-    try {
-      c->thread = std::thread([this, raw] { connection(raw); });
-    } catch (const std::system_error&) {
-      --live;
-      lock.unlock();
-      client_event(cred.uid, "peer-refused",
-                   fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
-      usleep(50000);
-      continue;
-    }
-    conns_.push_back(std::move(c));
-    lock.unlock();
-    client_event(cred.uid, "peer", fmt::format("pid {} uid {}", cred.pid, cred.uid));
   }
   flush_suppressed(true);  // the counts of the last windows
+}
+
+void Server::accept_one(int listener, bool read_only, AcceptReports* reports) {
+  base::UniqueFd fd(accept4(listener, nullptr, nullptr, SOCK_CLOEXEC));
+  if (!fd.valid()) {
+    const int err = errno;
+    if (stopping_ || err == EINTR || err == EAGAIN || err == ECONNABORTED) return;
+    // Out of descriptors or memory (EMFILE, ENFILE, ENOBUFS, ENOMEM) or
+    // anything else: never the end of the monitor. The connections already
+    // open are served on their own threads; the hello timeout and the
+    // per-uid cap free descriptors; this loop retries after a pause.
+    accept_failures_.fetch_add(1);
+    ++reports->unreported;
+    const uint64_t now = now_us();
+    if (now >= reports->reported_us + 1000000) {
+      const std::string what = fmt::format(
+          "accept failed: {} ({} time(s) since the last report); still serving the "
+          "open connections, retrying",
+          strerror(err), reports->unreported);
+      audit_.event("accept-failed", what);
+      fmt::print(stderr, "contego monitor: {}\n", what);
+      reports->reported_us = now;
+      reports->unreported = 0;
+    }
+    usleep(50000);
+    return;
+  }
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  if (getsockopt(fd.get(), SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) {
+    refuse_peer(fd.get(), cred.pid, cred.uid, "", EACCES, "peer uid not allowed");
+    return;
+  }
+  const bool operator_uid = cred.uid == 0 || cred.uid == geteuid();
+  const bool status_group = status_group_ && peer_in_group(fd.get(), cred, *status_group_);
+  if (read_only ? !operator_uid && !status_group : allowed_.count(cred.uid) == 0) {
+    refuse_peer(fd.get(), cred.pid, cred.uid, read_only ? ": not in the status group" : "", EACCES,
+                read_only ? "only root, the monitor's uid or the status group may read status"
+                          : "peer uid not allowed");
+    return;
+  }
+  if (limits_.connects_per_second > 0) {
+    if (connects_.size() > 4096) connects_.clear();  // bounded; a fresh window for all
+    auto& [window_us, opened] = connects_[cred.uid];
+    const uint64_t now = now_us();
+    if (now >= window_us + 1000000) {
+      window_us = now;
+      opened = 0;
+    }
+    if (++opened > limits_.connects_per_second) {
+      over_rate_.fetch_add(1);
+      refuse_peer(fd.get(), cred.pid, cred.uid,
+                  fmt::format(": over {} new connections per second", limits_.connects_per_second),
+                  EAGAIN, "reconnecting too fast for this uid");
+      return;
+    }
+  }
+  std::unique_lock lock(mu_);
+  uint32_t& live = per_uid_[cred.uid];
+  if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
+    lock.unlock();
+    over_cap_.fetch_add(1);
+    refuse_peer(fd.get(), cred.pid, cred.uid,
+                fmt::format(": over the cap of {} connections per uid", limits_.max_per_uid),
+                EAGAIN, "too many connections for this uid");
+    return;
+  }
+  ++live;
+  auto c = std::make_unique<Conn>();
+  c->pidfd.reset(peer_pidfd(fd.get(), cred.pid));  // -1: a hello for a bound task is refused
+  c->fd = std::move(fd);
+  c->uid = cred.uid;
+  c->pid = cred.pid;
+  c->read_only = read_only;
+  c->status_group = status_group;
+  c->hello_deadline_us =
+      limits_.hello_timeout_ms > 0 ? now_us() + uint64_t{limits_.hello_timeout_ms} * 1000 : 0;
+  Conn* raw = c.get();
+  try {
+    c->thread = std::thread([this, raw] { connection(raw); });
+  } catch (const std::system_error&) {
+    --live;
+    lock.unlock();
+    client_event(cred.uid, "peer-refused",
+                 fmt::format("pid {} uid {}: no thread for the connection", cred.pid, cred.uid));
+    usleep(50000);
+    return;
+  }
+  conns_.push_back(std::move(c));
+  lock.unlock();
+  client_event(cred.uid, "peer", fmt::format("pid {} uid {}", cred.pid, cred.uid));
 }
 
 void Server::stop() {
   stopping_ = true;
   wake();
   if (listen_fd_.valid()) shutdown(listen_fd_.get(), SHUT_RDWR);
+  if (status_fd_.valid()) shutdown(status_fd_.get(), SHUT_RDWR);
   std::lock_guard lock(mu_);
   for (const auto& c : conns_) {
     if (!c->done.load()) shutdown(c->fd.get(), SHUT_RDWR);
@@ -314,6 +362,14 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
     s.out = wire::encode_error({err, reason});
     return wire::Type::kError;
   };
+  if (s.conn->read_only && static_cast<wire::Type>(type) != wire::Type::kStatus) {
+    const std::string why = "the status socket answers status requests only";
+    client_event(
+        s.conn->uid, "request-refused",
+        fmt::format("pid {} uid {}: message type {}: {}", s.conn->pid, s.conn->uid, type, why));
+    s.out = wire::encode_error({EPERM, why});
+    return wire::Type::kError;
+  }
   switch (static_cast<wire::Type>(type)) {
     case wire::Type::kHello: {
       std::string name;

@@ -78,6 +78,14 @@ class Server {
   // connect, one session). Call before serve().
   void set_bindings(std::map<std::string, TaskBinding> bindings);
   Status listen(const std::string& path);  // replaces a stale socket file; mode 0660
+  // A second, read-only socket: it answers `contego status` and nothing
+  // else, to root, the monitor's uid and members of the status group (the
+  // peer's primary or supplementary groups as SO_PEERCRED/SO_PEERGROUPS give
+  // them). Optional; call after listen().
+  Status listen_status(const std::string& path);
+  // The group whose members may read the status (on either socket; on the
+  // main socket only if their uid may connect at all). Call before serve().
+  void set_status_group(gid_t group) { status_group_ = group; }
   void serve();                            // accept loop; returns after stop()
   void stop();
   // Counters (tests): connections refused over the cap, closed for no
@@ -111,7 +119,9 @@ class Server {
     uint64_t hello_deadline_us = 0;  // 0: said hello (or no timeout)
     std::atomic<bool> hello{false};
     std::atomic<bool> done{false};
-    bool timed_out = false;  // mu_
+    bool read_only = false;     // came in on the status socket: status requests only
+    bool status_group = false;  // the peer is in the status group
+    bool timed_out = false;     // mu_
     int task = -1;           // the task its session is bound to, -1 none; mu_
     std::thread thread;
   };
@@ -121,6 +131,11 @@ class Server {
     uint64_t suppressed = 0;
   };
   void connection(Conn* c);
+  struct AcceptReports {  // failed accepts: one event per second at most
+    uint64_t reported_us = 0, unreported = 0;
+  };
+  // Accepts one peer on `listener` (the status socket if `read_only`).
+  void accept_one(int listener, bool read_only, AcceptReports* reports);
   // A client-error event, rate-limited per uid.
   void client_event(uid_t uid, const std::string& kind, const std::string& detail);
   // Refuses a connecting peer: a `peer-refused` event ("pid P uid U" and
@@ -205,6 +220,9 @@ class Server {
   base::UniqueFd listen_fd_;
   base::UniqueFd wake_fd_;  // an eventfd: a connection ended, an event window began, stop()
   std::string path_;
+  base::UniqueFd status_fd_;  // the read-only status socket, if any
+  std::string status_path_;
+  std::optional<gid_t> status_group_;
   std::atomic<bool> stopping_{false};
   ServerLimits limits_;
   std::mutex mu_;

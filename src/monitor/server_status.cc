@@ -1,6 +1,7 @@
 // `contego status`: the monitor's state for an operator, as JSON. Answered
-// to root and the monitor's own uid only, never on a task's session nor to a
-// supervised program or its descendants (Server::message_refusal).
+// to root, the monitor's own uid and the status group only, never on a
+// task's session nor to a supervised program or its descendants
+// (Server::message_refusal).
 #include <errno.h>
 #include <unistd.h>
 
@@ -22,8 +23,8 @@ wire::Type Server::status(Session& s) {
     return wire::Type::kError;
   };
   if (std::string why = message_refusal(s, wire::Type::kStatus); !why.empty()) return refuse(why);
-  if (s.conn->uid != 0 && s.conn->uid != geteuid()) {
-    return refuse("only root or the monitor's uid may read its status");
+  if (s.conn->uid != 0 && s.conn->uid != geteuid() && !s.conn->status_group) {
+    return refuse("only root, the monitor's uid or the status group may read its status");
   }
   const std::string text = status_json();
   s.out.assign(text.begin(), text.end());

@@ -3,7 +3,8 @@
 # the policy with its image's SHA-256, the task's live session and its
 # decisions, the devices, the audit log's path and last hash (as the log's
 # own last line says); the same as JSON. Refused to a supervised program and
-# to another uid (audited), each with its reason.
+# to another uid (audited), each with its reason. The read-only status
+# socket: the status group reads the status there, nothing else goes through.
 # Usage: status.sh CONTEGO POLICIES_DIR
 set -euo pipefail
 contego="$1" policies="$2"
@@ -18,7 +19,8 @@ cleanup() {
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; cat "$dir/st.out" 2>/dev/null; exit 1; }
 "$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$dir/m.sock" \
-  --audit "$dir/audit.jsonl" --client-uid "$(id -u)" --client-uid 65534 2>"$dir/mon.err" &
+  --audit "$dir/audit.jsonl" --client-uid "$(id -u)" --client-uid 65534 \
+  --status-socket "$dir/s.sock" --status-group 4242 2>"$dir/mon.err" &
 mon=$!
 for _ in $(seq 100); do [ -S "$dir/m.sock" ] && break; sleep 0.1; done
 [ -S "$dir/m.sock" ] || { cat "$dir/mon.err"; fail "the monitor did not start"; }
@@ -78,7 +80,36 @@ if [ "$(id -u)" = 0 ]; then
     fail "uid 65534 read the status"
   fi
   # A client uid (it may connect, to run tasks), not an operator.
-  grep -q "only root or the monitor's uid" "$dir/st.out" || fail "no reason for uid 65534"
+  grep -q "only root, the monitor's uid or the status group" "$dir/st.out" ||
+    fail "no reason for uid 65534"
   grep -q '"kind":"request-refused"\|request-refused' "$dir/audit.jsonl" || fail "the refusal is not audited"
+  # The status group (4242): on the main socket for a client uid, on the
+  # read-only status socket for anyone in it (primary or supplementary).
+  setpriv --reuid 65534 --regid 65534 --groups 4242 "$contego" status --socket "$dir/m.sock" \
+    >"$dir/st.out" 2>&1 || fail "a client uid in the status group was refused"
+  chmod o+rw "$dir/s.sock"
+  setpriv --reuid 4321 --regid 4321 --groups 4242 "$contego" status --socket "$dir/s.sock" --json \
+    >"$dir/st.out" 2>&1 || fail "a member of the status group was refused on the status socket"
+  grep -q '"image_sha256"' "$dir/st.out" || fail "no status on the status socket"
+  setpriv --reuid 4321 --regid 4242 --clear-groups "$contego" status --socket "$dir/s.sock" \
+    >"$dir/st.out" 2>&1 || fail "a peer whose primary group is the status group was refused"
+  if setpriv --reuid 4321 --regid 4321 --clear-groups "$contego" status --socket "$dir/s.sock" \
+      >"$dir/st.out" 2>&1; then
+    fail "a peer outside the status group read the status"
+  fi
+  grep -q "the status group may read status" "$dir/st.out" || fail "no reason for uid 4321"
+  grep -q 'pid [0-9]* uid 4321: not in the status group' "$dir/audit.jsonl" ||
+    fail "the refused peer is not audited"
+  # The status socket answers nothing else, even to root.
+  if "$contego" reset gopigo --socket "$dir/s.sock" >"$dir/st.out" 2>&1; then
+    fail "a reset went through the status socket"
+  fi
+  grep -q "status requests only" "$dir/st.out" || fail "no reason for the reset"
+  if "$contego" run --socket "$dir/s.sock" --task follower -- true >"$dir/st.out" 2>&1; then
+    fail "a task ran through the status socket"
+  fi
+  grep -q "status requests only" "$dir/st.out" || fail "no reason for the hello"
+  grep -q 'message type [0-9]*: the status socket answers status requests only' "$dir/audit.jsonl" ||
+    fail "the refused requests are not audited"
 fi
 echo "ok"

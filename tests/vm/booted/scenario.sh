@@ -180,6 +180,29 @@ journalctl --list-catalog 2>/dev/null | grep -q '^334d55ae757948bf9f52f566d57d47
   ok "the journal's catalog explains the monitor's entries (journalctl --list-catalog)" ||
   bad "contego.catalog is not in the journal's catalog"
 
+# ---- the status group: read-only, through its own socket ----------------------
+# An operator in contego-status reads `contego status` with no option (the
+# monitor's socket is out of reach, the status socket is tried next) and can
+# do nothing else there; a user outside the group is refused at connect.
+useradd --system --no-create-home --groups contego-status viewer 2>/dev/null
+useradd --system --no-create-home outsider 2>/dev/null
+st=$(runuser -u viewer -- contego status 2>&1)
+echo "$st" | grep -q 'gripper' && echo "$st" | grep -q 'sessions 1' &&
+  ok "a member of contego-status reads the status: $(echo "$st" | grep -m1 'gripper' | sed 's/^ *//')" ||
+  bad "a member of contego-status cannot read the status: $st"
+st=$(runuser -u viewer -- contego reset arm --socket /run/contego-status/status.sock 2>&1)
+rc=$?
+[ $rc != 0 ] && echo "$st" | grep -q 'status requests only' &&
+  ok "the status socket refuses a reset from contego-status: $st" ||
+  bad "a reset through the status socket: exit $rc, $st"
+st=$(runuser -u outsider -- contego status 2>&1)
+rc=$?
+[ $rc != 0 ] && ok "a user outside contego-status is refused: $st" ||
+  bad "a user outside contego-status read the status"
+[ "$(stat -c '%G %a' /run/contego-status)" = "contego-status 2750" ] &&
+  ok "/run/contego-status is 2750, group contego-status (tmpfiles.d)" ||
+  bad "/run/contego-status is $(stat -c '%G %a' /run/contego-status)"
+
 # ---- reload in place: a changed limit while the program runs ------------------
 led0() { echo $(($(i2cget -y 0 $A 0x08) | $(i2cget -y 0 $A 0x09) << 8)); }
 hash_of_status() { contego status --json | python3 -c 'import json, re, sys; print(re.search("SHA-256 ([0-9a-f]{64})", json.load(sys.stdin)["policy"])[1])'; }
