@@ -151,6 +151,21 @@ int contego_device_info_of(const contego_checker* c, uint16_t device, contego_de
 /* The access matrix's row of `task`: bit k, the task may actuate device k
  * (0: no such task). What a task's exit drives to the safe state. */
 uint32_t contego_task_actuates(const contego_checker* c, uint16_t task);
+/* Reload in place (Checker::carry_from): `c`, freshly loaded, takes over the
+ * run-time state of `old` for the records `map` pairs. Each array has one
+ * entry per record of c's image (contego_record_counts_of), the old image's
+ * id of the same record or 0xFFFF. 1: taken (*staged_dropped: staged writes
+ * of unpaired tasks dropped); 0: refused, nothing taken (a pair disagrees, an
+ * id out of range, a checker not loaded or inside a transfer). */
+typedef struct contego_record_counts {
+  uint32_t tasks, devices, commands, rates, invariants;
+} contego_record_counts;
+typedef struct contego_carry_map {
+  const uint16_t *tasks, *devices, *commands, *rates, *invariants;
+} contego_carry_map;
+void contego_record_counts_of(const contego_checker* c, contego_record_counts* out);
+int contego_carry_from(contego_checker* c, const contego_checker* old, const contego_carry_map* map,
+                       uint32_t* staged_dropped);
 const char* contego_load_status_name(uint8_t status);
 const char* contego_reason_name(uint8_t reason);
 const char* contego_decision_name(uint8_t decision);

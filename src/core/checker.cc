@@ -766,6 +766,10 @@ uint32_t Checker::model_crc() const { return state().model_crc(); }
 Checker::CarryResult Checker::carry_from(const Checker& old, const CarryMap& map) {
   return state().carry_from(old.state(), map);
 }
+Checker::RecordCounts Checker::record_counts() const {
+  const CheckerState& s = state();
+  return {s.task_count_, s.device_count_, s.command_count_, s.rate_count_, s.invariant_count_};
+}
 uint32_t Checker::worst_case_cost() const { return state().worst_case_cost_; }
 uint64_t Checker::executed_instructions() const { return state().executed_; }
 uint32_t Checker::task_count() const { return state().task_count_; }

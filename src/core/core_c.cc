@@ -167,6 +167,22 @@ void contego_reset_latch(contego_checker* c, uint16_t device) {
   if (c != nullptr) checker(c)->reset_latch(device);
 }
 
+void contego_record_counts_of(const contego_checker* c, contego_record_counts* out) {
+  if (out == nullptr) return;
+  const core::Checker::RecordCounts n =
+      c != nullptr ? checker(c)->record_counts() : core::Checker::RecordCounts{0, 0, 0, 0, 0};
+  *out = {n.tasks, n.devices, n.commands, n.rates, n.invariants};
+}
+
+int contego_carry_from(contego_checker* c, const contego_checker* old, const contego_carry_map* map,
+                       uint32_t* staged_dropped) {
+  if (c == nullptr || old == nullptr || map == nullptr) return 0;
+  const core::Checker::CarryResult r = checker(c)->carry_from(
+      *checker(old), {map->tasks, map->devices, map->commands, map->rates, map->invariants});
+  if (r.ok && staged_dropped != nullptr) *staged_dropped = r.staged_dropped;
+  return r.ok ? 1 : 0;
+}
+
 uint32_t contego_end_session(contego_checker* c, uint16_t task) {
   return c != nullptr ? checker(c)->end_session(task) : 0;
 }

@@ -124,6 +124,70 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   contego_reset_latch(c, rover::kGopigo);
 }
 
+// Reload in place through the C API (what contego.ko does): the job's rate
+// count goes on in the new checker; a map with an id the old image does not
+// have is refused and nothing is taken.
+TEST(CoreCTest, CarryFromTakesTheOldCheckersStateForPairedRecords) {
+  std::vector<uint8_t> img = image::serialize(rover::model());
+  auto make = [&](std::vector<uint64_t>& storage) {
+    storage.resize(contego_checker_size() / 8 + 1);
+    contego_checker* c = contego_checker_init(storage.data(), storage.size() * 8);
+    EXPECT_EQ(contego_load(c, img.data(), static_cast<uint32_t>(img.size())).status, 0);
+    return c;
+  };
+  std::vector<uint64_t> a, b, d;
+  contego_checker* old = make(a);
+  const uint8_t speed[] = {70, 90, 0, 0};
+  contego_transaction tx{};
+  tx.task = rover::kFollower;
+  tx.bus = 1;
+  tx.kind = CONTEGO_TX_WRITE;
+  tx.addr = 0x08;
+  tx.len = sizeof(speed);
+  tx.bytes = speed;
+  tx.job = 5;
+  tx.now_us = 1005;
+  contego_verdict v{};
+  for (int i = 0; i < 2; ++i) {  // the rate limit's two per job
+    contego_check(old, &tx, &v);
+    ASSERT_EQ(v.decision, CONTEGO_ALLOW);
+  }
+  contego_record_counts n{};
+  contego_record_counts_of(old, &n);
+  EXPECT_EQ(n.tasks, rover::model().tasks.size());
+  EXPECT_EQ(n.devices, 2u);
+  EXPECT_EQ(n.commands, rover::model().commands.size());
+  EXPECT_EQ(n.rates, 1u);
+  EXPECT_EQ(n.invariants, rover::model().invariants.size());
+  std::vector<uint16_t> tasks(n.tasks), devices(n.devices), commands(n.commands), rates(n.rates),
+      invariants(n.invariants);
+  for (auto* v16 : {&tasks, &devices, &commands, &rates, &invariants}) {
+    for (size_t i = 0; i < v16->size(); ++i) (*v16)[i] = static_cast<uint16_t>(i);
+  }
+  const contego_carry_map map{tasks.data(), devices.data(), commands.data(), rates.data(),
+                              invariants.data()};
+  contego_checker* carried = make(b);
+  uint32_t dropped = 99;
+  ASSERT_EQ(contego_carry_from(carried, old, &map, &dropped), 1);
+  EXPECT_EQ(dropped, 0u);
+  contego_check(carried, &tx, &v);
+  EXPECT_EQ(v.decision, CONTEGO_IGNORE);  // the third of the job: over the rate
+  contego_checker* fresh = make(d);
+  contego_check(fresh, &tx, &v);
+  EXPECT_EQ(v.decision, CONTEGO_ALLOW);  // without the carry it starts afresh
+
+  devices[0] = 7;  // the old image has two devices
+  std::vector<uint64_t> e;
+  contego_checker* refused = make(e);
+  EXPECT_EQ(contego_carry_from(refused, old, &map, &dropped), 0);
+  contego_check(refused, &tx, &v);
+  EXPECT_EQ(v.decision, CONTEGO_ALLOW);  // nothing was taken
+  EXPECT_EQ(contego_carry_from(nullptr, old, &map, &dropped), 0);
+  EXPECT_EQ(contego_carry_from(refused, old, nullptr, &dropped), 0);
+  contego_record_counts_of(nullptr, &n);
+  EXPECT_EQ(n.tasks, 0u);
+}
+
 TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
   contego_load_result r = contego_load(nullptr, nullptr, 0);
   EXPECT_EQ(r.status, static_cast<uint8_t>(LoadStatus::kTooSmall));

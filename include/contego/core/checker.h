@@ -161,6 +161,12 @@ class Checker {
     uint32_t staged_dropped;  // staged register writes of tasks not paired
   };
   CarryResult carry_from(const Checker& old, const CarryMap& map);
+  // How many records of each kind the loaded image has: the length of each
+  // array of a CarryMap for this checker.
+  struct RecordCounts {
+    uint32_t tasks, devices, commands, rates, invariants;
+  };
+  RecordCounts record_counts() const;
 
   // Upper bound of bytecode instructions executed by one check() of a
   // single command, over all commands of the image (computed at load).
