@@ -65,6 +65,32 @@ struct contego_kmod_load {
   __u32 actuations[CONTEGO_KMOD_MAX_TASKS]; /* in: task i's actuations per job (N) */
 };
 
+/* A load in place (CONTEGO_KMOD_RELOAD): the new image takes over the
+ * running one's run-time state for the records the caller pairs (by name,
+ * from the running image it read back with CONTEGO_KMOD_IMAGE), and no safe
+ * state is driven. Refused, the running policy kept, when another image was
+ * loaded since (ESTALE: running_crc), when `counts` are not the new image's
+ * (EINVAL) or when the core finds a pair that disagrees (EINVAL). */
+struct contego_kmod_reload {
+  struct contego_kmod_load load; /* in/out: as CONTEGO_KMOD_LOAD */
+  __u32 running_crc;             /* in: header CRC-32 of the image the pairs were made against */
+  __u32 counts[5];               /* in: the new image's tasks, devices, commands, rates and
+                                  * invariants: the entries of each run at `pairs` */
+  __u64 pairs;                   /* in: user pointer to __u16[sum of counts]: per record of the
+                                  * new image, in that order, the running image's id of the same
+                                  * record or 0xFFFF (starts afresh) */
+  __u32 staged_dropped;          /* out: staged register writes of unpaired tasks dropped */
+  __u32 pad;
+};
+
+/* The image in force, read back (CONTEGO_KMOD_IMAGE). ENOENT: none loaded;
+ * ENOSPC: `size` is too small (size then says how many bytes it needs). */
+struct contego_kmod_image {
+  __u64 buf;  /* in: user pointer */
+  __u32 size; /* in: bytes at buf; out: the image's size */
+  __u32 crc;  /* out: its header CRC-32 (the LOAD record's fields[0]) */
+};
+
 struct contego_kmod_stats {
   __u64 loads;            /* images accepted */
   __u64 refused_loads;    /* images the verifier refused (the previous one stayed) */
@@ -102,7 +128,9 @@ enum contego_kmod_record_type {
   CONTEGO_KMOD_REC_DECISION = 1,        /* the core's audit record of one command */
   CONTEGO_KMOD_REC_SAFE_STATE = 2,      /* device's safe state driven; `why` */
   CONTEGO_KMOD_REC_LOAD = 3,            /* an image verified and in force; count = its size,
-                                         * fields[0] (field_count 1) = its header's CRC-32 */
+                                         * fields[0] = its header's CRC-32; field_count 2 for a
+                                         * load in place (CONTEGO_KMOD_RELOAD): fields[1] = the
+                                         * CRC-32 of the image it replaced (no safe state driven) */
   CONTEGO_KMOD_REC_LOAD_REFUSED = 4,    /* the verifier refused an image; reason = its status */
   CONTEGO_KMOD_REC_GAP = 5,             /* count = records lost before this one */
   CONTEGO_KMOD_REC_SESSION_REFUSED = 6, /* a process of `task` (pid, uid) would have opened a
@@ -172,6 +200,8 @@ struct contego_kmod_record {
 #define CONTEGO_KMOD_IOC_MAGIC 0xC7
 #define CONTEGO_KMOD_LOAD _IOWR(CONTEGO_KMOD_IOC_MAGIC, 1, struct contego_kmod_load)
 #define CONTEGO_KMOD_STATS _IOR(CONTEGO_KMOD_IOC_MAGIC, 2, struct contego_kmod_stats)
+#define CONTEGO_KMOD_RELOAD _IOWR(CONTEGO_KMOD_IOC_MAGIC, 4, struct contego_kmod_reload)
+#define CONTEGO_KMOD_IMAGE _IOWR(CONTEGO_KMOD_IOC_MAGIC, 5, struct contego_kmod_image)
 /* On /dev/contego-audit: records up to and including *arg are stored. */
 #define CONTEGO_KMOD_AUDIT_ACK _IOW(CONTEGO_KMOD_IOC_MAGIC, 3, __u64)
 

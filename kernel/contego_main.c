@@ -94,6 +94,7 @@ struct ct_policy {
 	void *mem; /* checker storage, contego_checker_size() bytes */
 	contego_checker *checker;
 	u8 *image; /* the verified image, kept for the checker's lifetime */
+	u32 size;  /* its bytes */
 	u32 nbinds;
 	struct contego_kmod_bind binds[CONTEGO_KMOD_MAX_BINDS];
 	/* The job grid of each task (as the monitor's job_at_locked): phase =
@@ -2051,7 +2052,86 @@ static void ct_seed_shadows(struct ct_policy *p)
 	kfree(regs);
 }
 
-static long ct_load(unsigned long arg)
+/* The header CRC-32 of a policy's image (bytes 12..15): what names it in
+ * the audit ring's LOAD records and what a load in place is paired against. */
+static u32 ct_image_crc(const struct ct_policy *p)
+{
+	__le32 crc;
+
+	memcpy(&crc, p->image + 12, sizeof(crc));
+	return le32_to_cpu(crc);
+}
+
+/* A load in place (CONTEGO_KMOD_RELOAD): the caller's pairs, copied in. */
+struct ct_carry {
+	u32 running_crc;
+	u32 counts[5]; /* tasks, devices, commands, rates, invariants */
+	u16 *pairs;
+	u32 staged_dropped;
+};
+
+/* The new policy `p` takes over `old`'s run-time state for the paired
+ * records: the core's model (contego_carry_from checks every pair), the
+ * module's own per task (the job grid's phase, the budget's job and use)
+ * and per device (the newest sensor sample), and the live sessions, so that
+ * a program's end after the reload still drives its actuators to their
+ * safe state. A task with live sessions must be paired (as the monitor's
+ * reload requires): else -EBUSY. */
+static int ct_carry_locked(struct ct_policy *p, const struct ct_policy *old, struct ct_carry *c)
+{
+	contego_carry_map map;
+	struct ct_session *s;
+	u32 t, d;
+
+	lockdep_assert_held(&ct_lock);
+	if (!old || ct_image_crc(old) != c->running_crc) {
+		pr_warn("contego: load in place refused: the image in force (CRC %08x) is not the one the pairs were made against (%08x); the policy in force stays\n",
+			old ? ct_image_crc(old) : 0, c->running_crc);
+		return -ESTALE;
+	}
+	map.tasks = c->pairs;
+	map.devices = map.tasks + c->counts[0];
+	map.commands = map.devices + c->counts[1];
+	map.rates = map.commands + c->counts[2];
+	map.invariants = map.rates + c->counts[3];
+	list_for_each_entry(s, &ct_sessions, node) {
+		if (s->gen != old->gen)
+			continue;
+		for (t = 0; t < c->counts[0] && map.tasks[t] != s->task; t++)
+			;
+		if (t == c->counts[0] || t != s->task) {
+			pr_warn("contego: load in place refused: task %u has a live session (pid %u) and the new policy does not keep it under its name and id; the policy in force stays\n",
+				s->task, s->pid);
+			return -EBUSY;
+		}
+	}
+	if (!contego_carry_from(p->checker, old->checker, &map, &c->staged_dropped)) {
+		pr_warn("contego: load in place refused: the core found a pair that disagrees (another bus, address, profile, task or an id out of range); the policy in force stays\n");
+		return -EINVAL;
+	}
+	/* The core checked every id against the old image's tables. */
+	for (t = 0; t < c->counts[0] && t < CONTEGO_KMOD_MAX_TASKS; t++) {
+		u16 o = map.tasks[t];
+
+		if (o >= CONTEGO_KMOD_MAX_TASKS)
+			continue;
+		if (old->phase_set & BIT(o)) {
+			p->phase_us[t] = old->phase_us[o];
+			p->phase_set |= BIT(t);
+		}
+		p->budget_job[t] = old->budget_job[o];
+		p->budget_used[t] = old->budget_used[o];
+	}
+	for (d = 0; d < c->counts[1] && d < ARRAY_SIZE(p->samples); d++)
+		if (map.devices[d] < ARRAY_SIZE(old->samples))
+			p->samples[d] = old->samples[map.devices[d]];
+	list_for_each_entry(s, &ct_sessions, node)
+		if (s->gen == old->gen)
+			s->gen = p->gen; /* the same task id: checked above */
+	return 0;
+}
+
+static long ct_load(unsigned long arg, struct ct_carry *carry)
 {
 	struct contego_kmod_load req;
 	struct ct_policy *p, *old;
@@ -2098,6 +2178,7 @@ static long ct_load(unsigned long arg)
 		goto fail;
 	}
 	p->nbinds = req.nbinds;
+	p->size = req.size;
 	for (i = 0; i < p->nbinds; i++) {
 		struct contego_kmod_bind *b = &p->binds[i];
 
@@ -2161,37 +2242,133 @@ static long ct_load(unsigned long arg)
 
 		contego_set_host(p->checker, &host);
 	}
+	if (carry) {
+		contego_record_counts n;
+
+		contego_record_counts_of(p->checker, &n);
+		if (n.tasks != carry->counts[0] || n.devices != carry->counts[1] ||
+		    n.commands != carry->counts[2] || n.rates != carry->counts[3] ||
+		    n.invariants != carry->counts[4]) {
+			pr_warn("contego: load in place refused: its pairs do not cover the new image's records; the policy in force stays\n");
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
 	ct_seed_shadows(p);
 	mutex_lock(&ct_lock);
 	old = ct_policy;
 	p->gen = ++ct_gen;
+	if (carry) {
+		ret = ct_carry_locked(p, old, carry);
+		if (ret) {
+			mutex_unlock(&ct_lock);
+			goto fail;
+		}
+	}
 	ct_policy = p;
 	ct_stats.loads++;
 	ct_stats.loaded = 1;
 	{
 		struct contego_kmod_record rec;
-		__le32 crc;
 
 		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
 		rec.count = req.size;
-		/* Which image: its header's CRC-32 (bytes 12..15), so that a
-		 * reader names the records that follow from this image alone. */
-		memcpy(&crc, p->image + 12, sizeof(crc));
-		rec.fields[0] = (s32)le32_to_cpu(crc);
+		/* Which image: its header's CRC-32, so that a reader names the
+		 * records that follow from this image alone; in place, the one
+		 * it replaced too. */
+		rec.fields[0] = (s32)ct_image_crc(p);
 		rec.field_count = 1;
+		if (carry) {
+			rec.fields[1] = (s32)ct_image_crc(old);
+			rec.field_count = 2;
+		}
 		ct_push(&rec, true);
 	}
-	req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
+	/* In place, the actuators keep what the running policy let them do. */
+	req.devices = carry ? 0 : ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
 	mutex_unlock(&ct_lock);
 	ct_policy_free(old);
-	pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)\n",
-		req.size, req.nbinds, req.devices, req.budget_factor);
+	if (carry)
+		pr_info("contego: policy loaded in place (%u bytes, %u bindings, state carried over, %u staged writes dropped, no safe state driven, budget factor %u)\n",
+			req.size, req.nbinds, carry->staged_dropped, req.budget_factor);
+	else
+		pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)\n",
+			req.size, req.nbinds, req.devices, req.budget_factor);
 	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return 0;
 fail:
 	ct_policy_free(p);
 	if (req.status != 0 && copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return ret;
+}
+
+/* CONTEGO_KMOD_RELOAD: the pairs copied in, then a load that carries. */
+static long ct_reload(unsigned long arg)
+{
+	struct contego_kmod_reload req;
+	struct ct_carry carry;
+	size_t n = 0;
+	long ret;
+	int i;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	for (i = 0; i < 5; i++) {
+		if (req.counts[i] > CONTEGO_KMOD_MAX_IMAGE / 8)
+			return -EINVAL;
+		n += req.counts[i];
+	}
+	carry.running_crc = req.running_crc;
+	memcpy(carry.counts, req.counts, sizeof(carry.counts));
+	carry.staged_dropped = 0;
+	carry.pairs = kvmalloc_array(n ? n : 1, sizeof(u16), GFP_KERNEL);
+	if (!carry.pairs)
+		return -ENOMEM;
+	if (copy_from_user(carry.pairs, u64_to_user_ptr(req.pairs), n * sizeof(u16))) {
+		kvfree(carry.pairs);
+		return -EFAULT;
+	}
+	ret = ct_load(arg, &carry); /* the load request is the first member */
+	kvfree(carry.pairs);
+	if (ret == 0 &&
+	    copy_to_user((void __user *)arg + offsetof(struct contego_kmod_reload, staged_dropped),
+			 &carry.staged_dropped, sizeof(carry.staged_dropped)))
+		return -EFAULT;
+	return ret;
+}
+
+/* CONTEGO_KMOD_IMAGE: the image in force, copied out of the lock. */
+static long ct_image(unsigned long arg)
+{
+	struct contego_kmod_image req;
+	u8 *copy = NULL;
+	long ret = 0;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	if (req.size) {
+		copy = kvmalloc(min_t(u32, req.size, CONTEGO_KMOD_MAX_IMAGE), GFP_KERNEL);
+		if (!copy)
+			return -ENOMEM;
+	}
+	mutex_lock(&ct_lock);
+	if (!ct_policy) {
+		ret = -ENOENT;
+	} else {
+		if (ct_policy->size > req.size)
+			ret = -ENOSPC;
+		else
+			memcpy(copy, ct_policy->image, ct_policy->size);
+		req.size = ct_policy->size;
+		req.crc = ct_image_crc(ct_policy);
+	}
+	mutex_unlock(&ct_lock);
+	if (ret == 0 && copy_to_user(u64_to_user_ptr(req.buf), copy, req.size))
+		ret = -EFAULT;
+	kvfree(copy);
+	if (ret != -ENOENT && copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return ret;
 }
@@ -2213,7 +2390,11 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 				size, CONTEGO_KMOD_LOAD_VERSION, sizeof(struct contego_kmod_load));
 			return -EPROTO;
 		}
-		return ct_load(arg);
+		return ct_load(arg, NULL);
+	case _IOC_NR(CONTEGO_KMOD_RELOAD):
+		return cmd == CONTEGO_KMOD_RELOAD ? ct_reload(arg) : -EPROTO;
+	case _IOC_NR(CONTEGO_KMOD_IMAGE):
+		return cmd == CONTEGO_KMOD_IMAGE ? ct_image(arg) : -ENOTTY;
 	case _IOC_NR(CONTEGO_KMOD_STATS):
 		/* An older contego asks for fewer counters: the ones it knows. */
 		if (_IOC_DIR(cmd) != _IOC_READ || size > sizeof(s) ||

@@ -195,9 +195,15 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                       (r.why & CONTEGO_KMOD_SAFE_FAILED) ? "; the write FAILED" : ""));
     }
     case CONTEGO_KMOD_REC_LOAD:
-      return event("policy-load",
-                   fmt::format("contego.ko: image of {} bytes verified and in force; {}{}", r.count,
-                               caller(r), load_note));
+      return event(
+          "policy-load",
+          fmt::format("contego.ko: image of {} bytes verified and in force{}; {}{}", r.count,
+                      r.field_count >= 2
+                          ? fmt::format(" in place (state carried over from image CRC-32 "
+                                        "{:08x}, no safe state driven)",
+                                        static_cast<uint32_t>(r.fields[1]))
+                          : "",
+                      caller(r), load_note));
     case CONTEGO_KMOD_REC_LOAD_REFUSED:
       return event("policy-load-refused",
                    fmt::format("contego.ko: the verifier refused an image of {} bytes "

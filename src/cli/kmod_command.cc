@@ -10,6 +10,11 @@
 // monitor enforces beside it: each task's `sessions` (live sessions it may
 // have) and actuations per job, and --budget-factor (the over-budget hold,
 // as the monitor's; default 4, 0 = off).
+// `contego kmod reload` takes the same options and loads in place: the
+// running image is read back from the module, paired with the new one by
+// name (cli/carry_pairs.h, as `contego reload` does in the monitor), and the
+// module carries the state of the paired records over without driving any
+// safe state; refused, the policy in force kept, when the devices differ.
 // `contego kmod stats` prints the module's counters; `contego kmod audit`
 // writes the module's audit ring to the audit log (kmod_audit.cc).
 #include <fcntl.h>
@@ -30,6 +35,7 @@
 #include "base/unique_fd.h"
 #include "cli/audit_args.h"
 #include "cli/bus_args.h"
+#include "cli/carry_pairs.h"
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
 #include "cli/kmod_load_error.h"
@@ -126,9 +132,94 @@ bool fill_complain(contego_kmod_load* req, const image::ImageModel& model, bool 
   return true;
 }
 
+// The image in force in the module, read back (CONTEGO_KMOD_IMAGE), and its CRC.
+Result<std::pair<std::vector<uint8_t>, uint32_t>> running_image(int fd) {
+  contego_kmod_image req{};
+  std::vector<uint8_t> bytes;
+  for (int attempt = 0; attempt < 3; ++attempt) {  // a load between two asks: ask again
+    req.buf = reinterpret_cast<uintptr_t>(bytes.data());
+    req.size = static_cast<uint32_t>(bytes.size());
+    if (::ioctl(fd, CONTEGO_KMOD_IMAGE, &req) == 0) {
+      bytes.resize(req.size);
+      return std::pair{std::move(bytes), req.crc};
+    }
+    if (errno == ENOENT) {
+      return make_error("no policy is in force in the module: load one with `contego kmod load`");
+    }
+    if (errno == ENOTTY) {
+      return make_error(
+          "the module predates loads in place (no CONTEGO_KMOD_IMAGE): load the contego.ko built "
+          "with this contego, or `contego kmod load` (every device driven to its safe state)");
+    }
+    if (errno != ENOSPC)
+      return make_error(std::string("reading the image back: ") + strerror(errno));
+    bytes.resize(req.size);
+  }
+  return make_error("the module's image kept changing while it was read back");
+}
+
+// CONTEGO_KMOD_RELOAD with `req` and the pairs of `now` with the image in
+// force; returns the exit code (said on stderr when not 0).
+int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, size_t nbinds) {
+  auto running = running_image(fd);
+  if (!running.ok()) {
+    fmt::print(stderr, "contego kmod reload: {}\n", running.error());
+    return 1;
+  }
+  auto old = image::deserialize(running->first);
+  if (!old.ok()) {
+    fmt::print(stderr, "contego kmod reload: the module's image cannot be read: {}\n", old.error());
+    return 1;
+  }
+  auto pairing = pair_for_carry(now, *old);
+  if (!pairing.ok()) {
+    fmt::print(stderr, "contego kmod reload: refused, the policy in force stays: {}\n",
+               pairing.error());
+    return 1;
+  }
+  const Pairing& p = *pairing;
+  std::vector<uint16_t> pairs;
+  contego_kmod_reload r{};
+  r.load = *req;
+  r.running_crc = running->second;
+  int k = 0;
+  for (const auto* ids : {&p.tasks, &p.devices, &p.commands, &p.rates, &p.invariants}) {
+    r.counts[k++] = static_cast<uint32_t>(ids->size());
+    pairs.insert(pairs.end(), ids->begin(), ids->end());
+  }
+  r.pairs = reinterpret_cast<uintptr_t>(pairs.data());
+  if (::ioctl(fd, CONTEGO_KMOD_RELOAD, &r) != 0) {
+    const int err = errno;
+    *req = r.load;
+    if (err == ESTALE) {
+      fmt::print(stderr,
+                 "contego kmod reload: another policy was loaded while this one was paired with "
+                 "it; the policy in force stays (run it again)\n");
+    } else if (err == EINVAL && r.load.status == 0) {
+      fmt::print(stderr,
+                 "contego kmod reload: the module refused the pairs (the kernel log says why); "
+                 "the policy in force stays\n");
+    } else {
+      fmt::print(stderr, "{}\n", kmod_load_error(err, r.load));
+    }
+    return 1;
+  }
+  const auto kept_tasks = static_cast<size_t>(std::count(p.kept.begin(), p.kept.end(), true));
+  fmt::print(
+      "contego kmod: loaded in place {} bytes, {} binding(s), state carried over ({} task(s), {} "
+      "device(s), {} command(s), rate limit(s) and invariant(s)), started afresh: {}; no safe "
+      "state driven, {} staged write(s) dropped, budget factor {}\n",
+      r.load.size, nbinds, kept_tasks, p.devices.size(), p.paired,
+      p.afresh.empty() ? "nothing" : fmt::format("{}", fmt::join(p.afresh, ", ")), r.staged_dropped,
+      r.load.budget_factor);
+  return 0;
+}
+
 int load(const std::string& device, const monitor::SetupOptions& source,
          const std::string& raw_image, const std::vector<std::string>& binds,
-         uint32_t budget_factor, bool complain, const std::vector<std::string>& complain_for) {
+         uint32_t budget_factor, bool complain, const std::vector<std::string>& complain_for,
+         bool in_place) {
+  image::ImageModel model;  // the new image's (names: what a load in place pairs)
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
   contego_kmod_load req{};
@@ -144,7 +235,11 @@ int load(const std::string& device, const monitor::SetupOptions& source,
     image.assign(bytes->begin(), bytes->end());
     // The tasks' limits as far as the bytes can be read (else none: the
     // module's verifier refuses such an image anyway).
-    if (auto model = image::deserialize(image); model.ok() && !fill_task_limits(&req, *model, {})) {
+    if (auto m = image::deserialize(image); m.ok()) {
+      if (!fill_task_limits(&req, *m, {})) return 2;
+      model = std::move(*m);
+    } else if (in_place) {
+      fmt::print(stderr, "contego kmod reload: the image cannot be paired: {}\n", m.error());
       return 2;
     }
   } else {
@@ -154,6 +249,7 @@ int load(const std::string& device, const monitor::SetupOptions& source,
       return 2;
     }
     image = loaded->image;
+    model = loaded->model;
     if (!fill_task_limits(&req, loaded->model, loaded->bindings)) return 2;
     if (!fill_complain(&req, loaded->model, complain, complain_for)) return 2;
     std::map<std::string, uint16_t> ids;
@@ -225,6 +321,7 @@ int load(const std::string& device, const monitor::SetupOptions& source,
   req.size = static_cast<uint32_t>(image.size());
   req.nbinds = static_cast<uint32_t>(table.size());
   req.binds = reinterpret_cast<uintptr_t>(table.data());
+  if (in_place) return load_in_place(fd.get(), &req, model, table.size());
   const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_LOAD, &req);
   const int err = errno;
   if (rc != 0) {
@@ -274,52 +371,64 @@ void register_kmod(CLI::App& app) {
     bool complain = false;
     std::vector<std::string> complain_for;
   };
-  auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("kmod", "Drive contego.ko, the in-kernel checked i2c-dev");
   cmd->require_subcommand(1);
-  auto* ld = cmd->add_subcommand("load", "Load a policy into contego.ko (verified there)");
-  ld->add_option("--policy", args->policy, "policy file");
-  ld->add_option(
-      "--bundle", args->bundle,
-      "a policy bundle (`contego check --emit-bundle`): the image and the task bindings");
-  ld->add_flag("--require-signed", args->require_signed,
-               "load only a --bundle whose minisign signature verifies with a key of --keys-dir");
-  ld->add_option("--signature", args->signature,
-                 "the bundle's minisign signature (default: BUNDLE.minisig; one that exists is "
-                 "always checked)");
-  ld->add_option("--keys-dir", args->keys_dir, "trusted minisign public keys (*.pub)")
-      ->capture_default_str();
-  ld->add_option("--unverified-image", args->raw_image,
-                 "send this file's bytes as the image unchecked here (the module verifies)");
-  ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
-  ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
-  add_budget_option(ld, &args->budget_factor);
-  add_complain_options(ld, &args->complain, &args->complain_for);
-  ld->callback([args] {
-    const int sources = !args->policy.empty() + !args->bundle.empty() + !args->raw_image.empty();
-    if (sources != 1) {
-      fmt::print(stderr,
-                 "contego kmod load: give one of --policy, --bundle or --unverified-image\n");
-      return set_exit_code(2);
-    }
-    if (args->require_signed && args->bundle.empty()) {
-      fmt::print(stderr,
-                 "contego kmod load: --require-signed loads a signed --bundle FILE only "
-                 "(`contego check --emit-bundle`, then `minisign -Sm FILE`)\n");
-      return set_exit_code(2);
-    }
-    monitor::SetupOptions source;
-    source.policy = args->policy;
-    source.bundle = args->bundle;
-    source.require_signed = args->require_signed;
-    source.signature = args->signature;
-    source.keys_dir = args->keys_dir;
-    set_exit_code(load(args->device, source, args->raw_image, args->binds, args->budget_factor,
-                       args->complain, args->complain_for));
-  });
+  // `load` and `reload` take the same options; reload keeps the state.
+  auto add_load = [cmd](const char* name, const char* what, bool in_place) {
+    auto args = std::make_shared<Args>();
+    auto* ld = cmd->add_subcommand(name, what);
+    ld->add_option("--policy", args->policy, "policy file");
+    ld->add_option(
+        "--bundle", args->bundle,
+        "a policy bundle (`contego check --emit-bundle`): the image and the task bindings");
+    ld->add_flag("--require-signed", args->require_signed,
+                 "load only a --bundle whose minisign signature verifies with a key of --keys-dir");
+    ld->add_option("--signature", args->signature,
+                   "the bundle's minisign signature (default: BUNDLE.minisig; one that exists is "
+                   "always checked)");
+    ld->add_option("--keys-dir", args->keys_dir, "trusted minisign public keys (*.pub)")
+        ->capture_default_str();
+    ld->add_option("--unverified-image", args->raw_image,
+                   "send this file's bytes as the image unchecked here (the module verifies)");
+    ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
+    ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
+    add_budget_option(ld, &args->budget_factor);
+    add_complain_options(ld, &args->complain, &args->complain_for);
+    ld->callback([args, name, in_place] {
+      const int sources = !args->policy.empty() + !args->bundle.empty() + !args->raw_image.empty();
+      if (sources != 1) {
+        fmt::print(stderr,
+                   "contego kmod {}: give one of --policy, --bundle or --unverified-image\n", name);
+        return set_exit_code(2);
+      }
+      if (args->require_signed && args->bundle.empty()) {
+        fmt::print(stderr,
+                   "contego kmod {}: --require-signed loads a signed --bundle FILE only "
+                   "(`contego check --emit-bundle`, then `minisign -Sm FILE`)\n",
+                   name);
+        return set_exit_code(2);
+      }
+      monitor::SetupOptions source;
+      source.policy = args->policy;
+      source.bundle = args->bundle;
+      source.require_signed = args->require_signed;
+      source.signature = args->signature;
+      source.keys_dir = args->keys_dir;
+      set_exit_code(load(args->device, source, args->raw_image, args->binds, args->budget_factor,
+                         args->complain, args->complain_for, in_place));
+    });
+  };
+  add_load("load",
+           "Load a policy into contego.ko (verified there; every device driven to its safe state)",
+           false);
+  add_load("reload",
+           "Load a policy into contego.ko in place: the state of the records it keeps (by name) "
+           "carries over, no safe state is driven; the devices must stay the same",
+           true);
+  auto device = std::make_shared<std::string>("/dev/contego");
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
-  st->add_option("--device", args->device, "the module's control device")->capture_default_str();
-  st->callback([args] { set_exit_code(stats(args->device)); });
+  st->add_option("--device", *device, "the module's control device")->capture_default_str();
+  st->callback([device] { set_exit_code(stats(*device)); });
   auto audit = std::make_shared<KmodAuditOptions>();
   auto* au = cmd->add_subcommand(
       "audit",

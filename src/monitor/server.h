@@ -81,12 +81,13 @@ class Server {
   // A second, read-only socket: it answers `contego status` and nothing
   // else, to root, the monitor's uid and members of the status group (the
   // peer's primary or supplementary groups as SO_PEERCRED/SO_PEERGROUPS give
-  // them). Optional; call after listen().
+  // them); anyone else who can reach it gets the refusal's reason. Optional;
+  // call after listen().
   Status listen_status(const std::string& path);
   // The group whose members may read the status (on either socket; on the
   // main socket only if their uid may connect at all). Call before serve().
   void set_status_group(gid_t group) { status_group_ = group; }
-  void serve();                            // accept loop; returns after stop()
+  void serve();  // accept loop; returns after stop()
   void stop();
   // Counters (tests): connections refused over the cap, closed for no
   // hello, failed accepts, events suppressed by the rate limit.
@@ -122,7 +123,7 @@ class Server {
     bool read_only = false;     // came in on the status socket: status requests only
     bool status_group = false;  // the peer is in the status group
     bool timed_out = false;     // mu_
-    int task = -1;           // the task its session is bound to, -1 none; mu_
+    int task = -1;              // the task its session is bound to, -1 none; mu_
     std::thread thread;
   };
   struct EventBudget {

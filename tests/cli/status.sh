@@ -97,8 +97,8 @@ if [ "$(id -u)" = 0 ]; then
       >"$dir/st.out" 2>&1; then
     fail "a peer outside the status group read the status"
   fi
-  grep -q "the status group may read status" "$dir/st.out" || fail "no reason for uid 4321"
-  grep -q 'pid [0-9]* uid 4321: not in the status group' "$dir/audit.jsonl" ||
+  grep -q "the status group may read its status" "$dir/st.out" || fail "no reason for uid 4321"
+  grep -q 'pid [0-9]* uid 4321: status: only root' "$dir/audit.jsonl" ||
     fail "the refused peer is not audited"
   # The status socket answers nothing else, even to root.
   if "$contego" reset gopigo --socket "$dir/s.sock" >"$dir/st.out" 2>&1; then

@@ -314,8 +314,15 @@ TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
   ld.fields[0] = 0x3333;
   write(ld);
   write(d);
+  ld.fields[1] = 0x3333;  // in place (`contego kmod reload`): the image it replaced
+  ld.field_count = 2;
+  write(ld);
   auto l = lines();
-  ASSERT_EQ(l.size(), 5u);
+  ASSERT_EQ(l.size(), 6u);
+  EXPECT_NE(l[5]["detail"].get<std::string>().find(
+                "in place (state carried over from image CRC-32 00003333, no safe state driven)"),
+            std::string::npos)
+      << l[5]["detail"];
   EXPECT_EQ(l[0]["task_name"], names_.tasks[1]);
   EXPECT_NE(l[1]["detail"].get<std::string>().find("00002222: other.policy"), std::string::npos)
       << l[1]["detail"];

@@ -748,5 +748,51 @@ else
   echo "  skipped: the signed bundle checks (no minisign or host contego when the initramfs was made)"
 fi
 
+# --- load in place (`contego kmod reload`): a changed policy while arm_init
+# holds LED5 at 577 in a live session. No safe state is driven, the session
+# goes on under the new policy (its end still drives the safe state); a
+# policy whose device moved is refused before the module sees it.
+AUDIT_LOG=$LOGDIR/kmod-reload.jsonl
+rmmod i2c_dev
+run_logged reload_insmod insmod $KO adapters=0 buses=1
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader
+run_logged reload_fresh contego kmod reload --policy $POLICIES/arm.policy --bind arm_init=task
+[ $RC = 1 ] && grep -q "no policy is in force" "$OUT" &&
+  ok "kmod reload with nothing loaded: refused (exit 1), $(cat "$OUT")" || bad "kmod reload with nothing loaded: exit $RC"
+run_logged reload_load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
+rm -f /tmp/holder.pid
+as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
+  >"$LOGDIR/holder2.out" 2>&1 &
+wait_for /tmp/holder.pid 10
+HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+sed 's/^limit gripper -> arm.led 1 per job/limit gripper -> arm.led 2 per job/' $POLICIES/arm.policy >/tmp/arm-more.policy
+run_logged reload_inplace contego kmod reload --policy /tmp/arm-more.policy --bind arm_init=task \
+  --bind gripper=contego --budget-factor 0
+[ $RC = 0 ] && grep -q "loaded in place" "$OUT" && grep -q "no safe state driven" "$OUT" &&
+  ok "kmod reload: $(cat "$OUT")" || bad "kmod reload in place: exit $RC"
+[ "$(led5)" = 577 ] && kill -0 "$HOLDER" 2>/dev/null &&
+  ok "after the reload LED5 off = 577 still (no safe state driven) and the session's program runs (pid $HOLDER)" ||
+  bad "after the reload LED5 off reads $(led5), the holder $(kill -0 "$HOLDER" 2>/dev/null && echo runs || echo is gone)"
+dmesg | grep -q "contego: policy loaded in place" && ok "the kernel log: $(dmesg | grep -o 'contego: policy loaded in place.*' | tail -n1)" ||
+  bad "no load in place in the kernel log"
+sed 's/^device arm : pca9685 at i2c-1 0x40/device arm : pca9685 at i2c-1 0x41/' $POLICIES/arm.policy >/tmp/arm-moved.policy
+run_logged reload_moved contego kmod reload --policy /tmp/arm-moved.policy --bind arm_init=task
+[ $RC = 1 ] && grep -q "the policy in force stays" "$OUT" && grep -q "keeps the devices" "$OUT" &&
+  ok "a reload whose device moved is refused: $(cat "$OUT")" || bad "a reload with a moved device: exit $RC"
+run_logged reload_stats contego kmod stats
+grep -q "loads=2 refused_loads=0" "$OUT" && ok "module counters: the load and the load in place, nothing else reached it" ||
+  bad "module counters after the reloads: $(cat "$OUT")"
+kill "$HOLDER"
+led5_becomes 420 && ok "the session opened before the reload ended after it: its end drove LED5 off = 420" ||
+  bad "after the holder's end LED5 off reads $(led5), expected the safe state 420"
+stop_reader
+grep -q 'in place (state carried over from image CRC-32 [0-9a-f]*, no safe state driven)' $AUDIT_LOG &&
+  ok "the log names the load in place and the image it replaced" || bad "no load in place in the module's log"
+run_logged reload_verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "contego audit verifies the log across the load in place" || bad "contego audit exit $RC"
+back_to_i2c_dev
+
 [ $FAILS = 0 ] || { echo "  the gripper's decisions (kernel log, trace=1):"; show "$LOGDIR/grip-trace"; }
 finish
