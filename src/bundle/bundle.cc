@@ -88,6 +88,13 @@ std::string encode_bundle(const Bundle& b) {
     tasks.push_back(std::move(j));
   }
   doc["tasks"] = std::move(tasks);
+  // Only when named: a bundle without them keeps its text (and signature).
+  if (b.budget_factor) doc["budget_factor"] = *b.budget_factor;
+  if (!b.buses.empty()) {
+    nlohmann::ordered_json buses = nlohmann::ordered_json::object();
+    for (const auto& [n, path] : b.buses) buses[std::to_string(n)] = path;
+    doc["buses"] = std::move(buses);
+  }
   doc["image"] = hex(b.image.data(), b.image.size());
   return doc.dump(1) + "\n";
 }
@@ -184,6 +191,33 @@ Result<Bundle> decode_bundle(std::string_view text, const std::string& source) {
     if (!phase) return make_error(phase.error());
     t.phase_us = *phase;
     b.tasks.push_back(std::move(t));
+  }
+  auto factor = top.count("budget_factor");
+  if (!factor) return make_error(factor.error());
+  b.budget_factor = *factor;
+  if (auto buses = doc.find("buses"); buses != doc.end()) {
+    if (!buses->is_object()) {
+      return make_error(
+          fmt::format("{}: \"buses\" must be an object (bus number: adapter)", where));
+    }
+    std::set<int> used;
+    for (const auto& d : model->devices) used.insert(d.record.bus);
+    for (const auto& [key, value] : buses->items()) {
+      const std::string at = fmt::format("{}: buses[\"{}\"]", where, key);
+      if (key.empty() || key.size() > 3 ||
+          key.find_first_not_of("0123456789") != std::string::npos || std::stoi(key) > 255) {
+        return make_error(at + ": the key must be a bus number from 0 to 255");
+      }
+      const int n = std::stoi(key);
+      if (!used.contains(n))
+        return make_error(fmt::format("{}: no device of the image is on bus {}", at, n));
+      if (!value.is_string() || value.get_ref<const std::string&>().empty() ||
+          value.get_ref<const std::string&>()[0] != '/' ||
+          value.get_ref<const std::string&>().find('\0') != std::string::npos) {
+        return make_error(at + ": the adapter must be an absolute path (/dev/i2c-N)");
+      }
+      b.buses[n] = value.get<std::string>();
+    }
   }
   return b;
 }

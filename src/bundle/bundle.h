@@ -13,6 +13,7 @@
 #define CONTEGO_BUNDLE_BUNDLE_H_
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -39,6 +40,12 @@ struct Bundle {
   std::string policy;  // the policy file it was compiled from (a name for records)
   std::vector<uint8_t> image;
   std::vector<BundleTask> tasks;
+  // The host side of what decides, when the bundle names it (`contego check
+  // --emit-bundle --budget-factor N --bus N=PATH`): the over-budget hold's
+  // factor, and which adapter (/dev/i2c-N) each of the policy's buses is.
+  // A daemon's command line may repeat them, never contradict them.
+  std::optional<uint32_t> budget_factor;
+  std::map<int, std::string> buses;
 };
 
 // The bundle's text: stable for equal bundles, ends in a newline.
@@ -50,7 +57,8 @@ std::string image_sha256(const std::vector<uint8_t>& image);
 // Reads a bundle written by encode_bundle. Refused, with `source` and the
 // field named: not JSON, another format or version, a field of the wrong
 // type, an image that is not hex or does not match its `image_sha256`, a
-// task binding for a task the image does not declare, or declared twice.
+// task binding for a task the image does not declare, or declared twice, a
+// bus no device of the image is on or whose adapter is not an absolute path.
 // The image is only deserialised here (to match the bindings); the core's
 // verifier still decides whether it loads.
 Result<Bundle> decode_bundle(std::string_view text, const std::string& source);

@@ -96,6 +96,40 @@ TEST(BundleTest, DamagedOrForeignBundlesAreRefusedNamingTheField) {
   expect_refused(replaced(text, "\"tasks\": [", "\"tasks\": {\"x\": ["), "");
 }
 
+// The host side (budget factor, bus adapters): in the bundle only when
+// named, so a bundle without it keeps its text and its signature.
+TEST(BundleTest, TheHostSideRoundTripsAndIsCheckedOnRead) {
+  Bundle b = compiled();
+  const std::string plain = encode_bundle(b);
+  EXPECT_EQ(plain.find("budget_factor"), std::string::npos);
+  EXPECT_EQ(plain.find("buses"), std::string::npos);
+  b.budget_factor = 0;
+  b.buses[1] = "/dev/i2c-1";
+  const std::string text = encode_bundle(b);
+  const Result<Bundle> r = decode_bundle(text, "robot.bundle");
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->budget_factor, std::optional<uint32_t>(0));
+  ASSERT_EQ(r->buses.size(), 1u);
+  EXPECT_EQ(r->buses.at(1), "/dev/i2c-1");
+  EXPECT_EQ(encode_bundle(*r), text);
+  const Result<Bundle> none = decode_bundle(plain, "robot.bundle");
+  ASSERT_TRUE(none.ok());
+  EXPECT_FALSE(none->budget_factor.has_value());
+  EXPECT_TRUE(none->buses.empty());
+
+  expect_refused(replaced(text, "\"budget_factor\": 0", "\"budget_factor\": -1"),
+                 "\"budget_factor\" must be");
+  expect_refused(replaced(text, "\"1\": \"/dev/i2c-1\"", "\"2\": \"/dev/i2c-2\""),
+                 "no device of the image is on bus 2");
+  expect_refused(replaced(text, "\"1\": \"/dev/i2c-1\"", "\"x\": \"/dev/i2c-1\""),
+                 "a bus number from 0 to 255");
+  expect_refused(replaced(text, "\"1\": \"/dev/i2c-1\"", "\"1000\": \"/dev/i2c-1\""),
+                 "a bus number from 0 to 255");
+  expect_refused(replaced(text, "\"1\": \"/dev/i2c-1\"", "\"1\": \"i2c-1\""), "absolute path");
+  expect_refused(replaced(text, "\"1\": \"/dev/i2c-1\"", "\"1\": 1"), "absolute path");
+  expect_refused(replaced(text, "\"buses\": {", "\"buses\": [{"), "");
+}
+
 TEST(BundleTest, AnImageChangedInTheFileIsRefused) {
   const Bundle b = compiled();
   const std::string text = encode_bundle(b);

@@ -80,10 +80,11 @@ void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
       ->group("");
 }
 
-void add_budget_option(CLI::App* cmd, uint32_t* budget_factor) {
-  cmd->add_option("--budget-factor", *budget_factor,
-                  "hold a task's transfers to the end of its period once it has sent more than "
-                  "this many times its declared actuations in one job (0 = never)")
+CLI::Option* add_budget_option(CLI::App* cmd, uint32_t* budget_factor) {
+  return cmd
+      ->add_option("--budget-factor", *budget_factor,
+                   "hold a task's transfers to the end of its period once it has sent more than "
+                   "this many times its declared actuations in one job (0 = never)")
       ->capture_default_str();
 }
 

@@ -39,7 +39,7 @@ void add_bus_options(CLI::App* cmd, std::vector<std::string>* buses,
                      const std::string& bus_note = "");
 
 // `--budget-factor` on `cmd`, as the Monitor takes it.
-void add_budget_option(CLI::App* cmd, uint32_t* budget_factor);
+CLI::Option* add_budget_option(CLI::App* cmd, uint32_t* budget_factor);
 
 // `--complain` and `--complain-for NAME` (complain mode) on `cmd`.
 void add_complain_options(CLI::App* cmd, bool* complain, std::vector<std::string>* complain_for);

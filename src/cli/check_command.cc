@@ -10,6 +10,7 @@
 
 #include "base/json_text.h"
 #include "bundle/bundle.h"
+#include "cli/bus_args.h"
 #include "cli/command.h"
 #include "cli/policy_load.h"
 #include "cli/sched_closure.h"
@@ -175,6 +176,8 @@ void register_check(CLI::App& app) {
   auto* cmd = app.add_subcommand("check", "Compile a policy, verify its image, print a summary");
   static std::string path, emit, emit_bundle;
   static bool strict = false, json = false;
+  static std::optional<uint32_t> budget_factor;
+  static std::vector<std::string> buses;
   cmd->add_option("POLICY", path, "policy file")->required();
   cmd->add_flag("--strict", strict, "treat warnings as errors");
   cmd->add_flag("--json", json, "print the diagnostics and the summary as JSON");
@@ -182,7 +185,25 @@ void register_check(CLI::App& app) {
   cmd->add_option("--emit-bundle", emit_bundle,
                   "write the policy bundle (the image and the task bindings, all that decides; "
                   "contego-monitor --bundle loads it) to this file");
+  cmd->add_option("--budget-factor", budget_factor,
+                  "with --emit-bundle: the over-budget hold's factor the bundle fixes (the "
+                  "monitor's --budget-factor may repeat it, not change it)");
+  configure_bus_option(cmd->add_option(
+      "--bus", buses,
+      "with --emit-bundle: N=/dev/i2c-M, the adapter of the policy's bus N the bundle fixes "
+      "(repeatable; the monitor's --bus may repeat it or add others, not change it)"));
   cmd->callback([] {
+    if ((budget_factor || !buses.empty()) && emit_bundle.empty()) {
+      fmt::print(stderr,
+                 "contego check: --budget-factor and --bus go into a bundle: give "
+                 "--emit-bundle FILE\n");
+      return set_exit_code(2);
+    }
+    auto bus_map = parse_bus_specs(buses, {});
+    if (!bus_map.ok()) {
+      fmt::print(stderr, "contego check: {}\n", bus_map.error());
+      return set_exit_code(2);
+    }
     policy::CompileOptions options;
     options.strict = strict;
     options.task_model_check = sched_closure;
@@ -196,8 +217,14 @@ void register_check(CLI::App& app) {
                  monitor::sha256_hex(image));
     }
     if (out.ok && !emit_bundle.empty()) {
-      const std::string text =
-          bundle::encode_bundle({path, out.image, monitor::bundle_tasks(out.summary)});
+      const std::string text = bundle::encode_bundle(
+          {path, out.image, monitor::bundle_tasks(out.summary), budget_factor, *bus_map});
+      // Read back as the monitor will: a bus no device is on, a relative
+      // adapter path, are refused here rather than on the robot.
+      if (auto back = bundle::decode_bundle(text, emit_bundle); !back.ok()) {
+        fmt::print(stderr, "contego check: not written: {}\n", back.error());
+        return set_exit_code(2);
+      }
       if (!write_output(emit_bundle, text)) return set_exit_code(2);
       fmt::print(stderr,
                  "contego check: wrote {} ({} bytes, SHA-256 {}; image SHA-256 {}); to sign it: "

@@ -217,8 +217,8 @@ int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, 
 
 int load(const std::string& device, const monitor::SetupOptions& source,
          const std::string& raw_image, const std::vector<std::string>& binds,
-         uint32_t budget_factor, bool complain, const std::vector<std::string>& complain_for,
-         bool in_place) {
+         uint32_t budget_factor, bool budget_factor_given, bool complain,
+         const std::vector<std::string>& complain_for, bool in_place) {
   image::ImageModel model;  // the new image's (names: what a load in place pairs)
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
@@ -250,6 +250,21 @@ int load(const std::string& device, const monitor::SetupOptions& source,
     }
     image = loaded->image;
     model = loaded->model;
+    if (loaded->budget_factor) {  // a bundle's, which the command line may only repeat
+      if (budget_factor_given && budget_factor != *loaded->budget_factor) {
+        fmt::print(stderr,
+                   "contego kmod: --budget-factor {}: the bundle says {}; a bundle's host side is "
+                   "not overridden\n",
+                   budget_factor, *loaded->budget_factor);
+        return 2;
+      }
+      req.budget_factor = *loaded->budget_factor;
+    }
+    if (!loaded->buses.empty()) {
+      fmt::print(stderr,
+                 "contego kmod: note: the bundle's bus adapters are the monitor's; contego.ko "
+                 "takes its buses from its own parameters (adapters=, buses=)\n");
+    }
     if (!fill_task_limits(&req, loaded->model, loaded->bindings)) return 2;
     if (!fill_complain(&req, loaded->model, complain, complain_for)) return 2;
     std::map<std::string, uint16_t> ids;
@@ -331,7 +346,7 @@ int load(const std::string& device, const monitor::SetupOptions& source,
   fmt::print(
       "contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state, budget "
       "factor {}{}\n",
-      image.size(), table.size(), req.devices, budget_factor,
+      image.size(), table.size(), req.devices, req.budget_factor,
       req.complain != 0 ? fmt::format(", complain mode for task mask 0x{:x}", req.complain) : "");
   return 0;
 }
@@ -368,6 +383,7 @@ void register_kmod(CLI::App& app) {
     bool require_signed = false;
     std::vector<std::string> binds;
     uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+    bool budget_factor_given = false;
     bool complain = false;
     std::vector<std::string> complain_for;
   };
@@ -392,7 +408,9 @@ void register_kmod(CLI::App& app) {
                    "send this file's bytes as the image unchecked here (the module verifies)");
     ld->add_option("--bind", args->binds, "TASK=USER: processes of USER (name or uid) act as TASK");
     ld->add_option("--device", args->device, "the module's control device")->capture_default_str();
-    add_budget_option(ld, &args->budget_factor);
+    add_budget_option(ld, &args->budget_factor)->each([args](const std::string&) {
+      args->budget_factor_given = true;
+    });
     add_complain_options(ld, &args->complain, &args->complain_for);
     ld->callback([args, name, in_place] {
       const int sources = !args->policy.empty() + !args->bundle.empty() + !args->raw_image.empty();
@@ -415,7 +433,7 @@ void register_kmod(CLI::App& app) {
       source.signature = args->signature;
       source.keys_dir = args->keys_dir;
       set_exit_code(load(args->device, source, args->raw_image, args->binds, args->budget_factor,
-                         args->complain, args->complain_for, in_place));
+                         args->budget_factor_given, args->complain, args->complain_for, in_place));
     });
   };
   add_load("load",

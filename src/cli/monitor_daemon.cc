@@ -186,7 +186,9 @@ void add_monitor_options(CLI::App* cmd, MonitorArgs* args, bool daemon) {
                   "busy-wait this long for a channel client's next request before sleeping")
       ->check(CLI::Range(0u, gate::kMaxSpinUs))
       ->capture_default_str();
-  add_budget_option(cmd, &args->budget_factor);
+  add_budget_option(cmd, &args->budget_factor)->each([args](const std::string&) {
+    args->budget_factor_given = true;
+  });
   add_complain_options(cmd, &args->complain, &args->complain_for);
   cmd->add_flag("--allow-degraded", args->allow_degraded,
                 "start even if a device does not answer, a sensor cannot be read, a safe state "
@@ -215,8 +217,9 @@ std::string monitor_usage_error(const MonitorArgs& args, bool daemon) {
   if (!args.image_sha256.empty() && args.image.empty() && args.bundle.empty()) {
     return "--image-sha256 needs --image FILE or --bundle FILE";
   }
-  if (args.buses.empty() && args.virtual_buses.empty()) {
-    return "give at least one --bus or --virtual-bus";
+  if (args.buses.empty() && args.virtual_buses.empty() && args.bundle.empty() &&
+      args.bundle_fd < 0) {
+    return "give at least one --bus or --virtual-bus";  // a bundle may name its buses
   }
   return "";
 }

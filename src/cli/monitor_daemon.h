@@ -39,6 +39,7 @@ struct MonitorArgs {
   std::vector<std::string> complain_for;
   std::string virtual_state;  // tests: the virtual devices' state, written at exit
   uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+  bool budget_factor_given = false;  // on the command line (a bundle's must agree)
   monitor::AuditOptions audit_options;
   monitor::ServerLimits limits;
   std::string metrics_file;

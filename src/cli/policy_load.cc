@@ -66,7 +66,7 @@ std::vector<bundle::BundleTask> bundle_tasks(const policy::PolicySummary& summar
 }
 
 bundle::Bundle bundle_of(const LoadedPolicy& loaded, const std::string& policy) {
-  return bundle::Bundle{policy, loaded.image, loaded.bindings};
+  return bundle::Bundle{policy, loaded.image, loaded.bindings, loaded.budget_factor, loaded.buses};
 }
 
 }  // namespace contego::monitor

@@ -54,6 +54,23 @@ class Reloader {
     if (!signed_by.ok()) return refuse(EPERM, signed_by.error());
     auto b = bundle::decode_bundle(request.bundle, "the reload's bundle");
     if (!b.ok()) return refuse(EINVAL, b.error());
+    // The host side stays what the monitor started with (its buses are open).
+    if (b->budget_factor && *b->budget_factor != trusted_.budget_factor) {
+      return refuse(EINVAL, fmt::format("the bundle's budget factor is {}, the running monitor's "
+                                        "{}: a reload keeps it (a restart changes it)",
+                                        *b->budget_factor, trusted_.budget_factor));
+    }
+    for (const auto& [n, path] : b->buses) {
+      const auto running = trusted_.real_buses.find(n);
+      if (running == trusted_.real_buses.end() || running->second != path) {
+        return refuse(EINVAL, fmt::format("the bundle says bus {} is {}, the running monitor "
+                                          "uses {}: a reload keeps the buses (a restart changes "
+                                          "them)",
+                                          n, path,
+                                          running == trusted_.real_buses.end() ? "another adapter"
+                                                                               : running->second));
+      }
+    }
     const std::string hash = bundle::image_sha256(b->image);
     auto model = image::deserialize(b->image);
     if (!model.ok()) return refuse(EINVAL, "the reload's image: " + model.error());

@@ -21,6 +21,9 @@ Status apply_setup_args(const Args& args, monitor::SetupOptions& so) {
   so.real_buses = *buses;
   so.virtual_buses = args.virtual_buses;
   so.budget_factor = args.budget_factor;
+  if constexpr (requires { args.budget_factor_given; }) {
+    so.budget_factor_given = args.budget_factor_given;
+  }
   so.allow_degraded = args.allow_degraded;
   so.complain = args.complain;
   so.complain_for = args.complain_for;

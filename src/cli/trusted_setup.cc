@@ -3,6 +3,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <fmt/core.h>
 #include <fmt/format.h>
@@ -186,7 +187,46 @@ Result<LoadedPolicy> load_bundle(const SetupOptions& o) {
   p.model = std::move(*model);
   p.image = std::move(b->image);
   p.bindings = std::move(b->tasks);
+  p.budget_factor = b->budget_factor;
+  p.buses = std::move(b->buses);
   return p;
+}
+
+// The bundle's host side with the command line's: the command line may
+// repeat what the bundle says and add buses it does not name, never
+// contradict it (what decides is the signed bundle).
+Status apply_bundle_host_side(const SetupOptions& o, const LoadedPolicy& out, uint32_t* factor,
+                              std::map<int, std::string>* buses) {
+  *factor = o.budget_factor;
+  *buses = o.real_buses;
+  if (out.budget_factor) {
+    if (o.budget_factor_given && o.budget_factor != *out.budget_factor) {
+      return make_error(fmt::format(
+          "--budget-factor {}: the bundle {} says {}; a bundle's host side is not overridden "
+          "(drop the option, or emit the bundle with `contego check --emit-bundle "
+          "--budget-factor N`)",
+          o.budget_factor, out.source, *out.budget_factor));
+    }
+    *factor = *out.budget_factor;
+  }
+  for (const auto& [n, path] : out.buses) {
+    const auto given = o.real_buses.find(n);
+    const bool virtual_bus =
+        std::find(o.virtual_buses.begin(), o.virtual_buses.end(), n) != o.virtual_buses.end();
+    if ((given != o.real_buses.end() && given->second != path) || virtual_bus) {
+      return make_error(fmt::format(
+          "--{}bus {}: the bundle {} says bus {} is {}; a bundle's host side is not overridden",
+          virtual_bus ? "virtual-" : "", virtual_bus ? std::to_string(n) : given->second,
+          out.source, n, path));
+    }
+    (*buses)[n] = path;
+  }
+  if (buses->empty() && o.virtual_buses.empty() && o.buses.empty()) {
+    return make_error(
+        "no bus: give at least one --bus N=/dev/i2c-N or --virtual-bus N (or a bundle that "
+        "names its buses: `contego check --emit-bundle --bus N=PATH`)");
+  }
+  return {};
 }
 
 }  // namespace
@@ -305,7 +345,10 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy
   std::vector<uint32_t> actuates;
   for (const auto& a : out.model.access) actuates.push_back(a.actuate_devices);
   t->monitor->set_task_devices(std::move(actuates));
-  t->monitor->set_budget_factor(o.budget_factor);
+  if (Status s = apply_bundle_host_side(o, out, &t->budget_factor, &t->real_buses); !s.ok()) {
+    return make_error(s.error());
+  }
+  t->monitor->set_budget_factor(t->budget_factor);
   for (const auto& task : out.bindings) {  // declared job phases (the policy's `phase`)
     auto id = t->tasks.find(task.name);
     if (task.phase_us && id != t->tasks.end())
@@ -313,7 +356,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy
   }
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;
-  for (const auto& [n, path] : o.real_buses) {
+  for (const auto& [n, path] : t->real_buses) {
     auto b = bus::LinuxI2cDev::open(path);
     if (!b.ok()) return make_error(fmt::format("bus {}: {}", n, b.error()));
     adapters[n] = b->get();

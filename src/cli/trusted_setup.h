@@ -19,6 +19,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,7 @@ struct SetupOptions {
   std::map<int, std::string> real_buses;  // bus number -> /dev/i2c-N
   std::vector<int> virtual_buses;  // buses hosting PCA9685 0x40, GoPiGo2 0x08, line follower 0x06
   uint32_t budget_factor = Monitor::kDefaultBudgetFactor;  // set_budget_factor (0 = off)
+  bool budget_factor_given = false;  // on the command line: it must agree with a bundle's
   bool allow_degraded = false;
   // Complain mode (Monitor::set_complain): every command, or those of the
   // tasks and devices named, acts as sent; the policy's verdict is recorded.
@@ -73,6 +75,10 @@ struct Trusted {
   std::string source;       // the policy or image file, with the image's SHA-256
   image::ImageModel model;  // what the core enforces: for the names a reload pairs
   std::string image_sha256;
+  // The host side in force (a bundle's, or the command line's): what a
+  // reload's bundle must agree with.
+  uint32_t budget_factor = Monitor::kDefaultBudgetFactor;
+  std::map<int, std::string> real_buses;
   std::vector<std::string> warnings;  // e.g. an adapter no device uses
   std::vector<std::string> degraded;  // with allow_degraded: what was wrong at start
   // The models on the virtual buses, for virtual_state().
@@ -98,6 +104,9 @@ struct LoadedPolicy {
   // Who may run each task (user, exe, ...): from the policy source or a
   // bundle; an image alone does not carry them (then empty).
   std::vector<bundle::BundleTask> bindings;
+  // A bundle's host side, if it names it (bundle::Bundle).
+  std::optional<uint32_t> budget_factor;
+  std::map<int, std::string> buses;
 };
 // What the trusted daemon loads, never compiling: a bundle (a file, or the
 // descriptor `contego monitor` passes after compiling `policy`), or an image

@@ -61,7 +61,7 @@ std::string Monitor::status_json() const {
       {"tasks", std::move(tasks)},     {"check_cost", std::move(cost)},
       {"devices", std::move(devices)}, {"decisions", decisions_.load()},
       {"holds", holds_.load()},        {"audit_refusals", audit_refusals_.load()},
-      {"complain", complain_.any()}};
+      {"complain", complain_.any()},   {"budget_factor", budget_factor_.load()}};
   return out.dump();
 }
 
