@@ -28,6 +28,7 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sys/ioctl.h>
 #include <sys/sysmacros.h>
 
@@ -45,6 +46,7 @@
 #include "image/image_model.h"
 #include "monitor/monitor.h"
 #include "monitor/peer_identity.h"
+#include "monitor/sha256.h"
 
 namespace contego::cli {
 namespace {
@@ -351,6 +353,94 @@ int load(const std::string& device, const monitor::SetupOptions& source,
   return 0;
 }
 
+// `contego kmod status`: what the module enforces, through its control
+// node: the image in force (read back: its SHA-256 is the one `contego
+// check --emit` and a bundle name), its tasks and devices, and the counters.
+int status(const std::string& device, bool json) {
+  const base::UniqueFd fd(::open(device.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd.valid()) {
+    fmt::print(stderr, "contego kmod status: {}: {} (is contego.ko loaded?)\n", device,
+               std::strerror(errno));
+    return 2;
+  }
+  contego_kmod_stats s{};
+  if (::ioctl(fd.get(), CONTEGO_KMOD_STATS, &s) != 0) {
+    fmt::print(stderr, "contego kmod status: stats: {}\n", std::strerror(errno));
+    return 2;
+  }
+  nlohmann::ordered_json j;
+  j["loaded"] = s.loaded != 0;
+  auto running = s.loaded ? running_image(fd.get()) : make_error("no policy is in force");
+  if (running.ok()) {
+    const auto& bytes = running->first;
+    j["image_sha256"] = monitor::sha256_hex(
+        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    j["image_crc32"] = fmt::format("{:08x}", running->second);
+    j["image_bytes"] = bytes.size();
+    if (auto model = image::deserialize(bytes); model.ok()) {
+      j["tasks"] = nlohmann::ordered_json::array();
+      for (const auto& t : model->tasks) j["tasks"].push_back(t.name);
+      j["devices"] = nlohmann::ordered_json::array();
+      for (const auto& d : model->devices) {
+        j["devices"].push_back({{"name", d.name},
+                                {"bus", d.record.bus},
+                                {"addr", fmt::format("0x{:02x}", d.record.addr)}});
+      }
+    }
+  } else if (s.loaded) {
+    j["image_error"] = running.error();  // a module that predates CONTEGO_KMOD_IMAGE
+  }
+  j["audit_reader"] = s.reader != 0;
+  j["counters"] = {{"loads", s.loads},
+                   {"refused_loads", s.refused_loads},
+                   {"checks", s.checks},
+                   {"performed", s.performed},
+                   {"refused", s.refused},
+                   {"ignored", s.ignored},
+                   {"failsafe", s.failsafe},
+                   {"holds", s.holds},
+                   {"records", s.records},
+                   {"unrecorded", s.unrecorded},
+                   {"audit_refused", s.audit_refused},
+                   {"sessions", s.sessions},
+                   {"session_ends", s.session_ends},
+                   {"sessions_refused", s.sessions_refused},
+                   {"sessions_limited", s.sessions_limited},
+                   {"samples", s.samples},
+                   {"sample_errors", s.sample_errors}};
+  if (json) {
+    fmt::print("{}\n", j.dump());
+    return 0;
+  }
+  if (!s.loaded) {
+    fmt::print(
+        "contego.ko: no policy in force (every call is refused until `contego kmod load`)\n");
+  } else if (running.ok()) {
+    fmt::print("policy:   image SHA-256 {} (CRC-32 {}, {} bytes)\n",
+               j["image_sha256"].get<std::string>(), j["image_crc32"].get<std::string>(),
+               running->first.size());
+    if (j.contains("tasks")) {
+      std::vector<std::string> tasks = j["tasks"], devices;
+      for (const auto& d : j["devices"]) {
+        devices.push_back(fmt::format("{} (bus {} {})", d["name"].get<std::string>(),
+                                      d["bus"].get<int>(), d["addr"].get<std::string>()));
+      }
+      fmt::print("tasks:    {}\ndevices:  {}\n", fmt::join(tasks, ", "), fmt::join(devices, ", "));
+    }
+  } else {
+    fmt::print("policy:   in force ({})\n", running.error());
+  }
+  fmt::print("audit:    {}\n", s.reader ? "a reader is attached"
+                                        : "NO READER: every call fails closed until `contego kmod "
+                                          "audit` runs");
+  fmt::print("sessions: {} open, {} ended, {} refused for room, {} over their task's `sessions`\n",
+             s.sessions, s.session_ends, s.sessions_refused, s.sessions_limited);
+  fmt::print("checks:   {} ({} performed, {} refused, {} ignored, {} fail-safe; {} holds)\n",
+             s.checks, s.performed, s.refused, s.ignored, s.failsafe, s.holds);
+  fmt::print("loads:    {} ({} refused by the verifier)\n", s.loads, s.refused_loads);
+  return 0;
+}
+
 int stats(const std::string& device) {
   const base::UniqueFd fd(::open(device.c_str(), O_RDONLY | O_CLOEXEC));
   if (!fd.valid()) {
@@ -447,6 +537,14 @@ void register_kmod(CLI::App& app) {
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", *device, "the module's control device")->capture_default_str();
   st->callback([device] { set_exit_code(stats(*device)); });
+  auto status_json = std::make_shared<bool>(false);
+  auto* ss = cmd->add_subcommand(
+      "status",
+      "Show what contego.ko enforces: the image in force (its SHA-256), its tasks and devices, "
+      "the audit reader, sessions and counters (root)");
+  ss->add_option("--device", *device, "the module's control device")->capture_default_str();
+  ss->add_flag("--json", *status_json, "as JSON");
+  ss->callback([device, status_json] { set_exit_code(status(*device, *status_json)); });
   auto audit = std::make_shared<KmodAuditOptions>();
   auto* au = cmd->add_subcommand(
       "audit",

@@ -120,6 +120,8 @@ class Reloader {
       const core::Checker::CarryResult r =
           next->checker().carry_from(trusted_.decider->checker(), map);
       if (!r.ok) return make_error("the core refused to carry the running model over");
+      // The journal names the new image from the reload's own entry on.
+      if (reloaded_) reloaded_(hash);
       std::string detail = fmt::format(
           "policy {} by uid {}: image SHA-256 {} -> {}{}; kept the state of {} device(s) and {} "
           "task(s), command(s), rate limit(s) and invariant(s); {}{}",
@@ -138,7 +140,10 @@ class Reloader {
     auto applied = server_.apply_reload(std::move(tasks), bindings, source, hash, [&] {
       return trusted_.monitor->reload(*next, std::move(policy), carry);
     });
-    if (!applied.ok()) return refuse(EBUSY, applied.error());
+    if (!applied.ok()) {
+      if (reloaded_) reloaded_(old_hash);  // the reload's record was not written: back
+      return refuse(EBUSY, applied.error());
+    }
     // The monitor decides with `next` now: the old core is no longer used.
     trusted_.decider = std::move(next);
     trusted_.model = std::move(*model);
@@ -149,7 +154,6 @@ class Reloader {
     for (size_t i = 0; i < trusted_.model.tasks.size(); ++i) {
       trusted_.tasks[trusted_.model.tasks[i].name] = static_cast<uint16_t>(i);
     }
-    if (reloaded_) reloaded_(hash);
     std::string text = "reloaded: " + *applied;
     for (const auto& w : warnings) text += "\nwarning: " + w;
     return {0, text};

@@ -24,8 +24,10 @@ namespace contego::cli {
 
 // The daemon's Server::Reloader. `options` are the daemon's own (keys,
 // --require-signed, budget factor, complain scope); `trusted` is updated in
-// place; `reloaded(sha256)` runs after each reload that took effect. The
-// returned function serialises reloads.
+// place; `reloaded(sha256)` runs as a reload takes effect, before its
+// record is written (the journal names the new image from the reload's own
+// entry on), and again with the old hash if that record could not be
+// written. The returned function serialises reloads.
 monitor::Server::Reloader make_reloader(const monitor::SetupOptions& options,
                                         monitor::Trusted& trusted, monitor::Server& server,
                                         std::function<void(const std::string&)> reloaded);

@@ -777,6 +777,17 @@ run_logged reload_inplace contego kmod reload --policy /tmp/arm-more.policy --bi
   bad "after the reload LED5 off reads $(led5), the holder $(kill -0 "$HOLDER" 2>/dev/null && echo runs || echo is gone)"
 dmesg | grep -q "contego: policy loaded in place" && ok "the kernel log: $(dmesg | grep -o 'contego: policy loaded in place.*' | tail -n1)" ||
   bad "no load in place in the kernel log"
+# `contego kmod status`: the image in force, as its SHA-256 (the one
+# `contego check --emit` prints), its names, the reader, the sessions.
+want=$(contego check /tmp/arm-more.policy --emit /tmp/arm-more.img 2>&1 >/dev/null | sed -n 's/.*SHA-256 \([0-9a-f]*\)).*/\1/p')
+run_logged kstatus contego kmod status
+[ $RC = 0 ] && [ -n "$want" ] && grep -q "image SHA-256 $want" "$OUT" && grep -q "tasks: *arm_init, gripper" "$OUT" &&
+  grep -q "a reader is attached" "$OUT" && grep -q "sessions: [1-9][0-9]* open" "$OUT" &&
+  ok "kmod status names the reloaded image (SHA-256 ${want:0:12}...), its tasks, the reader and the live session" ||
+  bad "kmod status (exit $RC), expected image SHA-256 $want"
+run_logged kstatus_json contego kmod status --json
+python3 -c 'import json, sys; s = json.load(open(sys.argv[1])); assert s["loaded"] and s["image_sha256"] == sys.argv[2] and s["counters"]["sessions"] >= 1, s' \
+  "$OUT" "$want" 2>/dev/null && ok "kmod status --json: the same as JSON" || bad "kmod status --json: $(cat "$OUT")"
 sed 's/^device arm : pca9685 at i2c-1 0x40/device arm : pca9685 at i2c-1 0x41/' $POLICIES/arm.policy >/tmp/arm-moved.policy
 run_logged reload_moved contego kmod reload --policy /tmp/arm-moved.policy --bind arm_init=task
 [ $RC = 1 ] && grep -q "the policy in force stays" "$OUT" && grep -q "keeps the devices" "$OUT" &&
