@@ -69,6 +69,22 @@ printf '127.0.0.1 localhost\n127.0.1.1 guest\n' >"$extra/etc/hosts"
 echo guest >"$extra/etc/hostname"
 cp "${debs[@]}" "$extra/vm/pkg/"
 cp "$here/booted/scenario.sh" "$extra/vm/"
+# Signed bundles for the guest's --require-signed checks: compiled by the
+# package's own contego, signed with a throwaway key by the real minisign;
+# the guest only verifies. Without minisign the scenario says it skips them.
+if command -v minisign >/dev/null; then
+  signing=$(mktemp -d)
+  dpkg-deb -x "$deb" "$signing/root"
+  mkdir -p "$extra/vm/signed"
+  minisign -G -W -p "$extra/vm/signed/robot.pub" -s "$signing/robot.key" >/dev/null
+  (cd "$src" && "$signing/root/usr/bin/contego" check policies/arm.policy \
+    --emit-bundle "$extra/vm/signed/arm.bundle" >/dev/null 2>&1) || fail "contego check --emit-bundle"
+  minisign -S -s "$signing/robot.key" -m "$extra/vm/signed/arm.bundle" -t "booted guest arm" >/dev/null
+  cp "$extra/vm/signed/arm.bundle" "$extra/vm/signed/unsigned.bundle"
+  sed 's/"sessions": 1/"sessions": 9/' "$extra/vm/signed/arm.bundle" >"$extra/vm/signed/changed.bundle"
+  cp "$extra/vm/signed/arm.bundle.minisig" "$extra/vm/signed/changed.bundle.minisig"
+  rm -rf "$signing"
+fi
 # The ```sh blocks of a README section, one file each, in order: "## Install"
 # and, with contego-dkms, "## Install the kernel client (contego.ko)".
 # `bash tools/package.sh` builds the packages on the build machine: the host

@@ -203,6 +203,45 @@ rc=$?
   ok "/run/contego-status is 2750, group contego-status (tmpfiles.d)" ||
   bad "/run/contego-status is $(stat -c '%G %a' /run/contego-status)"
 
+# ---- --require-signed, with the installed daemon ------------------------------
+# contego-monitor as a robot runs it from a signed bundle (here on a virtual
+# bus beside the unit's monitor): an unsigned bundle and a changed one are
+# refused before anything is driven; the signed one starts, and a reload
+# refuses an unsigned or wrongly signed bundle while the signed policy stays.
+if [ -f /vm/signed/robot.pub ]; then
+  keys=/tmp/keys; mkdir -p $keys; cp /vm/signed/robot.pub $keys/
+  rs() { contego-monitor --require-signed --keys-dir $keys --virtual-bus 1 --audit /tmp/rs.jsonl "$@"; }
+  out=$(rs --bundle /vm/signed/unsigned.bundle --socket /tmp/rs.sock 2>&1)
+  rc=$?
+  [ $rc = 2 ] && echo "$out" | grep -q 'has no signature' &&
+    ok "--require-signed refuses an unsigned bundle (exit 2): $(echo "$out" | head -n1 | cut -c1-150)" ||
+    bad "--require-signed with an unsigned bundle: exit $rc, $out"
+  out=$(rs --bundle /vm/signed/changed.bundle --socket /tmp/rs.sock 2>&1)
+  rc=$?
+  [ $rc = 2 ] && echo "$out" | grep -q 'does not match the signed data' &&
+    ok "--require-signed refuses a changed bundle (exit 2): $(echo "$out" | head -n1 | cut -c1-150)" ||
+    bad "--require-signed with a changed bundle: exit $rc, $out"
+  contego-monitor --require-signed --keys-dir $keys --virtual-bus 1 --audit /tmp/rs.jsonl \
+    --bundle /vm/signed/arm.bundle --socket /tmp/rs.sock >/tmp/rs.out 2>&1 &
+  rspid=$!
+  for i in $(seq 1 100); do [ -S /tmp/rs.sock ] && break; sleep 0.1; done
+  grep -q 'signed by key ID' /tmp/rs.jsonl 2>/dev/null &&
+    ok "the signed bundle starts under --require-signed: $(grep -o 'signed by key ID [0-9A-F]*' /tmp/rs.jsonl | head -n1)" ||
+    bad "the signed bundle did not start: $(cat /tmp/rs.out)"
+  out=$(contego reload --bundle /vm/signed/unsigned.bundle --socket /tmp/rs.sock 2>&1)
+  rc=$?
+  [ $rc = 1 ] && echo "$out" | grep -q 'require-signed' &&
+    ok "a reload of an unsigned bundle is refused (exit 1), the signed policy stays" ||
+    bad "a reload of an unsigned bundle: exit $rc, $out"
+  out=$(contego reload --bundle /vm/signed/changed.bundle --socket /tmp/rs.sock 2>&1)
+  rc=$?
+  [ $rc = 1 ] && ok "a reload of a wrongly signed bundle is refused (exit 1): $(echo "$out" | cut -c1-150)" ||
+    bad "a reload of a wrongly signed bundle: exit $rc, $out"
+  kill $rspid; wait $rspid 2>/dev/null
+else
+  echo "  skipped: the --require-signed checks (no minisign on the host when the guest was made)"
+fi
+
 # ---- reload in place: a changed limit while the program runs ------------------
 led0() { echo $(($(i2cget -y 0 $A 0x08) | $(i2cget -y 0 $A 0x09) << 8)); }
 hash_of_status() { contego status --json | python3 -c 'import json, re, sys; print(re.search("SHA-256 ([0-9a-f]{64})", json.load(sys.stdin)["policy"])[1])'; }
