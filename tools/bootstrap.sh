@@ -1,45 +1,71 @@
 #!/usr/bin/env bash
-# Installs every Debian 12 package that contego's build, tests, fuzzers,
-# cross-build and plots need (--cross-arm64: the arm64 libraries of the
-# cross-built package instead). Idempotent and non-interactive: packages that
-# are already present are skipped, so a second run does no network I/O.
+# Installs the Debian 12 packages contego needs for one purpose, and only
+# those. Idempotent and non-interactive: packages already present are
+# skipped, so a second run does no network I/O.
+# Usage: tools/bootstrap.sh [demo|package|test] [--print]
+#        tools/bootstrap.sh --cross-arm64 [--print]
+#   demo     build contego and run the demo (tools/demo.sh): the toolchain,
+#            the libraries and gnuplot
+#   package  build and check the Debian packages (tools/package.sh): demo's
+#            set and the package checks (lintian, hardening-check)
+#   test     everything the tests, fuzzers, test beds and benches use
+#            (tools/test.sh; the default)
+#   --cross-arm64  the arm64 libraries of the cross-built package and the
+#            arm64 test bed's tools instead
+#   --print  print the packages of that purpose, one per line; install nothing
 set -euo pipefail
 
+purpose=test
+print=0
+for arg in "$@"; do
+  case $arg in
+    demo | package | test | --cross-arm64) purpose=$arg ;;
+    --print) print=1 ;;
+    *) echo "usage: tools/bootstrap.sh [demo|package|test|--cross-arm64] [--print]" >&2; exit 2 ;;
+  esac
+done
+
+# demo: what `cmake --preset release` needs to configure and build contego
+# (docs/libraries.md says why each library), and gnuplot for the figures.
 packages=(
-  # toolchain and build
-  build-essential g++ cmake ninja-build pkg-config git ccache
-  clang llvm libclang-rt-14-dev clang-format clang-tidy
-  # libraries (see docs/libraries.md for why each one)
+  build-essential g++ cmake ninja-build pkg-config ccache
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev libseccomp-dev libi2c-dev libssl-dev
   libsystemd-dev
-  # cross-build of the trusted core for the paper's Cortex-A53, run under qemu
-  g++-aarch64-linux-gnu qemu-user
-  # plots and measurements
-  gnuplot-nox valgrind
-  # real, unmodified I2C clients for end-to-end tests
-  i2c-tools python3 python3-smbus python3-smbus2 python3-periphery
-  # the real-kernel test bed (tests/vm): Debian's kernel booted in QEMU with a
-  # busybox initramfs; seabios boots it without KVM, cpio packs the initramfs
-  qemu-system-x86 seabios busybox-static cpio xz-utils
-  # the booted Debian guest (tests/vm/booted): a Debian 12 root file system
-  # made from Debian's archive, systemd as PID 1
-  mmdebstrap
-  # package checks (tools/check_package.sh): lintian, and devscripts for
-  # hardening-check
-  lintian devscripts
-  # signed policy bundles (src/bundle/minisign.h): the real tool signs in
-  # the tests, which verify with libcrypto
-  minisign
-  # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
-  # package's module with DKMS's own tool against Debian's headers
-  dkms
+  gnuplot-nox
 )
+if [[ $purpose == package || $purpose == test ]]; then
+  # tools/check_package.sh: lintian, and devscripts for hardening-check
+  packages+=(lintian devscripts file)
+fi
+if [[ $purpose == test ]]; then
+  packages+=(
+    git clang llvm libclang-rt-14-dev clang-format clang-tidy
+    # cross-build of the trusted core for the paper's Cortex-A53, run under qemu
+    g++-aarch64-linux-gnu qemu-user
+    # measurements
+    valgrind
+    # real, unmodified I2C clients for end-to-end tests
+    i2c-tools python3 python3-smbus python3-smbus2 python3-periphery
+    # the real-kernel test bed (tests/vm): Debian's kernel booted in QEMU with a
+    # busybox initramfs; seabios boots it without KVM, cpio packs the initramfs
+    qemu-system-x86 seabios busybox-static cpio xz-utils
+    # the booted Debian guest (tests/vm/booted): a Debian 12 root file system
+    # made from Debian's archive, systemd as PID 1
+    mmdebstrap
+    # signed policy bundles (src/bundle/minisign.h): the real tool signs in
+    # the tests, which verify with libcrypto
+    minisign
+    # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
+    # package's module with DKMS's own tool against Debian's headers
+    dkms
+  )
+fi
 
 # contego.ko (kernel/build.sh, docs/kernel-client.md) builds against the
 # headers of the test bed's kernel: the ABI package linux-image-amd64 points
 # at today (resolved as tests/vm/fetch-kernel.sh does, never hard-coded).
-if [[ "${1:-}" != --cross-arm64 && $(dpkg --print-architecture) == amd64 ]]; then
+if [[ $purpose == test && $(dpkg --print-architecture) == amd64 ]]; then
   kpkg=$(apt-cache depends linux-image-amd64 2>/dev/null |
     awk '/Depends: linux-image-[0-9]/ { print $2; exit }')
   if [[ -n "$kpkg" ]]; then packages+=("linux-headers-${kpkg#linux-image-}"); fi
@@ -62,14 +88,19 @@ fi
 # i2c-stub (which that kernel lacks), mmdebstrap to unpack the guest's arm64
 # user space. The kernel, its headers and that user space are fetched into a
 # cache by tests/vm, not installed.
-if [[ "${1:-}" == --cross-arm64 ]]; then
+if [[ $purpose == --cross-arm64 ]]; then
   packages=(g++-aarch64-linux-gnu gcc-aarch64-linux-gnu qemu-user
     libfmt-dev:arm64 libssl-dev:arm64 libseccomp-dev:arm64 libsystemd-dev:arm64
     qemu-system-arm linux-source-6.1 linux-kbuild-6.1 mmdebstrap libgtest-dev)
-  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  if ((!print)) && ! dpkg --print-foreign-architectures | grep -qx arm64; then
     echo "bootstrap: dpkg --add-architecture arm64"
     if [[ $(id -u) -ne 0 ]]; then sudo dpkg --add-architecture arm64; else dpkg --add-architecture arm64; fi
   fi
+fi
+
+if ((print)); then
+  printf '%s\n' "${packages[@]}"
+  exit 0
 fi
 
 missing=()
@@ -80,7 +111,7 @@ for p in "${packages[@]}"; do
 done
 
 if ((${#missing[@]} == 0)); then
-  echo "bootstrap: all ${#packages[@]} packages present"
+  echo "bootstrap: all ${#packages[@]} packages for $purpose present"
   exit 0
 fi
 

@@ -20,7 +20,7 @@ while (($#)); do
 done
 ((${#archs[@]})) || archs=(amd64 arm64)
 
-bash tools/bootstrap.sh
+bash tools/bootstrap.sh package
 mkdir -p "$out"
 for arch in "${archs[@]}"; do
   case $arch in

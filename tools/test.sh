@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 quick=0
 [[ "${1:-}" == "--quick" ]] && quick=1
 
-bash tools/bootstrap.sh
+bash tools/bootstrap.sh test
 
 # A compiler cache outside the clone (docs/libraries.md, ccache): a warm
 # machine rebuilds every stage from it in minutes; a fresh one fills it. The
