@@ -225,8 +225,8 @@ if [ -f /vm/signed/robot.pub ]; then
     --bundle /vm/signed/arm.bundle --socket /tmp/rs.sock >/tmp/rs.out 2>&1 &
   rspid=$!
   for i in $(seq 1 100); do [ -S /tmp/rs.sock ] && break; sleep 0.1; done
-  grep -q 'signed by key ID' /tmp/rs.jsonl 2>/dev/null &&
-    ok "the signed bundle starts under --require-signed: $(grep -o 'signed by key ID [0-9A-F]*' /tmp/rs.jsonl | head -n1)" ||
+  grep -aq 'signed by key ID' /tmp/rs.jsonl 2>/dev/null &&
+    ok "the signed bundle starts under --require-signed: $(grep -ao 'signed by key ID [0-9A-F]*' /tmp/rs.jsonl | head -n1)" ||
     bad "the signed bundle did not start: $(cat /tmp/rs.out)"
   out=$(contego reload --bundle /vm/signed/unsigned.bundle --socket /tmp/rs.sock 2>&1)
   rc=$?
