@@ -47,6 +47,7 @@ int run_realtime_command(const Options& o) {
   req.scenario = *sc;
   req.image.bytes = compiled.image;
   for (const auto& t : compiled.model.tasks) req.image.task_names.push_back(t.name);
+  req.image.names = monitor::name_table(compiled.model);
   req.task = o.task.empty() ? sim::setting_string(sc->settings, "task", "follower") : o.task;
   req.argv = o.program;
   std::vector<sim::RunResult> runs;

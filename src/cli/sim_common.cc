@@ -23,6 +23,7 @@ Result<ScenarioOutcome> run_scenario_files(const SimRequest& req) {
   sim::PolicyImage image;
   image.bytes = compiled.image;
   for (const auto& t : compiled.model.tasks) image.task_names.push_back(t.name);
+  image.names = monitor::name_table(compiled.model);
 
   auto guard = [&image](bool observe) -> sim::GuardFactory {
     return [&image, observe](bus::VirtualBus& bus) -> Result<std::unique_ptr<sim::Guard>> {

@@ -32,6 +32,8 @@ Result<sim::RunResult> run_realtime(const RealtimeRequest& req) {
   }
   monitor::Monitor mon(*decider, audit);
   mon.add_bus(1, &vbus);
+  mon.set_names(req.image.names);
+  if (!req.protect) mon.set_drop_report(nullptr);  // nothing is dropped: no drop lines
   mon.set_task_names(req.image.task_names);
   mon.sample_all();
   mon.start_sampling();

@@ -605,8 +605,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       const Outcome& o = tx_.outcomes[i];
       if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
-      DeviceState& s = state_[o.device];
-      for (uint32_t q = 0; q < o.group_len; ++q) internal::bit_clear(s.staged_bits, o.base_reg + q);
+      for (uint32_t q = 0; q < o.group_len; ++q) drop_staged(o.device, o.base_reg + q);
     }
   } else {
     for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {

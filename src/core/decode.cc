@@ -118,26 +118,56 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
   refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
 }
 
-// Another task's staged bytes of the group at `base` are dropped (audited).
-void CheckerState::drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
-                                        uint32_t base, uint32_t index) {
+// Before the task writes the group at `base`: another task's staged bytes
+// of it are dropped (staging-conflict, the victim's record), and so are the
+// task's own staged bytes of any other group of the device: it left that
+// group incomplete, and those writes, which the program was told succeeded,
+// will never reach the device (staged-incomplete). One record per group.
+void CheckerState::drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
+                                      uint32_t base, uint32_t index) {
   DeviceState& st = state_[dev];
-  bool conflict = false;
-  uint8_t victim = 0;
-  for (uint32_t q = 0; q < commands_[cid].group_len; ++q) {
-    const uint32_t r = base + q;
-    if (internal::bit_test(st.staged_bits, r) && st.staged_task[r] != tx.task) {
-      undo_save(dev, static_cast<uint8_t>(r));
-      internal::bit_clear(st.staged_bits, r);
-      victim = st.staged_task[r];
-      conflict = true;
+  const DeviceRecord& dr = devices_[dev];
+  uint32_t last_group = 0xFFFFFFFFu;  // (command << 8 | index) of the last record
+  for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) {
+    for (uint32_t bits = st.staged_bits[w]; bits != 0; bits &= bits - 1) {
+      const uint32_t r = w * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
+      const bool inside = r - base < commands_[cid].group_len;
+      if (inside == (st.staged_task[r] == tx.task)) continue;
+      uint16_t c = cid;
+      uint32_t i = index;
+      if (inside) {  // undone with a write that does not act: its victim keeps it
+        undo_save(dev, static_cast<uint8_t>(r));
+        internal::bit_clear(st.staged_bits, r);
+      } else {
+        drop_staged(dev, r);
+        c = static_cast<uint16_t>(dr.command_first + st.lookup[r]);
+        i = commands_[c].stride != 0 ? (r - commands_[c].match) / commands_[c].stride : 0;
+      }
+      if (((uint32_t{c} << 8) | i) == last_group || host_.audit == nullptr) continue;
+      last_group = (uint32_t{c} << 8) | i;
+      AuditRecord a = audit_record(tx, dev, c, Decision::kIgnore,
+                                   inside ? Reason::kStagingConflict : Reason::kStagedIncomplete);
+      a.task = st.staged_task[r];
+      a.index = static_cast<uint8_t>(i);
+      host_.audit(host_.context, &a);
     }
   }
-  if (!conflict || host_.audit == nullptr) return;
-  AuditRecord a = audit_record(tx, dev, cid, Decision::kIgnore, Reason::kStagingConflict);
-  a.task = victim;
-  a.index = static_cast<uint8_t>(index);
-  host_.audit(host_.context, &a);
+}
+
+// A register of a group the task can never send now (no actuate access, the
+// device latched, a limit of 0 per job): decided at once, as its commit
+// would be, instead of held for a last register that may never come.
+bool CheckerState::never_acts(const Transaction& tx, uint16_t dev, uint16_t cid,
+                              uint32_t index) const {
+  if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0 || state_[dev].latched) return true;
+  for (uint64_t bits = rates_of_[tx.task][dev]; bits != 0; bits &= bits - 1) {
+    const RateRecord& rr = rates_[__builtin_ctzll(bits)];
+    if (rr.max_per_job == 0 && internal::mask_has(rr.commands, cid) &&
+        (rr.only_channel == 0 || index == rr.only_channel - 1u)) {
+      return true;
+    }
+  }
+  return false;
 }
 
 // The group's last register was written: commit = shadow overlaid with the
@@ -233,11 +263,11 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     // Once per group and write: after the first of its registers, no other
     // task's staging is left in it.
     if (cid != dropped_cid || index != dropped_index) {
-      drop_foreign_staging(tx, dev, cid, base, index);
+      drop_stale_staging(tx, dev, cid, base, index);
       dropped_cid = cid;
       dropped_index = index;
     }
-    if (j + 1 == c.group_len) {
+    if (j + 1 == c.group_len || never_acts(tx, dev, cid, index)) {
       commit_group(tx, dev, cid, base, index, j, val);
       continue;
     }

@@ -175,6 +175,59 @@ TEST_F(ArmTest, StagingConflictDropsTheOtherTasksBytes) {
   EXPECT_EQ(emits(v), (Writes{{kLed4 + 2, 0x41}, {kLed4 + 3, 0x02}}));
 }
 
+TEST_F(ArmTest, AGroupTheTaskLeavesIncompleteIsDroppedAndAudited) {
+  // LED4's OFF_L alone, then LED5: LED4's write never reaches the device,
+  // and the record says so when the task moves on, not never.
+  EXPECT_EQ(send({kLed4 + 2, 0xA4}).reason, Reason::kStaged);
+  EXPECT_EQ(send({kLed5, 0x00}).reason, Reason::kStaged);
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagedIncomplete);
+  EXPECT_EQ(h.audits[0].decision, Decision::kIgnore);
+  EXPECT_EQ(h.audits[0].task, arm::kController);
+  EXPECT_EQ(h.audits[0].command, arm::kLed);
+  EXPECT_EQ(h.audits[0].index, 4);
+  EXPECT_EQ(h.audits[1].reason, Reason::kStaged);
+  // LED4's OFF_H alone commits the shadow's OFF_L (0): 0x100 = 256; and it
+  // leaves LED5's ON_L behind in turn.
+  send({kLed4 + 3, 0x01});
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagedIncomplete);
+  EXPECT_EQ(h.audits[0].index, 5);
+  EXPECT_EQ(h.audits[1].fields[1], 0x100);
+  // Registers of the group being written never count as left behind.
+  EXPECT_EQ(send({kLed5, 0x00}).reason, Reason::kStaged);
+  EXPECT_EQ(send({kLed5 + 1, 0x00}).reason, Reason::kStaged);
+  EXPECT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.checker->end_session(arm::kController), 2u);
+}
+
+TEST_F(ArmTest, ARegisterOfAGroupTheTaskCannotSendIsDecidedAtOnce) {
+  // No actuate access: refused with the rule's errno on its first byte, not
+  // held as "allowed (staged)" for a last register that never comes.
+  const Verdict v = send({kLed4 + 2, 0xA4}, arm::kOther);
+  EXPECT_EQ(v.decision, Decision::kReject);
+  EXPECT_EQ(v.reason, Reason::kAccessDenied);
+  EXPECT_EQ(h.checker->end_session(arm::kOther), 0u);
+  // A limit of 0 per job on the group answers its first byte with the limit's response.
+  image::ImageModel m = arm::model();
+  image::Named<RateRecord> none;
+  none.name = "no_all_led";
+  none.record.task = arm::kController;
+  none.record.device = arm::kArm;
+  none.record.max_per_job = 0;
+  none.record.commands = testing::mask_of({arm::kAllLed});
+  none.record.response = static_cast<uint8_t>(Response::kIgnore);
+  none.record.template_id = kNone;
+  m.rates.push_back(none);
+  load(m);
+  const Verdict w = send({0xFB, 0x10});  // ALL_LED_ON_H: every channel full on
+  EXPECT_EQ(w.decision, Decision::kIgnore);
+  EXPECT_EQ(w.reason, Reason::kRateExceeded);
+  EXPECT_EQ(h.checker->end_session(arm::kController), 0u);
+  // Groups the limit does not select still stage.
+  EXPECT_EQ(send({kLed5 + 2, 0xA4}).reason, Reason::kStaged);
+}
+
 TEST_F(ArmTest, RejectedTransactionLeavesNoStagedBytes) {
   auto_increment_on();
   // ch15 OFF_L, OFF_H (commits off = 0x201), then reserved 0x46: all refused.

@@ -170,6 +170,7 @@ struct ModelCopy {
   uint8_t staged[kMaxRegisters];
   uint8_t staged_task[kMaxRegisters];
   uint32_t staged_bits[kMaxRegisters / 32];
+  uint32_t dropped_bits[kMaxRegisters / 32];  // dropped for good by a check of the transfer
 };
 struct HistoryCopy {
   uint16_t slot;
@@ -273,8 +274,12 @@ class CheckerState {
   Outcome* check_as_is(const Transaction& tx, uint16_t dev);
   void check_register_map(const Transaction& tx, uint16_t dev);
   void check_general_call_command(const Transaction& tx, uint16_t dev);
-  void drop_foreign_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
-                            uint32_t index);
+  // Clears a staged byte for good: an aborted transfer does not bring back
+  // what its checks dropped and audited (a refused commit, an abandoned group).
+  void drop_staged(uint16_t dev, uint32_t reg);
+  void drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
+                          uint32_t index);
+  bool never_acts(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t index) const;
   void commit_group(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
                     uint32_t index, uint32_t j, uint8_t val);
   Decoded& decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len);

@@ -37,8 +37,16 @@ bool CheckerState::journal_device(uint16_t dev) {
   __builtin_memcpy(c.staged, s.staged, sizeof(c.staged));
   __builtin_memcpy(c.staged_task, s.staged_task, sizeof(c.staged_task));
   __builtin_memcpy(c.staged_bits, s.staged_bits, sizeof(c.staged_bits));
+  __builtin_memset(c.dropped_bits, 0, sizeof(c.dropped_bits));
   journal_.saved_devices |= 1u << dev;
   return true;
+}
+
+void CheckerState::drop_staged(uint16_t dev, uint32_t reg) {
+  internal::bit_clear(state_[dev].staged_bits, reg);
+  for (uint32_t i = 0; journal_.active && i < journal_.device_count; ++i) {
+    if (journal_.devices[i].device == dev) internal::bit_set(journal_.devices[i].dropped_bits, reg);
+  }
 }
 
 // The caller made sure there is room (finish() refuses a check that could overflow).
@@ -101,6 +109,7 @@ void CheckerState::abort_transfer(Decision decision) {
     __builtin_memcpy(s.staged, c.staged, sizeof(c.staged));
     __builtin_memcpy(s.staged_task, c.staged_task, sizeof(c.staged_task));
     __builtin_memcpy(s.staged_bits, c.staged_bits, sizeof(c.staged_bits));
+    for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) s.staged_bits[w] &= ~c.dropped_bits[w];
   }
   if (journal_.acted == 0 || host_.audit == nullptr) return;
   // Checks already audited as acting did not: say so in the same log.

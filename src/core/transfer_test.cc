@@ -53,12 +53,12 @@ TEST_F(TransferTest, ARefusedSecondMessageLeavesTheModelByteIdentical) {
   // Some history, a state word at step 1 and a staged byte before the transfer.
   ASSERT_EQ(send({kLed5, 0, 0, 0xA4, 0x01}).decision, Decision::kAllow);  // 420: step 0 -> 1
   h.checker->seed_register(arm::kArm, 0x00, 0x01);                        // AI off for one byte
-  ASSERT_EQ(send({kLed4 + 2, 0x77}).reason, Reason::kStaged);
+  ASSERT_EQ(send({kLed5 + 2, 0x77}).reason, Reason::kStaged);
   h.checker->seed_register(arm::kArm, 0x00, 0x21);
   const uint32_t crc = h.checker->model_crc();
   const Bytes before = shadow();
 
-  // 577 (step 1 -> 0, new shadow, new history, LED4's staging consumed), then TEST_MODE.
+  // 577 (step 1 -> 0, new shadow, new history, LED5's staging consumed), then TEST_MODE.
   const TransferVerdict t =
       transfer({{kLed5, 0, 0, 0x41, 0x02}, {kLed4, 0, 0, 0x77, 0x01}, {0xFF, 0x01}});
   EXPECT_EQ(t.action, TransferAction::kRefuse);
@@ -71,6 +71,27 @@ TEST_F(TransferTest, ARefusedSecondMessageLeavesTheModelByteIdentical) {
   // Still at step 1: 577 is what the sequence accepts now, and only once.
   EXPECT_EQ(send({kLed5, 0, 0, 0x41, 0x02}).decision, Decision::kAllow);
   EXPECT_EQ(send({kLed5, 0, 0, 0x41, 0x02}).decision, Decision::kReject);
+}
+
+TEST_F(TransferTest, StagingItsChecksDroppedStaysDroppedWhenTheTransferIsRefused) {
+  h.checker->seed_register(arm::kArm, 0x00, 0x01);  // AI off: one register per write
+  ASSERT_EQ(send({kLed4 + 2, 0x77}).reason, Reason::kStaged);
+  h.checker->seed_register(arm::kArm, 0x00, 0x21);
+  // LED5 whole: the task left LED4 incomplete (its staged byte is dropped,
+  // audited); then TEST_MODE refuses the transfer.
+  h.checker->begin_transfer();
+  EXPECT_EQ(send({kLed5, 0, 0, 0xA4, 0x01}).decision, Decision::kAllow);
+  ASSERT_FALSE(h.audits.empty());
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagedIncomplete);
+  EXPECT_EQ(h.audits[0].decision, Decision::kIgnore);
+  EXPECT_EQ(h.audits[0].index, 4);
+  EXPECT_EQ(send({0xFF, 0x01}).decision, Decision::kReject);
+  h.checker->abort_transfer(Decision::kReject);
+  // The abort did not bring the dropped byte back: LED4's OFF_H alone
+  // commits the shadow's OFF_L, not the 0x77 the device never got.
+  h.checker->seed_register(arm::kArm, 0x00, 0x01);
+  ASSERT_EQ(send({kLed4 + 3, 0x01}).decision, Decision::kAllow);
+  EXPECT_EQ(shadow()[kLed4 + 2], 0x00);
 }
 
 TEST_F(TransferTest, AnAllowedTransferCommitsEveryMessage) {

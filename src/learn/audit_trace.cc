@@ -6,6 +6,8 @@
 #include <regex>
 #include <tuple>
 
+#include "contego/core/verdict.h"
+
 #include "base/read_file.h"
 #include "monitor/audit_log.h"
 
@@ -197,7 +199,10 @@ Result<Trace> read_trace(const std::vector<std::string>& paths) {
         note_event(j, kind, trace);
         continue;
       }
-      if (j.value("reason_name", std::string()) == "transfer-dropped") continue;  // a follow-up
+      if (const int reason = j.value("reason", -1);
+          reason >= 0 && reason < 256 && core::is_follow_up(static_cast<core::Reason>(reason))) {
+        continue;  // follows another request's verdict
+      }
       auto d = decision_of(j);
       if (!d.ok()) return make_error(fmt::format("{}:{}: {}", path, n, d.error()));
       d->file = path;

@@ -115,6 +115,24 @@ TEST(ReadTrace, KeepsReadingsTransactionsAndSessionEnds) {
   EXPECT_EQ(t->events[0].before, 1u);
 }
 
+TEST(ReadTrace, SkipsRecordsThatFollowAnotherRequestsCheck) {
+  // staged-incomplete (29), staging-conflict (24), transfer-dropped (28):
+  // their bytes are another request's, so they are no request to replay.
+  std::vector<std::string> records{frame(1000, 1, "fwd", 0x69, 0, 1, kCentre)};
+  for (const auto& [reason, name] :
+       {std::pair{29, "staged-incomplete"}, std::pair{24, "staging-conflict"},
+        std::pair{28, "transfer-dropped"}}) {
+    std::string r = frame(1500, 1, "fwd", 0x69, 0, 1, kCentre, "ignore");
+    const std::string allowed = R"("reason":0,"reason_name":"allowed")";
+    r.replace(r.find(allowed), allowed.size(),
+              fmt::format(R"("reason":{},"reason_name":"{}")", reason, name));
+    records.push_back(r);
+  }
+  auto t = read_trace({write_log(records)});
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(t->decisions.size(), 1u);
+}
+
 TEST(TraceStats, WindowMaxCountsTheMostInAnyWindowWhateverItsPhase) {
   EXPECT_EQ(window_max({}, 100), 0u);
   EXPECT_EQ(window_max({0, 50, 99, 100, 250}, 100), 3u);

@@ -43,7 +43,7 @@ struct Replayer {
 
   static void audit(void* ctx, const core::AuditRecord* r) {
     auto* self = static_cast<Replayer*>(ctx);
-    if (r->reason == core::Reason::kTransferDropped) return;  // follows the verdict it repeats
+    if (core::is_follow_up(r->reason)) return;  // follows the verdict of another request
     const monitor::RecordNames n = self->names.of(*r);
     Verdict v;
     v.decision = core::decision_name(r->decision);

@@ -4,19 +4,12 @@
 
 #include "monitor/sha256.h"
 
+#include <cstdint>
 #include <cstdlib>
-#include <openssl/evp.h>
 #include <openssl/sha.h>
 
 namespace contego::monitor {
 namespace {
-
-// Fetched once: a per-call fetch costs more than hashing a record.
-const EVP_MD* sha256_md() {
-  static EVP_MD* md = EVP_MD_fetch(nullptr, "SHA256", nullptr);
-  if (md == nullptr) std::abort();  // libcrypto without SHA-256: nothing can be audited
-  return md;
-}
 
 void to_hex(const uint8_t* digest, char out[65]) {
   static const char* digits = "0123456789abcdef";
@@ -28,23 +21,6 @@ void to_hex(const uint8_t* digest, char out[65]) {
 }
 
 }  // namespace
-
-Sha256::Sha256() : ctx_(EVP_MD_CTX_new()) {
-  if (ctx_ == nullptr || EVP_DigestInit_ex(ctx_, sha256_md(), nullptr) != 1) std::abort();
-}
-
-Sha256::~Sha256() { EVP_MD_CTX_free(ctx_); }
-
-void Sha256::update(const void* data, size_t len) {
-  if (EVP_DigestUpdate(ctx_, data, len) != 1) std::abort();
-}
-
-std::array<uint8_t, 32> Sha256::finish() {
-  std::array<uint8_t, 32> d{};
-  unsigned n = 0;
-  if (EVP_DigestFinal_ex(ctx_, d.data(), &n) != 1 || n != d.size()) std::abort();
-  return d;
-}
 
 void sha256_hex(std::string_view text, char out[65]) {
   // libcrypto's own SHA-256 functions, not EVP: a record's hash is on the

@@ -5,28 +5,10 @@
 #ifndef CONTEGO_MONITOR_SHA256_H_
 #define CONTEGO_MONITOR_SHA256_H_
 
-#include <array>
-#include <cstddef>
-#include <cstdint>
 #include <string>
 #include <string_view>
 
-struct evp_md_ctx_st;
-
 namespace contego::monitor {
-
-class Sha256 {
- public:
-  Sha256();
-  ~Sha256();
-  Sha256(const Sha256&) = delete;
-  Sha256& operator=(const Sha256&) = delete;
-  void update(const void* data, size_t len);
-  std::array<uint8_t, 32> finish();
-
- private:
-  evp_md_ctx_st* ctx_;
-};
 
 // Lower-case hex digest of `text`.
 std::string sha256_hex(std::string_view text);

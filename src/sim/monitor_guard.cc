@@ -22,6 +22,8 @@ Result<std::unique_ptr<MonitorGuard>> MonitorGuard::create(const PolicyImage& im
   if (Status st = g->decider_.load(image); !st) return make_error(st.error());
   g->monitor_ = std::make_unique<monitor::Monitor>(g->decider_, g->audit_, g->clock_);
   g->monitor_->add_bus(1, &g->bus_);
+  g->monitor_->set_names(image.names);
+  if (observe) g->monitor_->set_drop_report(nullptr);  // nothing is dropped: no drop lines
   g->monitor_->set_task_names(image.task_names);
   return g;
 }

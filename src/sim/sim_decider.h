@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "sim/runner.h"
 
@@ -24,6 +25,7 @@ namespace contego::sim {
 struct PolicyImage {
   std::vector<uint8_t> bytes;           // as the compiler serialised it
   std::vector<std::string> task_names;  // by task id
+  monitor::NameTable names;             // all the policy's names (optional: drop lines name rules)
 };
 
 class SimDecider final : public monitor::Decider {

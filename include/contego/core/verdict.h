@@ -46,7 +46,16 @@ enum class Reason : uint8_t {
   kGeneralCall = 26,        // a general call (address 0) that is no declared general-call command
   kReservedAddress = 27,    // a 7-bit address the I2C specification reserves (0x01-0x07, 0x78-0x7F)
   kTransferDropped = 28,    // checks of a transfer that did not act: another message refused it
+  kStagedIncomplete = 29,   // the task's staged writes of a group it left for another; dropped
 };
+
+// Records that follow another check instead of answering a request of their
+// own: their bytes are another request's (a tool that reads a log as
+// requests skips them).
+constexpr bool is_follow_up(Reason r) {
+  return r == Reason::kTransferDropped || r == Reason::kStagingConflict ||
+         r == Reason::kStagedIncomplete;
+}
 
 enum class RuleKind : uint8_t { kNoRule = 0, kAccess = 1, kRate = 2, kInvariant = 3, kLatch = 4 };
 
