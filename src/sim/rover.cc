@@ -100,6 +100,23 @@ class RoverDos : public Attack {
   }
 };
 
+// Availability attack: a spoofing thread of the follower sends stop() every
+// `every_ms` through the job (`count` frames): stop is the safe command, so
+// each one is safe, but together they keep the rover standing.
+class RoverStopFlood : public Attack {
+ public:
+  explicit RoverStopFlood(AttackSpec spec) : Attack(std::move(spec)) {}
+  void apply(const Job& job, const std::string& task, std::vector<TimedOp>& ops, Noise&) override {
+    if (!spec().active(job.release_us)) return;
+    const auto every_us = static_cast<uint64_t>(spec().param_int("every_ms", 10)) * 1000;
+    const int64_t count = spec().param_int("count", 20);
+    for (int64_t i = 1; i <= count; ++i) {
+      ops.push_back({job.release_us + every_us * static_cast<uint64_t>(i) - 500, task,
+                     write_op(kGopigoAddr, {1, kStop, 0, 0, 0}), true});
+    }
+  }
+};
+
 // Replay: the job's motion frames are replaced by the ones the task sent
 // `age_ms` earlier (a recorded, stale command sequence).
 class RoverReplay : public Attack {
@@ -216,6 +233,8 @@ RoverWorld::RoverWorld(const std::map<std::string, std::string>& settings, uint6
              [](const AttackSpec& spec) { return std::make_unique<RoverSpoof>(spec, true); });
   add_attack("dos", [](const AttackSpec& spec) { return std::make_unique<RoverDos>(spec); });
   add_attack("replay", [](const AttackSpec& spec) { return std::make_unique<RoverReplay>(spec); });
+  add_attack("stop_flood",
+             [](const AttackSpec& spec) { return std::make_unique<RoverStopFlood>(spec); });
   add_attack("unauthorised",
              [](const AttackSpec& spec) { return std::make_unique<RoverIntruder>(spec); });
   straight_m_ = setting_double(settings, "straight", 2.0);

@@ -134,6 +134,27 @@ TEST_F(ProtectionTest, ProtectedGripperNeverReceivesTheSpoofedPulses) {
   EXPECT_EQ(metric(r.protected_, "objects_handled"), metric(r.baseline, "objects_handled"));
 }
 
+// A write the chip would take at once (ALL_LED_ON_H alone: every channel
+// full on) from a task whose limit on all_led is 0 is answered on that
+// write, not held as "allowed (staged)" for a last register that never comes.
+TEST_F(ProtectionTest, AllLedTamperingIsDroppedAndSeenNotSilentlyStaged) {
+  const Runs r = run("arm_all_led");
+  EXPECT_EQ(r.protected_.stats.ignored, r.protected_.stats.injected);
+  EXPECT_EQ(r.protected_.stats.violations, r.protected_.stats.injected);
+  EXPECT_GT(r.protected_.stats.injected, 0u);
+}
+
+// An availability attack made of safe commands: every stop() acts (none is
+// dropped: a program's own stop must never be lost to the flood), and every
+// one past the policy's one per job is flagged as a violation.
+TEST_F(ProtectionTest, AStopFloodIsFlaggedButEveryStopStillActs) {
+  const Runs r = run("rover_stop_flood");
+  EXPECT_LT(metric(r.unprotected, "distance"), metric(r.baseline, "distance") - 30.0);
+  EXPECT_EQ(r.protected_.stats.ignored + r.protected_.stats.rejected, 0u);
+  EXPECT_GT(r.protected_.stats.replaced, r.protected_.stats.injected / 2);
+  EXPECT_EQ(r.protected_.stats.violations, r.protected_.stats.replaced);
+}
+
 // Every platform of Table 1: the attack changes the plant without protection
 // and does not with it.
 struct PlantCase {
