@@ -12,13 +12,13 @@ Result<bool> request_reset(const std::string& socket_path, const std::string& de
   auto connected = connect_to_monitor(socket_path);
   if (!connected) return make_error(connected.error());
   const int fd = connected->get();
-  if (!send_frame(fd, wire::Type::kReset, 1, wire::encode_hello(device))) {
-    return make_error("the monitor at " + socket_path + " closed the connection");
-  }
+  // Read even when the send failed: a refusal at accept may already be queued.
+  const bool sent = send_frame(fd, wire::Type::kReset, 1, wire::encode_hello(device));
   FrameReader reader(fd);
   wire::Header h;
   std::span<const uint8_t> answer;
   if (const FrameStatus got = reader.next(&h, &answer); !got.ok()) {
+    if (!sent) return make_error("the monitor at " + socket_path + " closed the connection");
     return make_error("no answer from the monitor at " + socket_path + ": " + got.why);
   }
   if (h.type == static_cast<uint8_t>(wire::Type::kError)) {
@@ -40,13 +40,12 @@ Result<std::string> text_exchange(const std::string& socket_path, wire::Type typ
   auto connected = connect_to_monitor(socket_path);
   if (!connected) return make_error(connected.error());
   const int fd = connected->get();
-  if (!send_frame(fd, type, 1, payload)) {
-    return make_error("the monitor at " + socket_path + " closed the connection");
-  }
+  const bool sent = send_frame(fd, type, 1, payload);  // read anyway, as request_reset
   FrameReader reader(fd);
   wire::Header h;
   std::span<const uint8_t> answer;
   if (const FrameStatus got = reader.next(&h, &answer); !got.ok()) {
+    if (!sent) return make_error("the monitor at " + socket_path + " closed the connection");
     return make_error("no answer from the monitor at " + socket_path + ": " + got.why);
   }
   if (h.type == static_cast<uint8_t>(wire::Type::kError)) {

@@ -196,12 +196,14 @@ bool SocketClient::exchange(wire::Type type, std::span<const uint8_t> payload, w
     h->length = static_cast<uint32_t>(answer->size());
     return true;
   }
+  // A refusal at accept (seq 0) may be queued before the request could be
+  // sent (EPIPE): read it anyway, so that its reason reaches the caller.
   const uint32_t seq = ++seq_;
-  if (!send_frame(fd_, type, seq, payload) || !reader_.next(h, answer).ok() || h->seq != seq) {
-    broken_ = true;  // fail closed from now on
-    return false;
-  }
-  return true;
+  const bool sent = send_frame(fd_, type, seq, payload);
+  const bool got = reader_.next(h, answer).ok();
+  const bool refused = got && h->seq == 0 && h->type == static_cast<uint8_t>(wire::Type::kError);
+  if (!got || refused || !sent || h->seq != seq) broken_ = true;  // fail closed from now on
+  return refused || (got && sent && h->seq == seq);
 }
 
 bool SocketClient::wait_closed(int timeout_ms) const {

@@ -2,9 +2,14 @@
 
 #include <unistd.h>
 
+#include <filesystem>
 #include <gtest/gtest.h>
 #include <sys/socket.h>
+#include <sys/un.h>
 #include <thread>
+
+#include "base/test_temp.h"
+#include "gate/operator.h"
 
 namespace contego::gate {
 namespace {
@@ -87,6 +92,41 @@ TEST_F(FramePair, AnOversizedHeaderIsRefusedAndATruncatedFrameReported) {
   EXPECT_EQ(truncated.kind, FrameStatus::Kind::kBroken);
   EXPECT_EQ(truncated.why, "truncated payload");
   close(other[0]);
+}
+
+// The monitor refuses a peer at accept (seq 0) and closes at once, maybe
+// before the client's request arrived: a send that then fails (EPIPE) must
+// not hide the reason, which is already in the client's receive queue.
+TEST(RefusalAtAccept, ReachesTheClientWithItsReasonWhateverTheOrder) {
+  std::string dir;
+  ASSERT_NO_FATAL_FAILURE(test_support::make_temp_dir("gate-refusal", &dir));
+  const std::string path = dir + "/m.sock";
+  const int listener = socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path.c_str());
+  ASSERT_EQ(bind(listener, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  ASSERT_EQ(listen(listener, 8), 0);
+  constexpr int kRounds = 100;
+  std::thread server([listener] {
+    for (int i = 0; i < 2 * kRounds; ++i) {
+      const int fd = accept(listener, nullptr, nullptr);
+      if (fd < 0) return;
+      send_frame(fd, wire::Type::kError, 0, wire::encode_error({EACCES, "peer uid not allowed"}));
+      close(fd);
+    }
+  });
+  int told = 0;
+  for (int i = 0; i < kRounds; ++i) {
+    auto c = SocketClient::connect(path, "gripper", std::nullopt);
+    told += !c.ok() && c.error().find("peer uid not allowed") != std::string::npos;
+    auto r = request_reset(path, "arm");
+    told += !r.ok() && r.error().find("peer uid not allowed") != std::string::npos;
+  }
+  server.join();
+  close(listener);
+  std::filesystem::remove_all(dir);
+  EXPECT_EQ(told, 2 * kRounds);
 }
 
 }  // namespace
