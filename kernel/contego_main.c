@@ -2412,9 +2412,14 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 	}
 }
 
+/* The control and audit requests are laid out alike for 32-bit callers
+ * (every __u64 at a multiple of 8, every size a multiple of 8; checked by
+ * the test bed's i386 kmod_ctl32): only the argument pointer needs
+ * converting, which compat_ptr_ioctl does. */
 static const struct file_operations ct_ctl_fops = {
 	.owner = THIS_MODULE,
 	.unlocked_ioctl = ct_ctl_ioctl,
+	.compat_ioctl = compat_ptr_ioctl,
 };
 
 static struct miscdevice ct_ctl = {
@@ -2540,6 +2545,7 @@ static const struct file_operations ct_audit_fops = {
 	.read = ct_audit_read,
 	.poll = ct_audit_poll,
 	.unlocked_ioctl = ct_audit_ioctl,
+	.compat_ioctl = compat_ptr_ioctl,
 #if LINUX_VERSION_CODE < KERNEL_VERSION(6, 12, 0)
 	.llseek = no_llseek,
 #endif

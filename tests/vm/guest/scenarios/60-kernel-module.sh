@@ -788,6 +788,27 @@ run_logged kstatus contego kmod status
 run_logged kstatus_json contego kmod status --json
 python3 -c 'import json, sys; s = json.load(open(sys.argv[1])); assert s["loaded"] and s["image_sha256"] == sys.argv[2] and s["counters"]["sessions"] >= 1, s' \
   "$OUT" "$want" 2>/dev/null && ok "kmod status --json: the same as JSON" || bad "kmod status --json: $(cat "$OUT")"
+# A 32-bit caller (i386 here, armhf on a Pi's arm64 kernel) drives the
+# control node through compat_ioctl: STATS, then IMAGE's size probe and the
+# image itself, the same size and CRC-32 as the 64-bit `kmod status --json`.
+if [ -x /vm/attack/kmod_ctl32 ]; then
+  cp "$OUT" /tmp/kstatus.json
+  run_logged kmod_ctl32 /vm/attack/kmod_ctl32
+  python3 - "$OUT" /tmp/kstatus.json <<'PY' 2>/dev/null &&
+import json, sys
+got = {l.split()[0]: (int(l.split()[1]), int(l.split()[2])) for l in open(sys.argv[1]) if l.strip()}
+s = json.load(open(sys.argv[2]))
+assert got["open"][0] == 0 and got["stats-loaded"] == (0, 1) and got["stats-checks"][1] > 0, got
+assert got["image-probe"] == (-28, s["image_bytes"]), got  # ENOSPC with the size needed
+assert got["image-size"] == (0, s["image_bytes"]), got
+assert got["image-crc"] == (0, int(s["image_crc32"], 16)), got
+assert got["image-magic"][1] != 0, got
+PY
+    ok "a 32-bit program drives /dev/contego through compat_ioctl: stats, the image's size probe (ENOSPC) and the image ($(grep image-size "$OUT"), CRC as kmod status)" ||
+    bad "32-bit control requests: $(tr '\n' ';' <"$OUT")"
+else
+  echo "VM-CHECK SKIP $SCENARIO: no 32-bit control-node program (built on x86-64 hosts only)"
+fi
 sed 's/^device arm : pca9685 at i2c-1 0x40/device arm : pca9685 at i2c-1 0x41/' $POLICIES/arm.policy >/tmp/arm-moved.policy
 run_logged reload_moved contego kmod reload --policy /tmp/arm-moved.policy --bind arm_init=task
 [ $RC = 1 ] && grep -q "the policy in force stays" "$OUT" && grep -q "keeps the devices" "$OUT" &&
