@@ -250,7 +250,8 @@ std::string minisign_key_id_hex(const std::array<uint8_t, 8>& id) {
     hex += digits[id[i] >> 4];
     hex += digits[id[i] & 15];
   }
-  return hex;
+  // As minisign prints it ("%" PRIX64): no leading zeros (1 in 16 ids has one).
+  return hex.substr(std::min(hex.find_first_not_of('0'), hex.size() - 1));
 }
 
 Result<MinisignKey> parse_minisign_public_key(std::string_view text, const std::string& source) {

@@ -68,7 +68,8 @@ Result<MinisignSecretKey> parse_minisign_secret_key(std::string_view text,
 Result<std::string> sign_minisign(std::string_view message, const MinisignSecretKey& key,
                                   std::string_view trusted_comment);
 
-// The key id as minisign prints it: a little-endian uint64 in uppercase hex.
+// The key id as minisign prints it: a little-endian uint64 in uppercase hex,
+// without leading zeros.
 std::string minisign_key_id_hex(const std::array<uint8_t, 8>& id);
 
 }  // namespace contego::bundle
