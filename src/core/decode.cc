@@ -197,6 +197,16 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   if (o == nullptr) return;
   o->base_reg = d.base_reg;
   o->group_len = c.group_len;
+  const DeviceRecord& dr = devices_[dev];
+  if (dr.gated != 0 && cid == dr.command_first + dr.gated - 1u &&
+      ((st.shadow[dr.ai_reg] >> dr.gate_bit) & 1u) == 0 &&
+      ((access_[tx.task].actuate_devices >> dev) & 1u) != 0) {
+    // The device would drop it now (PCA9685 PRE_SCALE while the oscillator
+    // runs): not sent, the shadow keeps what the device holds, no rule spent.
+    refuse(o, Reason::kNotTaken, 0, cid);
+    o->decision = Decision::kIgnore;
+    return;
+  }
   evaluate(tx, *o);
   if (o->decision != Decision::kAllow) return;
   for (uint32_t q = 0; q < c.group_len; ++q) {

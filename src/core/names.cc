@@ -29,11 +29,11 @@ constexpr const char* kReasonNames[] = {
     "unknown-command", "forbidden-command", "access-denied", "read-denied", "rate-exceeded",
     "invariant-violated", "signal-unavailable", "program-fault", "latched", "staging-conflict",
     "encode-failed", "general-call", "reserved-address", "transfer-dropped",
-    "staged-incomplete",
+    "staged-incomplete", "not-taken",
 };
 // clang-format on
 static_assert(sizeof(kReasonNames) / sizeof(kReasonNames[0]) ==
-              static_cast<uint32_t>(Reason::kStagedIncomplete) + 1);
+              static_cast<uint32_t>(Reason::kNotTaken) + 1);
 
 constexpr const char* kDecisionNames[] = {"allow", "ignore", "failsafe", "reject"};
 static_assert(static_cast<uint32_t>(Decision::kReject) == 3);

@@ -228,6 +228,33 @@ TEST_F(ArmTest, ARegisterOfAGroupTheTaskCannotSendIsDecidedAtOnce) {
   EXPECT_EQ(send({kLed5 + 2, 0xA4}).reason, Reason::kStaged);
 }
 
+TEST_F(ArmTest, APrescaleTheChipWouldDropIsNotSentAndNotShadowed) {
+  // PRE_SCALE only while MODE1 SLEEP (bit 4) stops the oscillator, as the PCA9685.
+  image::ImageModel m = arm::model();
+  m.devices[0].record.gated = arm::kPrescale + 1;
+  m.devices[0].record.gate_bit = 4;
+  load(m);
+  ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x01));  // awake
+  ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0xFE, 0x79));  // 50 Hz
+  const Verdict awake = send({0xFE, 0x65});
+  EXPECT_EQ(awake.decision, Decision::kIgnore);
+  EXPECT_EQ(awake.reason, Reason::kNotTaken);
+  EXPECT_EQ(awake.emit_count, 0);
+  uint8_t v = 0;
+  ASSERT_TRUE(h.checker->shadow(arm::kArm, 0xFE, &v));
+  EXPECT_EQ(v, 0x79);  // what the chip still holds
+  // Asleep (the vendor's set_pwm_freq: sleep, prescale, wake): taken.
+  ASSERT_EQ(send({0x00, 0x11}).decision, Decision::kAllow);
+  const Verdict asleep = send({0xFE, 0x65});
+  EXPECT_EQ(asleep.decision, Decision::kAllow);
+  EXPECT_EQ(emits(asleep), (Writes{{0xFE, 0x65}}));
+  ASSERT_TRUE(h.checker->shadow(arm::kArm, 0xFE, &v));
+  EXPECT_EQ(v, 0x65);
+  // A task that may not drive the chip is refused for that, not told "not taken".
+  ASSERT_EQ(send({0x00, 0x01}).decision, Decision::kAllow);
+  EXPECT_EQ(send({0xFE, 0x65}, arm::kOther).reason, Reason::kAccessDenied);
+}
+
 TEST_F(ArmTest, RejectedTransactionLeavesNoStagedBytes) {
   auto_increment_on();
   // ch15 OFF_L, OFF_H (commits off = 0x201), then reserved 0x46: all refused.

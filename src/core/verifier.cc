@@ -232,7 +232,9 @@ LoadResult CheckerState::verify_devices(const LoadInput&) {
     }
     if (d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
         d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
-        d.short_queries > 1 || d.pad0[0] != 0 || d.pad0[1] != 0 ||
+        d.short_queries > 1 || d.gate_bit > 7 ||
+        (d.gated != 0 &&
+         (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) || d.gated > d.command_count)) ||
         (d.short_queries != 0 && d.profile != static_cast<uint8_t>(Profile::kFrame))) {
       return fail(S::kBadTag, kDevSec, i);
     }

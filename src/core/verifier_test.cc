@@ -217,8 +217,16 @@ TEST_F(VerifierTest, TooManyTasks) {
 TEST_F(VerifierTest, BadTagInDeviceProfileAndPadding) {
   EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.profile = 7; }),
             LoadStatus::kBadTag);
-  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.pad0[1] = 1; }),
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.gate_bit = 8; }),
             LoadStatus::kBadTag);
+  // A gate on a frame device, or past the device's commands.
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.gated = 1; }),
+            LoadStatus::kBadTag);
+  image::ImageModel gated = testing::arm::model();
+  gated.devices[0].record.gated = static_cast<uint8_t>(gated.devices[0].record.command_count + 1);
+  EXPECT_EQ(load_model(gated), LoadStatus::kBadTag);
+  gated.devices[0].record.gated = testing::arm::kPrescale + 1;
+  EXPECT_EQ(load_model(gated), LoadStatus::kOk);
   image::ImageModel m = rover::model();
   m.invariants[1].record.response = 9;
   const LoadResult r = h.load(m);

@@ -251,6 +251,9 @@ ProfileSpec make_pca9685() {
   // ALL_LED_* writes load every LEDn register (the shadow must follow, or a
   // fail-safe built from a channel's shadow could carry a stale full-off bit).
   p.broadcast = BroadcastSpec{"all_led", "led"};
+  // PRE_SCALE is write-protected while the oscillator runs (datasheet 7.3.5):
+  // a write then never reaches the prescaler, and the shadow must not say it did.
+  p.gate = GateSpec{"prescale", 4};
   p.read_back = true;  // the Adafruit library reads MODE1 in set_pwm_freq
   // 0x46..0xF9 are reserved: no command covers them, so the core refuses writes there.
   return p;

@@ -179,6 +179,17 @@ Status validate_profile(const ProfileSpec& p) {
           prof, p.broadcast->from, p.broadcast->to));
     }
   }
+  if (p.gate) {
+    const auto g = std::find_if(p.commands.begin(), p.commands.end(),
+                                [&](const CommandSpec& c) { return c.name == p.gate->command; });
+    if (p.kind != core::Profile::kRegisterMap || g == p.commands.end() || g->repeat != 1 ||
+        p.gate->bit > 7) {
+      return make_error(fmt::format(
+          "{}: gate `{}` (bit {}) needs a register group of the profile, not repeated, and a bit "
+          "0..7 of its mode register",
+          prof, p.gate->command, p.gate->bit));
+    }
+  }
   for (const AliasSpec& a : p.aliases) {
     if (a.kind == core::AliasKind::kAddress && (a.addr == 0 || a.addr > 0x7F)) {
       return make_error(fmt::format("{}: alias address 0x{:x} outside 0x01..0x7f", prof, a.addr));
@@ -259,6 +270,12 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
         r.broadcast_target = static_cast<uint8_t>(k);
       }
     }
+  }
+  if (profile.gate) {
+    for (size_t k = 0; k < profile.commands.size(); ++k) {
+      if (profile.commands[k].name == profile.gate->command) r.gated = static_cast<uint8_t>(k + 1);
+    }
+    r.gate_bit = profile.gate->bit;
   }
   model.devices.push_back(std::move(d));
 

@@ -21,6 +21,7 @@ bool matches(const ProfileSpec& p, const image::ImageModel& m, const core::Devic
     return false;
   }
   if (p.broadcast.has_value() != (d.broadcast != d.broadcast_target)) return false;
+  if (p.gate.has_value() != (d.gated != 0)) return false;
   if ((p.role & core::kRoleSensor) != 0 &&
       (p.sample_len != d.sample_len || p.sample_request.size() != d.sample_request_len ||
        !std::equal(p.sample_request.begin(), p.sample_request.end(), d.sample_request))) {
@@ -111,6 +112,9 @@ Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t devi
   if (d.broadcast != d.broadcast_target && d.broadcast < p.commands.size() &&
       d.broadcast_target < p.commands.size()) {
     p.broadcast = BroadcastSpec{p.commands[d.broadcast].name, p.commands[d.broadcast_target].name};
+  }
+  if (d.gated != 0 && d.gated <= p.commands.size()) {
+    p.gate = GateSpec{p.commands[d.gated - 1u].name, d.gate_bit};
   }
   p.sample_request.assign(d.sample_request,
                           d.sample_request + std::min<size_t>(d.sample_request_len, 8));

@@ -63,6 +63,13 @@ struct BroadcastSpec {
   std::string to;    // a repeated command with groups as long
 };
 
+// A register-map command the device takes only while a bit of its mode
+// register (`ai_reg`) is set; written otherwise, the device drops it.
+struct GateSpec {
+  std::string command;  // a command with one group (PCA9685: prescale)
+  uint8_t bit = 0;      // PCA9685: 4, MODE1 SLEEP
+};
+
 struct ProfileSpec {
   std::string name;  // as written after ':' in a policy: "gopigo2"
   core::Profile kind = core::Profile::kFrame;
@@ -79,6 +86,7 @@ struct ProfileSpec {
   std::vector<AliasSpec> aliases;
   std::vector<CommandSpec> commands;
   std::optional<BroadcastSpec> broadcast;
+  std::optional<GateSpec> gate;
   // Register map: drivers read registers back (a task may be given `reads`
   // without the device being a sensor). Host-side only; not in the image.
   bool read_back = false;

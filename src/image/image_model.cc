@@ -340,6 +340,10 @@ std::string dump(const ImageModel& m) {
       out += fmt::format(" broadcast cmd{} -> cmd{}", d.command_first + d.broadcast,
                          d.command_first + d.broadcast_target);
     }
+    if (d.gated != 0) {
+      out += fmt::format(" cmd{} only while bit {} of reg 0x{:02x}", d.command_first + d.gated - 1,
+                         d.gate_bit, d.ai_reg);
+    }
     if (d.sample_len != 0) {
       out += fmt::format(" sample {}B every {}us max age {}us", d.sample_len, d.sample_period_us,
                          d.max_sample_age_us);

@@ -20,9 +20,10 @@ namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
 inline constexpr uint16_t kImageVersionMajor = 2;
-inline constexpr uint16_t kImageVersionMinor = 3;  // 1: HAS_LAST, per-channel rate limits;
+inline constexpr uint16_t kImageVersionMinor = 4;  // 1: HAS_LAST, per-channel rate limits;
                                                    // 2: LatchMode::kHoldSafeUnrepaired;
-                                                   // 3: InvariantRecord::scope
+                                                   // 3: InvariantRecord::scope;
+                                                   // 4: DeviceRecord::gated, gate_bit
 inline constexpr uint16_t kNone = 0xFFFF;
 inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
@@ -128,7 +129,11 @@ struct DeviceRecord {
   // that query (a register pointer such as the DI line follower's 0x12 "board
   // name"); 0 = one-byte writes are malformed.
   uint8_t short_queries;
-  uint8_t pad0[2];
+  // kRegisterMap (since 2.4): command `command_first + gated - 1` takes
+  // effect only while bit `gate_bit` of register `ai_reg` is set (PCA9685:
+  // PRE_SCALE only while MODE1 SLEEP stops the oscillator); 0 = none.
+  uint8_t gated;
+  uint8_t gate_bit;
   // kRegisterMap (since 2.0): the bytes a commit of command
   // `command_first + broadcast` writes are also loaded into the same group
   // offsets of every channel of command `command_first + broadcast_target`, as
