@@ -200,9 +200,10 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   const DeviceRecord& dr = devices_[dev];
   if (dr.gated != 0 && cid == dr.command_first + dr.gated - 1u &&
       ((st.shadow[dr.ai_reg] >> dr.gate_bit) & 1u) == 0 &&
-      ((access_[tx.task].actuate_devices >> dev) & 1u) != 0) {
+      ((access_[tx.task].actuate_devices >> dev) & 1u) != 0 && !rate_decides(tx, d)) {
     // The device would drop it now (PCA9685 PRE_SCALE while the oscillator
-    // runs): not sent, the shadow keeps what the device holds, no rule spent.
+    // runs): not sent, the shadow keeps what the device holds, no rule spent
+    // (a rate rule that drops it anyway answers as it would: its errno).
     refuse(o, Reason::kNotTaken, 0, cid);
     o->decision = Decision::kIgnore;
     return;

@@ -49,6 +49,14 @@ bool CheckerState::selects(const RateRecord& rr, const Transaction& tx, const De
          (rr.only_channel == 0 || d.index == rr.only_channel - 1);
 }
 
+bool CheckerState::rate_decides(const Transaction& tx, const Decoded& d) const {
+  for (uint64_t bits = rates_of_[tx.task][d.device]; bits != 0; bits &= bits - 1) {
+    const uint32_t r = static_cast<uint32_t>(__builtin_ctzll(bits));
+    if (selects(rates_[r], tx, d) && rate_used_[r] >= rates_[r].max_per_job) return true;
+  }
+  return false;
+}
+
 uint16_t CheckerState::refusing_rate(const Transaction& tx, const Decoded& d) const {
   if (tx.task >= kMaxTasks || d.device >= kMaxDevices) return kNone;
   for (uint64_t bits = rates_of_[tx.task][d.device]; bits != 0; bits &= bits - 1) {

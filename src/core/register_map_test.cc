@@ -253,6 +253,22 @@ TEST_F(ArmTest, APrescaleTheChipWouldDropIsNotSentAndNotShadowed) {
   // A task that may not drive the chip is refused for that, not told "not taken".
   ASSERT_EQ(send({0x00, 0x01}).decision, Decision::kAllow);
   EXPECT_EQ(send({0xFE, 0x65}, arm::kOther).reason, Reason::kAccessDenied);
+  // Nor one whose limit on it is spent: the limit answers, with its errno.
+  image::Named<RateRecord> none;
+  none.name = "no_prescale";
+  none.record.task = arm::kController;
+  none.record.device = arm::kArm;
+  none.record.max_per_job = 0;
+  none.record.commands = testing::mask_of({arm::kPrescale});
+  none.record.response = static_cast<uint8_t>(Response::kReject);
+  none.record.reply_errno = 1;  // EPERM
+  none.record.template_id = kNone;
+  m.rates.push_back(none);
+  load(m);
+  ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x01));
+  const Verdict limited = send({0xFE, 0x65});
+  EXPECT_EQ(limited.reason, Reason::kRateExceeded);
+  EXPECT_EQ(limited.reply_errno, 1);
 }
 
 TEST_F(ArmTest, RejectedTransactionLeavesNoStagedBytes) {

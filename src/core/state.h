@@ -244,6 +244,8 @@ class CheckerState {
   void count_acting(const Transaction& tx, const Outcome& o, uint64_t rates_hit);
   // Whether rate rule `rr` selects the decoded command `d` of `tx`'s task.
   bool selects(const RateRecord& rr, const Transaction& tx, const Decoded& d) const;
+  // Whether a rate rule that selects `d` is spent for this job (it decides `d`).
+  bool rate_decides(const Transaction& tx, const Decoded& d) const;
   // A rate rule that refuses (reject) `d` now, or kNone.
   uint16_t refusing_rate(const Transaction& tx, const Decoded& d) const;
   void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
