@@ -6,7 +6,9 @@
 . /vm/lib.sh
 A=0x40 PRESCALE=0xfe LED5_OFF=0x1c
 
-# The chip as it comes out of reset (PRE_SCALE 30 = 200 Hz), gripper at 0.
+# The chip as it comes out of reset (MODE1 0x11: asleep, so PRE_SCALE takes
+# writes; PRE_SCALE 30 = 200 Hz), gripper at 0.
+stub_set $A 0x00 0x11
 stub_set $A $PRESCALE 0x1e
 stub_set $A $LED5_OFF 0
 stub_set $A $((LED5_OFF + 1)) 0

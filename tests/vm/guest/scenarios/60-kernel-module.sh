@@ -19,6 +19,7 @@ fi
 A=0x40
 
 # Known values, written through the plain i2c-dev before the swap.
+stub_set $A 0x00 0x11   # MODE1: asleep, the power-on value (PRE_SCALE takes writes only so)
 stub_set $A 0xfe 0x79   # PRE_SCALE
 stub_set $A 0x01 0x00   # MODE2
 stub_set 0x48 0x01 0x22 # a chip the policy does not name

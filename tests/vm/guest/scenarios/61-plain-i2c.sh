@@ -328,9 +328,11 @@ plain_expect 0x20 0x01 1 "the buzzer's tone(1) landed (the tank sampled at 900 m
 chown $MONITOR_UID:$MONITOR_UID /dev/i2c-1 && chmod 0600 /dev/i2c-1
 BUS_ARGS="--bus 1=/dev/i2c-1"
 if start_monitor arm.policy; then
-  run_logged mon_xfer under monitor arm.policy arm_init i2ctransfer -y 1 w2@$A 0xfe 0x65 w1@$A 0xfe r1
+  # As set_pwm_freq: sleep (PRE_SCALE takes writes only so), PRE_SCALE, wake.
+  run_logged mon_xfer under monitor arm.policy arm_init i2ctransfer -y 1 w2@$A 0x00 0x31 \
+    w2@$A 0xfe 0x65 w2@$A 0x00 0x21 w1@$A 0xfe r1
   [ $RC = 0 ] && [ "$(tail -n 1 "$OUT")" = 0x65 ] &&
-    ok "monitor: arm_init's i2ctransfer writes PRE_SCALE=101 and reads it back in one combined transfer" ||
+    ok "monitor: arm_init's i2ctransfer sleeps, writes PRE_SCALE=101, wakes and reads it back in one combined transfer" ||
     bad "monitor: arm_init's combined i2ctransfer (exit $RC)"
   run_logged mon_xfer3 under monitor arm.policy arm_init i2ctransfer -y 1 w2@$A 0xfe 0x03
   [ $RC = 0 ] && ok "monitor: arm_init's PRE_SCALE=3 by i2ctransfer exits 0 (ignored)" ||
