@@ -83,7 +83,7 @@ done_with build/asan-ubsan
 step "debug build: test bed, bench smoke runs, tree checks"
 cmake --preset dev >/dev/null
 cmake --build --preset dev --target vm_testbed_programs contego-bench-task \
-  contego-kernel-floor core_bench monitor_bench sched_bench check_insns audit_days
+  contego-kernel-floor core_bench monitor_bench sched_bench check_insns audit_days tasks_scale
 # vm.booted_guest needs the package: it runs after the package stage below;
 # the arm64 bed (label arm64) is the last stage.
 ctest --preset dev -L 'vm|bench|tree' -E '^vm\.booted_guest$' -LE arm64
