@@ -3,6 +3,7 @@
 # compared with what the kernel shows outside contego.
 . /vm/lib.sh
 A=0x40
+stub_set $A 0x00 0x11  # MODE1 as out of reset: asleep, so PRE_SCALE takes writes
 [ "$MODE" = monitor ] && { start_monitor arm.policy || finish; }
 
 # contego hands programs the adapter's real I2C_FUNCS: identical to outside.
