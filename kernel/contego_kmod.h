@@ -44,7 +44,7 @@ struct contego_kmod_bind {
 /* The layout of struct contego_kmod_load. Its size is in the ioctl number
  * too: a module refuses a CONTEGO_KMOD_LOAD of another size or version with
  * EPROTO (and says so in the kernel log); an older module answers ENOTTY. */
-#define CONTEGO_KMOD_LOAD_VERSION 2
+#define CONTEGO_KMOD_LOAD_VERSION 3
 
 struct contego_kmod_load {
   __u32 version;       /* in: CONTEGO_KMOD_LOAD_VERSION; out on EPROTO: the module's */
@@ -61,8 +61,11 @@ struct contego_kmod_load {
   __u32 complain;      /* in: bit i: task i in complain mode (docs/learn.md): its calls are
                         * checked and recorded (CONTEGO_KMOD_REC_COMPLAIN) and act as sent.
                         * A module that predates it reads 0 here: it enforces */
-  __u32 sessions[CONTEGO_KMOD_MAX_TASKS];   /* in: live sessions task i may have, 1..64 */
-  __u32 actuations[CONTEGO_KMOD_MAX_TASKS]; /* in: task i's actuations per job (N) */
+  __u32 sessions[CONTEGO_KMOD_MAX_TASKS];    /* in: live sessions task i may have, 1..64 */
+  __u32 actuations[CONTEGO_KMOD_MAX_TASKS];  /* in: task i's actuations per job (N) */
+  __u8 ignore_errno[CONTEGO_KMOD_MAX_TASKS]; /* in: (version 3) the policy's `ignore_errno`:
+                                              * a call of task i the checks ignored fails with
+                                              * it; 0: it succeeds (the paper's IGNORE) */
 };
 
 /* A load in place (CONTEGO_KMOD_RELOAD): the new image takes over the

@@ -108,6 +108,7 @@ struct ct_policy {
 	u32 actuations[CONTEGO_KMOD_MAX_TASKS];
 	u32 budget_factor;
 	u32 complain; /* bit per task: complain mode (docs/learn.md) */
+	u8 ignore_errno[CONTEGO_KMOD_MAX_TASKS]; /* the policy's `ignore_errno`, 0: none */
 	/* The over-budget hold (as the monitor's hold_if_over_budget): the
 	 * job each task's budget counts, and the transfers charged to it. */
 	u32 budget_job[CONTEGO_KMOD_MAX_TASKS];
@@ -1349,6 +1350,11 @@ static u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 			if (ct_verdicts[i].decision == CONTEGO_FAILSAFE)
 				ct_drive_safe_state(p, ct_verdicts[i].device, CONTEGO_KMOD_SAFE_TRANSFER);
 	}
+	if (action == CT_IGNORE && task < CONTEGO_KMOD_MAX_TASKS && p->ignore_errno[task]) {
+		/* The policy's `ignore_errno`: nothing acted, and the call says so. */
+		ct_verdicts[*decider].reply_errno = p->ignore_errno[task];
+		action = CT_REFUSE;
+	}
 	result = action;
 out:
 	/* A session begins with the first call that acts as the task: a write
@@ -2163,6 +2169,7 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		/* A task the request does not cover: the monitor's default, one session. */
 		p->sessions[i] = i < req.ntasks ? req.sessions[i] : 1;
 		p->actuations[i] = i < req.ntasks ? req.actuations[i] : 0;
+		p->ignore_errno[i] = i < req.ntasks ? req.ignore_errno[i] : 0;
 	}
 	p->budget_factor = req.budget_factor;
 	p->complain = req.complain;
@@ -2585,8 +2592,8 @@ static int __init ct_init(void)
 	}
 	/* The record layout `contego kmod audit` reads (kmod_audit.cc asserts it too). */
 	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
-	/* CONTEGO_KMOD_LOAD_VERSION 2's layout (kmod_command.cc asserts it too). */
-	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 312);
+	/* CONTEGO_KMOD_LOAD_VERSION 3's layout (kmod_command.cc asserts it too). */
+	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 344);
 	if (max_sessions < 1 || max_sessions > 65536) {
 		pr_err("contego: max_sessions=%u: give 1 .. 65536\n", max_sessions);
 		return -EINVAL;

@@ -41,12 +41,12 @@ class Reader {
       return make_error(fmt::format("{}: \"{}\" must be a string", where_, key));
     return it->get_ref<const std::string&>();
   }
-  Result<std::optional<uint32_t>> count(const char* key) const {
+  Result<std::optional<uint32_t>> count(const char* key, uint32_t max = UINT32_MAX) const {
     auto it = o_.find(key);
     if (it == o_.end() || it->is_null()) return std::optional<uint32_t>();
-    if (!it->is_number_unsigned() || it->get<uint64_t>() > UINT32_MAX) {
+    if (!it->is_number_unsigned() || it->get<uint64_t>() > max) {
       return make_error(
-          fmt::format("{}: \"{}\" must be an integer from 0 to {}", where_, key, UINT32_MAX));
+          fmt::format("{}: \"{}\" must be an integer from 0 to {}", where_, key, max));
     }
     return std::optional<uint32_t>(static_cast<uint32_t>(it->get<uint64_t>()));
   }
@@ -85,6 +85,7 @@ std::string encode_bundle(const Bundle& b) {
     }
     j["sessions"] = t.sessions;
     if (t.phase_us) j["phase_us"] = *t.phase_us;
+    if (t.ignore_errno != 0) j["ignore_errno"] = t.ignore_errno;
     tasks.push_back(std::move(j));
   }
   doc["tasks"] = std::move(tasks);
@@ -190,6 +191,9 @@ Result<Bundle> decode_bundle(std::string_view text, const std::string& source) {
     auto phase = r.count("phase_us");
     if (!phase) return make_error(phase.error());
     t.phase_us = *phase;
+    auto ignore_errno = r.count("ignore_errno", 255);
+    if (!ignore_errno) return make_error(ignore_errno.error());
+    t.ignore_errno = static_cast<uint8_t>(ignore_errno->value_or(0));
     b.tasks.push_back(std::move(t));
   }
   auto factor = top.count("budget_factor");

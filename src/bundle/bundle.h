@@ -34,6 +34,7 @@ struct BundleTask {
   std::string user, group, unit, cgroup;
   uint32_t sessions = 1;
   std::optional<uint32_t> phase_us;  // declared job phase
+  uint8_t ignore_errno = 0;          // what an ignored call fails with; 0: it succeeds
 };
 
 struct Bundle {

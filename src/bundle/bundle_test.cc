@@ -11,7 +11,7 @@ namespace {
 constexpr const char* kPolicy = R"(
 device arm : pca9685 at i2c-1 0x40 { safe led(5, on=0, off=420) }
 task arm_init {
-  user "root"; exe "/usr/bin/python3"; sessions 2; phase 5ms
+  user "root"; exe "/usr/bin/python3"; sessions 2; phase 5ms; ignore_errno EIO
   period 10s; deadline 10s; wcet 50ms; priority 1
   actuations 8
 }
@@ -27,7 +27,8 @@ Bundle compiled() {
   b.policy = "arm.policy";
   b.image = out.image;
   for (const auto& t : out.summary.tasks) {
-    b.tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us});
+    b.tasks.push_back(
+        {t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us, t.ignore_errno});
   }
   return b;
 }
@@ -60,6 +61,8 @@ TEST(BundleTest, RoundTripKeepsImageAndEveryBinding) {
   EXPECT_EQ(back->tasks[0].exe, "/usr/bin/python3");
   EXPECT_EQ(back->tasks[0].sessions, 2u);
   EXPECT_EQ(back->tasks[0].phase_us, std::optional<uint32_t>(5000));
+  EXPECT_EQ(back->tasks[0].ignore_errno, 5);
+  EXPECT_EQ(back->tasks[1].ignore_errno, 0);
   EXPECT_EQ(back->tasks[1].name, "gripper");
   EXPECT_TRUE(back->tasks[1].user.empty());
   EXPECT_EQ(back->tasks[1].phase_us, std::nullopt);
@@ -89,6 +92,7 @@ TEST(BundleTest, DamagedOrForeignBundlesAreRefusedNamingTheField) {
   expect_refused(replaced(text, "\"user\": \"root\"", "\"user\": 0"), "tasks[0]: \"user\"");
   expect_refused(replaced(text, "\"sessions\": 2", "\"sessions\": -2"), "tasks[0]: \"sessions\"");
   expect_refused(replaced(text, "\"sessions\": 2", "\"sessions\": 0"), "at least 1");
+  expect_refused(replaced(text, "\"ignore_errno\": 5", "\"ignore_errno\": 300"), "from 0 to 255");
   expect_refused(replaced(text, "\"name\": \"gripper\"", "\"name\": \"arm_init\""),
                  "tasks[1]: task 'arm_init' is bound twice");
   expect_refused(replaced(text, "\"name\": \"gripper\"", "\"name\": \"wheels\""),

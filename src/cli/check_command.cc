@@ -54,6 +54,7 @@ std::string identity_text(const policy::PolicySummary::Task& t) {
   if (!t.unit.empty()) out += " unit " + t.unit;
   if (!t.cgroup.empty()) out += " cgroup " + t.cgroup;
   if (t.sessions != 1) out += fmt::format(" sessions {}", t.sessions);
+  if (t.ignore_errno != 0) out += fmt::format(" ignore_errno {}", t.ignore_errno);
   return out;
 }
 
@@ -142,6 +143,7 @@ nlohmann::json summary_json(const policy::CompileOutput& out) {
                           {"unit", i < s.tasks.size() ? s.tasks[i].unit : ""},
                           {"cgroup", i < s.tasks.size() ? s.tasks[i].cgroup : ""},
                           {"sessions", i < s.tasks.size() ? s.tasks[i].sessions : 1},
+                          {"ignore_errno", i < s.tasks.size() ? s.tasks[i].ignore_errno : 0},
                           {"period_us", t.period_us},
                           {"deadline_us", t.deadline_us},
                           {"wcet_us", t.wcet_us},

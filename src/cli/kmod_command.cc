@@ -51,8 +51,8 @@
 namespace contego::cli {
 namespace {
 
-// CONTEGO_KMOD_LOAD_VERSION 2's layout (the module's BUILD_BUG_ON says the same).
-static_assert(sizeof(contego_kmod_load) == 312);
+// CONTEGO_KMOD_LOAD_VERSION 3's layout (the module's BUILD_BUG_ON says the same).
+static_assert(sizeof(contego_kmod_load) == 344);
 
 Result<uint32_t> uid_of(const std::string& user) {
   char* end = nullptr;
@@ -84,8 +84,9 @@ Result<contego_kmod_bind> kmod_binding(uint16_t task, const monitor::TaskBinding
   return row;
 }
 
-// Each task's actuations per job (from the image's task records) and its
-// `sessions` (the policy's, 1 where it says nothing, as the monitor admits).
+// Each task's actuations per job (from the image's task records), its
+// `sessions` (the policy's, 1 where it says nothing, as the monitor admits)
+// and its `ignore_errno`.
 bool fill_task_limits(contego_kmod_load* req, const image::ImageModel& model,
                       const std::vector<bundle::BundleTask>& bindings) {
   if (model.tasks.size() > CONTEGO_KMOD_MAX_TASKS) {
@@ -98,7 +99,9 @@ bool fill_task_limits(contego_kmod_load* req, const image::ImageModel& model,
     req->actuations[i] = model.tasks[i].record.actuations_per_job;
     req->sessions[i] = 1;
     for (const auto& t : bindings) {
-      if (t.name == model.tasks[i].name) req->sessions[i] = t.sessions;
+      if (t.name != model.tasks[i].name) continue;
+      req->sessions[i] = t.sessions;
+      req->ignore_errno[i] = t.ignore_errno;
     }
   }
   return true;

@@ -60,7 +60,8 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o) {
 std::vector<bundle::BundleTask> bundle_tasks(const policy::PolicySummary& summary) {
   std::vector<bundle::BundleTask> tasks;
   for (const auto& t : summary.tasks) {
-    tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us});
+    tasks.push_back(
+        {t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us, t.ignore_errno});
   }
   return tasks;
 }

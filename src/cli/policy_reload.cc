@@ -104,6 +104,8 @@ class Reloader {
       bindings[task.name] = *bound;
       const auto id = tasks.find(task.name);
       if (task.phase_us && id != tasks.end()) policy.declared_phases[id->second] = *task.phase_us;
+      if (id != tasks.end() && id->second < core::kMaxTasks)
+        policy.ignore_errnos[id->second] = task.ignore_errno;
     }
     auto complain = monitor::complain_scope(options_, *model);
     if (!complain.ok()) return refuse(EINVAL, complain.error());

@@ -353,6 +353,8 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy
     auto id = t->tasks.find(task.name);
     if (task.phase_us && id != t->tasks.end())
       t->monitor->set_task_phase(id->second, *task.phase_us);
+    if (task.ignore_errno != 0 && id != t->tasks.end())
+      t->monitor->set_ignore_errno(id->second, task.ignore_errno);
   }
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;

@@ -83,6 +83,9 @@ struct RecordNames {
   // Complain mode: the decision is the policy's, but the command acted as the
   // program sent it (`"complain":true`).
   bool complain = false;
+  // The task's `ignore_errno` (0: none): an ignored call failed with it
+  // instead of succeeding (the drop report says so).
+  uint8_t ignore_errno = 0;
   // The writer's number of the core check the record is of (`tx`): records
   // with one number are one transaction's commands. -1: not written.
   int64_t tx = -1;

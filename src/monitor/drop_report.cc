@@ -1,5 +1,7 @@
 #include "monitor/drop_report.h"
 
+#include <string.h>
+
 #include <fmt/format.h>
 
 #include "contego/core/checker.h"
@@ -11,6 +13,7 @@ namespace contego::monitor {
 void DropReport::note(const core::AuditRecord& r, const RecordNames& names, uint64_t now_us) {
   PerTask& t = tasks_[r.task < core::kMaxTasks ? r.task : core::kMaxTasks];
   const char* verdict = nullptr;
+  std::string ignored_errno;
   if (names.complain && r.decision != core::Decision::kAllow) {
     ++t.counts.complained;
     verdict = r.decision == core::Decision::kIgnore     ? "would be ignored (complain mode: sent)"
@@ -24,6 +27,11 @@ void DropReport::note(const core::AuditRecord& r, const RecordNames& names, uint
       case core::Decision::kIgnore:
         ++t.counts.ignored;
         verdict = "ignored (the program was told it succeeded)";
+        if (const char* e = strerrorname_np(names.ignore_errno); names.ignore_errno != 0) {
+          ignored_errno = fmt::format("ignored (the call failed with {}: the task's ignore_errno)",
+                                      e != nullptr ? e : "its errno");
+          verdict = ignored_errno.c_str();
+        }
         break;
       case core::Decision::kFailsafe:
         ++t.counts.substituted;

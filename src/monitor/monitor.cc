@@ -61,6 +61,7 @@ void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   // is refused by transfer() (checked after each check()).
   RecordNames names = self->names_.of(*record);
   names.complain = self->complain_now_;
+  names.ignore_errno = record->task < core::kMaxTasks ? self->ignore_errno_[record->task] : 0;
   names.tx = static_cast<int64_t>(self->check_seq_);
   if (self->readings_json_seq_ != self->check_seq_) self->describe_readings_locked();
   names.readings = &self->readings_json_;
@@ -181,6 +182,11 @@ void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor);
 void Monitor::set_task_phase(uint16_t task, uint64_t phase_us) {
   std::lock_guard lock(mu_);
   declared_phase_us_[task] = phase_us;
+}
+
+void Monitor::set_ignore_errno(uint16_t task, uint8_t err) {
+  std::lock_guard lock(mu_);
+  if (task < core::kMaxTasks) ignore_errno_[task] = err;
 }
 
 uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
@@ -410,6 +416,10 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     return reply;
   }
   if (tv.action == core::TransferAction::kSafeState) drive_transfer_safe_states(task, checked);
+  if (tv.action == core::TransferAction::kIgnore && task < core::kMaxTasks && ignore_errno_[task]) {
+    reply.err = ignore_errno_[task];  // the policy's `ignore_errno`: nothing acted either way
+    return reply;
+  }
   // Ignored (or replaced by safe states): the call succeeds and nothing of it
   // acted; its reads read nothing.
   for (const gate::PlannedTx& p : planned) {

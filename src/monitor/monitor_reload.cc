@@ -46,6 +46,7 @@ Result<std::string> Monitor::reload(Decider& decider, Policy policy,
   task_devices_ = std::move(policy.task_devices);
   complain_ = std::move(policy.complain);
   declared_phase_us_ = std::move(policy.declared_phases);
+  ignore_errno_ = std::move(policy.ignore_errnos);
   return detail;
 }
 

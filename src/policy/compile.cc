@@ -76,7 +76,8 @@ PolicySummary summarize(const CheckedPolicy& p, const SourceBuffer& src,
     s.devices.push_back(std::move(out));
   }
   for (const Task& t : p.tasks) {
-    s.tasks.push_back({t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us});
+    s.tasks.push_back(
+        {t.name, t.exe, t.user, t.group, t.unit, t.cgroup, t.sessions, t.phase_us, t.ignore_errno});
   }
   for (size_t i = 0; i < p.signals.size(); ++i) {
     const Signal& sig = p.signals[i];

@@ -46,6 +46,7 @@ struct PolicySummary {
     std::string user, group, unit, cgroup;  // who may run it (the monitor checks)
     uint32_t sessions = 1;
     std::optional<uint32_t> phase_us;  // declared job phase (the monitor's grid)
+    uint8_t ignore_errno = 0;          // `ignore_errno`: what an ignored call fails with; 0: none
   };
   std::vector<Device> devices;
   std::vector<Task> tasks;

@@ -358,5 +358,27 @@ TEST(CompilePolicy, ATaskPhaseIsADeploymentFactBelowThePeriod) {
   EXPECT_EQ(bad.diagnostics.front().id, "E0501");
 }
 
+TEST(CompilePolicy, IgnoreErrnoIsAHostFactNamedLikeARejectsErrno) {
+  const CompileOutput ok =
+      compile_source("p.policy", "task t { period 200ms; wcet 1ms; ignore_errno EIO }\n");
+  ASSERT_TRUE(ok.ok);
+  ASSERT_EQ(ok.summary.tasks.size(), 1u);
+  EXPECT_EQ(ok.summary.tasks[0].ignore_errno, 5);
+  const CompileOutput plain = compile_source("p.policy", "task t { period 200ms; wcet 1ms }\n");
+  ASSERT_TRUE(plain.ok);
+  EXPECT_EQ(plain.summary.tasks[0].ignore_errno, 0) << "by default an ignored call succeeds";
+  EXPECT_EQ(plain.image, ok.image) << "not part of the image: the host answers the call";
+  for (const char* bad : {"task t { period 200ms; wcet 1ms; ignore_errno EWHATEVER }\n",
+                          "task t { period 200ms; wcet 1ms; ignore_errno 5 }\n"}) {
+    const CompileOutput out = compile_source("p.policy", bad);
+    EXPECT_FALSE(out.ok) << bad;
+    ASSERT_FALSE(out.diagnostics.empty()) << bad;
+  }
+  const CompileOutput unknown =
+      compile_source("p.policy", "task t { period 200ms; wcet 1ms; ignore_errno EWHATEVER }\n");
+  ASSERT_FALSE(unknown.diagnostics.empty());
+  EXPECT_EQ(unknown.diagnostics.front().id, "E0608");
+}
+
 }  // namespace
 }  // namespace contego::policy

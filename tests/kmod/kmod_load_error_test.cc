@@ -25,7 +25,7 @@ TEST(KmodLoadError, EnottyNamesTheModuleAsOlder) {
   const std::string m = kmod_load_error(ENOTTY, sent());
   EXPECT_TRUE(has(m, "the module is older than this contego")) << m;
   EXPECT_TRUE(has(m, "load the contego.ko built with this contego")) << m;
-  EXPECT_TRUE(has(m, "version 2")) << m;
+  EXPECT_TRUE(has(m, "version 3")) << m;
 }
 
 // EPROTO with the module's version written back: older or newer.
@@ -34,14 +34,14 @@ TEST(KmodLoadError, EprotoNamesTheSideThatIsOutOfDate) {
   older.version = CONTEGO_KMOD_LOAD_VERSION - 1;
   const std::string a = kmod_load_error(EPROTO, older);
   EXPECT_TRUE(has(a, "the module is older than this contego")) << a;
-  EXPECT_TRUE(has(a, "it takes load request version 1, this contego sends version 2")) << a;
+  EXPECT_TRUE(has(a, "it takes load request version 2, this contego sends version 3")) << a;
   EXPECT_TRUE(has(a, "load the contego.ko built with this contego")) << a;
 
   contego_kmod_load newer = sent();
   newer.version = CONTEGO_KMOD_LOAD_VERSION + 1;
   const std::string b = kmod_load_error(EPROTO, newer);
   EXPECT_TRUE(has(b, "this contego is older than the module")) << b;
-  EXPECT_TRUE(has(b, "it takes load request version 3, this contego sends version 2")) << b;
+  EXPECT_TRUE(has(b, "it takes load request version 4, this contego sends version 3")) << b;
   EXPECT_TRUE(has(b, "use the contego built with the loaded contego.ko")) << b;
 }
 
@@ -50,7 +50,7 @@ TEST(KmodLoadError, EprotoNamesTheSideThatIsOutOfDate) {
 TEST(KmodLoadError, EprotoOfAnotherSizePointsAtTheKernelLog) {
   const std::string m = kmod_load_error(EPROTO, sent());
   EXPECT_TRUE(has(m, "another size")) << m;
-  EXPECT_TRUE(has(m, "312 bytes")) << m;
+  EXPECT_TRUE(has(m, "344 bytes")) << m;
   EXPECT_TRUE(has(m, "the kernel log")) << m;
 }
 

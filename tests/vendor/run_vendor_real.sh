@@ -99,4 +99,35 @@ grep -q '"kind":"staged-dropped"' "$dir/partial.jsonl" ||
 grep -q '"kind":"over-budget"' "$dir/stops.jsonl" || fail "stops: the stop() flood was not flagged"
 echo "stops: $(grep -o 'over its budget of [0-9]* acting transfers per job' "$dir/stops.jsonl" | head -n1)"
 echo "partial: $(grep -o 'task 1 (gripper) exited with 3 register write(s) staged[^"]*' "$dir/partial.jsonl" | head -n1)"
+
+# The task's `ignore_errno`: a program that handles a failed write hears of
+# its ignored calls (ten speed steps, which the rover's policy drops) instead
+# of being told they succeeded; without it, the paper's IGNORE. Embedded, and
+# under `contego monitor` (the answer comes from the monitor, not the client).
+sed 's/^  actuations 3$/  actuations 3; ignore_errno EIO/' "$policies/rover.policy" \
+  >"$dir/rover-errno.policy"
+grep -q "ignore_errno EIO" "$dir/rover-errno.policy" || fail "errno: the policy was not edited"
+steps=(10*0x08:01,74,00,00,00)
+"$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/steps.jsonl" -- "$py" "$vendor/attack_writes.py" "${steps[@]}" \
+  >"$dir/steps.out" 2>"$dir/steps.err" || fail "steps: exit $?"
+grep -qx "done 0 failed" "$dir/steps.out" || fail "steps: $(cat "$dir/steps.out")"
+"$contego" run --policy "$dir/rover-errno.policy" --task follower --virtual-bus 1 \
+  --audit "$dir/steps-errno.jsonl" -- "$py" "$vendor/attack_writes.py" "${steps[@]}" \
+  >"$dir/steps-errno.out" 2>"$dir/steps-errno.err" || fail "steps-errno: exit $?"
+grep -qx "done 10 failed" "$dir/steps-errno.out" || fail "steps-errno: $(cat "$dir/steps-errno.out")"
+grep -q "ignored (the call failed with EIO" "$dir/steps-errno.err" ||
+  fail "steps-errno: the drop line does not say the call failed"
+[ "$(grep -c '"decision":"ignore".*"reason_name":"rate-exceeded"' "$dir/steps-errno.jsonl")" = 10 ] ||
+  fail "steps-errno: the audit does not show 10 ignored speed steps"
+"$contego" monitor --policy "$dir/rover-errno.policy" --virtual-bus 1 --socket "$dir/errno.sock" \
+  --audit "$dir/errno-monitor.jsonl" >"$dir/errno-monitor.out" 2>"$dir/errno-monitor.err" &
+monitor_pid=$!
+wait_for_socket "$dir/errno.sock" || fail "errno: the monitor did not start"
+"$contego" run --socket "$dir/errno.sock" --task follower -- "$py" "$vendor/attack_writes.py" \
+  "${steps[@]}" >"$dir/steps-socket.out" 2>"$dir/steps-socket.err" || fail "steps-socket: exit $?"
+stop_monitor || fail "the errno monitor exited $? on SIGTERM"
+grep -qx "done 10 failed" "$dir/steps-socket.out" ||
+  fail "steps-socket: $(cat "$dir/steps-socket.out")"
+echo "ignore_errno: 10 of 10 ignored speed steps failed with EIO; 0 of 10 without it"
 echo "ok"

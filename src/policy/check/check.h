@@ -125,6 +125,9 @@ struct Task {
   // to connect): a user / group name or numeric id, a systemd unit, a cgroup.
   std::string user, group, unit, cgroup;
   uint32_t sessions = 1;  // live sessions the monitor accepts at once
+  // The errno an ignored call of this task fails with (`ignore_errno`); 0:
+  // the call succeeds, the paper's IGNORE. Enforced by the host, not the image.
+  uint8_t ignore_errno = 0;
   uint32_t period_us = 0, deadline_us = 0, wcet_us = 0;
   std::optional<uint32_t> phase_us;  // declared release offset on the monitor's clock
   uint16_t priority = 0;

@@ -170,6 +170,8 @@ class Sema {
   std::optional<Response> response(const ast::Response& r, uint16_t dev_id,
                                    const std::vector<uint16_t>& cmds, bool in_invariant,
                                    bool has_expected, const std::string& rule);
+  // The value of an errno name a policy may answer with (E0608 if unknown).
+  std::optional<uint8_t> errno_named(const std::string& name, Span at);
   // A fail-safe never inherits an output override (full on / full off) from
   // the device's shadow: the ones it does not name are written as 0.
   void clear_unnamed_overrides(CommandValue& cv, const Device& dev,

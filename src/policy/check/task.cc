@@ -13,6 +13,14 @@ constexpr Errno kErrnos[] = {{"EPERM", 1},   {"EIO", 5},    {"ENXIO", 6},   {"EA
 
 }  // namespace
 
+std::optional<uint8_t> Sema::errno_named(const std::string& name, Span at) {
+  auto it = std::find_if(std::begin(kErrnos), std::end(kErrnos),
+                         [&](const Errno& e) { return name == e.name; });
+  if (it != std::end(kErrnos)) return it->value;
+  diags_.emit(DiagKind::kUnknownErrno, at, name);
+  return std::nullopt;
+}
+
 void Sema::declare_task(const ast::TaskDecl& d, uint32_t overhead_ns) {
   Task t;
   t.name = d.name.name;
@@ -36,6 +44,8 @@ void Sema::declare_task(const ast::TaskDecl& d, uint32_t overhead_ns) {
       t.unit = p.text;
     } else if (p.key.name == "cgroup") {
       t.cgroup = p.text;
+    } else if (p.key.name == "ignore_errno") {
+      if (auto e = errno_named(p.text, p.key.span)) t.ignore_errno = *e;
     } else if (p.key.name == "sessions") {
       if (auto v = int_in(*p.value, "`sessions`", 1, 64)) t.sessions = static_cast<uint32_t>(*v);
     } else if (p.key.name == "period") {
@@ -207,13 +217,9 @@ std::optional<Response> Sema::response(const ast::Response& r, uint16_t dev_id,
       out.kind = ResponseKind::kReject;
       out.reply_errno = 1;
       if (!r.errno_name.name.empty()) {
-        auto it = std::find_if(std::begin(kErrnos), std::end(kErrnos),
-                               [&](const Errno& e) { return r.errno_name.name == e.name; });
-        if (it == std::end(kErrnos)) {
-          diags_.emit(DiagKind::kUnknownErrno, r.errno_name.span, r.errno_name.name);
-          return std::nullopt;
-        }
-        out.reply_errno = it->value;
+        auto e = errno_named(r.errno_name.name, r.errno_name.span);
+        if (!e) return std::nullopt;
+        out.reply_errno = *e;
       }
       return out;
     }

@@ -135,7 +135,7 @@ struct SignalDecl {
 
 struct TaskProperty {
   Ident key;
-  ExprPtr value;     // null for `exe`, `user`, `group`, `unit`, `cgroup`
+  ExprPtr value;     // null for `exe`, `user`, `group`, `unit`, `cgroup`, `ignore_errno`
   std::string text;  // their text (a numeric user or group id as digits)
 };
 

@@ -349,7 +349,10 @@ class Parser {
     // string, or for `user` and `group` also a numeric id.
     const std::string& k = p.key.name;
     const bool id_key = k == "user" || k == "group";
-    if (k == "exe" || k == "unit" || k == "cgroup" || id_key) {
+    if (k == "ignore_errno") {  // an errno name, as after `reject`
+      if (!at(Tok::kIdent)) return fail("an errno name such as `EIO`");
+      p.text = advance().text;
+    } else if (k == "exe" || k == "unit" || k == "cgroup" || id_key) {
       if (id_key && at(Tok::kInt)) {
         p.text = std::to_string(advance().value);
       } else if (!at(Tok::kString)) {

@@ -355,7 +355,8 @@ run_logged after_full as_task i2cset -y 0 $A 0xfd 0
 # uid 990 by --bind. The module checks the facts on every call.
 mkdir -p /sys/fs/cgroup && { mountpoint -q /sys/fs/cgroup || mount -t cgroup2 none /sys/fs/cgroup; }
 mkdir -p /sys/fs/cgroup/robot/arm
-awk '{ print } /^task arm_init \{/ { print "  exe \"/usr/sbin/i2cset\"; cgroup \"/robot\"" }' \
+# It also answers arm_init's ignored calls with EIO (`ignore_errno`).
+awk '{ print } /^task arm_init \{/ { print "  exe \"/usr/sbin/i2cset\"; cgroup \"/robot\"; ignore_errno EIO" }' \
   $POLICIES/arm.policy >/tmp/arm-bound.policy
 run_logged load3 contego kmod load --policy /tmp/arm-bound.policy --bind gripper=contego
 [ $RC = 0 ] && ok "kmod load: arm_init bound by exe and cgroup" || bad "kmod load of the bound policy (exit $RC)"
@@ -365,6 +366,9 @@ in_cgroup() {  # in_cgroup CGROUP COMMAND...: runs COMMAND as the task user insi
 }
 run_logged id_ok in_cgroup /robot/arm /usr/sbin/i2cset -y 0 $A 0xfd 0
 [ $RC = 0 ] && ok "i2cset in /robot/arm acts as arm_init (exe and cgroup met)" || bad "i2cset in /robot/arm: exit $RC"
+run_logged id_errno in_cgroup /robot/arm /usr/sbin/i2cset -y 0 $A 0xfe 3
+[ $RC != 0 ] && ok "arm_init's ignored PRE_SCALE=3 fails (exit $RC): the task's ignore_errno EIO" ||
+  bad "arm_init's ignored PRE_SCALE=3 exited 0 under ignore_errno"
 run_logged id_cgroup as_task i2cset -y 0 $A 0xfd 0
 [ $RC != 0 ] && ok "the same i2cset outside /robot is no task: refused (exit $RC)" ||
   bad "i2cset outside the bound cgroup succeeded"
