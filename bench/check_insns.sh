@@ -37,6 +37,9 @@ echo "trusted core, machine instructions per check (callgrind, inside contego_ch
 # ALL_LED_OFF_H is the PCA9685's broadcast: the check updates the shadow of
 # all 16 channels. MODE2 is one register under one invariant.
 row "arm_init ALL_LED_OFF_H=0 (allow)" 0 fd00 allow
+# The same broadcast alternating OFF_H 0x00 / 0x10 (full off): every check
+# changes all 17 registers, so each is journaled (undo) on the way.
+row "arm_init ALL_LED_OFF_H=0x00/0x10 (allow)" 0 fd00,fd10 allow
 row "arm_init MODE2=0x04 (allow)" 0 0104 allow
 row "ALL_LED_OFF_H=0, no task (reject)" 0xFFFF fd00 reject
 echo ok
