@@ -70,35 +70,48 @@ void CheckerState::undo_save(uint16_t dev, uint8_t reg) {
   }
   internal::bit_set(tx_.saved, reg);
   const DeviceState& s = state_[dev];
-  tx_.undo[tx_.undo_count++] = Undo{dev,
-                                    reg,
-                                    s.shadow[reg],
-                                    s.staged[reg],
-                                    s.staged_task[reg],
-                                    internal::bit_test(s.staged_bits, reg)};
+  tx_.undo[tx_.undo_count++] =
+      Undo{dev, reg, s.staged[reg], s.staged_task[reg], internal::bit_test(s.staged_bits, reg)};
 }
 
 void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
   DeviceState& s = state_[dev];
-  undo_save(dev, reg);
-  s.shadow[reg] = value;
+  if (dev != tx_.shadow_device) {
+    tx_.shadow_device = dev;
+    __builtin_memset(tx_.shadow_saved, 0, sizeof(tx_.shadow_saved));
+  }
+  // Only what changes is journaled, once per register: rollback() has nothing
+  // to put back in a register that already holds `value` (a repeated write, a
+  // broadcast into channels already there).
+  auto put = [&](uint8_t r) {
+    if (s.shadow[r] == value) return;
+    if (!internal::bit_test(tx_.shadow_saved, r)) {
+      if (tx_.shadow_count >= kMaxRegisters) {
+        tx_.overflow = true;
+      } else {
+        internal::bit_set(tx_.shadow_saved, r);
+        tx_.shadow_undo[tx_.shadow_count++] = ShadowUndo{dev, r, s.shadow[r]};
+      }
+    }
+    s.shadow[r] = value;
+  };
+  put(reg);
   const DeviceRecord& d = devices_[dev];
   if (d.broadcast == d.broadcast_target || command != d.command_first + d.broadcast) return;
   const CommandRecord& from = commands_[command];
   const CommandRecord& to = commands_[d.command_first + d.broadcast_target];
   const uint32_t q = static_cast<uint32_t>(reg - from.match);  // offset in the group
-  for (uint32_t n = 0; n < to.repeat; ++n) {
-    const uint8_t r = static_cast<uint8_t>(to.match + n * to.stride + q);
-    undo_save(dev, r);
-    s.shadow[r] = value;
-  }
+  for (uint32_t n = 0; n < to.repeat; ++n) put(static_cast<uint8_t>(to.match + n * to.stride + q));
 }
 
 void CheckerState::rollback() {
+  for (uint32_t i = tx_.shadow_count; i-- > 0;) {
+    const ShadowUndo& u = tx_.shadow_undo[i];
+    state_[u.device].shadow[u.reg] = u.value;
+  }
   for (uint32_t i = tx_.undo_count; i-- > 0;) {
     const Undo& u = tx_.undo[i];
     DeviceState& s = state_[u.device];
-    s.shadow[u.reg] = u.shadow;
     s.staged[u.reg] = u.staged;
     s.staged_task[u.reg] = u.staged_task;
     if (u.staged_bit) {
@@ -109,6 +122,8 @@ void CheckerState::rollback() {
   }
   tx_.undo_count = 0;
   tx_.undo_device = kNone;
+  tx_.shadow_count = 0;
+  tx_.shadow_device = kNone;
 }
 
 LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
@@ -210,6 +225,8 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
   tx_.emit_failed = false;
   tx_.undo_device = kNone;
   tx_.undo_count = 0;
+  tx_.shadow_device = kNone;
+  tx_.shadow_count = 0;
   __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
   tx_.any_pending = false;
   tx_.staged_command = kNone;
@@ -579,6 +596,8 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   tx_.emit_failed = false;
   tx_.undo_count = 0;
   tx_.undo_device = kNone;
+  tx_.shadow_count = 0;
+  tx_.shadow_device = kNone;
   out->device = device;
   out->addr = devices_[device].addr;
   out->bus = devices_[device].bus;

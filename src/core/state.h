@@ -140,13 +140,19 @@ struct Subst {
   uint8_t set_mask;
   int32_t values[kMaxFieldsPerCommand];
 };
+// A register's staging before a check changed it (its shadow is journaled
+// apart, in ShadowUndo: only stores that change a value pay for that).
 struct Undo {
   uint16_t device;
   uint8_t reg;
-  uint8_t shadow;
   uint8_t staged;
   uint8_t staged_task;
   bool staged_bit;
+};
+struct ShadowUndo {
+  uint16_t device;
+  uint8_t reg;
+  uint8_t value;
 };
 struct TxContext {
   Verdict* out;
@@ -154,14 +160,18 @@ struct TxContext {
   bool overflow;     // too many commands / undo entries: fail closed
   bool emit_failed;  // the verdict ran out of emit space
   uint16_t undo_device;
+  uint16_t shadow_device;
   uint32_t undo_count;
+  uint32_t shadow_count;
   uint32_t saved[kMaxRegisters / 32];
+  uint32_t shadow_saved[kMaxRegisters / 32];
   uint32_t pending_state[kMaxInvariants / 32];
   uint16_t staged_command;  // first command whose group was only staged (kNone: none)
   uint8_t staged_index;
   bool any_pending;  // some bit of pending_state is set (in the padding before outcomes)
   Outcome outcomes[kMaxCommandsPerTransaction];
   Undo undo[kMaxRegisters];
+  ShadowUndo shadow_undo[kMaxRegisters];
 };
 // What a transfer changed in the device model, to undo it on abort.
 struct ModelCopy {
