@@ -506,11 +506,10 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
       unrepaired = true;  // an invariant decides from here on, unless it repairs
       Subst subst{};
       bool stop = false;
-      for (uint32_t w = 0; w < kInvariantWords && !stop && dev < kMaxDevices; ++w) {
-        for (uint64_t bits = invariants_of_[dev][w]; bits != 0; bits &= bits - 1) {
+      for (uint32_t w = 0; w < kInvariantWords && !stop && d.command < kMaxCommandDefs; ++w) {
+        for (uint64_t bits = invariants_of_[d.command][w]; bits != 0; bits &= bits - 1) {
           const uint32_t i = w * 64 + static_cast<uint32_t>(__builtin_ctzll(bits));
           const InvariantRecord& inv = invariants_[i];
-          if (!internal::mask_has(inv.commands, d.command)) continue;
           env.invariant = static_cast<uint16_t>(i);
           subst.active = false;
           env.subst = &subst;

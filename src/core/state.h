@@ -350,16 +350,17 @@ class CheckerState {
   uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
   // The rule index (rates.cc, index_rules), built at load: which rate limits
   // and invariants can apply to a command, so that a check costs the rules
-  // of its task and device, not every rule of the policy. Bit r of
+  // of its task and command, not every rule of the policy. Bit r of
   // rates_of_[task][device]: rates_[r] counts that task's commands to that
   // device; bit r of task_rates_[task]: rates_[r] is the task's; bit i of
-  // invariants_of_[device]: invariants_[i] guards that device. Iterated in
-  // bit order, which is the table's: the first rule still decides.
+  // invariants_of_[command]: invariants_[i] guards that command (on its
+  // device). Iterated in bit order, which is the table's: the first rule
+  // still decides.
   static_assert(kMaxRateLimits <= 64 && kMaxInvariants % 64 == 0);
   static constexpr uint32_t kInvariantWords = kMaxInvariants / 64;
   uint64_t rates_of_[kMaxTasks][kMaxDevices]{};
   uint64_t task_rates_[kMaxTasks]{};
-  uint64_t invariants_of_[kMaxDevices][kInvariantWords]{};
+  uint64_t invariants_of_[kMaxCommandDefs][kInvariantWords]{};
   // Runtime state.
   uint32_t epoch_ = 0;
   uint64_t executed_ = 0;
