@@ -80,9 +80,8 @@ void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uin
     tx_.shadow_device = dev;
     __builtin_memset(tx_.shadow_saved, 0, sizeof(tx_.shadow_saved));
   }
-  // Only what changes is journaled, once per register: rollback() has nothing
-  // to put back in a register that already holds `value` (a repeated write, a
-  // broadcast into channels already there).
+  // Only a change is journaled, once per register: a repeated write, or a
+  // broadcast into channels already there, costs none.
   auto put = [&](uint8_t r) {
     if (s.shadow[r] == value) return;
     if (!internal::bit_test(tx_.shadow_saved, r)) {
@@ -114,16 +113,11 @@ void CheckerState::rollback() {
     DeviceState& s = state_[u.device];
     s.staged[u.reg] = u.staged;
     s.staged_task[u.reg] = u.staged_task;
-    if (u.staged_bit) {
-      internal::bit_set(s.staged_bits, u.reg);
-    } else {
-      internal::bit_clear(s.staged_bits, u.reg);
-    }
+    internal::bit_clear(s.staged_bits, u.reg);
+    s.staged_bits[u.reg / 32] |= uint32_t{u.staged_bit} << (u.reg % 32);
   }
-  tx_.undo_count = 0;
-  tx_.undo_device = kNone;
-  tx_.shadow_count = 0;
-  tx_.shadow_device = kNone;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
 }
 
 LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
@@ -223,10 +217,8 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
   tx_.outcome_count = 0;
   tx_.overflow = false;
   tx_.emit_failed = false;
-  tx_.undo_device = kNone;
-  tx_.undo_count = 0;
-  tx_.shadow_device = kNone;
-  tx_.shadow_count = 0;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
   __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
   tx_.any_pending = false;
   tx_.staged_command = kNone;
@@ -593,10 +585,8 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   if (!loaded_ || device >= device_count_) return false;
   tx_.out = out;
   tx_.emit_failed = false;
-  tx_.undo_count = 0;
-  tx_.undo_device = kNone;
-  tx_.shadow_count = 0;
-  tx_.shadow_device = kNone;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
   out->device = device;
   out->addr = devices_[device].addr;
   out->bus = devices_[device].bus;

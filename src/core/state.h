@@ -175,13 +175,18 @@ struct TxContext {
 };
 // What a transfer changed in the device model, to undo it on abort.
 struct ModelCopy {
-  uint16_t device;
   uint8_t shadow[kMaxRegisters];
   uint8_t staged[kMaxRegisters];
   uint8_t staged_task[kMaxRegisters];
   uint32_t staged_bits[kMaxRegisters / 32];
   uint32_t dropped_bits[kMaxRegisters / 32];  // dropped for good by a check of the transfer
+  uint16_t device;
 };
+// The model a transfer saves: shadow, staged, staged_task and staged_bits,
+// laid out alike in DeviceState and ModelCopy (one copy each way).
+inline constexpr size_t kModelBytes = 3 * kMaxRegisters + kMaxRegisters / 8;
+static_assert(offsetof(DeviceState, staged_bits) + kMaxRegisters / 8 == kModelBytes &&
+              offsetof(ModelCopy, staged_bits) + kMaxRegisters / 8 == kModelBytes);
 struct HistoryCopy {
   uint16_t slot;
   LastCommand last;
