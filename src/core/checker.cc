@@ -80,17 +80,13 @@ void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uin
     tx_.shadow_device = dev;
     __builtin_memset(tx_.shadow_saved, 0, sizeof(tx_.shadow_saved));
   }
-  // Only a change is journaled, once per register: a repeated write, or a
-  // broadcast into channels already there, costs none.
-  auto put = [&](uint8_t r) {
+  auto put = [&](uint8_t r) {  // journals a change only (once per register); a rewrite costs none
     if (s.shadow[r] == value) return;
     if (!internal::bit_test(tx_.shadow_saved, r)) {
-      if (tx_.shadow_count >= kMaxRegisters) {
-        tx_.overflow = true;
-      } else {
-        internal::bit_set(tx_.shadow_saved, r);
-        tx_.shadow_undo[tx_.shadow_count++] = ShadowUndo{dev, r, s.shadow[r]};
-      }
+      internal::bit_set(tx_.shadow_saved, r);
+      tx_.overflow |= tx_.shadow_count >= kMaxRegisters;
+      if (tx_.shadow_count < kMaxRegisters)
+        tx_.shadow_undo[tx_.shadow_count++] = {dev, r, s.shadow[r]};
     }
     s.shadow[r] = value;
   };
@@ -105,8 +101,7 @@ void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uin
 
 void CheckerState::rollback() {
   for (uint32_t i = tx_.shadow_count; i-- > 0;) {
-    const ShadowUndo& u = tx_.shadow_undo[i];
-    state_[u.device].shadow[u.reg] = u.value;
+    state_[tx_.shadow_undo[i].device].shadow[tx_.shadow_undo[i].reg] = tx_.shadow_undo[i].value;
   }
   for (uint32_t i = tx_.undo_count; i-- > 0;) {
     const Undo& u = tx_.undo[i];
