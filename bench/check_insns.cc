@@ -8,7 +8,9 @@
 //
 // Usage: check_insns IMAGE TASK BUS ADDR HEXBYTES N
 //   e.g. check_insns arm.img 0 1 0x40 fd00 10000
-// Prints how many checks allowed and the last decision.
+// HEXBYTES may name several writes, comma-separated (fd00,fd10), checked in
+// turn: a model that changes on every check. Prints how many checks allowed
+// and the last decision.
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -29,12 +31,20 @@ int main(int argc, char** argv) {
   const std::vector<uint8_t> image((std::istreambuf_iterator<char>(in)),
                                    std::istreambuf_iterator<char>());
   const std::string hex = argv[5];
-  std::vector<uint8_t> bytes;
-  for (size_t i = 0; i + 1 < hex.size(); i += 2) {
-    bytes.push_back(static_cast<uint8_t>(std::stoul(hex.substr(i, 2), nullptr, 16)));
+  std::vector<std::vector<uint8_t>> writes(1);
+  for (size_t i = 0; i < hex.size();) {
+    if (hex[i] == ',') {
+      writes.emplace_back();
+      ++i;
+      continue;
+    }
+    writes.back().push_back(static_cast<uint8_t>(std::stoul(hex.substr(i, 2), nullptr, 16)));
+    i += 2;
   }
+  bool empty = false;
+  for (const auto& w : writes) empty = empty || w.empty();
   const long n = std::strtol(argv[6], nullptr, 10);
-  if (image.empty() || bytes.empty() || n <= 0) {
+  if (image.empty() || empty || n <= 0) {
     std::fprintf(stderr, "check_insns: no image, no bytes or no count\n");
     return 2;
   }
@@ -54,12 +64,13 @@ int main(int argc, char** argv) {
   tx.bus = static_cast<uint8_t>(std::strtoul(argv[3], nullptr, 0));
   tx.kind = CONTEGO_TX_WRITE;
   tx.addr = static_cast<uint16_t>(std::strtoul(argv[4], nullptr, 0));
-  tx.len = static_cast<uint32_t>(bytes.size());
-  tx.bytes = bytes.data();
   tx.job = 1;
   contego_verdict v{};
   long allowed = 0;
   for (long i = 0; i < n; ++i) {
+    const std::vector<uint8_t>& bytes = writes[static_cast<size_t>(i) % writes.size()];
+    tx.len = static_cast<uint32_t>(bytes.size());
+    tx.bytes = bytes.data();
     tx.now_us = 1000 + static_cast<uint64_t>(i);
     contego_check(c, &tx, &v);
     allowed += v.decision == CONTEGO_ALLOW;

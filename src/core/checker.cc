@@ -70,45 +70,49 @@ void CheckerState::undo_save(uint16_t dev, uint8_t reg) {
   }
   internal::bit_set(tx_.saved, reg);
   const DeviceState& s = state_[dev];
-  tx_.undo[tx_.undo_count++] = Undo{dev,
-                                    reg,
-                                    s.shadow[reg],
-                                    s.staged[reg],
-                                    s.staged_task[reg],
-                                    internal::bit_test(s.staged_bits, reg)};
+  tx_.undo[tx_.undo_count++] =
+      Undo{dev, reg, s.staged[reg], s.staged_task[reg], internal::bit_test(s.staged_bits, reg)};
 }
 
 void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
   DeviceState& s = state_[dev];
-  undo_save(dev, reg);
-  s.shadow[reg] = value;
+  if (dev != tx_.shadow_device) {
+    tx_.shadow_device = dev;
+    __builtin_memset(tx_.shadow_saved, 0, sizeof(tx_.shadow_saved));
+  }
+  auto put = [&](uint8_t r) {  // journals a change only (once per register); a rewrite costs none
+    if (s.shadow[r] == value) return;
+    if (!internal::bit_test(tx_.shadow_saved, r)) {
+      internal::bit_set(tx_.shadow_saved, r);
+      tx_.overflow |= tx_.shadow_count >= kMaxRegisters;
+      if (tx_.shadow_count < kMaxRegisters)
+        tx_.shadow_undo[tx_.shadow_count++] = {dev, r, s.shadow[r]};
+    }
+    s.shadow[r] = value;
+  };
+  put(reg);
   const DeviceRecord& d = devices_[dev];
   if (d.broadcast == d.broadcast_target || command != d.command_first + d.broadcast) return;
   const CommandRecord& from = commands_[command];
   const CommandRecord& to = commands_[d.command_first + d.broadcast_target];
   const uint32_t q = static_cast<uint32_t>(reg - from.match);  // offset in the group
-  for (uint32_t n = 0; n < to.repeat; ++n) {
-    const uint8_t r = static_cast<uint8_t>(to.match + n * to.stride + q);
-    undo_save(dev, r);
-    s.shadow[r] = value;
-  }
+  for (uint32_t n = 0; n < to.repeat; ++n) put(static_cast<uint8_t>(to.match + n * to.stride + q));
 }
 
 void CheckerState::rollback() {
+  for (uint32_t i = tx_.shadow_count; i-- > 0;) {
+    state_[tx_.shadow_undo[i].device].shadow[tx_.shadow_undo[i].reg] = tx_.shadow_undo[i].value;
+  }
   for (uint32_t i = tx_.undo_count; i-- > 0;) {
     const Undo& u = tx_.undo[i];
     DeviceState& s = state_[u.device];
-    s.shadow[u.reg] = u.shadow;
     s.staged[u.reg] = u.staged;
     s.staged_task[u.reg] = u.staged_task;
-    if (u.staged_bit) {
-      internal::bit_set(s.staged_bits, u.reg);
-    } else {
-      internal::bit_clear(s.staged_bits, u.reg);
-    }
+    internal::bit_clear(s.staged_bits, u.reg);
+    s.staged_bits[u.reg / 32] |= uint32_t{u.staged_bit} << (u.reg % 32);
   }
-  tx_.undo_count = 0;
-  tx_.undo_device = kNone;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
 }
 
 LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
@@ -208,8 +212,8 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
   tx_.outcome_count = 0;
   tx_.overflow = false;
   tx_.emit_failed = false;
-  tx_.undo_device = kNone;
-  tx_.undo_count = 0;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
   __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
   tx_.any_pending = false;
   tx_.staged_command = kNone;
@@ -489,11 +493,10 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
       unrepaired = true;  // an invariant decides from here on, unless it repairs
       Subst subst{};
       bool stop = false;
-      for (uint32_t w = 0; w < kInvariantWords && !stop && dev < kMaxDevices; ++w) {
-        for (uint64_t bits = invariants_of_[dev][w]; bits != 0; bits &= bits - 1) {
+      for (uint32_t w = 0; w < kInvariantWords && !stop && d.command < kMaxCommandDefs; ++w) {
+        for (uint64_t bits = invariants_of_[d.command][w]; bits != 0; bits &= bits - 1) {
           const uint32_t i = w * 64 + static_cast<uint32_t>(__builtin_ctzll(bits));
           const InvariantRecord& inv = invariants_[i];
-          if (!internal::mask_has(inv.commands, d.command)) continue;
           env.invariant = static_cast<uint16_t>(i);
           subst.active = false;
           env.subst = &subst;
@@ -577,8 +580,8 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   if (!loaded_ || device >= device_count_) return false;
   tx_.out = out;
   tx_.emit_failed = false;
-  tx_.undo_count = 0;
-  tx_.undo_device = kNone;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
   out->device = device;
   out->addr = devices_[device].addr;
   out->bus = devices_[device].bus;

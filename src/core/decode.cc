@@ -126,6 +126,9 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
 void CheckerState::drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
                                       uint32_t base, uint32_t index) {
   DeviceState& st = state_[dev];
+  uint32_t staged = 0;  // nothing staged on the device (most writes): nothing to drop
+  for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) staged |= st.staged_bits[w];
+  if (staged == 0) return;
   const DeviceRecord& dr = devices_[dev];
   uint32_t last_group = 0xFFFFFFFFu;  // (command << 8 | index) of the last record
   for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) {

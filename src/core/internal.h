@@ -31,6 +31,7 @@ inline bool mask_has(const CommandMask& m, uint32_t command) {
 
 // The bytes `f` spans, as one integer in the field's byte order.
 inline uint64_t field_raw(const FieldRecord& f, const uint8_t* bytes) {
+  if (f.nbytes == 1) return bytes[f.offset];  // most fields: no byte order to mind
   uint64_t raw = 0;
   for (uint32_t i = 0; i < f.nbytes; ++i) {
     const uint64_t b = bytes[f.offset + i];

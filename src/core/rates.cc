@@ -13,8 +13,9 @@ void CheckerState::index_rules() {
     task_rates_[rr.task] |= uint64_t{1} << r;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    const uint16_t dev = invariants_[i].device;
-    if (dev < kMaxDevices) invariants_of_[dev][i / 64] |= uint64_t{1} << (i % 64);
+    for (uint32_t c = 0; c < command_count_; ++c) {  // the verifier keeps them the device's
+      if (mask_has(invariants_[i].commands, c)) invariants_of_[c][i / 64] |= uint64_t{1} << i % 64;
+    }
   }
 }
 

@@ -140,13 +140,19 @@ struct Subst {
   uint8_t set_mask;
   int32_t values[kMaxFieldsPerCommand];
 };
+// A register's staging before a check changed it (its shadow is journaled
+// apart, in ShadowUndo: only stores that change a value pay for that).
 struct Undo {
   uint16_t device;
   uint8_t reg;
-  uint8_t shadow;
   uint8_t staged;
   uint8_t staged_task;
   bool staged_bit;
+};
+struct ShadowUndo {
+  uint16_t device;
+  uint8_t reg;
+  uint8_t value;
 };
 struct TxContext {
   Verdict* out;
@@ -154,24 +160,33 @@ struct TxContext {
   bool overflow;     // too many commands / undo entries: fail closed
   bool emit_failed;  // the verdict ran out of emit space
   uint16_t undo_device;
+  uint16_t shadow_device;
   uint32_t undo_count;
+  uint32_t shadow_count;
   uint32_t saved[kMaxRegisters / 32];
+  uint32_t shadow_saved[kMaxRegisters / 32];
   uint32_t pending_state[kMaxInvariants / 32];
   uint16_t staged_command;  // first command whose group was only staged (kNone: none)
   uint8_t staged_index;
   bool any_pending;  // some bit of pending_state is set (in the padding before outcomes)
   Outcome outcomes[kMaxCommandsPerTransaction];
   Undo undo[kMaxRegisters];
+  ShadowUndo shadow_undo[kMaxRegisters];
 };
 // What a transfer changed in the device model, to undo it on abort.
 struct ModelCopy {
-  uint16_t device;
   uint8_t shadow[kMaxRegisters];
   uint8_t staged[kMaxRegisters];
   uint8_t staged_task[kMaxRegisters];
   uint32_t staged_bits[kMaxRegisters / 32];
   uint32_t dropped_bits[kMaxRegisters / 32];  // dropped for good by a check of the transfer
+  uint16_t device;
 };
+// The model a transfer saves: shadow, staged, staged_task and staged_bits,
+// laid out alike in DeviceState and ModelCopy (one copy each way).
+inline constexpr size_t kModelBytes = 3 * kMaxRegisters + kMaxRegisters / 8;
+static_assert(offsetof(DeviceState, staged_bits) + kMaxRegisters / 8 == kModelBytes &&
+              offsetof(ModelCopy, staged_bits) + kMaxRegisters / 8 == kModelBytes);
 struct HistoryCopy {
   uint16_t slot;
   LastCommand last;
@@ -340,16 +355,17 @@ class CheckerState {
   uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
   // The rule index (rates.cc, index_rules), built at load: which rate limits
   // and invariants can apply to a command, so that a check costs the rules
-  // of its task and device, not every rule of the policy. Bit r of
+  // of its task and command, not every rule of the policy. Bit r of
   // rates_of_[task][device]: rates_[r] counts that task's commands to that
   // device; bit r of task_rates_[task]: rates_[r] is the task's; bit i of
-  // invariants_of_[device]: invariants_[i] guards that device. Iterated in
-  // bit order, which is the table's: the first rule still decides.
+  // invariants_of_[command]: invariants_[i] guards that command (on its
+  // device). Iterated in bit order, which is the table's: the first rule
+  // still decides.
   static_assert(kMaxRateLimits <= 64 && kMaxInvariants % 64 == 0);
   static constexpr uint32_t kInvariantWords = kMaxInvariants / 64;
   uint64_t rates_of_[kMaxTasks][kMaxDevices]{};
   uint64_t task_rates_[kMaxTasks]{};
-  uint64_t invariants_of_[kMaxDevices][kInvariantWords]{};
+  uint64_t invariants_of_[kMaxCommandDefs][kInvariantWords]{};
   // Runtime state.
   uint32_t epoch_ = 0;
   uint64_t executed_ = 0;

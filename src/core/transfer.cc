@@ -31,12 +31,8 @@ bool CheckerState::journal_device(uint16_t dev) {
   }
   if (journal_.device_count >= kMaxTransferDevices) return false;
   ModelCopy& c = journal_.devices[journal_.device_count++];
-  const DeviceState& s = state_[dev];
   c.device = dev;
-  __builtin_memcpy(c.shadow, s.shadow, sizeof(c.shadow));
-  __builtin_memcpy(c.staged, s.staged, sizeof(c.staged));
-  __builtin_memcpy(c.staged_task, s.staged_task, sizeof(c.staged_task));
-  __builtin_memcpy(c.staged_bits, s.staged_bits, sizeof(c.staged_bits));
+  __builtin_memcpy(c.shadow, state_[dev].shadow, kModelBytes);
   __builtin_memset(c.dropped_bits, 0, sizeof(c.dropped_bits));
   journal_.saved_devices |= 1u << dev;
   return true;
@@ -105,10 +101,7 @@ void CheckerState::abort_transfer(Decision decision) {
   for (uint32_t i = 0; i < journal_.device_count; ++i) {
     const ModelCopy& c = journal_.devices[i];
     DeviceState& s = state_[c.device];
-    __builtin_memcpy(s.shadow, c.shadow, sizeof(c.shadow));
-    __builtin_memcpy(s.staged, c.staged, sizeof(c.staged));
-    __builtin_memcpy(s.staged_task, c.staged_task, sizeof(c.staged_task));
-    __builtin_memcpy(s.staged_bits, c.staged_bits, sizeof(c.staged_bits));
+    __builtin_memcpy(s.shadow, c.shadow, kModelBytes);
     for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) s.staged_bits[w] &= ~c.dropped_bits[w];
   }
   if (journal_.acted == 0 || host_.audit == nullptr) return;
