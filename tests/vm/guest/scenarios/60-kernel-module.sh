@@ -554,7 +554,8 @@ alarm_ms=$(sed -n 's/^elapsed_ms \([0-9]*\) .*/\1/p' "$OUT")
   bad "over-budget hold under signals (exit $RC): $(cat "$OUT")"
 
 # Another contego's load request (the size before the per-task limits, 48
-# bytes; or this size with version 1) is refused with EPROTO, not misread;
+# bytes; or this size with version 2, before ignore_errno) is refused with
+# EPROTO, not misread;
 # a version mismatch gets the module's version back.
 cat >/tmp/kmod_oldload.py <<'PY'
 import errno, fcntl, os
@@ -568,11 +569,11 @@ def load(size, version):
     except OSError as e:
         return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
 print("size48", load(48, 0))
-print("version1", load(312, 1))
+print("version2", load(344, 2))
 PY
 run_logged oldload python3 /tmp/kmod_oldload.py
-grep -q "^size48 EPROTO" "$OUT" && grep -q "^version1 EPROTO version 2" "$OUT" &&
-  ok "a load request of another size or version is refused (EPROTO; the module's version 2 is sent back)" ||
+grep -q "^size48 EPROTO" "$OUT" && grep -q "^version2 EPROTO version 3" "$OUT" &&
+  ok "a load request of another size or version is refused (EPROTO; the module's version 3 is sent back)" ||
   bad "another contego's load request: $(cat "$OUT")"
 
 stop_reader
