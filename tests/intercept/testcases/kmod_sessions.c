@@ -12,7 +12,10 @@
  *       COUNTS e.g. 1,16: for each N, PLAIN_CMD (system(3): i2c-dev in
  *       place), N processes on the plain adapter, KMOD_CMD (contego.ko in
  *       place, policy loaded, reader attached), the same N processes
- *       checked; one table row per N. Exit 1 when a write failed.
+ *       checked; one table row per N. Exit 1 when a periodic write failed
+ *       or a session was not reclaimed (back to back, checked writes may
+ *       fail closed, EIO, when the audit reader falls behind: counted in
+ *       the row, not a failure).
  *   kmod_sessions cap N
  *       under contego.ko: N processes write once each and stay alive until
  *       every one has written; prints how many wrote, how many were refused
