@@ -54,11 +54,11 @@ echo "arm64.sh: cross build $((SECONDS - t0))s"
 
 # Every scenario but the tools ones (30, 31: about two minutes each of
 # wall-clock holds that test the monitor's budget, not the architecture;
-# run on amd64) and the bench (TCG's emulated arm64 times nothing real):
-# the CI budget. --scenarios all (or a list) overrides.
+# run on amd64) and the benches (50, 63: TCG's emulated arm64 times nothing
+# real): the CI budget. --scenarios all (or a list) overrides.
 # CONTEGO_ARM64_SCENARIOS (comma-separated names) chooses them instead.
 scenarios=$(cd "$here/guest/scenarios" && ls ./*.sh | sed 's,^\./,,; s,\.sh$,,' |
-  grep -v -e '^30-' -e '^31-' -e '^50-' | paste -sd,)
+  grep -v -e '^30-' -e '^31-' -e '^50-' -e '^63-' | paste -sd,)
 scenarios=${CONTEGO_ARM64_SCENARIOS:-$scenarios}
 # The guest's whole run under TCG: 6.5 min on a loaded 2-core host; the
 # CTest's own limit is 40 min.

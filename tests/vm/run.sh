@@ -29,7 +29,10 @@
 #                one scenario by hand: sh /vm/scenarios/NAME.sh; leave: poweroff -f)
 # Defaults: the dev build's binaries (build/dev), workdir build/dev/tests/vm.
 # Env: CONTEGO_VM_CACHE (kernel cache, see fetch-kernel.sh),
-#      CONTEGO_VM_TIMEOUT (default 900 s for the whole boot).
+#      CONTEGO_VM_TIMEOUT (default 900 s for the whole boot),
+#      CONTEGO_VM_APPEND (more kernel command line for the guest: e.g.
+#      contego.timeout=N, a scenario's own options such as 63's
+#      contego.kmod_sessions=COUNTS).
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")" && pwd)
@@ -155,6 +158,7 @@ else
 fi
 append="console=$console quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
 [[ -z "$gtest_filter" ]] || append+=" contego.gtest_filter=$gtest_filter"
+[[ -z "${CONTEGO_VM_APPEND:-}" ]] || append+=" $CONTEGO_VM_APPEND"
 qemu_args=("${machine[@]}" "${accel[@]}" -m 1024 -smp 2 -nographic -no-reboot -nic none
   -kernel "$kdir/vmlinuz" -initrd "$workdir/initrd.cpio")
 

@@ -60,7 +60,8 @@ stub_reload() {
 # (an open descriptor on the adapter would keep i2c-stub loaded).
 cleanup_processes() {
   for name in contego contego-monitor python3 python3.11 i2c-write-loop i2ctransfer i2cset i2cget i2cdump \
-      attack_rdwr_race attack_signal_storm attack_static attack_pid_reuse attack_identity attack_rdwr_atomic; do
+      attack_rdwr_race attack_signal_storm attack_static attack_pid_reuse attack_identity attack_rdwr_atomic \
+      kmod_sessions; do
     for pid in $(pidof $name); do kill -KILL "$pid" 2>/dev/null; done
   done
   rm -rf /run/contego
