@@ -91,22 +91,12 @@ class Reloader {
     for (size_t i = 0; i < model->tasks.size(); ++i) {
       tasks[model->tasks[i].name] = static_cast<uint16_t>(i);
     }
-    std::map<std::string, monitor::TaskBinding> bindings;
-    std::vector<std::string> warnings;
+    auto host = monitor::host_tasks(b->tasks, tasks);
+    if (!host.ok()) return refuse(EINVAL, host.error());
+    std::map<std::string, monitor::TaskBinding>& bindings = host->bindings;
+    const std::vector<std::string>& warnings = host->warnings;
     monitor::Monitor::Policy policy;
-    for (const auto& task : b->tasks) {
-      auto bound = monitor::resolve_binding(
-          task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
-      if (!bound.ok()) return refuse(EINVAL, bound.error());
-      if (!bound->unresolved.empty()) {
-        warnings.push_back(bound->unresolved + ": every hello for it is refused");
-      }
-      bindings[task.name] = *bound;
-      const auto id = tasks.find(task.name);
-      if (task.phase_us && id != tasks.end()) policy.declared_phases[id->second] = *task.phase_us;
-      if (id != tasks.end() && id->second < core::kMaxTasks)
-        policy.ignore_errnos[id->second] = task.ignore_errno;
-    }
+    policy.facts = std::move(host->facts);
     auto complain = monitor::complain_scope(options_, *model);
     if (!complain.ok()) return refuse(EINVAL, complain.error());
     policy.names = monitor::name_table(*model);

@@ -305,6 +305,24 @@ Result<std::pair<Monitor::ComplainScope, std::string>> complain_scope(
   return std::make_pair(std::move(scope), std::move(words));
 }
 
+Result<HostTasks> host_tasks(const std::vector<bundle::BundleTask>& tasks,
+                             const std::map<std::string, uint16_t>& ids) {
+  HostTasks h;
+  for (const auto& task : tasks) {
+    auto b = resolve_binding(
+        task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
+    if (!b.ok()) return make_error(b.error());
+    if (!b->unresolved.empty())
+      h.warnings.push_back(b->unresolved + ": every hello for it is refused");
+    h.bindings[task.name] = *b;
+    const auto id = ids.find(task.name);
+    if (id == ids.end() || id->second >= core::kMaxTasks) continue;
+    if (task.phase_us) h.facts.phases[id->second] = *task.phase_us;
+    h.facts.ignore_errnos[id->second] = task.ignore_errno;
+  }
+  return h;
+}
+
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy& out) {
   auto t = std::make_unique<Trusted>();
   if (Status s = t->audit.open(o.audit, o.audit_options); !s.ok()) return make_error(s.error());
@@ -328,15 +346,10 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy
         "the image names no task bindings (user, group, exe, unit, cgroup): give its bundle or "
         "--policy to enforce them; any peer --client-uid allows can claim any task");
   }
-  for (const auto& task : out.bindings) {
-    auto b = resolve_binding(
-        task.name, {task.exe, task.user, task.group, task.unit, task.cgroup, task.sessions});
-    if (!b.ok()) return make_error(fmt::format("policy {}: {}", out.source, b.error()));
-    if (!b->unresolved.empty()) {
-      t->warnings.push_back(b->unresolved + ": every hello for it is refused");
-    }
-    t->bindings[task.name] = *b;
-  }
+  auto host = host_tasks(out.bindings, t->tasks);
+  if (!host.ok()) return make_error(fmt::format("policy {}: {}", out.source, host.error()));
+  t->warnings.insert(t->warnings.end(), host->warnings.begin(), host->warnings.end());
+  t->bindings = host->bindings;
   if (!o.task.empty() && !t->tasks.contains(o.task)) {
     return make_error(fmt::format("policy {} declares no task '{}'", out.source, o.task));
   }
@@ -349,13 +362,7 @@ Result<std::unique_ptr<Trusted>> setup(const SetupOptions& o, const LoadedPolicy
     return make_error(s.error());
   }
   t->monitor->set_budget_factor(t->budget_factor);
-  for (const auto& task : out.bindings) {  // declared job phases (the policy's `phase`)
-    auto id = t->tasks.find(task.name);
-    if (task.phase_us && id != t->tasks.end())
-      t->monitor->set_task_phase(id->second, *task.phase_us);
-    if (task.ignore_errno != 0 && id != t->tasks.end())
-      t->monitor->set_ignore_errno(id->second, task.ignore_errno);
-  }
+  t->monitor->set_task_facts(std::move(host->facts));
   std::map<int, bus::Bus*> adapters;  // bus number -> adapter
   std::map<int, std::string> adapter_name;
   for (const auto& [n, path] : t->real_buses) {

@@ -122,6 +122,17 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
 
 Result<std::unique_ptr<Trusted>> setup(const SetupOptions& options, const LoadedPolicy& policy);
 
+// A bundle's task facts on this host, by the image's task ids: who may run
+// each task (a binding this host cannot meet is a warning: every hello for
+// the task is refused) and what the monitor keeps per task.
+struct HostTasks {
+  std::map<std::string, TaskBinding> bindings;
+  std::vector<std::string> warnings;
+  Monitor::TaskFacts facts;
+};
+Result<HostTasks> host_tasks(const std::vector<bundle::BundleTask>& tasks,
+                             const std::map<std::string, uint16_t>& ids);
+
 // The monitor's complain scope from --complain / --complain-for, and the
 // mode's words for the start record and the banner. Fails for a name the
 // policy does not have.

@@ -572,6 +572,14 @@ bool CheckerState::emit_safe_state(uint16_t dev) {
     if (!build_substitute(s, nullptr, dev, bytes, &len, &command, &index, fields)) return false;
     if (!emit_encoded(dev, nullptr, bytes, len, command, index)) return false;
   }
+  // The mechanism is where the safe state put it: a device-scope sequence
+  // goes on from there (settled with the verdict, as a check's state words).
+  for (uint32_t i = 0; i < invariant_count_; ++i) {
+    if (invariants_[i].device != dev || invariants_[i].after_safe == 0) continue;
+    internal::bit_set(tx_.pending_state, i);
+    tx_.any_pending = true;
+    pending_state_[i] = invariants_[i].after_safe - 1;
+  }
   return true;
 }
 
@@ -585,11 +593,15 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   out->device = device;
   out->addr = devices_[device].addr;
   out->bus = devices_[device].bus;
+  __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
   if (!emit_safe_state(device)) {
     rollback();
     out->emit_count = 0;
     out->emit_bytes_used = 0;
     return false;
+  }
+  for (uint32_t i = 0; i < invariant_count_; ++i) {  // device scope: no task's word
+    if (internal::bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
   }
   out->decision = Decision::kFailsafe;
   out->reason = state_[device].latched ? Reason::kLatched : Reason::kAllowed;

@@ -507,8 +507,8 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
   // --- invariants -----------------------------------------------------------------------
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
-    if (!response_ok(v.response) || v.pad != 0 ||
-        v.scope > static_cast<uint8_t>(StateScope::kSession)) {
+    if (!response_ok(v.response) || v.scope > static_cast<uint8_t>(StateScope::kSession) ||
+        (v.after_safe != 0 && v.scope != static_cast<uint8_t>(StateScope::kDevice))) {
       return fail(S::kBadTag, kInvSec, i);
     }
     if (!is_actuator(v.device) || !mask_ok(v.commands, v.device) ||

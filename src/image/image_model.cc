@@ -408,6 +408,7 @@ std::string dump(const ImageModel& m) {
     if (v.template_id != core::kNone) out += fmt::format(" tpl{}", v.template_id);
     if (v.scope == static_cast<uint8_t>(core::StateScope::kTask)) out += ", state per task";
     if (v.scope == static_cast<uint8_t>(core::StateScope::kSession)) out += ", state per session";
+    if (v.after_safe != 0) out += fmt::format(", state {} after the safe state", v.after_safe - 1);
     out += fmt::format(", code {}+{}\n", v.code_first, v.code_len);
     disassemble(out, m, v.code_first, v.code_len);
   }

@@ -61,7 +61,8 @@ void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   // is refused by transfer() (checked after each check()).
   RecordNames names = self->names_.of(*record);
   names.complain = self->complain_now_;
-  names.ignore_errno = record->task < core::kMaxTasks ? self->ignore_errno_[record->task] : 0;
+  names.ignore_errno =
+      record->task < core::kMaxTasks ? self->facts_.ignore_errnos[record->task] : 0;
   names.tx = static_cast<int64_t>(self->check_seq_);
   if (self->readings_json_seq_ != self->check_seq_) self->describe_readings_locked();
   names.readings = &self->readings_json_;
@@ -179,14 +180,9 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
 
 void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
 
-void Monitor::set_task_phase(uint16_t task, uint64_t phase_us) {
+void Monitor::set_task_facts(TaskFacts facts) {
   std::lock_guard lock(mu_);
-  declared_phase_us_[task] = phase_us;
-}
-
-void Monitor::set_ignore_errno(uint16_t task, uint8_t err) {
-  std::lock_guard lock(mu_);
-  if (task < core::kMaxTasks) ignore_errno_[task] = err;
+  facts_ = std::move(facts);
 }
 
 uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
@@ -416,8 +412,10 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     return reply;
   }
   if (tv.action == core::TransferAction::kSafeState) drive_transfer_safe_states(task, checked);
-  if (tv.action == core::TransferAction::kIgnore && task < core::kMaxTasks && ignore_errno_[task]) {
-    reply.err = ignore_errno_[task];  // the policy's `ignore_errno`: nothing acted either way
+  if (tv.action == core::TransferAction::kIgnore && task < core::kMaxTasks &&
+      facts_.ignore_errnos[task]) {
+    reply.err =
+        facts_.ignore_errnos[task];  // the policy's `ignore_errno`: nothing acted either way
     return reply;
   }
   // Ignored (or replaced by safe states): the call succeeds and nothing of it
@@ -562,9 +560,9 @@ uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   if (period == 0) return 0;  // no declared task: the core's own windows
   auto it = job_phase_us_.find(task);
   if (it == job_phase_us_.end()) {
-    auto d = declared_phase_us_.find(task);
+    auto d = facts_.phases.find(task);
     const std::optional<uint64_t> declared =
-        d == declared_phase_us_.end() ? std::nullopt : std::optional<uint64_t>(d->second);
+        d == facts_.phases.end() ? std::nullopt : std::optional<uint64_t>(d->second);
     it = job_phase_us_.emplace(task, first_release_us(declared, period, now_us)).first;
   }
   return grid_job(it->second, period, now_us);

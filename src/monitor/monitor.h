@@ -96,12 +96,15 @@ class Monitor final : public gate::Endpoint {
   // The schedulability test assumes N_i checked commands per job; this bounds
   // what a runaway or hostile task can make the monitor do for it.
   void set_budget_factor(uint32_t factor);
-  // A declared phase for the task's job grid (see first_release_us). Set
-  // before the task's first contact; a grid already started keeps its phase.
-  void set_task_phase(uint16_t task, uint64_t phase_us);
-  // The policy's `ignore_errno`: a transfer of `task` the checks ignored
-  // fails with `err` instead of succeeding (nothing of it acted either way).
-  void set_ignore_errno(uint16_t task, uint8_t err);
+  // What the policy says of its tasks beside the image, by task id:
+  // declared phases of the job grids (see first_release_us; a grid already
+  // started keeps its phase), and `ignore_errno` (a transfer the checks
+  // ignored fails with it instead of succeeding; nothing of it acted).
+  struct TaskFacts {
+    std::map<uint16_t, uint64_t> phases;
+    std::array<uint8_t, core::kMaxTasks> ignore_errnos{};
+  };
+  void set_task_facts(TaskFacts facts);
   static constexpr uint32_t kDefaultBudgetFactor = 4;  // what the CLI sets
   // Non-acting transfers a task may send per job before its sender waits, at
   // factor 1: room for a vendor library's start-up writes that a policy
@@ -140,8 +143,7 @@ class Monitor final : public gate::Endpoint {
     NameTable names;
     std::vector<uint32_t> task_devices;
     ComplainScope complain;
-    std::map<uint16_t, uint64_t> declared_phases;
-    std::array<uint8_t, core::kMaxTasks> ignore_errnos{};
+    TaskFacts facts;
     std::vector<bool> kept;  // by task id of the new image
   };
   Result<std::string> reload(Decider& decider, Policy policy,
@@ -256,10 +258,9 @@ class Monitor final : public gate::Endpoint {
   std::string readings_json_;       // under mu_: describe_readings_locked()'s
   uint64_t readings_json_seq_ = 0;  // the check readings_json_ is of (0: none)
   ComplainScope complain_;
-  std::map<uint16_t, uint64_t> job_phase_us_;            // the release of each task's job 1
-  std::map<uint16_t, uint64_t> declared_phase_us_;       // the policy's `phase`, per task
-  std::array<uint8_t, core::kMaxTasks> ignore_errno_{};  // the policy's `ignore_errno`, per task
-  std::atomic<uint32_t> budget_factor_{0};               // read without mu_ when off
+  std::map<uint16_t, uint64_t> job_phase_us_;  // the release of each task's job 1
+  TaskFacts facts_;                            // under mu_
+  std::atomic<uint32_t> budget_factor_{0};     // read without mu_ when off
   std::map<uint16_t, Budget> budgets_;
   std::atomic<uint64_t> holds_{0};
   DropReport drops_;  // under mu_

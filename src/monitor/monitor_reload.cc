@@ -45,8 +45,7 @@ Result<std::string> Monitor::reload(Decider& decider, Policy policy,
   names_ = std::move(policy.names);
   task_devices_ = std::move(policy.task_devices);
   complain_ = std::move(policy.complain);
-  declared_phase_us_ = std::move(policy.declared_phases);
-  ignore_errno_ = std::move(policy.ignore_errnos);
+  facts_ = std::move(policy.facts);
   return detail;
 }
 

@@ -358,6 +358,45 @@ TEST(CompilePolicy, ATaskPhaseIsADeploymentFactBelowThePeriod) {
   EXPECT_EQ(bad.diagnostics.front().id, "E0501");
 }
 
+// A device-scope sequence is the mechanism's own state: when the device's
+// safe state drives the gripper open (off=420), the next move due is the
+// close, whoever sent the last one. Session and task scopes are a program's
+// protocol and are left alone.
+TEST(CompilePolicy, ADeviceScopeSequenceGoesOnFromWhereTheSafeStateLeftIt) {
+  auto after_safe_state = [](const std::string& scope, const std::string& safe) {
+    const std::string text = "device arm : pca9685 at i2c-1 0x40 { safe " + safe + R"( }
+task t { period 1s; wcet 1ms }
+allow t -> arm
+invariant GRIP on arm.led(5): sequence off [420, 577] )" +
+                             scope + R"( else failsafe expected
+)";
+    CompileOutput out;
+    std::unique_ptr<core::Checker> checker;
+    EXPECT_NO_FATAL_FAILURE(testing::compile_and_load("arm.policy", text, &out, &checker));
+    std::vector<Decision> got;
+    if (!checker) return got;
+    got.push_back(led5_pulse(*checker, 0, 420, 1).decision);  // open
+    got.push_back(led5_pulse(*checker, 0, 577, 2).decision);  // close: open is due next
+    core::Verdict v{};
+    EXPECT_TRUE(checker->safe_state(0, &v));  // the safe state writes its led(5)
+    got.push_back(led5_pulse(*checker, 0, 577, 3).decision);
+    return got;
+  };
+  using D = Decision;
+  EXPECT_EQ(after_safe_state("scope device", "led(5, on=0, off=420)"),
+            (std::vector<D>{D::kAllow, D::kAllow, D::kAllow}))
+      << "the safe state opened the gripper: close is due";
+  EXPECT_EQ(after_safe_state("scope device", "led(5, on=0, off=577)"),
+            (std::vector<D>{D::kAllow, D::kAllow, D::kFailsafe}))
+      << "the safe state closed it: open is due";
+  EXPECT_EQ(after_safe_state("scope device", "led(4, on=0, off=420)"),
+            (std::vector<D>{D::kAllow, D::kAllow, D::kFailsafe}))
+      << "another channel: the position stays";
+  EXPECT_EQ(after_safe_state("scope task", "led(5, on=0, off=420)"),
+            (std::vector<D>{D::kAllow, D::kAllow, D::kFailsafe}))
+      << "a task's protocol is not the device's";
+}
+
 TEST(CompilePolicy, IgnoreErrnoIsAHostFactNamedLikeARejectsErrno) {
   const CompileOutput ok =
       compile_source("p.policy", "task t { period 200ms; wcet 1ms; ignore_errno EIO }\n");

@@ -20,10 +20,11 @@ namespace contego::core {
 
 inline constexpr uint32_t kImageMagic = 0x49475443u;  // "CTGI" read as little-endian
 inline constexpr uint16_t kImageVersionMajor = 2;
-inline constexpr uint16_t kImageVersionMinor = 4;  // 1: HAS_LAST, per-channel rate limits;
+inline constexpr uint16_t kImageVersionMinor = 5;  // 1: HAS_LAST, per-channel rate limits;
                                                    // 2: LatchMode::kHoldSafeUnrepaired;
                                                    // 3: InvariantRecord::scope;
-                                                   // 4: DeviceRecord::gated, gate_bit
+                                                   // 4: DeviceRecord::gated, gate_bit;
+                                                   // 5: InvariantRecord::after_safe
 inline constexpr uint16_t kNone = 0xFFFF;
 inline constexpr uint8_t kSameIndex = 0xFF;  // TemplateRecord::index: the checked command's channel
 
@@ -277,7 +278,10 @@ struct InvariantRecord {
   uint8_t reply_errno;
   uint16_t template_id;  // kFailsafe on FAIL: substitute (kNone = ignore)
   uint8_t scope;         // StateScope of its state word (since version 2.3; 0 before)
-  uint8_t pad;
+  // kDevice scope only (since 2.5; 0 before): when the device's safe state is
+  // driven, the state word becomes after_safe - 1 (the position after the
+  // value it writes); 0: unchanged.
+  uint8_t after_safe;
   CommandMask commands;  // commands it applies to
   uint32_t name;
 };

@@ -202,6 +202,32 @@ class Lowerer {
     return t;
   }
 
+  // A device-scope sequence goes on from where the device's safe state
+  // leaves the mechanism: 1 + the position after the last value the safe
+  // state writes to the sequence's field; 0 (unchanged) if it writes none of
+  // the sequence's values.
+  uint8_t after_safe_state(const Invariant& inv) const {
+    const size_t n = inv.sequence.size();
+    if (inv.form != InvariantForm::kSequence || inv.scope != core::StateScope::kDevice || n > 254)
+      return 0;
+    const std::vector<uint16_t> covered = globals(inv.device, inv.commands);
+    const core::DeviceRecord& d = m_.devices[inv.device].record;
+    uint8_t after = 0;
+    for (uint32_t k = d.safe_first; k < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++k) {
+      const core::TemplateRecord& t = m_.templates[k];
+      if (std::find(covered.begin(), covered.end(), t.command) == covered.end() ||
+          (inv.index && t.index != *inv.index)) {
+        continue;
+      }
+      const auto at =
+          std::find(inv.sequence.begin(), inv.sequence.end(), int64_t{t.values[inv.sequence_slot]});
+      after = at == inv.sequence.end()
+                  ? 0
+                  : static_cast<uint8_t>((at - inv.sequence.begin() + 1) % n + 1);
+    }
+    return after;
+  }
+
   uint16_t add_template(const core::TemplateRecord& t) {
     m_.templates.push_back(t);
     return static_cast<uint16_t>(m_.templates.size() - 1);
@@ -556,6 +582,7 @@ class Lowerer {
     rec.record.commands = mask_of(globals(inv.device, inv.commands));
     rec.record.scope = static_cast<uint8_t>(
         inv.form == InvariantForm::kSequence ? inv.scope : core::StateScope::kDevice);
+    rec.record.after_safe = after_safe_state(inv);
     static_response(inv.device, inv.response, rec.record.response, rec.record.reply_errno,
                     rec.record.template_id);
     place(p, rec.record.code_first, rec.record.code_len, inv.span);
