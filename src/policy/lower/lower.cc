@@ -221,9 +221,8 @@ class Lowerer {
       }
       const auto at =
           std::find(inv.sequence.begin(), inv.sequence.end(), int64_t{t.values[inv.sequence_slot]});
-      after = at == inv.sequence.end()
-                  ? 0
-                  : static_cast<uint8_t>((at - inv.sequence.begin() + 1) % n + 1);
+      after = static_cast<uint8_t>(
+          at == inv.sequence.end() ? 0 : (at - inv.sequence.begin() + 1) % n + 1);
     }
     return after;
   }
