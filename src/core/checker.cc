@@ -5,11 +5,6 @@
 #include "core/state.h"
 
 namespace contego::core::internal {
-namespace {
-
-bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
-
-}  // namespace
 
 Outcome* CheckerState::new_outcome(uint16_t dev) {
   if (tx_.outcome_count >= kMaxCommandsPerTransaction) {
@@ -609,46 +604,6 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   out->rule = device;
   out->reply_errno = 0;
   return true;
-}
-
-// After the decision: a verdict that writes commits the transaction's state
-// words and history; one that does not undoes its register changes.
-void CheckerState::settle_model(const Transaction& tx, Decision decision) {
-  if (!writes(decision)) {
-    rollback();
-    // A group whose commit was checked and refused loses its staged bytes.
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
-      for (uint32_t q = 0; q < o.group_len; ++q) drop_staged(o.device, o.base_reg + q);
-    }
-  } else {
-    for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {
-      for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {
-        const uint32_t i = word * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
-        journal_state(i, tx.task);
-        state_word(i, tx.task) = pending_state_[i];
-      }
-    }
-    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
-      const Outcome& o = tx_.outcomes[i];
-      if (o.bus_command == kNone || !writes(o.decision)) continue;
-      LastCommand& l = last(o.bus_command, o.bus_index);
-      journal_history(l);
-      l.valid = true;
-      l.time_us = tx.now_us;
-      copy_fields(l.fields, o.bus_fields);
-      const CommandRecord& c = commands_[o.bus_command];
-      if (c.group_len == 0 &&
-          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
-        // A general-call command (software reset) reached the device: its
-        // registers are back at their power-on values, nothing is staged.
-        DeviceState& s = state_[o.device];
-        __builtin_memcpy(s.shadow, s.power_on, kMaxRegisters);
-        __builtin_memset(s.staged_bits, 0, sizeof(s.staged_bits));
-      }
-    }
-  }
 }
 
 void CheckerState::finish(const Transaction& tx, Verdict* out) {

@@ -118,43 +118,45 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
   refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
 }
 
-// Before the task writes the group at `base`: another task's staged bytes
-// of it are dropped (staging-conflict, the victim's record), and so are the
-// task's own staged bytes of any other group of the device: it left that
-// group incomplete, and those writes, which the program was told succeeded,
-// will never reach the device (staged-incomplete). One record per group.
+// Before the task writes the group at `base`: other tasks' staged bytes of it
+// are displaced (settle_model() audits them if the write acts), and the
+// task's own of any other group, left incomplete, are dropped and audited.
 void CheckerState::drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
-                                      uint32_t base, uint32_t index) {
+                                      uint32_t base) {
   DeviceState& st = state_[dev];
   uint32_t staged = 0;  // nothing staged on the device (most writes): nothing to drop
   for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) staged |= st.staged_bits[w];
   if (staged == 0) return;
-  const DeviceRecord& dr = devices_[dev];
-  uint32_t last_group = 0xFFFFFFFFu;  // (command << 8 | index) of the last record
+  uint32_t last_group = 0xFFFFFFFFu;
   for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) {
     for (uint32_t bits = st.staged_bits[w]; bits != 0; bits &= bits - 1) {
       const uint32_t r = w * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
       const bool inside = r - base < commands_[cid].group_len;
       if (inside == (st.staged_task[r] == tx.task)) continue;
-      uint16_t c = cid;
-      uint32_t i = index;
-      if (inside) {  // undone with a write that does not act: its victim keeps it
+      if (inside) {
         undo_save(dev, static_cast<uint8_t>(r));
         internal::bit_clear(st.staged_bits, r);
       } else {
         drop_staged(dev, r);
-        c = static_cast<uint16_t>(dr.command_first + st.lookup[r]);
-        i = commands_[c].stride != 0 ? (r - commands_[c].match) / commands_[c].stride : 0;
+        audit_staging_drop(tx, dev, r, st.staged_task[r], Reason::kStagedIncomplete, last_group);
       }
-      if (((uint32_t{c} << 8) | i) == last_group || host_.audit == nullptr) continue;
-      last_group = (uint32_t{c} << 8) | i;
-      AuditRecord a = audit_record(tx, dev, c, Decision::kIgnore,
-                                   inside ? Reason::kStagingConflict : Reason::kStagedIncomplete);
-      a.task = st.staged_task[r];
-      a.index = static_cast<uint8_t>(i);
-      host_.audit(host_.context, &a);
     }
   }
+}
+
+// One record per group (`last_group`: the last one recorded) for a staged
+// byte of `victim` at `reg` that will never reach the device.
+void CheckerState::audit_staging_drop(const Transaction& tx, uint16_t dev, uint32_t reg,
+                                      uint16_t victim, Reason reason, uint32_t& last_group) {
+  const uint16_t c = static_cast<uint16_t>(devices_[dev].command_first + state_[dev].lookup[reg]);
+  const uint32_t i =
+      commands_[c].stride != 0 ? (reg - commands_[c].match) / commands_[c].stride : 0;
+  if (((uint32_t{c} << 8) | i) == last_group || host_.audit == nullptr) return;
+  last_group = (uint32_t{c} << 8) | i;
+  AuditRecord a = audit_record(tx, dev, c, Decision::kIgnore, reason);
+  a.task = victim;
+  a.index = static_cast<uint8_t>(i);
+  host_.audit(host_.context, &a);
 }
 
 // A register of a group the task can never send now (no actuate access, the
@@ -277,7 +279,7 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     // Once per group and write: after the first of its registers, no other
     // task's staging is left in it.
     if (cid != dropped_cid || index != dropped_index) {
-      drop_stale_staging(tx, dev, cid, base, index);
+      drop_stale_staging(tx, dev, cid, base);
       dropped_cid = cid;
       dropped_index = index;
     }

@@ -22,6 +22,8 @@ inline uint32_t load_u32(const uint8_t* p) {
          (static_cast<uint32_t>(p[2]) << 16) | (static_cast<uint32_t>(p[3]) << 24);
 }
 
+// The decisions whose verdict writes to the bus (and settles the model).
+inline bool writes(Decision d) { return d == Decision::kAllow || d == Decision::kFailsafe; }
 inline bool bit_test(const uint32_t* bits, uint32_t i) { return (bits[i >> 5] >> (i & 31)) & 1u; }
 inline void bit_set(uint32_t* bits, uint32_t i) { bits[i >> 5] |= 1u << (i & 31); }
 inline void bit_clear(uint32_t* bits, uint32_t i) { bits[i >> 5] &= ~(1u << (i & 31)); }

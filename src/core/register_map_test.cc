@@ -175,6 +175,20 @@ TEST_F(ArmTest, StagingConflictDropsTheOtherTasksBytes) {
   EXPECT_EQ(emits(v), (Writes{{kLed4 + 2, 0x41}, {kLed4 + 3, 0x02}}));
 }
 
+TEST_F(ArmTest, AWriteThatDoesNotActLeavesTheOtherTasksStagingAndNoRecord) {
+  // The other task may not actuate the arm: its OFF_L is refused, so the
+  // controller's staged OFF_L is neither dropped nor said to be.
+  EXPECT_EQ(send({kLed4 + 2, 0xA4}, arm::kController).reason, Reason::kStaged);
+  const Verdict refused = send({kLed4 + 2, 0x41}, arm::kOther);
+  EXPECT_EQ(refused.decision, Decision::kReject);
+  ASSERT_EQ(h.audits.size(), 1u);
+  EXPECT_EQ(h.audits[0].task, arm::kOther);
+  EXPECT_NE(h.audits[0].reason, Reason::kStagingConflict);
+  const Verdict v = send({kLed4 + 3, 0x01}, arm::kController);  // 0x1A4 = 420
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (Writes{{kLed4 + 2, 0xA4}, {kLed4 + 3, 0x01}}));
+}
+
 TEST_F(ArmTest, AGroupTheTaskLeavesIncompleteIsDroppedAndAudited) {
   // LED4's OFF_L alone, then LED5: LED4's write never reaches the device,
   // and the record says so when the task moves on, not never.

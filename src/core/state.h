@@ -294,8 +294,10 @@ class CheckerState {
   // Clears a staged byte for good: an aborted transfer does not bring back
   // what its checks dropped and audited (a refused commit, an abandoned group).
   void drop_staged(uint16_t dev, uint32_t reg);
-  void drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
-                          uint32_t index);
+  void mark_dropped(uint16_t dev, uint32_t reg);  // drop_staged's journal half
+  void drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base);
+  void audit_staging_drop(const Transaction& tx, uint16_t dev, uint32_t reg, uint16_t victim,
+                          Reason reason, uint32_t& last_group);
   bool never_acts(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t index) const;
   void commit_group(const Transaction& tx, uint16_t dev, uint16_t cid, uint32_t base,
                     uint32_t index, uint32_t j, uint8_t val);

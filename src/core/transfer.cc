@@ -40,6 +40,10 @@ bool CheckerState::journal_device(uint16_t dev) {
 
 void CheckerState::drop_staged(uint16_t dev, uint32_t reg) {
   internal::bit_clear(state_[dev].staged_bits, reg);
+  mark_dropped(dev, reg);
+}
+
+void CheckerState::mark_dropped(uint16_t dev, uint32_t reg) {
   for (uint32_t i = 0; journal_.active && i < journal_.device_count; ++i) {
     if (journal_.devices[i].device == dev) internal::bit_set(journal_.devices[i].dropped_bits, reg);
   }
@@ -66,6 +70,58 @@ int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
     return state_words_[i];
   }
   return task_state_words_[task][i];
+}
+
+// After the decision: a verdict that writes commits the transaction's state
+// words and history; one that does not undoes its register changes.
+void CheckerState::settle_model(const Transaction& tx, Decision decision) {
+  if (!writes(decision)) {
+    rollback();
+    // A group whose commit was checked and refused loses the task's staged bytes.
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.group_len == 0 || o.command == kNone || o.device >= device_count_) continue;
+      for (uint32_t r = o.base_reg; r < o.base_reg + o.group_len; ++r) {
+        if (state_[o.device].staged_task[r] == tx.task) drop_staged(o.device, r);
+      }
+    }
+  } else {
+    // Another task's staged bytes this check displaced are gone for good now
+    // that it acts (an aborted transfer does not bring them back): audited
+    // in the victim's name.
+    uint32_t last_group = 0xFFFFFFFFu;
+    for (uint32_t i = 0; i < tx_.undo_count; ++i) {
+      const Undo& u = tx_.undo[i];
+      if (!u.staged_bit || u.staged_task == tx.task) continue;
+      mark_dropped(u.device, u.reg);
+      audit_staging_drop(tx, u.device, u.reg, u.staged_task, Reason::kStagingConflict, last_group);
+    }
+    for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {
+      for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {
+        const uint32_t i = word * 32 + static_cast<uint32_t>(__builtin_ctz(bits));
+        journal_state(i, tx.task);
+        state_word(i, tx.task) = pending_state_[i];
+      }
+    }
+    for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
+      const Outcome& o = tx_.outcomes[i];
+      if (o.bus_command == kNone || !writes(o.decision)) continue;
+      LastCommand& l = last(o.bus_command, o.bus_index);
+      journal_history(l);
+      l.valid = true;
+      l.time_us = tx.now_us;
+      copy_fields(l.fields, o.bus_fields);
+      const CommandRecord& c = commands_[o.bus_command];
+      if (c.group_len == 0 &&
+          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
+        // A general-call command (software reset) reached the device: its
+        // registers are back at their power-on values, nothing is staged.
+        DeviceState& s = state_[o.device];
+        __builtin_memcpy(s.shadow, s.power_on, kMaxRegisters);
+        __builtin_memset(s.staged_bits, 0, sizeof(s.staged_bits));
+      }
+    }
+  }
 }
 
 uint32_t CheckerState::end_session(uint16_t task) {

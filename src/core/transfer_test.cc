@@ -94,6 +94,29 @@ TEST_F(TransferTest, StagingItsChecksDroppedStaysDroppedWhenTheTransferIsRefused
   EXPECT_EQ(shadow()[kLed4 + 2], 0x00);
 }
 
+TEST_F(TransferTest, AnotherTasksStagingDisplacedByAnActingCheckStaysDroppedAsRecorded) {
+  image::ImageModel m = arm::model();
+  m.access[arm::kOther].actuate_devices = 1u << arm::kArm;
+  ASSERT_EQ(h.load(m).status, LoadStatus::kOk);
+  h.checker->seed_register(arm::kArm, 0x00, 0x01);  // AI off: one register per write
+  ASSERT_EQ(send({kLed4 + 2, 0xA4}).reason, Reason::kStaged);
+  // The other task's OFF_L displaces it and acts (staged): the record is
+  // made; the transfer is then refused, and the drop stays as recorded.
+  h.checker->begin_transfer();
+  EXPECT_EQ(h.check(arm::kOther, kAddr, {kLed4 + 2, 0x41}, ++now).reason, Reason::kStaged);
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagingConflict);
+  EXPECT_EQ(h.audits[0].task, arm::kController);
+  EXPECT_EQ(h.audits[0].index, 4);
+  EXPECT_EQ(h.check(arm::kOther, kAddr, {0xFF, 0x01}, ++now).decision, Decision::kReject);
+  h.checker->abort_transfer(Decision::kReject);
+  // Neither task's OFF_L is staged now: OFF_H alone commits the shadow's 0.
+  const Verdict v = send({kLed4 + 3, 0x01});
+  EXPECT_EQ(v.decision, Decision::kAllow);
+  EXPECT_EQ(emits(v), (Writes{{kLed4 + 3, 0x01}}));
+  EXPECT_EQ(shadow()[kLed4 + 2], 0x00);
+}
+
 TEST_F(TransferTest, AnAllowedTransferCommitsEveryMessage) {
   const uint32_t crc = h.checker->model_crc();
   const TransferVerdict t = transfer({{kLed5, 0, 0, 0xA4, 0x01}, {kLed4, 0, 0, 0x77, 0x01}});

@@ -38,9 +38,6 @@ void futex_wait_ns(std::atomic<uint32_t>* word, uint32_t old, uint64_t timeout_n
              static_cast<long>(timeout_ns % 1000000000u)};
   syscall(SYS_futex, reinterpret_cast<uint32_t*>(word), FUTEX_WAIT, old, &t, nullptr, 0);
 }
-void futex_wait(std::atomic<uint32_t>* word, uint32_t old, uint32_t timeout_ms) {
-  futex_wait_ns(word, old, uint64_t{timeout_ms} * 1000000u);
-}
 void futex_wake(std::atomic<uint32_t>* word) {
   syscall(SYS_futex, reinterpret_cast<uint32_t*>(word), FUTEX_WAKE, 1, nullptr, nullptr, 0);
 }
@@ -152,18 +149,7 @@ bool Channel::wait_change(std::atomic<uint32_t>& word, uint32_t old,
     }
   }
   if (slept != nullptr) *slept = true;
-  for (;;) {
-    // Announce the sleep, then look again: the other side stores its word
-    // before it reads our flag (both seq_cst), so one of us sees the other.
-    sleeping.store(1, std::memory_order_seq_cst);
-    if (word.load(std::memory_order_seq_cst) != old) break;
-    futex_wait(&word, old, policy_.poll_ms);
-    sleeping.store(0, std::memory_order_relaxed);
-    if (word.load(std::memory_order_acquire) != old) return true;
-    if (!peer_connected()) return false;
-  }
-  sleeping.store(0, std::memory_order_relaxed);
-  return true;
+  return doze_until(word, old, sleeping, UINT64_MAX);
 }
 
 bool Channel::doze_until(std::atomic<uint32_t>& word, uint32_t old, std::atomic<uint32_t>& sleeping,
@@ -171,6 +157,8 @@ bool Channel::doze_until(std::atomic<uint32_t>& word, uint32_t old, std::atomic<
   for (;;) {
     const uint64_t now = monotonic_ns();
     if (now >= deadline_ns) return true;
+    // Announce the sleep, then look again: the other side stores its word
+    // before it reads our flag (both seq_cst), so one of us sees the other.
     sleeping.store(1, std::memory_order_seq_cst);
     if (word.load(std::memory_order_seq_cst) != old) break;
     futex_wait_ns(&word, old,

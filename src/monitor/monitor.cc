@@ -412,11 +412,10 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     return reply;
   }
   if (tv.action == core::TransferAction::kSafeState) drive_transfer_safe_states(task, checked);
-  if (tv.action == core::TransferAction::kIgnore && task < core::kMaxTasks &&
-      facts_.ignore_errnos[task]) {
-    reply.err =
-        facts_.ignore_errnos[task];  // the policy's `ignore_errno`: nothing acted either way
-    return reply;
+  // The policy's `ignore_errno`: the call fails, and nothing of it acted either way.
+  if (tv.action == core::TransferAction::kIgnore && task < core::kMaxTasks) {
+    reply.err = facts_.ignore_errnos[task];
+    if (reply.err != 0) return reply;
   }
   // Ignored (or replaced by safe states): the call succeeds and nothing of it
   // acted; its reads read nothing.
