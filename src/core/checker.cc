@@ -47,7 +47,9 @@ bool CheckerState::emit(const uint8_t* bytes, uint32_t len) {
     tx_.emit_failed = true;
     return false;
   }
-  __builtin_memcpy(v.emit_bytes + v.emit_bytes_used, bytes, len);
+  uint8_t* to = v.emit_bytes + v.emit_bytes_used;
+  // A register and its value (the common write) without a call for two bytes.
+  len == 2 ? __builtin_memcpy(to, bytes, 2) : __builtin_memcpy(to, bytes, len);
   v.emit_len[v.emit_count++] = static_cast<uint16_t>(len);
   v.emit_bytes_used = static_cast<uint16_t>(v.emit_bytes_used + len);
   return true;

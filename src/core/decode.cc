@@ -118,15 +118,19 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
   refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
 }
 
+// Nothing staged on the device (most writes): no call, nothing to drop.
+static bool anything_staged(const DeviceState& st) {
+  uint32_t staged = 0;
+  for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) staged |= st.staged_bits[w];
+  return staged != 0;
+}
+
 // Before the task writes the group at `base`: other tasks' staged bytes of it
 // are displaced (settle_model() audits them if the write acts), and the
 // task's own of any other group, left incomplete, are dropped and audited.
 void CheckerState::drop_stale_staging(const Transaction& tx, uint16_t dev, uint16_t cid,
                                       uint32_t base) {
   DeviceState& st = state_[dev];
-  uint32_t staged = 0;  // nothing staged on the device (most writes): nothing to drop
-  for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) staged |= st.staged_bits[w];
-  if (staged == 0) return;
   uint32_t last_group = 0xFFFFFFFFu;
   for (uint32_t w = 0; w < kMaxRegisters / 32; ++w) {
     for (uint32_t bits = st.staged_bits[w]; bits != 0; bits &= bits - 1) {
@@ -183,16 +187,20 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   const CommandRecord& c = commands_[cid];
   Decoded& d = decode_start(dev, cid, static_cast<uint8_t>(index), c.group_len);
   d.base_reg = static_cast<uint8_t>(base);
-  __builtin_memset(d.written, 0, sizeof(d.written));
-  for (uint32_t q = 0; q < c.group_len; ++q) {
-    const uint32_t r = base + q;
-    if (internal::bit_test(st.staged_bits, r)) {
-      d.bytes[q] = st.staged[r];
-      internal::bit_set(d.written, q);
-      undo_save(dev, static_cast<uint8_t>(r));
-      internal::bit_clear(st.staged_bits, r);
-    } else {
-      d.bytes[q] = st.shadow[r];
+  d.written[0] = 0;
+  // A one-register group (MODE2, PRE_SCALE) is never staged: nothing to overlay.
+  if (c.group_len > 1) {
+    __builtin_memset(d.written, 0, sizeof(d.written));
+    for (uint32_t q = 0; q < c.group_len; ++q) {
+      const uint32_t r = base + q;
+      if (internal::bit_test(st.staged_bits, r)) {
+        d.bytes[q] = st.staged[r];
+        internal::bit_set(d.written, q);
+        undo_save(dev, static_cast<uint8_t>(r));
+        internal::bit_clear(st.staged_bits, r);
+      } else {
+        d.bytes[q] = st.shadow[r];
+      }
     }
   }
   d.bytes[j] = val;
@@ -215,12 +223,15 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   }
   evaluate(tx, *o);
   if (o->decision != Decision::kAllow) return;
-  for (uint32_t q = 0; q < c.group_len; ++q) {
-    if (!internal::bit_test(d.written, q)) continue;
+  auto send = [&](uint32_t q) {
     const uint8_t r = static_cast<uint8_t>(base + q);
     const uint8_t pair[2] = {r, d.bytes[q]};
     emit(pair, 2);
     store_shadow(dev, cid, r, d.bytes[q]);
+  };
+  if (c.group_len == 1) send(0);
+  for (uint32_t q = 0; c.group_len > 1 && q < c.group_len; ++q) {
+    if (internal::bit_test(d.written, q)) send(q);
   }
   o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
   o->bus_command = cid;
@@ -278,7 +289,7 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     const uint32_t j = reg - base;
     // Once per group and write: after the first of its registers, no other
     // task's staging is left in it.
-    if (cid != dropped_cid || index != dropped_index) {
+    if ((cid != dropped_cid || index != dropped_index) && anything_staged(st)) {
       drop_stale_staging(tx, dev, cid, base);
       dropped_cid = cid;
       dropped_index = index;

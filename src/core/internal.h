@@ -48,6 +48,12 @@ inline uint64_t field_raw(const FieldRecord& f, const uint8_t* bytes) {
 
 // Reads `f` out of `bytes` (caller guarantees offset + nbytes <= length).
 inline int32_t field_get(const FieldRecord& f, const uint8_t* bytes) {
+  if (f.nbytes == 1) {  // most fields; the verifier keeps shift + width <= 8
+    const uint32_t mask = (1u << f.width) - 1;
+    uint32_t v = (uint32_t{bytes[f.offset]} >> f.shift) & mask;
+    if ((f.flags & kFieldSigned) && ((v >> (f.width - 1)) & 1u)) v |= ~mask;
+    return static_cast<int32_t>(v);
+  }
   const uint64_t raw = field_raw(f, bytes);
   const uint64_t mask = (f.width >= 32) ? 0xFFFFFFFFull : ((1ull << f.width) - 1);
   uint64_t v = (raw >> f.shift) & mask;

@@ -312,6 +312,15 @@ struct OperandStack {
     ip += (int64_t{env.d->command} compare int64_t{in.imm}) ? 3 : uint32_t{in.a} + 2; \
     break
 
+// The checked command's field b compared with imm (a missing field ends the
+// program, as FIELD): ip is at the PUSH.
+#define CONTEGO_FUSED_FIELD_CASE(name, compare)                                            \
+  case static_cast<Op>(Fused::k##name##FieldJz):                                           \
+    if (env.d == nullptr || in.b >= env.d->field_count) goto done;                         \
+    steps += 3;                                                                            \
+    ip += (int64_t{env.d->fields[in.b]} compare int64_t{in.imm}) ? 3 : uint32_t{in.a} + 2; \
+    break
+
 // The loader verified every program: operands in range, valid opcodes, forward
 // jumps inside the program, the stack depth on every path, and no path that
 // runs past the end without a terminator (PASS, FAIL, FAIL_SUBST, RETURN or a
@@ -408,6 +417,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_CASE);
         CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_SIGNAL_CASE);
         CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_COMMAND_CASE);
+        CONTEGO_FOR_EACH_COMPARE(CONTEGO_FUSED_FIELD_CASE);
       case Op::kPass:
         exit = Exit::kPass;
         goto done;
@@ -436,6 +446,7 @@ done:
 #undef CONTEGO_FUSED_CASE
 #undef CONTEGO_FUSED_SIGNAL_CASE
 #undef CONTEGO_FUSED_COMMAND_CASE
+#undef CONTEGO_FUSED_FIELD_CASE
 #undef CONTEGO_FOR_EACH_COMPARE
 
 static_assert(kMaxProgramLength <= 0xFFFF, "a fused jump offset lives in Insn::b");
@@ -487,21 +498,23 @@ void CheckerState::fuse_programs() {
     push.op = fused;
     push.b = static_cast<uint16_t>(jump.imm);  // verified: 1 <= imm < the program's length
   }
-  // A signal read or the command's id right before such a compare (a
-  // threshold on a reading, a test of which command this is) joins it, when
-  // the jump's offset fits in Insn::a.
+  // A signal read, the command's id or one of its fields right before such a
+  // compare (a threshold on a reading, a test of which command this is, a
+  // field's bound) joins it, when the jump's offset fits in Insn::a.
   for (uint32_t i = 0; i + 3 < code_count_; ++i) {
     Insn& value = code_[i];
     const Insn& fused = code_[i + 1];
-    const bool signal = value.op == static_cast<uint8_t>(Op::kSignal);
-    if ((!signal && value.op != static_cast<uint8_t>(Op::kCommand)) ||
-        fused.op < static_cast<uint8_t>(Fused::kEqJz) ||
+    int shift = 0;  // from the k*Jz to the joined form
+    if (value.op == static_cast<uint8_t>(Op::kSignal)) shift = 0x10;
+    if (value.op == static_cast<uint8_t>(Op::kCommand)) shift = -0x10;
+    if (value.op == static_cast<uint8_t>(Op::kField)) shift = -0x20;
+    if (shift == 0 || fused.op < static_cast<uint8_t>(Fused::kEqJz) ||
         fused.op > static_cast<uint8_t>(Fused::kGeJz) || fused.b > 0xFF ||
         !inside_every_program(i, 4)) {
       continue;
     }
-    // The k*SignalJz or k*CommandJz of the same compare; b keeps the signal's id.
-    value.op = static_cast<uint8_t>(signal ? fused.op + 0x10 : fused.op - 0x10);
+    // The joined form of the same compare; b keeps the signal's id or the field.
+    value.op = static_cast<uint8_t>(fused.op + shift);
     value.a = static_cast<uint8_t>(fused.b);
     value.imm = fused.imm;
   }

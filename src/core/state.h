@@ -25,7 +25,8 @@ namespace contego::core::internal {
 // (interpreter.cc, fuse_programs): the compare of the value on top of the
 // stack with imm, and the jump (b = off) when it is false; and over
 // `SIGNAL s; PUSH imm; <compare>; JZ off` (the k*SignalJz: b = s, a = off)
-// and `COMMAND; PUSH imm; <compare>; JZ off` (the k*CommandJz: a = off).
+// `COMMAND; PUSH imm; <compare>; JZ off` (the k*CommandJz: a = off) and
+// `FIELD f; PUSH imm; <compare>; JZ off` (the k*FieldJz: b = f, a = off).
 // Opcodes no image may carry (the verifier refuses everything above
 // Op::kReturn).
 enum class Fused : uint8_t {
@@ -47,6 +48,12 @@ enum class Fused : uint8_t {
   kLeCommandJz,
   kGtCommandJz,
   kGeCommandJz,
+  kEqFieldJz = 0xC0,  // FIELD f; PUSH imm; <compare>; JZ (b = f, a = off): kEqJz - 0x20
+  kNeFieldJz,
+  kLtFieldJz,
+  kLeFieldJz,
+  kGtFieldJz,
+  kGeFieldJz,
 };
 
 // What evaluating a signal gave.

@@ -223,14 +223,10 @@ LoadResult CheckerState::verify_devices(const LoadInput&) {
   // --- devices ------------------------------------------------------------------
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
-    if (d.role == 0 || (d.role & ~(kRoleActuator | kRoleSensor)) != 0) {
-      return fail(S::kBadTag, kDevSec, i);
-    }
-    if (d.profile != static_cast<uint8_t>(Profile::kFrame) &&
-        d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-      return fail(S::kBadTag, kDevSec, i);
-    }
-    if (d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
+    if (d.role == 0 || (d.role & ~(kRoleActuator | kRoleSensor)) != 0 ||
+        (d.profile != static_cast<uint8_t>(Profile::kFrame) &&
+         d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) ||
+        d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
         d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
         d.short_queries > 1 || d.gate_bit > 7 ||
         (d.gated != 0 &&
@@ -239,16 +235,12 @@ LoadResult CheckerState::verify_devices(const LoadInput&) {
       return fail(S::kBadTag, kDevSec, i);
     }
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
-        d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes) {
-      return fail(S::kBadField, kDevSec, i);
-    }
-    if (d.profile == static_cast<uint8_t>(Profile::kFrame) &&
-        (d.frame_len < 1 || d.prefix_len > 1 ||
-         static_cast<uint32_t>(d.frame_len) + d.prefix_len > kMaxWriteBytes)) {
-      return fail(S::kBadField, kDevSec, i);
-    }
-    if (d.latch_mode != static_cast<uint8_t>(LatchMode::kOff) &&
-        (d.latch_count < 1 || d.latch_count > kMaxLatchCount)) {
+        d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes ||
+        (d.profile == static_cast<uint8_t>(Profile::kFrame) &&
+         (d.frame_len < 1 || d.prefix_len > 1 ||
+          static_cast<uint32_t>(d.frame_len) + d.prefix_len > kMaxWriteBytes)) ||
+        (d.latch_mode != static_cast<uint8_t>(LatchMode::kOff) &&
+         (d.latch_count < 1 || d.latch_count > kMaxLatchCount))) {
       return fail(S::kBadField, kDevSec, i);
     }
     if (static_cast<uint32_t>(d.command_first) + d.command_count > command_count_) {
@@ -336,12 +328,10 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
         }
       }
     } else {
-      if (c.group_len < 1 || c.repeat < 1 || (c.repeat > 1 && c.stride < c.group_len)) {
-        return fail(S::kBadField, kCmdSec, i);
+      if (c.group_len < 1 || c.repeat < 1 || (c.repeat > 1 && c.stride < c.group_len) ||
+          c.match + static_cast<uint32_t>(c.repeat - 1) * c.stride + c.group_len > kMaxRegisters) {
+        return fail(S::kBadField, kCmdSec, i);  // overlapping channels, or past the last register
       }
-      const uint32_t last =
-          c.match + static_cast<uint32_t>(c.repeat - 1) * c.stride + c.group_len - 1;
-      if (last >= kMaxRegisters) return fail(S::kBadField, kCmdSec, i);
       limit = c.group_len;
     }
     for (uint32_t f = c.field_first; f < static_cast<uint32_t>(c.field_first) + c.field_count;
@@ -412,16 +402,14 @@ LoadResult CheckerState::verify_templates(const LoadInput&) {
   for (uint32_t i = 0; i < template_count_; ++i) {
     const TemplateRecord& t = templates_[i];
     if (t.command != kNone) {
-      if (t.command >= command_count_) {
+      const CommandRecord& c = commands_[t.command < command_count_ ? t.command : 0];
+      // A command of the image, addressable (not a general call), with the fields it sets.
+      if (t.command >= command_count_ ||
+          (devices_[c.device].profile == static_cast<uint8_t>(Profile::kRegisterMap) &&
+           c.group_len == 0) ||
+          (t.set_mask >> c.field_count) != 0) {
         return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
       }
-      const CommandRecord& c = commands_[t.command];
-      const uint32_t fc = c.field_count;
-      if (devices_[c.device].profile == static_cast<uint8_t>(Profile::kRegisterMap) &&
-          c.group_len == 0) {
-        return fail(S::kBadReference, sec(SectionKind::kTemplates), i);  // cannot be addressed
-      }
-      if ((t.set_mask >> fc) != 0) return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
       // A channel must exist; frame commands have none.
       const bool frame = devices_[c.device].profile == static_cast<uint8_t>(Profile::kFrame);
       if (t.index != kSameIndex && (frame || t.index >= c.repeat)) {

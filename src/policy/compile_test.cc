@@ -167,6 +167,45 @@ invariant CAP on gopigo.set_left_speed: require speed <= 120
   EXPECT_EQ(v.decision, Decision::kAllow);
 }
 
+// `require A and B` tests A, then B, when B cannot fault (the command's own
+// fields and constants): the same verdicts, and a false A ends the program.
+// A right side that can fault (a signal) keeps AND's meaning: a missing
+// reading fails closed even when A is false.
+TEST(CompilePolicy, AConjunctionTestsItsSidesInTurnUnlessTheRightOneCanFault) {
+  const char* text = R"(
+device gopigo : gopigo2 at i2c-1 0x08
+device line : line_follower at i2c-1 0x06 sample 10ms max_age 100ms
+signal pos = line_position(line.raw,
+    white=[767, 815, 859, 710, 700], black=[1012, 1013, 1015, 1003, 1004],
+    weights=[-100, -50, 0, 50, 100])
+task t { period 100ms; wcet 1ms }
+allow t -> gopigo
+allow t reads line
+invariant BOTH on gopigo.set_left_speed: require speed <= 120 and speed >= 10 else ignore
+invariant SIGNAL on gopigo.set_right_speed: require speed <= 120 and pos > -9999 else ignore
+)";
+  CompileOutput out;
+  std::unique_ptr<core::Checker> checker;
+  ASSERT_NO_FATAL_FAILURE(testing::compile_and_load("and.policy", text, &out, &checker));
+  auto check = [&](uint8_t opcode, uint8_t speed, uint64_t* steps) {
+    const uint8_t frame[4] = {opcode, speed, 0, 0};
+    core::Verdict v{};
+    const uint64_t before = checker->executed_instructions();
+    checker->check(testing::write_tx(0, 0x08, 1, frame, sizeof frame), &v);
+    if (steps != nullptr) *steps = checker->executed_instructions() - before;
+    return v;
+  };
+  uint64_t steps_false = 0, steps_true = 0;
+  EXPECT_EQ(check(0x46, 200, &steps_false).decision, Decision::kIgnore);
+  EXPECT_EQ(check(0x46, 5, nullptr).decision, Decision::kIgnore);
+  EXPECT_EQ(check(0x46, 50, &steps_true).decision, Decision::kAllow);
+  EXPECT_LT(steps_false, steps_true);  // a false left side skips the right one
+  // No reading of the line sensor: the signal is unavailable, and that
+  // decides (fail closed), not the left side's plain violation.
+  const core::Verdict v = check(0x47, 200, nullptr);
+  EXPECT_EQ(v.reason, core::Reason::kSignalUnavailable);
+}
+
 // A PCA9685 LED5 pulse as Adafruit's set_pwm writes it: registers 0x1A..0x1D
 // (ON_L ON_H OFF_L OFF_H) one at a time (MODE1.AI is 0 at power-on). The
 // verdict of the last write, which commits the group.

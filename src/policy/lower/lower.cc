@@ -246,6 +246,48 @@ class Lowerer {
     p.emit(Op::kPushConst, static_cast<uint16_t>(it - m_.constants.begin()));
   }
 
+  // Jumps to `to` when `e` is false. A conjunction whose right side cannot
+  // fault tests its sides in turn: the same outcome as AND (B evaluated when
+  // A is false could only give false), and the core fuses each
+  // `FIELD; PUSH; <compare>; JZ` into one step.
+  void jump_unless(Program& p, const IExpr& e, int to) {
+    if (e.op == IOp::kAnd && !can_fault(*e.kids[1])) {
+      jump_unless(p, *e.kids[0], to);
+      jump_unless(p, *e.kids[1], to);
+      return;
+    }
+    expr(p, e);
+    p.jump(Op::kJumpIfZero, to);
+  }
+
+  // Whether evaluating `e` may end the program (a missing signal or history,
+  // an overflow, a division by zero): only the command's own unscaled fields,
+  // its channel and constants, compared and combined, cannot.
+  static bool can_fault(const IExpr& e) {
+    switch (e.op) {
+      case IOp::kConst:
+      case IOp::kIndex:
+        return false;
+      case IOp::kField:
+        return e.scale != 1;
+      case IOp::kNot:
+      case IOp::kEq:
+      case IOp::kNe:
+      case IOp::kLt:
+      case IOp::kLe:
+      case IOp::kGt:
+      case IOp::kGe:
+      case IOp::kAnd:
+      case IOp::kOr:
+        for (const auto& k : e.kids) {
+          if (can_fault(*k)) return true;
+        }
+        return false;
+      default:
+        return true;
+    }
+  }
+
   void expr(Program& p, const IExpr& e) {
     switch (e.op) {
       case IOp::kConst:
@@ -470,17 +512,13 @@ class Lowerer {
       p.emit(Op::kEq);
       p.jump(Op::kJumpIfZero, pass);
     }
-    if (inv.when) {
-      expr(p, *inv.when);
-      p.jump(Op::kJumpIfZero, pass);
-    }
+    if (inv.when) jump_unless(p, *inv.when, pass);
     const bool expected = inv.response.kind == ResponseKind::kFailsafeExpected;
     const auto& cmds = p_.devices[inv.device].profile.commands;
     switch (inv.form) {
       case InvariantForm::kRequire: {
         const int fail = p.new_label();
-        expr(p, *inv.require);
-        p.jump(Op::kJumpIfZero, fail);
+        jump_unless(p, *inv.require, fail);
         p.emit(Op::kPass);
         p.bind(fail);
         fail_tail(p, inv);
