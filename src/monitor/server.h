@@ -208,9 +208,10 @@ class Server {
   std::string image_sha256_;   // mu_
   Reloader reloader_;          // set before serve()
   const uint64_t started_us_ = monotonic_us();
-  // Whether a bound session of `task` has a peer that hung up: its
-  // connection's thread has yet to notice and end it. mu_ held.
-  bool session_ending(uint16_t task) const;
+  // Whether a bound session of `task` (with `pid`: any of that peer's) has a
+  // peer that hung up: its connection's thread has yet to notice and end it.
+  // mu_ held.
+  bool session_ending(int task, pid_t pid) const;
   void end_session(Session& s);
   Monitor& monitor_;
   AuditLog& audit_;

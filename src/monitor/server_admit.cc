@@ -123,7 +123,13 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
                           const wire::Vouch& vouch) {
   const Conn& c = *s.conn;
   {
-    std::lock_guard lock(mu_);
+    // As for a task's sessions below: a supervisor whose last program just
+    // exited is listed until that session's thread notices the hang-up.
+    std::unique_lock lock(mu_);
+    if (descends_from_supervised(c.pid) && session_ending(-1, c.pid)) {
+      session_ended_.wait_for(lock, std::chrono::seconds(2),
+                              [&] { return !descends_from_supervised(c.pid) || stopping_; });
+    }
     if (descends_from_supervised(c.pid)) {
       return "the peer is a program supervised by contego (or its child): its supervisor "
              "speaks for it; it may not open a connection of its own";
@@ -141,7 +147,7 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   // preload client) still holds its session until its connection's thread
   // notices the hang-up (within the channel's poll interval): wait for that
   // rather than refuse its successor. A live peer is refused at once.
-  if (live() >= allowed && session_ending(task)) {
+  if (live() >= allowed && session_ending(task, 0)) {
     session_ended_.wait_for(lock, std::chrono::seconds(2),
                             [&] { return live() < allowed || stopping_; });
   }
@@ -219,9 +225,9 @@ wire::Type Server::revouch(Session& s, std::span<const uint8_t> payload) {
   return wire::Type::kRevouchOk;
 }
 
-bool Server::session_ending(uint16_t task) const {
+bool Server::session_ending(int task, pid_t pid) const {
   for (const auto& c : conns_) {
-    if (c->task != task || c->done || !c->fd.valid()) continue;
+    if ((pid != 0 ? c->pid != pid : c->task != task) || c->done || !c->fd.valid()) continue;
     pollfd p{c->fd.get(), POLLRDHUP, 0};
     if (poll(&p, 1, 0) > 0 && (p.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0) return true;
   }

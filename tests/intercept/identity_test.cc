@@ -276,8 +276,9 @@ TEST_F(Identity, TheBusNodeByAnyNameIsEmulatedAndChecked) {
     // configuration writes (a vendor constructor must run), so the program
     // may be told it wrote; the device read back says nothing acted. 2 (the
     // open reached the kernel) or 3 fail.
-    const int result = supervised("gripper", {kAttack, "open", how, dir}, kNobody);
-    EXPECT_TRUE(result == 0 || result == 1) << how << ": " << result;
+    std::string refusal;
+    const int result = supervised("gripper", {kAttack, "open", how, dir}, kNobody, &refusal);
+    EXPECT_TRUE(result == 0 || result == 1) << how << ": " << result << " " << refusal;
     EXPECT_EQ(pca->reg(0x00), mode1_before) << how;
   }
   unlink((dir + "/i2c-1").c_str());
