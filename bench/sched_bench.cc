@@ -5,21 +5,24 @@
 // library's own parse + analyse.
 //
 // Before the benchmarks, a comparison over the same random sets in the same
-// run (5-50 tasks, U 0.3-0.95; --compare-sets=N, default 2000):
-//   - the library against a plain response-time test written below, with
-//     the full model (C^TEE and blocking); the verdicts must be identical,
-//     else the bench exits 1;
+// run (5-50 tasks, U 0.3-0.95; --compare-sets=N, default 2000), in thread
+// CPU time, the median of interleaved rounds:
+//   - the library against a textbook response-time test written below with
+//     the paper's terms (C^TEE and blocking), by set size: the analysis as
+//     `contego sched` prints it (analyse(), a new result per set), the
+//     Analyzer into a reused result, and the verdict alone; verdicts and
+//     every schedulable R_i must be identical, else the bench exits 1;
 //   - the batch stream against parse + analyse of the same JSON lines;
-//   - the sensitivity search (and the binary search it replaced, on a
-//     tenth of the sets) in units of one analysis of the same set.
+//   - the sensitivity search (and the binary search it replaced) in units
+//     of one analysis of the same sets.
 // Build with the release preset for real figures:
 //   cmake --build --preset release --target sched_bench && build/release/bench/sched_bench
 #include <algorithm>
 #include <benchmark/benchmark.h>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
-#include <numeric>
+#include <ctime>
+#include <functional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -70,171 +73,234 @@ std::vector<TaskSet> mixed_sets(size_t count) {
   return sets;
 }
 
-// The plain response-time test with the full model, written here without
-// the library: C^TEE = C + N C^o, B = max N_j C_j^o over strictly lower
-// priorities, equal priorities interfere, iteration stops beyond D.
-class PlainRta {
- public:
-  bool schedulable(const TaskSet& set) { return run(set, nullptr); }
-  // Every task's response time (the first iterate beyond D_i for a task
-  // that misses), no early exit: the work of the library's analyse().
-  bool response_times(const TaskSet& set, std::vector<Nanos>& out) { return run(set, &out); }
-
- private:
-  bool run(const TaskSet& set, std::vector<Nanos>* all) {
-    const size_t n = set.tasks.size();
-    if (all != nullptr) all->assign(n, 0);
-    bool met = true;
-    idx_.resize(n);
-    std::iota(idx_.begin(), idx_.end(), size_t{0});
-    std::sort(idx_.begin(), idx_.end(),
-              [&](size_t a, size_t b) { return set.tasks[a].priority > set.tasks[b].priority; });
-    c_.resize(n);
-    t_.resize(n);
-    for (size_t p = 0; p < n; ++p) {
-      const Task& x = set.tasks[idx_[p]];
-      c_[p] = x.wcet + x.actuations * x.overhead;
-      t_[p] = x.period;
+// The textbook response-time test (Joseph and Pandya; the paper's appendix
+// adds C^TEE and the blocking term), written as a reader new to the library
+// would: one vector of the tasks by decreasing priority, and for each task
+// R = C_i^TEE + B_i + sum over hp(i) of ceil(R / T_j) C_j^TEE from
+// R = C_i^TEE until it repeats or exceeds D_i. Plain int64 nanoseconds (the
+// bench's sets cannot overflow). With `response`, every task's R (the first
+// iterate beyond D_i for a miss), the work of the library's analyse();
+// without, it stops at the first miss, the work of Analyzer::schedulable().
+bool textbook_rta(const TaskSet& set, std::vector<Nanos>* response) {
+  struct Row {
+    Nanos c, t, d, checking;  // C^TEE, T, D, N C^o
+    int64_t priority;
+    size_t index;
+  };
+  std::vector<Row> rows;
+  rows.reserve(set.tasks.size());
+  for (size_t i = 0; i < set.tasks.size(); ++i) {
+    const Task& x = set.tasks[i];
+    rows.push_back({x.wcet + x.actuations * x.overhead, x.period, x.deadline,
+                    x.actuations * x.overhead, x.priority, i});
+  }
+  std::sort(rows.begin(), rows.end(),
+            [](const Row& a, const Row& b) { return a.priority > b.priority; });
+  const size_t n = rows.size();
+  if (response != nullptr) response->assign(n, 0);
+  bool ok = true;
+  for (size_t i = 0; i < n; ++i) {
+    Nanos b = 0;  // B_i: the largest N_j C_j^o of a strictly lower priority
+    for (size_t j = i + 1; j < n; ++j) {
+      if (rows[j].priority < rows[i].priority) b = std::max(b, rows[j].checking);
     }
-    block_.assign(n + 1, 0);
-    for (size_t p = n; p-- > 0;) {
-      const Task& x = set.tasks[idx_[p]];
-      block_[p] = std::max(block_[p + 1], x.actuations * x.overhead);
-    }
-    for (size_t p = 0; p < n; ++p) {
-      const Task& x = set.tasks[idx_[p]];
-      size_t end = p + 1;
-      while (end < n && set.tasks[idx_[end]].priority == x.priority) ++end;
-      const Nanos own = c_[p] + block_[end];
-      Nanos r = own;
-      while (true) {
-        if (r > x.deadline) {
-          if (all == nullptr) return false;
-          met = false;
-          break;
-        }
-        Nanos next = own;
-        for (size_t q = 0; q < end; ++q) {
-          if (q != p) next += (r + t_[q] - 1) / t_[q] * c_[q];
-        }
-        if (next == r) break;
-        r = next;
+    Nanos r = rows[i].c;
+    while (true) {
+      Nanos next = rows[i].c + b;
+      // hp(i): every other task of the same or a higher priority.
+      for (size_t j = 0; j < n && rows[j].priority >= rows[i].priority; ++j) {
+        if (j != i) next += (r + rows[j].t - 1) / rows[j].t * rows[j].c;
       }
-      if (all != nullptr) (*all)[idx_[p]] = r;
+      if (next > rows[i].d) {
+        r = next;
+        ok = false;
+        break;
+      }
+      if (next == r) break;
+      r = next;
     }
-    return met;
+    if (response != nullptr) {
+      (*response)[rows[i].index] = r;
+    } else if (!ok) {
+      return false;
+    }
   }
+  return ok;
+}
 
-  std::vector<size_t> idx_;
-  std::vector<Nanos> c_, t_, block_;
-};
+// Thread CPU time: on a shared machine, time the thread spent descheduled
+// is not charged to whichever variant happened to be running.
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
 
-template <typename F>
-double best_seconds(int repeats, F f) {
-  double best = 1e300;
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// Times each variant over the same sets, `repeats` rounds with the variants
+// interleaved in each, and returns each variant's median round.
+std::vector<double> interleaved(int repeats, const std::vector<std::function<void()>>& variants) {
+  std::vector<std::vector<double>> rounds(variants.size());
   for (int k = 0; k < repeats; ++k) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    best = std::min(best,
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    for (size_t v = 0; v < variants.size(); ++v) {
+      const double t0 = cpu_seconds();
+      variants[v]();
+      rounds[v].push_back(cpu_seconds() - t0);
+    }
   }
-  return best;
+  std::vector<double> out;
+  for (auto& r : rounds) out.push_back(median(r));
+  return out;
+}
+
+// The library and the textbook must agree on every verdict and on every
+// schedulable task's R_i (the least fixed point; a miss's iterate depends
+// on where the iteration starts).
+bool same_results(const std::vector<TaskSet>& sets, size_t* feasible) {
+  Analyzer analyzer;
+  std::vector<Nanos> responses;
+  *feasible = 0;
+  for (const TaskSet& s : sets) {
+    const bool verdict = textbook_rta(s, nullptr);
+    const contego::sched::Analysis printed = contego::sched::analyse(s);
+    bool same = textbook_rta(s, &responses) == verdict && printed.schedulable == verdict &&
+                analyzer.schedulable(s) == verdict;
+    for (size_t i = 0; same && i < s.tasks.size(); ++i) {
+      same = printed.tasks[i].schedulable == (responses[i] <= s.tasks[i].deadline) &&
+             (!printed.tasks[i].schedulable || printed.tasks[i].response == responses[i]);
+    }
+    if (!same) return false;
+    *feasible += verdict ? 1 : 0;
+  }
+  return true;
 }
 
 int compare(size_t count) {
   const std::vector<TaskSet> sets = mixed_sets(count);
+  size_t feasible = 0;
+  if (!same_results(sets, &feasible)) {
+    std::fprintf(stderr, "sched_bench: the library and the textbook test disagree on a set\n");
+    return 1;
+  }
+  std::printf(
+      "sched_bench comparison: %zu random sets of 5-50 tasks (%zu schedulable), C^o 50us, DM;\n"
+      "verdicts and every schedulable R_i identical to the textbook test's; thread CPU time,\n"
+      "median of 5 interleaved rounds\n",
+      count, feasible);
+  size_t sink = 0;
+  Analyzer analyzer;
+  contego::sched::Analysis reused;
+  std::vector<Nanos> responses;
+  // The full analysis by set size (the fixed per-set costs weigh most on
+  // small sets), then over all sets.
+  struct Range {
+    size_t lo, hi;
+  };
+  for (const Range range : {Range{5, 10}, Range{11, 25}, Range{26, 50}, Range{5, 50}}) {
+    std::vector<const TaskSet*> part;
+    for (const TaskSet& s : sets) {
+      if (s.tasks.size() >= range.lo && s.tasks.size() <= range.hi) part.push_back(&s);
+    }
+    const std::vector<double> t = interleaved(5, {[&] {
+                                                    for (const TaskSet* s : part)
+                                                      sink += textbook_rta(*s, &responses);
+                                                  },
+                                                  [&] {
+                                                    for (const TaskSet* s : part)
+                                                      sink +=
+                                                          contego::sched::analyse(*s).schedulable;
+                                                  },
+                                                  [&] {
+                                                    for (const TaskSet* s : part) {
+                                                      analyzer.analyse(*s, reused);
+                                                      sink += reused.schedulable;
+                                                    }
+                                                  },
+                                                  [&] {
+                                                    for (const TaskSet* s : part)
+                                                      sink += textbook_rta(*s, nullptr);
+                                                  },
+                                                  [&] {
+                                                    for (const TaskSet* s : part)
+                                                      sink += analyzer.schedulable(*s);
+                                                  }});
+    const double n = static_cast<double>(part.size());
+    std::printf("  %zu-%zu tasks (%zu sets)\n", range.lo, range.hi, part.size());
+    std::printf("    textbook test, every R_i             %9.3f us/set\n", t[0] / n * 1e6);
+    std::printf(
+        "    library analyse() as printed          %9.3f us/set  %.2fx the textbook's speed\n",
+        t[1] / n * 1e6, t[0] / t[1]);
+    std::printf("    library Analyzer, reused result       %9.3f us/set  %.2fx\n", t[2] / n * 1e6,
+                t[0] / t[2]);
+    std::printf("    textbook test, verdict (first miss)   %9.3f us/set\n", t[3] / n * 1e6);
+    std::printf("    library verdict only                  %9.3f us/set  %.2fx\n", t[4] / n * 1e6,
+                t[3] / t[4]);
+  }
+
+  // The batch stream against the library's own parse + analysis (at most
+  // 10,000 sets: parsing JSON costs ten analyses).
+  const size_t streamed = std::min<size_t>(count, 10000);
   std::string stream;
   std::vector<std::string> lines;
-  for (const TaskSet& s : sets) {
-    lines.push_back(contego::sched::to_json_line(s));
+  for (size_t k = 0; k < streamed; ++k) {
+    lines.push_back(contego::sched::to_json_line(sets[k]));
     stream += lines.back();
   }
-  Analyzer analyzer;
-  PlainRta plain;
-  size_t feasible = 0;
-  std::vector<Nanos> responses;
-  for (const TaskSet& s : sets) {
-    const bool a = analyzer.schedulable(s);
-    const contego::sched::Analysis full = analyzer.analyse(s);
-    bool same = a == plain.schedulable(s) && full.schedulable == a &&
-                plain.response_times(s, responses) == a;
-    // Every schedulable task's R_i is the same least fixed point.
-    for (size_t i = 0; same && i < s.tasks.size(); ++i) {
-      same = !full.tasks[i].schedulable || full.tasks[i].response == responses[i];
-    }
-    if (!same) {
-      std::fprintf(stderr, "sched_bench: the library and the plain test disagree on a set\n");
-      return 1;
-    }
-    feasible += a ? 1 : 0;
-  }
-  size_t sink = 0;
-  const double t_plain = best_seconds(5, [&] {
-    for (const TaskSet& s : sets) sink += plain.schedulable(s);
-  });
-  const double t_verdict = best_seconds(5, [&] {
-    for (const TaskSet& s : sets) sink += analyzer.schedulable(s);
-  });
-  const double t_plain_all = best_seconds(5, [&] {
-    for (const TaskSet& s : sets) sink += plain.response_times(s, responses);
-  });
-  // Like the plain test's vector of responses, the analysis is reused.
-  contego::sched::Analysis reused;
-  const double t_analyse = best_seconds(5, [&] {
-    for (const TaskSet& s : sets) {
-      analyzer.analyse(s, reused);
-      sink += reused.schedulable;
-    }
-  });
-  const double t_parse_analyse = best_seconds(3, [&] {
-    for (const std::string& l : lines) {
-      auto s = contego::sched::parse_json(l, "bench");
-      sink += analyzer.analyse(contego::sched::resolve_overheads(*s, std::nullopt, 0)).schedulable;
-    }
-  });
   contego::sched::BatchOptions bo;
   bo.sensitivity = false;
-  const double t_batch = best_seconds(3, [&] {
-    std::istringstream in(stream);
-    std::ostringstream out;
-    sink += contego::sched::run_batch(in, "bench", bo, out, nullptr).sets;
-  });
-  const double t_sens = best_seconds(3, [&] {
-    for (const TaskSet& s : sets) sink += contego::sched::sensitivity(s).tasks.size();
-  });
-  const size_t few = std::max<size_t>(1, count / 10);
-  double t_search = 0, t_analyse_few = 0;
-  t_search = best_seconds(1, [&] {
-    for (size_t k = 0; k < few; ++k)
-      sink += contego::sched::sensitivity_by_search(sets[k]).tasks.size();
-  });
-  t_analyse_few = best_seconds(5, [&] {
-    for (size_t k = 0; k < few; ++k) {
-      analyzer.analyse(sets[k], reused);
-      sink += reused.schedulable;
-    }
-  });
-  const double n = static_cast<double>(count);
-  std::printf(
-      "sched_bench comparison: %zu random sets of 5-50 tasks (%zu schedulable), C^o 50us, DM\n",
-      count, feasible);
-  std::printf("  plain response-time test (this file)  %9.2f us/set\n", t_plain / n * 1e6);
-  std::printf(
-      "  library, verdict only                  %9.2f us/set  %.2fx the plain test's speed, "
-      "identical verdicts\n",
-      t_verdict / n * 1e6, t_plain / t_verdict);
-  std::printf("  plain test, every response time       %9.2f us/set\n", t_plain_all / n * 1e6);
-  std::printf(
-      "  library, full analysis                 %9.2f us/set  %.2fx the plain test's every "
-      "response time, same R_i\n",
-      t_analyse / n * 1e6, t_plain_all / t_analyse);
-  std::printf("  library, JSON parse + analysis         %9.2f us/set\n", t_parse_analyse / n * 1e6);
-  std::printf("  sched --batch stream (no sensitivity)  %9.2f us/set  %.2fx the library's time\n",
-              t_batch / n * 1e6, t_batch / t_parse_analyse);
-  std::printf("  sensitivity                            %9.2f us/set  %.1f analyses\n",
-              t_sens / n * 1e6, t_sens / t_analyse);
-  std::printf("  sensitivity by binary search (%zu sets) %9.2f us/set  %.1f analyses\n\n", few,
-              t_search / static_cast<double>(few) * 1e6, t_search / t_analyse_few);
+  const std::vector<double> tb = interleaved(
+      3, {[&] {
+            for (const std::string& l : lines) {
+              auto s = contego::sched::parse_json(l, "bench");
+              analyzer.analyse(contego::sched::resolve_overheads(*s, std::nullopt, 0), reused);
+              sink += reused.schedulable;
+            }
+          },
+          [&] {
+            std::istringstream in(stream);
+            std::ostringstream out;
+            sink += contego::sched::run_batch(in, "bench", bo, out, nullptr).sets;
+          }});
+  const double n = static_cast<double>(streamed);
+  std::printf("  library, JSON parse + analysis (%zu sets) %9.2f us/set\n", streamed,
+              tb[0] / n * 1e6);
+  std::printf("  sched --batch stream (no sensitivity)   %9.2f us/set  %.2fx the library's time\n",
+              tb[1] / n * 1e6, tb[1] / tb[0]);
+
+  // Sensitivity in units of one analysis of the same sets (at most 5,000),
+  // and the binary search it replaced (a tenth of those, at most 200).
+  const size_t some = std::min<size_t>(count, 5000);
+  const size_t few = std::clamp<size_t>(some / 10, 1, 200);
+  const std::vector<double> ts =
+      interleaved(3, {[&] {
+                        for (size_t k = 0; k < some; ++k) {
+                          analyzer.analyse(sets[k], reused);
+                          sink += reused.schedulable;
+                        }
+                      },
+                      [&] {
+                        for (size_t k = 0; k < some; ++k)
+                          sink += contego::sched::sensitivity(sets[k]).tasks.size();
+                      },
+                      [&] {
+                        for (size_t k = 0; k < few; ++k) {
+                          analyzer.analyse(sets[k], reused);
+                          sink += reused.schedulable;
+                        }
+                      }});
+  const double t_search =
+      interleaved(1, {[&] {
+                    for (size_t k = 0; k < few; ++k)
+                      sink += contego::sched::sensitivity_by_search(sets[k]).tasks.size();
+                  }})[0];
+  std::printf("  sensitivity (%zu sets)                 %9.2f us/set  %.1f analyses\n", some,
+              ts[1] / static_cast<double>(some) * 1e6, ts[1] / ts[0]);
+  std::printf("  sensitivity by binary search (%zu sets)  %9.2f us/set  %.1f analyses\n\n", few,
+              t_search / static_cast<double>(few) * 1e6, t_search / ts[2]);
   benchmark::DoNotOptimize(sink);
   return 0;
 }

@@ -13,7 +13,8 @@
 //
 // Integer nanoseconds, saturating arithmetic: no input can make an iterate
 // wrap around. Host code; an Analyzer reuses its buffers, so it allocates
-// only while growing and is not thread-safe (use one per thread).
+// only while growing and is not thread-safe (use one per thread). The free
+// functions analyse() and is_schedulable() keep one Analyzer per thread.
 #ifndef CONTEGO_SCHED_ANALYSIS_H_
 #define CONTEGO_SCHED_ANALYSIS_H_
 
@@ -79,20 +80,29 @@ class Analyzer {
   bool schedulable(const TaskSet& set);
 
  private:
+  // A task at its priority position. The recurrence of a lower position
+  // reads period, c_tee and covered (the end of the last of this task's
+  // jobs it has counted) and writes covered.
+  struct Slot {
+    Nanos period = 0;
+    Nanos c_tee = 0;
+    Nanos covered = 0;
+    Nanos blocking = 0;
+    Nanos deadline = 0;
+    size_t group_end = 0;  // first position of strictly lower priority
+  };
+  struct Key {
+    int64_t priority = 0;
+    size_t index = 0;  // in the input
+  };
   // Sorts by priority and computes C^TEE, blocking and group bounds.
   void prepare(const TaskSet& set);
-  Response respond(size_t pos);
-  // The interferers of position `pos` (its group's other members included).
-  std::span<const Interferer> higher(size_t pos);
+  // The recurrence of position `pos`; `from_lower_bound` starts it at
+  // C^TEE + B + the sum of its interferers' C^TEE (meets_deadline).
+  Response respond(size_t pos, bool from_lower_bound);
 
-  std::vector<size_t> order_;           // positions by decreasing priority
-  std::vector<Interferer> interferer_;  // by position
-  std::vector<Nanos> blocking_;         // by position
-  std::vector<size_t> group_end_;       // by position: first position of lower priority
-  std::vector<Nanos> deadline_;         // by position
-  std::vector<Interferer> scratch_;
-  std::vector<Nanos> scratch_blocking_;
-  std::vector<Nanos> jobs_, covered_;  // the recurrence's job counts per interferer
+  std::vector<Key> order_;  // by position: decreasing priority, then input order
+  std::vector<Slot> slot_;  // by position
 };
 
 Analysis analyse(const TaskSet& set);

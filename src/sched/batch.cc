@@ -51,6 +51,7 @@ class Batch {
   // One set: `text` is a JSON line or a CSV block starting at `line`.
   void one(size_t line, const std::string& text, bool json) {
     const std::string where = source_ + ":" + std::to_string(line);
+    summary.parsed_bytes += text.size();
     Result<TaskSet> set =
         json ? parse_json(text, where) : parse_csv(text, source_, static_cast<int>(line));
     if (!set) return error(line, set.error());
