@@ -2,7 +2,8 @@
 # The whole test suite: installs dependencies, then builds and tests every
 # mode (debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
 # runs, the real-kernel test bed on amd64, the amd64 Debian package in a
-# booted guest, the arm64 build and test bed). Exits non-zero on any failure.
+# booted guest, the arm64 build and test bed; with CONTEGO_BOOTED_ARM64=1 also
+# the arm64 package in an arm64 booted guest). Exits non-zero on any failure.
 # Usage: tools/test.sh [--quick]   (--quick: the debug build and all its tests only)
 set -euo pipefail
 cd "$(dirname "$0")/.."
