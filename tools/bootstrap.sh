@@ -87,11 +87,16 @@ fi
 # system emulator, Debian's kernel source and kbuild tools to cross-build
 # i2c-stub (which that kernel lacks), mmdebstrap to unpack the guest's arm64
 # user space. The kernel, its headers and that user space are fetched into a
-# cache by tests/vm, not installed.
+# cache by tests/vm, not installed. The arm64 booted guest (tests/vm/booted.sh
+# --arch arm64) has mmdebstrap make and configure a whole arm64 Debian, whose
+# maintainer scripts run here under qemu-user-static through binfmt_misc
+# (binfmt-support registers it where systemd does not; mmdebstrap asks
+# arch-test whether arm64 programs run here).
 if [[ $purpose == --cross-arm64 ]]; then
   packages=(g++-aarch64-linux-gnu gcc-aarch64-linux-gnu qemu-user
     libfmt-dev:arm64 libssl-dev:arm64 libseccomp-dev:arm64 libsystemd-dev:arm64
-    qemu-system-arm linux-source-6.1 linux-kbuild-6.1 mmdebstrap libgtest-dev)
+    qemu-system-arm linux-source-6.1 linux-kbuild-6.1 mmdebstrap libgtest-dev
+    qemu-user-static binfmt-support arch-test cpio)
   if ((!print)) && ! dpkg --print-foreign-architectures | grep -qx arm64; then
     echo "bootstrap: dpkg --add-architecture arm64"
     if [[ $(id -u) -ne 0 ]]; then sudo dpkg --add-architecture arm64; else dpkg --add-architecture arm64; fi

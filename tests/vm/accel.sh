@@ -1,5 +1,9 @@
-# Chooses how QEMU runs an amd64 guest of the test bed; sourced by run.sh and
-# booted.sh. Sets `accel` (QEMU's options) and `accel_name` (KVM or TCG).
+# Chooses how QEMU runs a guest of the test bed; sourced by run.sh and
+# booted.sh. Sets `machine` (QEMU's machine and CPU), `accel` (QEMU's
+# options) and `accel_name` (KVM or TCG).
+#
+# An arm64 guest (accel_arch=arm64) is the paper's Raspberry Pi 3 core,
+# `-M virt -cpu cortex-a53`, under TCG: no KVM for a foreign architecture.
 #
 # KVM only where the guest's own kernel boots under it: a writable /dev/kvm
 # is not enough. Under some hypervisors (nested virtualisation) QEMU's
@@ -9,13 +13,20 @@
 # root file system: it must reach its panic ("VFS: Unable to mount root")
 # within the probe's time. Otherwise TCG, saying why.
 #
-# Needs: $qemu (qemu-system-x86_64), $accel_kernel (the vmlinuz to boot).
+# Needs: $qemu (qemu-system-x86_64), $accel_kernel (the vmlinuz to boot);
+#        $accel_arch (amd64 when unset, or arm64).
 # Env:   CONTEGO_VM_ACCEL=tcg forces TCG (to time the bed as on a machine
 #        without KVM), =kvm skips the probe.
+machine=()
 accel=(-accel tcg)
 accel_name=TCG
 accel_probe() {
   local cpu out
+  if [[ ${accel_arch:-amd64} == arm64 ]]; then
+    machine=(-M virt -cpu cortex-a53)
+    echo "accel: TCG (an arm64 guest: no KVM for a foreign architecture)" >&2
+    return
+  fi
   case "${CONTEGO_VM_ACCEL:-}" in
     tcg)
       echo "accel: TCG (CONTEGO_VM_ACCEL=tcg)" >&2

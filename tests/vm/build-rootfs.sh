@@ -9,16 +9,30 @@
 # uncompressed cpio archive whose /init is systemd: the kernel unpacks it as
 # its root file system, no disk image needed.
 #
-# Cached outside the clone beside the kernel, keyed by the package list and
-# the kernel release: a rerun with the same dependencies does no network I/O
-# and builds nothing. Prints the cpio's path on stdout.
+# Cached outside the clone beside the kernel, keyed by the architecture, the
+# package list and the kernel release: a rerun with the same dependencies
+# does no network I/O and builds nothing. Prints the cpio's path on stdout.
 #
-# Usage: tests/vm/build-rootfs.sh KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]
+# --arch arm64 makes an arm64 Debian on this amd64 host: mmdebstrap runs its
+# maintainer scripts under qemu-user-static, registered with binfmt_misc
+# (tools/bootstrap.sh --cross-arm64; registered here if it is not yet).
+#
+# Usage: tests/vm/build-rootfs.sh [--arch amd64|arm64] KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]
 # Env:   CONTEGO_VM_CACHE   cache root (as fetch-kernel.sh)
 set -euo pipefail
 
 die() { echo "build-rootfs: $*" >&2; exit 1; }
-(($# >= 2)) || die "usage: build-rootfs.sh KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]"
+arch=$(dpkg --print-architecture)
+if [[ ${1:-} == --arch ]]; then
+  arch=$2
+  shift 2
+fi
+case $arch in
+  amd64) console=ttyS0 ;;
+  arm64) console=ttyAMA0 ;;
+  *) die "unknown architecture $arch (amd64 or arm64)" ;;
+esac
+(($# >= 2)) || die "usage: build-rootfs.sh [--arch amd64|arm64] KERNEL_DIR PACKAGE.deb [PACKAGE.deb...]"
 kdir=$1
 shift
 [[ -f $kdir/vmlinuz && -f $kdir/version ]] || die "$kdir is not a fetch-kernel.sh directory"
@@ -42,6 +56,9 @@ deps=$(grep -vxF -f <(echo "$own") <<<"$deps" || true)
 grep -qx dkms <<<"$deps" && deps+=$'\n'"linux-headers-$release"
 mapfile -t pkgs < <(printf '%s\n' "${base[@]}" $deps | sort -u)
 key=$(printf '%s\n' bookworm "$release" "${pkgs[@]}" | sha256sum | cut -c1-16)
+# amd64's key as it was (its caches stay valid); another architecture's apart.
+[[ $arch == "$(dpkg --print-architecture)" ]] ||
+  key=$(printf '%s\n' "$arch" "$key" | sha256sum | cut -c1-16)
 dir=$cache_root/rootfs/$key
 if [[ -f $dir/.complete ]]; then
   echo "$dir/rootfs.cpio"
@@ -52,16 +69,39 @@ command -v mmdebstrap >/dev/null || die "mmdebstrap not found: run bash tools/bo
 command -v cpio >/dev/null || die "cpio not found: run bash tools/bootstrap.sh"
 mode=root
 [[ $(id -u) == 0 ]] || mode=unshare # without root: user namespaces
-echo "build-rootfs: mmdebstrap bookworm (${pkgs[*]}) into $dir" >&2
+if [[ $arch != "$(dpkg --print-architecture)" ]]; then
+  # A foreign architecture's maintainer scripts run under QEMU's user-mode
+  # emulator. binfmt-support registers it at boot; where its service did not
+  # run (a container, a fresh install without a reboot) it is registered now.
+  qarch=aarch64
+  if [[ ! -e /proc/sys/fs/binfmt_misc/qemu-$qarch ]]; then
+    command -v update-binfmts >/dev/null && [[ -e /usr/share/binfmts/qemu-$qarch ]] ||
+      die "qemu-user-static and binfmt-support not installed (bash tools/bootstrap.sh --cross-arm64)"
+    [[ $(id -u) == 0 ]] || die "QEMU's $qarch emulator is not registered with binfmt_misc (as root: update-binfmts --enable qemu-$qarch)"
+    update-binfmts --enable "qemu-$qarch" >&2 ||
+      die "cannot register QEMU's $qarch emulator with binfmt_misc (update-binfmts --enable qemu-$qarch)"
+  fi
+  grep -qx enabled "/proc/sys/fs/binfmt_misc/qemu-$qarch" 2>/dev/null ||
+    die "QEMU's $qarch emulator is registered but disabled in binfmt_misc (update-binfmts --enable qemu-$qarch)"
+fi
+echo "build-rootfs: mmdebstrap bookworm $arch (${pkgs[*]}) into $dir" >&2
 mkdir -p "$dir"
 tmp=$(mktemp -d "$dir/.tmp.XXXXXX")
-trap 'rm -rf "$tmp"' EXIT
+# mmdebstrap mounts /proc, /sys and parts of the host's /dev (a bind mount of
+# /dev/shm) in the tree; a run that fails can leave them there. Unmount what
+# is left, and never let the removal cross into another file system.
+cleanup() {
+  awk -v t="$tmp/" 'index($5, t) == 1 { print $5 }' /proc/self/mountinfo | sort -r |
+    while read -r m; do umount -l "$m" 2>/dev/null || true; done
+  rm -rf --one-file-system "$tmp"
+}
+trap cleanup EXIT
 chmod 755 "$tmp"
 root=$tmp/root
 mkdir "$root"
 # Keep apt's package lists: `apt-get install ./x.deb` resolves the package's
 # dependencies against them (all installed, so nothing is downloaded).
-mmdebstrap --mode=$mode --variant=minbase --skip=cleanup/apt/lists \
+mmdebstrap --mode=$mode --variant=minbase --architectures="$arch" --skip=cleanup/apt/lists \
   --include="$(
     IFS=,
     echo "${pkgs[*]}"
@@ -79,7 +119,7 @@ depmod -b "$root" "$release" 2>/dev/null || chroot "$root" depmod "$release" ||
 ln -sf /lib/systemd/systemd "$root/init"
 : >"$root/etc/fstab"
 # The serial console is the scenario's, not a login prompt's.
-ln -sf /dev/null "$root/etc/systemd/system/serial-getty@ttyS0.service"
+ln -sf /dev/null "$root/etc/systemd/system/serial-getty@$console.service"
 # apt asks before it installs; the scenario answers yes, as a person would.
 echo 'APT::Get::Assume-Yes "true";' >"$root/etc/apt/apt.conf.d/90assume-yes"
 rm -rf "$root/var/cache/apt/archives/"*.deb "$root/usr/share/doc" "$root/usr/share/man" \

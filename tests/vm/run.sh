@@ -146,16 +146,8 @@ CONTEGO_STATIC_CLIENT=$static_client CONTEGO_KMOD=$kmod CONTEGO_PLAIN_STUB=$plai
   fail "cannot build the guest initramfs"
 t_initrd=$(date +%s.%N)
 
-if [[ "$arch" == arm64 ]]; then
-  # The paper's Raspberry Pi 3 core. No KVM for a foreign architecture.
-  machine=(-M virt -cpu cortex-a53)
-  accel=(-accel tcg)
-  accel_name=TCG
-else
-  machine=()
-  accel_kernel=$kdir/vmlinuz
-  . "$here/accel.sh"
-fi
+accel_arch=$arch accel_kernel=$kdir/vmlinuz
+. "$here/accel.sh"
 append="console=$console quiet panic=-1 contego.scenarios=$scenarios contego.accel=$accel_name"
 [[ -z "$gtest_filter" ]] || append+=" contego.gtest_filter=$gtest_filter"
 [[ -z "${CONTEGO_VM_APPEND:-}" ]] || append+=" $CONTEGO_VM_APPEND"
