@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The whole test suite: installs dependencies, then builds and tests every
-# mode (debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
+# mode (the demo, debug, ASan+UBSan, TSan for the monitor and supervisor, fuzz smoke
 # runs, the real-kernel test bed on amd64, the amd64 Debian package in a
 # booted guest, the arm64 build and test bed; with CONTEGO_BOOTED_ARM64=1 also
 # the arm64 package in an arm64 booted guest). Exits non-zero on any failure.
@@ -65,6 +65,14 @@ if ((quick)); then
   report_times
   exit 0
 fi
+
+# The README's first command, as written: its own build (the demo preset),
+# the three case studies and their figures. (Their outcomes are the sim
+# tests' assertions; this proves the command a newcomer types.)
+step "the demo (tools/demo.sh)"
+bash tools/demo.sh --out build/demo-figures
+for fig in fig1 fig4a fig4b; do test -s "build/demo-figures/$fig.svg"; done
+done_with build/demo build/demo-figures
 
 # Every unit, integration and CLI test runs once, in the sanitizer build: a
 # plain debug run of the same tests would find nothing more and cost a build.
