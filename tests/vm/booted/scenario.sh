@@ -476,6 +476,11 @@ set_word 0x41
 if apt-get remove -q contego >/tmp/remove.out 2>&1; then ok "apt-get remove contego"; else bad "apt-get remove contego"; show /tmp/remove.out; fi
 [ "$(word)" = 420 ] && ok "remove stopped the monitor: safe state (LED5 off=420)" || bad "after remove LED5 off=$(word)"
 check "remove: /usr/bin/contego gone" test ! -e /usr/bin/contego
+own=$(stat -c '%U:%G %a' /dev/i2c-0 2>&1)
+case $own in
+  contego:* | *:contego\ *) bad "remove kept /dev/i2c-0 as the monitor's: $own" ;;
+  *) ok "remove gave /dev/i2c-0 back to the system's own rules: $own" ;;
+esac
 check "remove: no contego process left" sh -c '! pgrep -x "contego|contego-monitor"'
 check "remove: conffiles kept (/etc/default/contego)" test -e /etc/default/contego
 if readme "$last"; then ok "README Install block $last (removal) runs as written"; else bad "README Install block $last failed"; fi
