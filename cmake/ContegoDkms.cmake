@@ -9,9 +9,12 @@ foreach(file dkms.conf postinst prerm)
   configure_file(${PROJECT_SOURCE_DIR}/packaging/dkms/${file}.in ${CONTEGO_DKMS_BUILD}/${file} @ONLY)
 endforeach()
 set(CONTEGO_DKMS_DIR src/contego-${PROJECT_VERSION})
-install(FILES ${CONTEGO_DKMS_BUILD}/dkms.conf ${PROJECT_SOURCE_DIR}/kernel/Kbuild
-        ${PROJECT_SOURCE_DIR}/kernel/contego_main.c ${PROJECT_SOURCE_DIR}/kernel/contego_kmod.h
+file(GLOB CONTEGO_KMOD_SOURCES CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/kernel/contego*.c
+     ${PROJECT_SOURCE_DIR}/kernel/contego*.h)
+install(FILES ${CONTEGO_DKMS_BUILD}/dkms.conf ${PROJECT_SOURCE_DIR}/kernel/Kbuild ${CONTEGO_KMOD_SOURCES}
         DESTINATION ${CONTEGO_DKMS_DIR} COMPONENT dkms)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/kernel/include DESTINATION ${CONTEGO_DKMS_DIR}
+        COMPONENT dkms FILES_MATCHING PATTERN "*.h")
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/kernel/shim DESTINATION ${CONTEGO_DKMS_DIR}
         COMPONENT dkms FILES_MATCHING PATTERN "*.h")
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/contego DESTINATION ${CONTEGO_DKMS_DIR}/include

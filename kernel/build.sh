@@ -25,9 +25,10 @@ if ((${#KB_CROSS[@]})); then
 fi
 out=$KB_OUT
 # Kbuild builds in the module's directory: a copy, so the source tree stays clean.
-cp "$here"/Kbuild "$here"/contego_main.c "$here"/contego_kmod.h "$out/kbuild/"
-mkdir -p "$out/kbuild/shim"
+cp "$here"/Kbuild "$here"/contego*.c "$here"/contego*.h "$out/kbuild/"
+mkdir -p "$out/kbuild/shim" "$out/kbuild/include/uapi/linux"
 cp "$here"/shim/*.h "$out/kbuild/shim/"
+cp "$here"/include/uapi/linux/*.h "$out/kbuild/include/uapi/linux/"
 make -s -C "$KB_KDIR" M="$out/kbuild" CONTEGO_SRC="$src" "${KB_CROSS[@]}" modules
 cp "$out/kbuild/contego.ko" "$out/contego.ko"
 echo "kernel/build.sh: $out/contego.ko ($(basename "$KB_KDIR"))" >&2

@@ -59,6 +59,9 @@ if [[ $purpose == test ]]; then
     # contego-dkms (docs/kernel-client.md): CTest kmod.dkms builds the
     # package's module with DKMS's own tool against Debian's headers
     dkms
+    # kernel/lint.sh (CTest kmod.lint): sparse, and checkpatch.pl from
+    # Debian's kernel source (the arm64 test bed builds i2c-stub from it too)
+    sparse linux-source-6.1
   )
 fi
 

@@ -25,6 +25,11 @@ typedef struct contego_checker contego_checker; /* opaque */
 #define CONTEGO_MAX_EMIT_BYTES 256
 #define CONTEGO_MAX_FIELDS 8
 #define CONTEGO_NONE 0xFFFFu
+/* The core's limits (contego/core/limits.h): task and device ids are below
+ * these (a u32 mask each); a sensor sample is at most this long. */
+#define CONTEGO_MAX_TASKS 32
+#define CONTEGO_MAX_DEVICES 32
+#define CONTEGO_MAX_SAMPLE_BYTES 64
 
 enum contego_decision {
   CONTEGO_ALLOW = 0,

@@ -20,6 +20,7 @@
 #include <cstddef>
 #include <cstring>
 #include <fmt/core.h>
+#include <linux/contego_kmod.h>
 #include <sys/ioctl.h>
 #include <sys/signalfd.h>
 
@@ -29,7 +30,6 @@
 #include "cli/policy_load.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
-#include "contego_kmod.h"
 
 namespace contego::cli {
 namespace {

@@ -4,10 +4,10 @@
 #define CONTEGO_CLI_KMOD_AUDIT_H_
 
 #include <cstdint>
+#include <linux/contego_kmod.h>
 #include <string>
 #include <vector>
 
-#include "contego_kmod.h"
 #include "monitor/audit_log.h"
 
 namespace contego::cli {

@@ -27,6 +27,7 @@
 #include <cstring>
 #include <fmt/core.h>
 #include <fmt/format.h>
+#include <linux/contego_kmod.h>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sys/ioctl.h>
@@ -42,7 +43,6 @@
 #include "cli/kmod_load_error.h"
 #include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
-#include "contego_kmod.h"
 #include "image/image_model.h"
 #include "monitor/monitor.h"
 #include "monitor/peer_identity.h"

@@ -4,9 +4,8 @@
 #ifndef CONTEGO_CLI_KMOD_LOAD_ERROR_H_
 #define CONTEGO_CLI_KMOD_LOAD_ERROR_H_
 
+#include <linux/contego_kmod.h>
 #include <string>
-
-#include "contego_kmod.h"
 
 namespace contego::cli {
 

@@ -11,6 +11,10 @@ namespace {
 
 namespace rover = testing::rover;
 
+// The limits core_c.h exports to C hosts (contego.ko sizes its tables by them).
+static_assert(CONTEGO_MAX_TASKS == kMaxTasks && CONTEGO_MAX_DEVICES == kMaxDevices &&
+              CONTEGO_MAX_SAMPLE_BYTES == kMaxSampleBytes);
+
 struct CHost {
   std::vector<uint8_t> sample;
   int audits = 0;

@@ -8,7 +8,7 @@
  * and be answered ENOTTY. No C library: raw system calls by int $0x80.
  * Prints "<step> <result> [value]" per step (scenario 60 compares them with
  * `contego kmod status --json`). */
-#include "contego_kmod.h"
+#include <linux/contego_kmod.h>
 
 #define SYS_EXIT 1
 #define SYS_WRITE 4

@@ -47,7 +47,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "contego_kmod.h"
+#include <linux/contego_kmod.h>
 
 #define BUS "/dev/i2c-0"
 #define ADDR 0x40

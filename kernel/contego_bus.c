@@ -1,0 +1,128 @@
+// SPDX-License-Identifier: GPL-2.0
+/* contego.ko: bus operations: a verdict's writes, and the devices' safe states. */
+#include "contego.h"
+
+/* One write of `len` bytes at `addr`: a plain I2C message when the adapter
+ * has I2C_FUNC_I2C, else the SMBus transaction with the same wire bytes
+ * (src/bus/smbus_plan.h's forms).
+ */
+int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len)
+{
+	u32 funcs = i2c_get_functionality(adap);
+	union i2c_smbus_data data;
+	int ret;
+
+	if (funcs & I2C_FUNC_I2C) {
+		struct i2c_msg m = { .addr = addr, .flags = flags & I2C_M_TEN, .len = len,
+				     .buf = (u8 *)b };
+
+		ret = i2c_transfer(adap, &m, 1);
+		return ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
+	}
+	if (flags & I2C_M_TEN)
+		return -EOPNOTSUPP;
+	flags &= I2C_CLIENT_PEC;
+	switch (len) {
+	case 0:
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, 0, I2C_SMBUS_QUICK, NULL);
+	case 1:
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0], I2C_SMBUS_BYTE, NULL);
+	case 2:
+		data.byte = b[1];
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_BYTE_DATA, &data);
+	case 3:
+		data.word = b[1] | (b[2] << 8);
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_WORD_DATA, &data);
+	default:
+		if (len > 1 + I2C_SMBUS_BLOCK_MAX || !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))
+			return -EOPNOTSUPP;
+		data.block[0] = len - 1;
+		memcpy(&data.block[1], b + 1, len - 1);
+		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
+				      I2C_SMBUS_I2C_BLOCK_DATA, &data);
+	}
+}
+
+/* The writes a verdict allows or substitutes, in order, at the verdict's address. */
+int ct_perform_emits(struct i2c_adapter *adap, const contego_verdict *v, u16 flags)
+{
+	u32 off = 0, i;
+	int ret;
+
+	for (i = 0; i < v->emit_count && i < CONTEGO_MAX_EMITS; i++) {
+		u32 len = v->emit_len[i];
+
+		if (off + len > CONTEGO_MAX_EMIT_BYTES)
+			return -EIO; /* malformed verdict: fail closed */
+		ret = ct_write_bytes(adap, v->addr, flags, v->emit_bytes + off, len);
+		if (ret < 0)
+			return ret;
+		off += len;
+	}
+	return 0;
+}
+
+/* Whether the verdict writes exactly the requested bytes, once. */
+bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr)
+{
+	return v->emit_count == 1 && v->emit_len[0] == len && v->addr == addr &&
+	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
+}
+
+
+/* Device d's declared safe state, written and recorded (best effort: the
+ * record may be lost, then counted in the gap). `s`: the session whose end
+ * drives it (its task and process go into the record), or NULL. Under
+ * ct.lock. 1: written; 0: the write failed; -1: d has no safe state.
+ */
+int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s)
+{
+	struct contego_kmod_record r;
+	struct ct_node *node;
+	struct i2c_adapter *adap;
+	bool done = false;
+
+	lockdep_assert_held(&ct.lock);
+	if (!contego_safe_state(p->checker, d, &ct.safe_verdict))
+		return -1;
+	node = ct_node_for_bus(ct.safe_verdict.bus);
+	adap = node ? i2c_get_adapter(node->nr) : NULL;
+	if (adap) {
+		done = ct_perform_emits(adap, &ct.safe_verdict, 0) == 0;
+		i2c_put_adapter(adap);
+	}
+	if (!done)
+		pr_warn("contego: safe state of device %u failed\n", d);
+	ct_record_start(&r, CONTEGO_KMOD_REC_SAFE_STATE, why != CONTEGO_KMOD_SAFE_UNLOAD &&
+							    why != CONTEGO_KMOD_SAFE_LOAD);
+	r.device = d;
+	r.bus = ct.safe_verdict.bus;
+	r.addr = ct.safe_verdict.addr;
+	r.why = why | (done ? 0 : CONTEGO_KMOD_SAFE_FAILED);
+	r.substitute_len = ct.safe_verdict.emit_bytes_used;
+	memcpy(r.substitute, ct.safe_verdict.emit_bytes,
+	       min_t(u32, ct.safe_verdict.emit_bytes_used, CONTEGO_KMOD_REC_BYTES));
+	if (s)
+		ct_session_record(&r, s);
+	ct_push(&r, true);
+	return done;
+}
+
+bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
+{
+	return ct_drive_safe_state_of(p, d, why, NULL) > 0;
+}
+
+/* Every device's safe state. Under ct.lock. Returns how many were written. */
+u32 ct_drive_safe_states(struct ct_policy *p, u8 why)
+{
+	u32 n = 0;
+	u16 d;
+
+	lockdep_assert_held(&ct.lock);
+	for (d = 0; d < CONTEGO_MAX_DEVICES; d++)
+		n += ct_drive_safe_state(p, d, why);
+	return n;
+}

@@ -1,0 +1,452 @@
+// SPDX-License-Identifier: GPL-2.0
+/* contego.ko: /dev/contego: policy load, load in place, the image in force, the counters. */
+#include "contego.h"
+
+void ct_policy_free(struct ct_policy *p)
+{
+	if (!p)
+		return;
+	kvfree(p->mem);
+	kvfree(p->image);
+	kfree(p);
+}
+
+/*
+ * A register-map device configured before the load (a vendor library's
+ * init, an earlier policy) need not hold its power-on values: the shadow
+ * the core keeps of it is read back from the device, every register its
+ * commands cover, as the monitor does at start. A device that refuses a
+ * read keeps the power-on shadow (a write-only chip). Before the policy is
+ * live, so the safe state and the first checks see what the chip holds.
+ */
+static void ct_seed_shadows(struct ct_policy *p)
+{
+	u32 d, i, n, count = contego_device_count(p->checker);
+	u8 *regs = kmalloc(2 * 256, GFP_KERNEL);
+	u8 *values = regs + 256;
+
+	if (!regs)
+		return;
+	for (d = 0; d < count; d++) {
+		contego_device_info info;
+		union i2c_smbus_data data;
+		struct ct_node *node;
+		struct i2c_adapter *adap;
+		int ret = -ENODEV;
+
+		n = contego_command_registers(p->checker, d, regs);
+		if (n == 0 || !contego_device_info_of(p->checker, d, &info))
+			continue;
+		node = ct_node_for_bus(info.bus);
+		adap = node ? i2c_get_adapter(node->nr) : NULL;
+		for (i = 0; adap && i < n; i++) {
+			ret = i2c_smbus_xfer(adap, info.addr, info.ten_bit ? I2C_CLIENT_TEN : 0,
+					     I2C_SMBUS_READ, regs[i], I2C_SMBUS_BYTE_DATA, &data);
+			if (ret < 0)
+				break;
+			values[i] = data.byte;
+		}
+		if (adap)
+			i2c_put_adapter(adap);
+		if (!adap || i < n) {
+			pr_warn("contego: device %u (bus %u 0x%02x): register 0x%02x cannot be read (%d); its shadow keeps the power-on values\n",
+				d, info.bus, info.addr, i < n ? regs[i] : 0, ret);
+			continue;
+		}
+		for (i = 0; i < n; i++)
+			contego_seed_register(p->checker, d, regs[i], values[i]);
+		pr_info("contego: device %u (bus %u 0x%02x): shadow read back from the device (%u registers)\n",
+			d, info.bus, info.addr, n);
+	}
+	kfree(regs);
+}
+
+/* The header CRC-32 of a policy's image (bytes 12..15): what names it in
+ * the audit ring's LOAD records and what a load in place is paired against.
+ */
+static u32 ct_image_crc(const struct ct_policy *p)
+{
+	__le32 crc;
+
+	memcpy(&crc, p->image + 12, sizeof(crc));
+	return le32_to_cpu(crc);
+}
+
+/* A load in place (CONTEGO_KMOD_RELOAD): the caller's pairs, copied in. */
+struct ct_carry {
+	u32 running_crc;
+	u32 counts[5]; /* tasks, devices, commands, rates, invariants */
+	u16 *pairs;
+	u32 staged_dropped;
+};
+
+/* The new policy `p` takes over `old`'s run-time state for the paired
+ * records: the core's model (contego_carry_from checks every pair), the
+ * module's own per task (the job grid's phase, the budget's job and use)
+ * and per device (the newest sensor sample), and the live sessions, so that
+ * a program's end after the reload still drives its actuators to their
+ * safe state. A task with live sessions must be paired (as the monitor's
+ * reload requires): else -EBUSY.
+ */
+static int ct_carry_locked(struct ct_policy *p, const struct ct_policy *old, struct ct_carry *c)
+{
+	contego_carry_map map;
+	struct ct_session *s;
+	u32 t, d;
+
+	lockdep_assert_held(&ct.lock);
+	if (!old || ct_image_crc(old) != c->running_crc) {
+		pr_warn("contego: load in place refused: the image in force (CRC %08x) is not the one the pairs were made against (%08x); the policy in force stays\n",
+			old ? ct_image_crc(old) : 0, c->running_crc);
+		return -ESTALE;
+	}
+	map.tasks = c->pairs;
+	map.devices = map.tasks + c->counts[0];
+	map.commands = map.devices + c->counts[1];
+	map.rates = map.commands + c->counts[2];
+	map.invariants = map.rates + c->counts[3];
+	list_for_each_entry(s, &ct.sessions, node) {
+		if (s->gen != old->gen)
+			continue;
+		for (t = 0; t < c->counts[0] && map.tasks[t] != s->task; t++)
+			;
+		if (t == c->counts[0] || t != s->task) {
+			pr_warn("contego: load in place refused: task %u has a live session (pid %u) and the new policy does not keep it under its name and id; the policy in force stays\n",
+				s->task, s->pid);
+			return -EBUSY;
+		}
+	}
+	if (!contego_carry_from(p->checker, old->checker, &map, &c->staged_dropped)) {
+		pr_warn("contego: load in place refused: the core found a pair that disagrees (another bus, address, profile, task or an id out of range); the policy in force stays\n");
+		return -EINVAL;
+	}
+	/* The core checked every id against the old image's tables. */
+	for (t = 0; t < c->counts[0] && t < CONTEGO_KMOD_MAX_TASKS; t++) {
+		u16 o = map.tasks[t];
+
+		if (o >= CONTEGO_KMOD_MAX_TASKS)
+			continue;
+		if (old->phase_set & BIT(o)) {
+			p->phase_us[t] = old->phase_us[o];
+			p->phase_set |= BIT(t);
+		}
+		p->budget_job[t] = old->budget_job[o];
+		p->budget_used[t] = old->budget_used[o];
+	}
+	for (d = 0; d < c->counts[1] && d < ARRAY_SIZE(p->samples); d++)
+		if (map.devices[d] < ARRAY_SIZE(old->samples))
+			p->samples[d] = old->samples[map.devices[d]];
+	list_for_each_entry(s, &ct.sessions, node)
+		if (s->gen == old->gen)
+			s->gen = p->gen; /* the same task id: checked above */
+	return 0;
+}
+
+static long ct_load(unsigned long arg, struct ct_carry *carry)
+{
+	struct contego_kmod_load req;
+	struct ct_policy *p, *old;
+	contego_load_result r;
+	size_t size = contego_checker_size();
+	long ret = 0;
+	u32 i;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	if (req.version != CONTEGO_KMOD_LOAD_VERSION) {
+		pr_warn("contego: CONTEGO_KMOD_LOAD version %u refused: this module takes version %u (use the contego built with it)\n",
+			req.version, CONTEGO_KMOD_LOAD_VERSION);
+		req.version = CONTEGO_KMOD_LOAD_VERSION;
+		if (copy_to_user((void __user *)arg, &req.version, sizeof(req.version)))
+			return -EFAULT;
+		return -EPROTO;
+	}
+	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS ||
+	    req.ntasks > CONTEGO_KMOD_MAX_TASKS)
+		return -EINVAL;
+	for (i = 0; i < req.ntasks; i++)
+		if (req.sessions[i] < 1 || req.sessions[i] > CONTEGO_KMOD_MAX_TASK_SESSIONS)
+			return -EINVAL;
+	p = kzalloc(sizeof(*p), GFP_KERNEL);
+	if (!p)
+		return -ENOMEM;
+	for (i = 0; i < CONTEGO_KMOD_MAX_TASKS; i++) {
+		/* A task the request does not cover: the monitor's default, one session. */
+		p->sessions[i] = i < req.ntasks ? req.sessions[i] : 1;
+		p->actuations[i] = i < req.ntasks ? req.actuations[i] : 0;
+		p->ignore_errno[i] = i < req.ntasks ? req.ignore_errno[i] : 0;
+	}
+	p->budget_factor = req.budget_factor;
+	p->complain = req.complain;
+	p->mem = kvzalloc(size + contego_checker_align(), GFP_KERNEL);
+	p->image = kvmalloc(req.size, GFP_KERNEL);
+	if (!p->mem || !p->image) {
+		ret = -ENOMEM;
+		goto fail;
+	}
+	if (copy_from_user(p->image, u64_to_user_ptr(req.image), req.size) ||
+	    copy_from_user(p->binds, u64_to_user_ptr(req.binds), req.nbinds * sizeof(p->binds[0]))) {
+		ret = -EFAULT;
+		goto fail;
+	}
+	p->nbinds = req.nbinds;
+	p->size = req.size;
+	for (i = 0; i < p->nbinds; i++) {
+		struct contego_kmod_bind *b = &p->binds[i];
+
+		/* Strings terminated here, whatever the caller sent. */
+		b->cgroup[sizeof(b->cgroup) - 1] = '\0';
+		b->unit[sizeof(b->unit) - 1] = '\0';
+		if ((b->cgroup[0] && b->cgroup[0] != '/') || (b->flags & ~CONTEGO_KMOD_BIND_EXE)) {
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
+	/* kvzalloc is page- or slab-aligned: enough for the checker (checked). */
+	p->checker = contego_checker_init(p->mem, size);
+	if (!p->checker) {
+		ret = -EINVAL;
+		goto fail;
+	}
+	/* The core's verifier, on our copy, before anything uses it. */
+	r = contego_load(p->checker, p->image, req.size);
+	req.status = r.status;
+	req.section = r.section;
+	req.index = r.index;
+	if (r.status != 0) {
+		struct contego_kmod_record rec;
+
+		mutex_lock(&ct.lock);
+		ct.stats.refused_loads++;
+		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD_REFUSED, true);
+		rec.reason = r.status;
+		rec.count = req.size;
+		ct_push(&rec, false);
+		mutex_unlock(&ct.lock);
+		pr_warn("contego: image refused by the verifier: %s (section %u, index %u); the previous policy stays\n",
+			contego_load_status_name(r.status), r.section, r.index);
+		ret = -EINVAL;
+		goto fail;
+	}
+	/* The per-task limits must be the image's tasks' (each has a period). */
+	for (i = 0; i < CONTEGO_KMOD_MAX_TASKS && contego_task_period_us(p->checker, i); i++)
+		;
+	if (i != req.ntasks) {
+		pr_warn("contego: the load's per-task limits cover %u tasks, the image has %u: refused\n",
+			req.ntasks, i);
+		ret = -EINVAL;
+		goto fail;
+	}
+	/* A binding must name a task of the image: one that does not would
+	 * bind its processes to nothing the policy decides about.
+	 */
+	for (i = 0; i < p->nbinds; i++) {
+		if (p->binds[i].task >= req.ntasks) {
+			pr_warn("contego: binding %u names task %u, the image has %u tasks: refused\n",
+				i, p->binds[i].task, req.ntasks);
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
+	{
+		/* The host, copied by the facade: samples for p, records to the ring. */
+		const contego_host host = { .context = p, .read_sample = ct_read_sample,
+					    .audit = ct_audit };
+
+		contego_set_host(p->checker, &host);
+	}
+	if (carry) {
+		contego_record_counts n;
+
+		contego_record_counts_of(p->checker, &n);
+		if (n.tasks != carry->counts[0] || n.devices != carry->counts[1] ||
+		    n.commands != carry->counts[2] || n.rates != carry->counts[3] ||
+		    n.invariants != carry->counts[4]) {
+			pr_warn("contego: load in place refused: its pairs do not cover the new image's records; the policy in force stays\n");
+			ret = -EINVAL;
+			goto fail;
+		}
+	}
+	ct_seed_shadows(p);
+	if (mutex_lock_killable(&ct.lock)) {
+		ret = -EINTR;
+		goto fail;
+	}
+	old = ct.policy;
+	p->gen = ++ct.gen;
+	if (carry) {
+		ret = ct_carry_locked(p, old, carry);
+		if (ret) {
+			mutex_unlock(&ct.lock);
+			goto fail;
+		}
+	}
+	ct.policy = p;
+	ct.stats.loads++;
+	ct.stats.loaded = 1;
+	{
+		struct contego_kmod_record rec;
+
+		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
+		rec.count = req.size;
+		/* Which image: its header's CRC-32, so that a reader names the
+		 * records that follow from this image alone; in place, the one
+		 * it replaced too.
+		 */
+		rec.fields[0] = (s32)ct_image_crc(p);
+		rec.field_count = 1;
+		if (carry) {
+			rec.fields[1] = (s32)ct_image_crc(old);
+			rec.field_count = 2;
+		}
+		ct_push(&rec, true);
+	}
+	/* In place, the actuators keep what the running policy let them do. */
+	req.devices = carry ? 0 : ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
+	mutex_unlock(&ct.lock);
+	ct_policy_free(old);
+	if (carry)
+		pr_info("contego: policy loaded in place (%u bytes, %u bindings, state carried over, %u staged writes dropped, no safe state driven, budget factor %u)\n",
+			req.size, req.nbinds, carry->staged_dropped, req.budget_factor);
+	else
+		pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)\n",
+			req.size, req.nbinds, req.devices, req.budget_factor);
+	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return 0;
+fail:
+	ct_policy_free(p);
+	if (req.status != 0 && copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return ret;
+}
+
+/* CONTEGO_KMOD_RELOAD: the pairs copied in, then a load that carries. */
+static long ct_reload(unsigned long arg)
+{
+	struct contego_kmod_reload req;
+	struct ct_carry carry;
+	size_t n = 0;
+	long ret;
+	int i;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	for (i = 0; i < 5; i++) {
+		if (req.counts[i] > CONTEGO_KMOD_MAX_IMAGE / 8)
+			return -EINVAL;
+		n += req.counts[i];
+	}
+	carry.running_crc = req.running_crc;
+	memcpy(carry.counts, req.counts, sizeof(carry.counts));
+	carry.staged_dropped = 0;
+	carry.pairs = kvmalloc_array(n ? n : 1, sizeof(u16), GFP_KERNEL);
+	if (!carry.pairs)
+		return -ENOMEM;
+	if (copy_from_user(carry.pairs, u64_to_user_ptr(req.pairs), n * sizeof(u16))) {
+		kvfree(carry.pairs);
+		return -EFAULT;
+	}
+	ret = ct_load(arg, &carry); /* the load request is the first member */
+	kvfree(carry.pairs);
+	if (ret == 0 &&
+	    copy_to_user((void __user *)arg + offsetof(struct contego_kmod_reload, staged_dropped),
+			 &carry.staged_dropped, sizeof(carry.staged_dropped)))
+		return -EFAULT;
+	return ret;
+}
+
+/* CONTEGO_KMOD_IMAGE: the image in force, copied out of the lock. */
+static long ct_image(unsigned long arg)
+{
+	struct contego_kmod_image req;
+	u8 *copy = NULL;
+	long ret = 0;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	if (req.size) {
+		copy = kvmalloc(min_t(u32, req.size, CONTEGO_KMOD_MAX_IMAGE), GFP_KERNEL);
+		if (!copy)
+			return -ENOMEM;
+	}
+	if (mutex_lock_killable(&ct.lock)) {
+		kvfree(copy);
+		return -EINTR;
+	}
+	if (!ct.policy) {
+		ret = -ENOENT;
+	} else {
+		if (ct.policy->size > req.size)
+			ret = -ENOSPC;
+		else
+			memcpy(copy, ct.policy->image, ct.policy->size);
+		req.size = ct.policy->size;
+		req.crc = ct_image_crc(ct.policy);
+	}
+	mutex_unlock(&ct.lock);
+	if (ret == 0 && copy_to_user(u64_to_user_ptr(req.buf), copy, req.size))
+		ret = -EFAULT;
+	kvfree(copy);
+	if (ret != -ENOENT && copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return ret;
+}
+
+static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
+{
+	struct contego_kmod_stats s;
+	unsigned int size = _IOC_SIZE(cmd);
+
+	if (!capable(CAP_SYS_ADMIN))
+		return -EPERM;
+	if (_IOC_TYPE(cmd) != CONTEGO_KMOD_IOC_MAGIC)
+		return -ENOTTY;
+	switch (_IOC_NR(cmd)) {
+	case _IOC_NR(CONTEGO_KMOD_LOAD):
+		if (cmd != CONTEGO_KMOD_LOAD) {
+			/* Another contego's request (its size is in the number). */
+			pr_warn("contego: CONTEGO_KMOD_LOAD of %u bytes refused: this module takes version %u, %zu bytes (use the contego built with it)\n",
+				size, CONTEGO_KMOD_LOAD_VERSION, sizeof(struct contego_kmod_load));
+			return -EPROTO;
+		}
+		return ct_load(arg, NULL);
+	case _IOC_NR(CONTEGO_KMOD_RELOAD):
+		return cmd == CONTEGO_KMOD_RELOAD ? ct_reload(arg) : -EPROTO;
+	case _IOC_NR(CONTEGO_KMOD_IMAGE):
+		return cmd == CONTEGO_KMOD_IMAGE ? ct_image(arg) : -ENOTTY;
+	case _IOC_NR(CONTEGO_KMOD_STATS):
+		/* An older contego asks for fewer counters: the ones it knows. */
+		if (_IOC_DIR(cmd) != _IOC_READ || size > sizeof(s) ||
+		    size < offsetofend(struct contego_kmod_stats, reader))
+			return -ENOTTY;
+		if (mutex_lock_killable(&ct.lock))
+			return -EINTR;
+		spin_lock_irq(&ct.ring.lock);
+		s = ct.stats;
+		s.reader = ct.ring.reader;
+		spin_unlock_irq(&ct.ring.lock);
+		mutex_unlock(&ct.lock);
+		return copy_to_user((void __user *)arg, &s, size) ? -EFAULT : 0;
+	default:
+		return -ENOTTY;
+	}
+}
+
+/* The control and audit requests are laid out alike for 32-bit callers
+ * (every __u64 at a multiple of 8, every size a multiple of 8; checked by
+ * the test bed's i386 kmod_ctl32): only the argument pointer needs
+ * converting, which compat_ptr_ioctl does.
+ */
+static const struct file_operations ct_ctl_fops = {
+	.owner = THIS_MODULE,
+	.unlocked_ioctl = ct_ctl_ioctl,
+	.compat_ioctl = compat_ptr_ioctl,
+};
+
+struct miscdevice ct_ctl = {
+	.minor = MISC_DYNAMIC_MINOR,
+	.name = "contego",
+	.fops = &ct_ctl_fops,
+	.mode = 0600,
+};

@@ -1,0 +1,360 @@
+// SPDX-License-Identifier: GPL-2.0
+/* contego.ko: I2C_RDWR and I2C_SMBUS: a call's messages as the core's transactions, decided, then sent. */
+#include "contego.h"
+
+/* ---- I2C_RDWR ------------------------------------------------------------ */
+
+/* The gate's normalisation (src/gate/transfer.cc, to_transactions): a
+ * one-byte write followed by a read of the same address is that read's
+ * register pointer (except at the general-call address 0).
+ */
+static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
+{
+	u32 i, t = 0;
+
+	lockdep_assert_held(&ct.lock);
+	for (i = 0; i < n; i++, t++) {
+		struct ct_tx *tx = &ct.txs[t];
+
+		*tx = (struct ct_tx){ .addr = m[i].addr, .ten = !!(m[i].flags & I2C_M_TEN),
+				      .first_msg = i, .msg_count = 1 };
+		if (m[i].flags & I2C_M_RD) {
+			tx->kind = CONTEGO_TX_READ;
+		} else if (m[i].len == 1 && i + 1 < n && (m[i + 1].flags & I2C_M_RD) &&
+			   m[i + 1].addr == m[i].addr &&
+			   (m[i + 1].flags & I2C_M_TEN) == (m[i].flags & I2C_M_TEN) && m[i].addr != 0) {
+			tx->kind = CONTEGO_TX_READ;
+			tx->bytes = m[i].buf;
+			tx->len = 1;
+			tx->msg_count = 2;
+			i++;
+		} else {
+			tx->kind = CONTEGO_TX_WRITE;
+			tx->bytes = m[i].buf;
+			tx->len = m[i].len;
+		}
+	}
+	return t;
+}
+
+/*
+ * A read of an I2C_RDWR call on an SMBus-only adapter (i2c-stub, many SoC
+ * controllers), as the monitor sends it (src/bus/smbus_plan.h): a one-byte
+ * register pointer and a read become read byte data (1 byte), read word data
+ * (2) or an I2C block read (up to 32); a lone one-byte read is receive byte.
+ * `check_only`: whether the adapter has the form, nothing sent. 0 or -errno.
+ */
+static int ct_smbus_read(struct i2c_adapter *adap, struct i2c_msg *m, const struct ct_tx *tx,
+			 bool check_only)
+{
+	u32 funcs = i2c_get_functionality(adap);
+	struct i2c_msg *rd = &m[tx->first_msg + tx->msg_count - 1];
+	union i2c_smbus_data data;
+	int size, r;
+
+	if (rd->flags & I2C_M_TEN)
+		return -EOPNOTSUPP;
+	if (tx->msg_count == 1)
+		size = rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE) ? I2C_SMBUS_BYTE : -1;
+	else if (rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE_DATA))
+		size = I2C_SMBUS_BYTE_DATA;
+	else if (rd->len == 2 && (funcs & I2C_FUNC_SMBUS_READ_WORD_DATA))
+		size = I2C_SMBUS_WORD_DATA;
+	else if (rd->len >= 1 && rd->len <= I2C_SMBUS_BLOCK_MAX &&
+		 (funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK))
+		size = I2C_SMBUS_I2C_BLOCK_DATA;
+	else
+		size = -1;
+	if (size < 0)
+		return -EOPNOTSUPP;
+	if (check_only)
+		return 0;
+	data.block[0] = rd->len;
+	r = i2c_smbus_xfer(adap, rd->addr, 0, I2C_SMBUS_READ,
+			   tx->msg_count == 2 ? tx->bytes[0] : 0, size, &data);
+	if (r < 0)
+		return r;
+	if (size == I2C_SMBUS_WORD_DATA) {
+		rd->buf[0] = data.word & 0xff;
+		rd->buf[1] = data.word >> 8;
+	} else if (size == I2C_SMBUS_I2C_BLOCK_DATA) {
+		memcpy(rd->buf, &data.block[1], rd->len);
+	} else {
+		rd->buf[0] = data.byte;
+	}
+	return 0;
+}
+
+/* The call's reads and writes all have a form on this adapter. */
+static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
+{
+	u32 funcs = i2c_get_functionality(adap), i;
+
+	lockdep_assert_held(&ct.lock);
+	if (funcs & I2C_FUNC_I2C)
+		return true;
+	for (i = 0; i < ntx; i++) {
+		const struct ct_tx *tx = &ct.txs[i];
+
+		if (tx->kind == CONTEGO_TX_READ) {
+			if (ct_smbus_read(adap, m, tx, true) < 0)
+				return false;
+		} else if (tx->ten || tx->len > 1 + I2C_SMBUS_BLOCK_MAX ||
+			   (tx->len > 3 && !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))) {
+			return false;
+		}
+	}
+	return true;
+}
+
+static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
+			  u8 __user **user_bufs)
+{
+	u32 ntx, decider, i;
+	u8 action;
+	u16 task;
+	long ret = 0;
+	int r;
+
+	if (mutex_lock_killable(&ct.lock))
+		return -EINTR;
+	ntx = ct_plan_msgs(msgs, nmsgs);
+	if (!ct_expressible(cf->adap, msgs, ntx)) {
+		/* No form on this adapter: refused before the core decides, as
+		 * i2c_transfer refuses it on an SMBus-only adapter.
+		 */
+		mutex_unlock(&ct.lock);
+		return -EOPNOTSUPP;
+	}
+	r = ct_enter(ct_call_writes(ntx), &task);
+	if (r < 0) {
+		mutex_unlock(&ct.lock);
+		return r;
+	}
+	if (r > 0) /* held: ct.txs served other calls meanwhile */
+		ntx = ct_plan_msgs(msgs, nmsgs);
+	action = ct_decide(cf, task, ntx, &decider);
+	if (action == CT_REFUSE) {
+		ret = ct_refusal(decider);
+	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
+		/* In message order, only what the core allowed or substituted. */
+		for (i = 0; i < ntx && ret == 0; i++) {
+			struct ct_tx *tx = &ct.txs[i];
+
+			if (tx->kind == CONTEGO_TX_WRITE) {
+				ret = ct_perform_emits(cf->adap, &ct.verdicts[i],
+						       tx->ten ? I2C_M_TEN : 0);
+			} else if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C)) {
+				ret = ct_smbus_read(cf->adap, msgs, tx, false);
+			} else {
+				r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
+				ret = r == tx->msg_count ? 0 : (r < 0 ? r : -EIO);
+			}
+		}
+	} else {
+		for (i = 0; i < nmsgs; i++) /* ignored: reads read zeros */
+			if (msgs[i].flags & I2C_M_RD)
+				memset(msgs[i].buf, 0, msgs[i].len);
+	}
+	mutex_unlock(&ct.lock);
+	if (ret < 0)
+		return ret;
+	for (i = 0; i < nmsgs; i++) {
+		if ((msgs[i].flags & I2C_M_RD) &&
+		    copy_to_user(user_bufs[i], msgs[i].buf, msgs[i].len))
+			return -EFAULT;
+	}
+	return nmsgs;
+}
+
+/* I2C_RDWR on messages copied in (their buffers still the caller's): the
+ * native and the compat call both end here, as in i2c-dev. The caller frees
+ * msgs.
+ */
+long ct_rdwr_msgs(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs)
+{
+	u8 __user **user_bufs;
+	long ret;
+	u32 i;
+
+	user_bufs = kcalloc(nmsgs, sizeof(*user_bufs), GFP_KERNEL);
+	if (!user_bufs)
+		return -ENOMEM;
+	ret = 0;
+	for (i = 0; i < nmsgs; i++) {
+		user_bufs[i] = (u8 __user *)msgs[i].buf;
+		/* The shared allow-list (contego/i2c_msg_flags.h): a protocol-
+		 * mangling flag would let a checked read act as a write.
+		 */
+		if (msgs[i].len > CT_MAX_LEN || contego_i2c_refused_flags(msgs[i].flags)) {
+			ret = -EINVAL;
+			break;
+		}
+		/* The one copy everything below checks and sends. */
+		msgs[i].buf = memdup_user(user_bufs[i], msgs[i].len);
+		if (IS_ERR(msgs[i].buf)) {
+			ret = PTR_ERR(msgs[i].buf);
+			break;
+		}
+		if ((msgs[i].flags & I2C_M_RECV_LEN) &&
+		    (!(msgs[i].flags & I2C_M_RD) || msgs[i].len < 1 || msgs[i].buf[0] < 1 ||
+		     msgs[i].len < msgs[i].buf[0] + I2C_SMBUS_BLOCK_MAX)) {
+			i++;
+			ret = -EINVAL;
+			break;
+		}
+		if (msgs[i].flags & I2C_M_RECV_LEN)
+			msgs[i].len = msgs[i].buf[0];
+	}
+	if (ret == 0)
+		ret = ct_ioctl_rdwr(cf, msgs, nmsgs, user_bufs);
+	while (i-- > 0)
+		if (!IS_ERR_OR_NULL(msgs[i].buf))
+			kfree(msgs[i].buf);
+	kfree(user_bufs);
+	return ret;
+}
+
+long ct_rdwr(struct ct_file *cf, unsigned long arg)
+{
+	struct i2c_rdwr_ioctl_data rd;
+	struct i2c_msg *msgs;
+	long ret;
+
+	if (copy_from_user(&rd, (void __user *)arg, sizeof(rd)))
+		return -EFAULT;
+	if (!rd.msgs || rd.nmsgs == 0 || rd.nmsgs > CT_MAX_MSGS)
+		return -EINVAL;
+	msgs = memdup_user(rd.msgs, rd.nmsgs * sizeof(*msgs));
+	if (IS_ERR(msgs))
+		return PTR_ERR(msgs);
+	ret = ct_rdwr_msgs(cf, msgs, rd.nmsgs);
+	kfree(msgs);
+	return ret;
+}
+
+/* ---- I2C_SMBUS ----------------------------------------------------------- */
+
+/* I2C_SMBUS with its arguments copied in (native or compat). */
+long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
+{
+	union i2c_smbus_data data;
+	u8 wire[2 + I2C_SMBUS_BLOCK_MAX + 1]; /* command, count, data: the write's bytes */
+	u8 pointer;
+	u32 datasize = 0, n, decider;
+	bool read, proc;
+	u8 action;
+	u16 task;
+	long ret;
+
+	if (a.size != I2C_SMBUS_BYTE && a.size != I2C_SMBUS_QUICK && a.size != I2C_SMBUS_BYTE_DATA &&
+	    a.size != I2C_SMBUS_WORD_DATA && a.size != I2C_SMBUS_PROC_CALL &&
+	    a.size != I2C_SMBUS_BLOCK_DATA && a.size != I2C_SMBUS_I2C_BLOCK_BROKEN &&
+	    a.size != I2C_SMBUS_I2C_BLOCK_DATA && a.size != I2C_SMBUS_BLOCK_PROC_CALL)
+		return -EINVAL;
+	if (a.read_write != I2C_SMBUS_READ && a.read_write != I2C_SMBUS_WRITE)
+		return -EINVAL;
+	memset(&data, 0, sizeof(data));
+	if (!(a.size == I2C_SMBUS_QUICK || (a.size == I2C_SMBUS_BYTE && a.read_write == I2C_SMBUS_WRITE))) {
+		if (!a.data)
+			return -EINVAL;
+		if (a.size == I2C_SMBUS_BYTE_DATA || a.size == I2C_SMBUS_BYTE)
+			datasize = sizeof(data.byte);
+		else if (a.size == I2C_SMBUS_WORD_DATA || a.size == I2C_SMBUS_PROC_CALL)
+			datasize = sizeof(data.word);
+		else
+			datasize = sizeof(data.block);
+		if ((a.size == I2C_SMBUS_PROC_CALL || a.size == I2C_SMBUS_BLOCK_PROC_CALL ||
+		     a.size == I2C_SMBUS_I2C_BLOCK_DATA || a.read_write == I2C_SMBUS_WRITE) &&
+		    copy_from_user(&data, a.data, datasize))
+			return -EFAULT;
+		if (a.size == I2C_SMBUS_I2C_BLOCK_BROKEN) {
+			a.size = I2C_SMBUS_I2C_BLOCK_DATA;
+			if (a.read_write == I2C_SMBUS_READ)
+				data.block[0] = I2C_SMBUS_BLOCK_MAX;
+		}
+	}
+	proc = a.size == I2C_SMBUS_PROC_CALL || a.size == I2C_SMBUS_BLOCK_PROC_CALL;
+	read = a.read_write == I2C_SMBUS_READ && !proc;
+
+	if ((a.size == I2C_SMBUS_BLOCK_DATA || a.size == I2C_SMBUS_BLOCK_PROC_CALL ||
+	     a.size == I2C_SMBUS_I2C_BLOCK_DATA) && !read &&
+	    (data.block[0] < 1 || data.block[0] > I2C_SMBUS_BLOCK_MAX))
+		return -EINVAL;
+
+	if (mutex_lock_killable(&ct.lock))
+		return -EINTR;
+	/* Held before ct.txs is made: an SMBus call writes unless it is a
+	 * quick command or a read (a process call writes).
+	 */
+	ret = ct_enter(a.size != I2C_SMBUS_QUICK && !read, &task);
+	if (ret < 0) {
+		mutex_unlock(&ct.lock);
+		return ret;
+	}
+	/* ct.txs is shared scratch, used under ct.lock only. The transactions
+	 * this call puts on the wire (smbus_plan.h's table, backwards):
+	 */
+	n = 0;
+	pointer = a.command;
+	if (a.size == I2C_SMBUS_QUICK) {
+		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr };
+	} else if (read) {
+		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
+					     .len = a.size == I2C_SMBUS_BYTE ? 0 : 1,
+					     .bytes = &pointer };
+	} else {
+		u32 len = 1;
+
+		wire[0] = a.command;
+		switch (a.size) {
+		case I2C_SMBUS_BYTE:
+			break;
+		case I2C_SMBUS_BYTE_DATA:
+			wire[len++] = data.byte;
+			break;
+		case I2C_SMBUS_WORD_DATA:
+		case I2C_SMBUS_PROC_CALL:
+			wire[len++] = data.word & 0xff;
+			wire[len++] = data.word >> 8;
+			break;
+		case I2C_SMBUS_BLOCK_DATA:
+		case I2C_SMBUS_BLOCK_PROC_CALL:
+			memcpy(&wire[len], data.block, 1 + data.block[0]);
+			len += 1 + data.block[0];
+			break;
+		case I2C_SMBUS_I2C_BLOCK_DATA:
+			memcpy(&wire[len], &data.block[1], data.block[0]);
+			len += data.block[0];
+			break;
+		}
+		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
+					     .len = len, .bytes = wire };
+		if (proc) /* then a read without pointer (the write is longer than one byte) */
+			ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
+	}
+
+	action = ct_decide(cf, task, n, &decider);
+	if (action == CT_REFUSE) {
+		ret = ct_refusal(decider);
+	} else if (action == CT_IGNORE || action == CT_SAFE_STATE) {
+		ret = 0;
+		memset(&data, 0, sizeof(data));
+	} else if (a.size == I2C_SMBUS_QUICK || read ||
+		   ct_emits_are(&ct.verdicts[0], wire, ct.txs[0].len, cf->addr)) {
+		/* Exactly what was asked: the call itself, from our copy. */
+		ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags, a.read_write, a.command,
+				     a.size, (a.size == I2C_SMBUS_QUICK ||
+					      (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
+	} else if (proc) {
+		ret = -EOPNOTSUPP; /* a substituted process call has no SMBus form */
+	} else {
+		ret = ct_perform_emits(cf->adap, &ct.verdicts[0], cf->flags);
+	}
+	mutex_unlock(&ct.lock);
+	if (ret < 0)
+		return ret;
+	if ((read || proc) && datasize && copy_to_user(a.data, &data, datasize))
+		return -EFAULT;
+	return 0;
+}
