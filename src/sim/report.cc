@@ -36,6 +36,10 @@ std::string hex(const std::vector<uint8_t>& bytes) {
 std::string quote(const std::string& s) {
   std::string q = "\"";
   for (char c : s) {
+    if (c == '\n') {  // a line break, as gnuplot reads it
+      q += "\\n";
+      continue;
+    }
     if (c == '"' || c == '\\') q += '\\';
     q += c;
   }
@@ -83,6 +87,7 @@ std::string shade_windows(const Scenario& sc, double scale) {
 struct XAxis {
   double unit_s;
   std::string label;
+  std::string note = {};  // a second line under the last panel's x label
 };
 
 std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& runs,
@@ -95,7 +100,10 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
   b += fmt::format("set multiplot layout {},1 title {}\n", panels.size(), quote(sc.title));
   for (const auto& p : panels) {
     b += "unset object\n" + shade_windows(sc, scale);
-    b += fmt::format("set xlabel {}\nset ylabel {}\n", quote(xlabel), quote(p.ylabel));
+    const bool last = &p == &panels.back();
+    b += fmt::format("set xlabel {}\nset ylabel {}\n",
+                     quote(last && !x.note.empty() ? xlabel + "\n" + x.note : xlabel),
+                     quote(p.ylabel));
     std::string plot = "plot NaN with boxes fs solid 1.0 fc rgb '#e6e6e6' title 'attack window'";
     for (const auto& st : kStyles) {
       for (const auto& run : runs) {
@@ -117,8 +125,18 @@ std::string time_series_body(const Scenario& sc, const std::vector<RunResult>& r
 // protected below, the accesses made during the attack shaded.
 std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
                       const std::string& dir, const std::string& stem) {
+  // One y range for both panels, so that their pulses compare at a glance.
+  double top = 600;
+  for (const auto& r : runs) {
+    for (const auto& e : r.events) top = std::max(top, e.value);
+  }
+  // The labels are the arm code's (docs/simulation.md, "Arm"): said on the
+  // figure, since the paper's text names the two levels the other way round.
+  size_t accesses = 0;
+  for (const auto& r : runs) accesses = std::max(accesses, r.events.size());
   std::string b = fmt::format(
-      "set multiplot layout 2,1 title {}\nset key outside right top vertical\n", quote(sc.title));
+      "set multiplot layout 2,1 title {}\nset key outside right top vertical\nset xrange [0:{}]\n",
+      quote(sc.title), accesses + 1);
   for (const char* label : {"unprotected", "protected"}) {
     const RunResult* run = nullptr;
     for (const auto& r : runs) {
@@ -142,9 +160,11 @@ std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
           first - 0.5, last + 0.5);
     }
     const bool on = std::string(label) == "protected";
-    b += fmt::format(
-        "set xlabel 'gripper (channel 5) access number'\nset ylabel 'pulse (PCA9685 ticks)'\n");
-    b += fmt::format("set yrange [0:*]\n");
+    const std::string xlabel = on ? "gripper (channel 5) access number\nopen 420, close 577 as the "
+                                    "arm code sends them; the paper's text swaps the two names"
+                                  : "gripper (channel 5) access number";
+    b += fmt::format("set xlabel {}\nset ylabel 'pulse (PCA9685 ticks)'\n", quote(xlabel));
+    b += fmt::format("set yrange [0:{}]\n", num(top * 1.05));
     b += fmt::format(
         "plot NaN with boxes fs solid 1.0 fc rgb '#e6e6e6' title 'attack window', "
         "{} skip 1 using ($0+1):3 with linespoints pt 7 ps 0.6 lw 1.5 lc rgb '{}' title {}, "
@@ -153,7 +173,7 @@ std::string fig1_body(const Scenario& sc, const std::vector<RunResult>& runs,
         quote(dir + "/" + stem + "-" + label + "-events.csv"), on ? "#1a9641" : "#800000",
         quote(on ? "contego on" : "contego off"));
   }
-  b += "unset multiplot\nset yrange [*:*]\nset key inside top left vertical\n";
+  b += "unset multiplot\nset xrange [*:*]\nset yrange [*:*]\nset key inside top left vertical\n";
   return b;
 }
 
@@ -256,10 +276,17 @@ Result<std::vector<std::string>> plot_runs(const Scenario& sc, const std::vector
                             {{"distance_cm", "distance travelled (cm, from the encoders)"}}, jobs);
     height = 450;
   } else if (fig == "fig4b" || fig == "rover") {
+    // Said on the figure: a reader takes the protected run's lower speed
+    // inside the attack window for the attack's doing; it is the track's bend
+    // (docs/simulation.md), which the attack-free run takes at the same speed.
+    XAxis x = jobs;
+    x.note =
+        "contego on keeps to the attack-free run (dashed, on top): its lower speed from job 60 "
+        "on is the track's bend";
     body = time_series_body(sc, runs, dir, stem,
                             {{"distance_cm", "distance travelled (cm, from the encoders)"},
                              {"speed_cm_s", "speed (cm/s, encoders, 1 s window)"}},
-                            jobs);
+                            x);
   } else if (fig == "tank") {
     body = time_series_body(
         sc, runs, dir, stem,

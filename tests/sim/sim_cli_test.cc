@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <iterator>
+#include <set>
 #include <sstream>
 #include <string>
 #include <sys/wait.h>
@@ -68,6 +70,25 @@ TEST_F(SimCliTest, DemoWritesThePapersFigures) {
   }
   EXPECT_NE(r.output.find("distance (cm)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("objects_handled"), std::string::npos) << r.output;
+
+  // The figures explain themselves to a reader of the paper (issue 39): Fig. 1
+  // says why its open/close labels are the paper's reversed, on one y range
+  // for both panels; Fig. 4b says the protected run's dip is the track's bend.
+  auto slurp = [](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string fig1 = slurp(dir_ / "demo" / "fig1.gp");
+  EXPECT_NE(fig1.find("the paper's text swaps the two names"), std::string::npos) << fig1;
+  std::set<std::string> yranges;
+  for (size_t at = fig1.find("set yrange [0:"); at != std::string::npos;
+       at = fig1.find("set yrange [0:", at + 1)) {
+    yranges.insert(fig1.substr(at, fig1.find('\n', at) - at));
+  }
+  EXPECT_EQ(yranges.size(), 1u) << fig1;
+  const std::string fig4b = slurp(dir_ / "demo" / "fig4b.gp");
+  EXPECT_NE(fig4b.find("the track's bend"), std::string::npos) << fig4b;
+  EXPECT_NE(slurp(dir_ / "demo" / "fig4b.svg").find("bend"), std::string::npos);
 }
 
 TEST_F(SimCliTest, SimWritesTracesFigureAndSummary) {
