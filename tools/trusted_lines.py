@@ -17,21 +17,42 @@ import sys
 
 
 def compile_units(binary):
+    """The source file of each compile unit, absolute: a relative DW_AT_name
+    (a compiler cache's base directory makes them so) is resolved against
+    the unit's DW_AT_comp_dir."""
     out = subprocess.run(["readelf", "--debug-dump=info", "--dwarf-depth=1", binary],
                          capture_output=True, text=True, check=True).stdout
-    names, in_cu, comp_dir = [], False, None
+    units, cu = [], None
     for line in out.splitlines():
         if "DW_TAG_compile_unit" in line:
-            in_cu, name, comp_dir = True, None, None
+            cu = {}
+            units.append(cu)
             continue
-        if not in_cu:
+        if cu is None:
             continue
         m = re.search(r"DW_AT_(name|comp_dir)\s*:.*?([^\s)]+)\s*$", line)
-        if m and m.group(1) == "name":
-            names.append(m.group(2))
+        if m:
+            cu.setdefault(m.group(1), m.group(2))
         elif "DW_TAG_" in line or line.strip() == "":
-            in_cu = False
-    return names
+            cu = None
+    return [(u["name"], u.get("comp_dir", "")) for u in units if "name" in u]
+
+
+def source_file(name, comp_dir, source):
+    """The project file a compile unit names, relative to `source`, or None.
+    A relative name is relative to the unit's build directory; a cached
+    object (ccache, its base directory and no hashed directory) may carry
+    another clone's comp_dir, so the name's own path below its leading
+    `../` is tried against `source` too."""
+    candidates = [name] if os.path.isabs(name) else [os.path.join(comp_dir, name)]
+    if not os.path.isabs(name):
+        candidates.append(os.path.join(source, re.sub(r"^(\.\./)+", "", name)))
+    for c in candidates:
+        path = os.path.realpath(c)
+        rel = os.path.relpath(path, source)
+        if not rel.startswith("..") and rel.endswith(".cc") and os.path.exists(path):
+            return rel
+    return None
 
 
 def main():
@@ -46,12 +67,10 @@ def main():
     first = None
     for binary in args:
         files = set()
-        for name in compile_units(binary):
-            path = os.path.realpath(name if os.path.isabs(name) else os.path.join(source, name))
-            rel = os.path.relpath(path, source)
-            if rel.startswith("..") or not rel.endswith(".cc") or not os.path.exists(path):
-                continue
-            files.add(rel)
+        for name, comp_dir in compile_units(binary):
+            rel = source_file(name, comp_dir, source)
+            if rel:
+                files.add(rel)
         if not files:
             # A build without debug information cannot say what it linked.
             print(f"skipped: {binary} has no compile units of {source} (built without -g)")
