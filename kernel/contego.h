@@ -109,8 +109,9 @@ struct ct_node {
 	int nr;  /* adapter number */
 	u8 bus;  /* policy bus */
 	struct cdev cdev;
-	struct device *dev;
+	struct device *dev; /* NULL while the adapter is away */
 	bool registered;
+	bool returned; /* the adapter came back: its devices' safe state is due */
 };
 
 struct ct_file {
@@ -187,6 +188,7 @@ struct ct_state {
 	struct ct_node nodes[CT_MAX_ADAPTERS];
 	int node_count;
 	struct class *i2c_class;
+	struct work_struct adapter_work; /* the safe state on adapters that came back */
 	struct ct_ring ring;
 };
 
@@ -228,6 +230,7 @@ bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr);
 int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s);
 bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why);
 u32 ct_drive_safe_states(struct ct_policy *p, u8 why);
+u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why);
 
 /* contego_sample.c */
 u32 ct_read_sample(void *context, u16 device, u8 *buf, u32 capacity, u64 *taken_at_us);

@@ -115,6 +115,22 @@ bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why)
 	return ct_drive_safe_state_of(p, d, why, NULL) > 0;
 }
 
+/* The safe state of every device on the policy's bus `bus`. Returns how
+ * many were written.
+ */
+u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why)
+{
+	contego_device_info info;
+	u32 n = 0;
+	u16 d;
+
+	lockdep_assert_held(&ct.lock);
+	for (d = 0; d < CONTEGO_MAX_DEVICES; d++)
+		if (contego_device_info_of(p->checker, d, &info) && info.bus == bus)
+			n += ct_drive_safe_state(p, d, why);
+	return n;
+}
+
 /* Every device's safe state. Under ct.lock. Returns how many were written. */
 u32 ct_drive_safe_states(struct ct_policy *p, u8 why)
 {

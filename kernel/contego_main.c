@@ -127,6 +127,91 @@ put_adapter:
 	return ret;
 }
 
+/* An audit record of a protected adapter going or coming back. */
+static void ct_record_adapter(const struct ct_node *node, u8 why)
+{
+	struct contego_kmod_record r;
+
+	ct_record_start(&r, CONTEGO_KMOD_REC_ADAPTER, false);
+	r.bus = node->bus;
+	r.why = why;
+	r.count = node->nr;
+	ct_push(&r, true); /* rare, and what the log must not lose */
+}
+
+/*
+ * The devices on adapters that came back go to their safe state: whatever
+ * the chips hold now (a new adapter, a chip reset with it) is not what the
+ * checks last allowed. From the work queue, once the adapter is registered.
+ */
+static void ct_adapter_work(struct work_struct *w)
+{
+	u32 n;
+	int i;
+
+	mutex_lock(&ct.lock);
+	for (i = 0; i < ct.node_count; i++) {
+		struct ct_node *node = &ct.nodes[i];
+
+		if (!node->returned || ct.unloading)
+			continue;
+		node->returned = false;
+		n = ct.policy ? ct_drive_safe_states_on(ct.policy, node->bus, CONTEGO_KMOD_SAFE_ADAPTER) : 0;
+		pr_info("contego: adapter i2c-%d is back as the policy's bus %u: %u devices driven to their safe state\n",
+			node->nr, node->bus, n);
+	}
+	mutex_unlock(&ct.lock);
+}
+
+/*
+ * A protected adapter removed (a driver unbound, its module unloaded) takes
+ * its node with it, as i2c-dev's does: nothing is written to it while it is
+ * away, and a session's end then records its safe state as failed. Added
+ * again under the same number, it gets its node back and its devices their
+ * safe state. Both are audited.
+ */
+static int ct_adapter_notify(struct notifier_block *nb, unsigned long action, void *data)
+{
+	struct i2c_adapter *adap = i2c_verify_adapter(data);
+	struct ct_node *node = NULL;
+	int i;
+
+	if (!adap || (action != BUS_NOTIFY_ADD_DEVICE && action != BUS_NOTIFY_DEL_DEVICE))
+		return NOTIFY_DONE;
+	for (i = 0; i < ct.node_count; i++)
+		if (ct.nodes[i].nr == adap->nr)
+			node = &ct.nodes[i];
+	if (!node || !node->registered)
+		return NOTIFY_DONE;
+	mutex_lock(&ct.lock);
+	if (action == BUS_NOTIFY_DEL_DEVICE && node->dev) {
+		device_destroy(ct.i2c_class, MKDEV(I2C_MAJOR, node->nr));
+		node->dev = NULL;
+		node->returned = false;
+		ct_record_adapter(node, CONTEGO_KMOD_ADAPTER_REMOVED);
+		pr_warn("contego: adapter i2c-%d removed: /dev/i2c-%d is gone until it comes back\n",
+			node->nr, node->nr);
+	} else if (action == BUS_NOTIFY_ADD_DEVICE && !node->dev) {
+		node->dev = device_create(ct.i2c_class, &adap->dev, MKDEV(I2C_MAJOR, node->nr), NULL,
+					  "i2c-%d", node->nr);
+		if (IS_ERR(node->dev)) {
+			pr_err("contego: adapter i2c-%d is back but its node cannot be made (%ld)\n",
+			       node->nr, PTR_ERR(node->dev));
+			node->dev = NULL;
+		} else {
+			ct_record_adapter(node, CONTEGO_KMOD_ADAPTER_ADDED);
+			node->returned = true;
+			queue_work(ct.wq, &ct.adapter_work);
+		}
+	}
+	mutex_unlock(&ct.lock);
+	return NOTIFY_OK;
+}
+
+static struct notifier_block ct_adapter_nb = {
+	.notifier_call = ct_adapter_notify,
+};
+
 static int __init ct_init(void)
 {
 	int i, ret;
@@ -147,6 +232,7 @@ static int __init ct_init(void)
 		pr_err("contego: audit_records=%u: give 64 .. 1048576\n", audit_records);
 		return -EINVAL;
 	}
+	INIT_WORK(&ct.adapter_work, ct_adapter_work);
 	ct.ring.cap = audit_records;
 	ct.ring.records = vmalloc_array(ct.ring.cap, sizeof(*ct.ring.records));
 	if (!ct.ring.records)
@@ -175,8 +261,13 @@ static int __init ct_init(void)
 	ret = misc_register(&ct_audit_dev);
 	if (ret)
 		goto deregister_ctl;
+	ret = bus_register_notifier(&i2c_bus_type, &ct_adapter_nb);
+	if (ret)
+		goto deregister_audit;
 	return 0;
 
+deregister_audit:
+	misc_deregister(&ct_audit_dev);
 deregister_ctl:
 	misc_deregister(&ct_ctl);
 remove_nodes:
@@ -191,6 +282,7 @@ free_ring:
 
 static void __exit ct_exit(void)
 {
+	bus_unregister_notifier(&i2c_bus_type, &ct_adapter_nb);
 	misc_deregister(&ct_audit_dev);
 	misc_deregister(&ct_ctl);
 	/* No session can end from here on (the unload drives every device). */

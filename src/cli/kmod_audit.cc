@@ -50,6 +50,8 @@ const char* safe_why(uint8_t why) {
       return "module unloading";
     case CONTEGO_KMOD_SAFE_EXIT:
       return "session ended";
+    case CONTEGO_KMOD_SAFE_ADAPTER:
+      return "its adapter came back";
     default:
       return "unknown reason";
   }
@@ -241,6 +243,17 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                                "since the last report; pid {} uid {}",
                                r.task, task, r.fields[0], r.job, r.count, r.pid, r.uid));
     }
+    case CONTEGO_KMOD_REC_ADAPTER:
+      return event(
+          "adapter",
+          r.why == CONTEGO_KMOD_ADAPTER_REMOVED
+              ? fmt::format("contego.ko: adapter i2c-{} (the policy's bus {}) removed: its "
+                            "node is gone, nothing is written to its devices until it "
+                            "comes back",
+                            r.count, r.bus)
+              : fmt::format("contego.ko: adapter i2c-{} (the policy's bus {}) back: its "
+                            "node again, its devices to their safe state",
+                            r.count, r.bus));
     case CONTEGO_KMOD_REC_GAP:
       return event("audit-gap",
                    fmt::format("contego.ko: {} record(s) could not be taken (no reader or "

@@ -1,12 +1,11 @@
 #include "monitor/journal_entry.h"
 
-#include <array>
 #include <utility>
 
 namespace contego::monitor {
 
 Priority event_priority(std::string_view kind) {
-  static constexpr std::array<std::pair<std::string_view, Priority>, 25> kPriorities{{
+  static constexpr std::pair<std::string_view, Priority> kPriorities[] = {
       {"fault", Priority::kError},
       {"bus-error", Priority::kError},
       {"audit-gap", Priority::kError},
@@ -14,6 +13,7 @@ Priority event_priority(std::string_view kind) {
       {"start-refused", Priority::kError},
       {"policy-load-refused", Priority::kError},
       {"safe-state", Priority::kWarning},
+      {"adapter", Priority::kWarning},
       {"degraded-start", Priority::kWarning},
       {"over-budget", Priority::kWarning},
       {"session-refused", Priority::kWarning},
@@ -32,7 +32,7 @@ Priority event_priority(std::string_view kind) {
       {"reload", Priority::kNotice},
       {"checkpoint", Priority::kNotice},
       {"policy-load", Priority::kNotice},
-  }};
+  };
   for (const auto& [name, priority] : kPriorities) {
     if (name == kind) return priority;
   }

@@ -290,6 +290,30 @@ TEST_F(KmodAudit, SessionsFullNamesTaskProcessAndCount) {
       << b;
 }
 
+// A protected adapter removed and back (the module's bus notifier): one
+// `adapter` line each, then the returned adapter's safe states name why.
+TEST_F(KmodAudit, AdapterRemovedAndBackAreNamedWithTheirBus) {
+  contego_kmod_record gone = record(CONTEGO_KMOD_REC_ADAPTER);
+  gone.why = CONTEGO_KMOD_ADAPTER_REMOVED;
+  gone.bus = 1;
+  gone.count = 0;
+  contego_kmod_record back = gone;
+  back.why = CONTEGO_KMOD_ADAPTER_ADDED;
+  contego_kmod_record safe = record(CONTEGO_KMOD_REC_SAFE_STATE);
+  safe.device = 0;
+  safe.why = CONTEGO_KMOD_SAFE_ADAPTER;
+  for (const auto* r : {&gone, &back, &safe}) ASSERT_TRUE(write_kmod_record(log_, names_, *r));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 3u);
+  const std::string a = l[0]["detail"], b = l[1]["detail"], c = l[2]["detail"];
+  EXPECT_EQ(l[0]["kind"], "adapter");
+  EXPECT_NE(a.find("adapter i2c-0 (the policy's bus 1) removed"), std::string::npos) << a;
+  EXPECT_EQ(l[1]["kind"], "adapter");
+  EXPECT_NE(b.find("adapter i2c-0 (the policy's bus 1) back"), std::string::npos) << b;
+  EXPECT_EQ(l[2]["kind"], "safe-state");
+  EXPECT_NE(c.find("its adapter came back"), std::string::npos) << c;
+}
+
 // The names follow the image in force: a policy-load record's CRC-32 picks
 // the reader's policy with that image; an image of none of them leaves the
 // records with numbers only.

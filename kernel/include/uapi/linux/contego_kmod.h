@@ -183,6 +183,20 @@ enum contego_kmod_record_type {
 	 * this type writes it as a `fault` line
 	 */
 	CONTEGO_KMOD_REC_SESSIONS_FULL = 8,
+	/*
+	 * a protected adapter went away (why = CONTEGO_KMOD_ADAPTER_REMOVED:
+	 * its node is gone, nothing is written to it) or came back
+	 * (CONTEGO_KMOD_ADAPTER_ADDED: its node is back, and the safe state
+	 * of its devices follows). bus = the policy's bus, count = the
+	 * adapter's number. A reader that predates this type writes it as a
+	 * `fault` line
+	 */
+	CONTEGO_KMOD_REC_ADAPTER = 9,
+};
+
+enum contego_kmod_adapter_why {
+	CONTEGO_KMOD_ADAPTER_REMOVED = 1,
+	CONTEGO_KMOD_ADAPTER_ADDED = 2,
 };
 
 enum contego_kmod_safe_why {
@@ -198,6 +212,7 @@ enum contego_kmod_safe_why {
 	 * writes it staged and never completed (dropped)
 	 */
 	CONTEGO_KMOD_SAFE_EXIT = 5,
+	CONTEGO_KMOD_SAFE_ADAPTER = 6, /* the device's adapter came back */
 	CONTEGO_KMOD_SAFE_FAILED = 0x80, /* or'ed in: the safe state could not be written */
 };
 

@@ -1,0 +1,93 @@
+# contego.ko and an adapter that goes away and comes back while a session
+# is open (docs/kernel-client.md, "Adapters that come and go"): the module's
+# bus notifier takes the node away with its adapter (i2c-stub unloaded),
+# nothing is written meanwhile, and an adapter added again under the same
+# number gets its node back and its devices their safe state; both audited.
+# The live session then ends on the returned adapter and drives it too.
+. /vm/lib.sh
+. /vm/inc/kmod.sh
+if [ ! -f $KO ]; then
+  # Not a failure: the host had no linux-headers for this kernel (tools/bootstrap.sh).
+  echo "VM-CHECK SKIP $SCENARIO: contego.ko was not built (no kernel headers on the host)"
+  exit 0
+fi
+A=0x40
+AUDIT_LOG=$LOGDIR/kmod-adapter.jsonl
+led5() {  # LED5 off as arm_init reads it through contego.ko
+  lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d) && echo $(( (hi << 8) | lo ))
+}
+led5_becomes() {  # led5_becomes VALUE: waits up to 5 s
+  i=0
+  while [ "$(led5)" != "$1" ]; do
+    i=$((i + 1)); [ $i -gt 50 ] && return 1
+    usleep 100000
+  done
+}
+
+rmmod i2c_dev || { bad "cannot unload i2c-dev"; finish; }
+run_logged insmod insmod $KO adapters=0 buses=1
+[ $RC = 0 ] || { bad "insmod contego.ko adapters=0 buses=1 (exit $RC)"; back_to_i2c_dev; finish; }
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+start_reader || { back_to_i2c_dev; finish; }
+run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego \
+  --budget-factor 0
+[ $RC = 0 ] && ok "contego kmod load: arm.policy in force" || bad "contego kmod load (exit $RC)"
+
+# A live session of arm_init: a script that set LED5 off = 577 and sleeps.
+# It holds no descriptor of the node: only its session is open.
+rm -f /tmp/holder.pid
+as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
+  >"$LOGDIR/holder.out" 2>&1 &
+wait_for /tmp/holder.pid 10
+HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+[ "$(led5)" = 577 ] && ok "a session of arm_init is open (pid $HOLDER), LED5 off = 577" ||
+  bad "LED5 off reads $(led5) with the session open, expected 577"
+contego kmod stats | grep -q " sessions=1 " && ok "the module counts the session" ||
+  bad "module counters: $(contego kmod stats)"
+
+# The adapter goes away under the module.
+klog_lines=$(dmesg | wc -l)
+rmmod i2c_stub && ok "i2c-stub unloads while contego.ko protects its adapter and a session is open" ||
+  bad "rmmod i2c_stub (the module must not hold the adapter)"
+i=0
+while [ -e /dev/i2c-0 ] && [ $i -lt 50 ]; do i=$((i + 1)); usleep 100000; done
+[ ! -e /dev/i2c-0 ] && ok "/dev/i2c-0 is gone with its adapter" || bad "/dev/i2c-0 outlived its adapter"
+dmesg | grep -q "contego: adapter i2c-0 removed" && ok "the kernel log says the adapter was removed" ||
+  bad "no removal line in the kernel log"
+run_logged gone as_task i2cset -y 0 $A 0x01 0x04
+[ $RC != 0 ] && ok "a write while the adapter is away fails (exit $RC): nothing is written" ||
+  bad "i2cset succeeded with the adapter away"
+
+# Back under the same number: a fresh chip (every register zero).
+insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS && ok "i2c-stub loaded again" || bad "insmod i2c-stub"
+wait_for /dev/i2c-0 10 && ok "/dev/i2c-0 is back with its adapter" || bad "no /dev/i2c-0 after the adapter came back"
+chmod 0666 /dev/i2c-0
+led5_becomes 420 && ok "the returned adapter's PCA9685 went to its safe state: LED5 off = 420" ||
+  bad "after the adapter came back LED5 off reads $(led5), expected the safe state 420"
+dmesg | grep -q "contego: adapter i2c-0 is back as the policy's bus 1: 1 devices driven to their safe state" &&
+  ok "the kernel log says the adapter is back and its device was driven" || bad "no return line in the kernel log"
+run_logged again as_task i2cset -y 0 $A 0x01 0x04
+[ $RC = 0 ] && [ "$(as_task i2cget -y 0 $A 0x01)" = 0x04 ] &&
+  ok "arm_init writes MODE2 = 0x04 through the returned adapter, checked" || bad "write after the return (exit $RC)"
+
+# The session opened before the removal ends now: its end drives the arm on
+# the returned adapter.
+[ -n "$HOLDER" ] && kill -TERM "$HOLDER"
+wait_sessions_closed && ok "the session opened before the removal ended after the return" ||
+  bad "sessions still open: $(contego kmod stats)"
+dmesg | grep -q "contego: task 0: session of pid $HOLDER ended .*: 1 of 1 devices driven to their safe state" &&
+  ok "its end drove the arm on the returned adapter" || bad "no session end of pid $HOLDER driving the arm"
+
+stop_reader && ok "contego kmod audit stops on SIGTERM" || bad "contego kmod audit exit $rc"
+run_logged verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "contego audit verifies the log" || bad "contego audit exit $RC"
+for what in 'adapter i2c-0 (the policy.s bus 1) removed' 'adapter i2c-0 (the policy.s bus 1) back' \
+    'its adapter came back' '"kind":"adapter"'; do
+  grep -q "$what" $AUDIT_LOG && ok "the log has $what" || bad "the log lacks $what"
+done
+dmesg | tail -n +$((klog_lines + 1)) | grep -E "BUG|Oops|WARNING|general protection|refcount" >/tmp/klog.bad
+[ -s /tmp/klog.bad ] && bad "kernel log: $(head -n 1 /tmp/klog.bad)" ||
+  ok "no kernel warning through the removal and the return"
+rmmod contego && ok "contego.ko unloads after its adapter came and went" || bad "rmmod contego"
+back_to_i2c_dev
+finish
