@@ -22,7 +22,9 @@ grep -q "cannot write the metrics file /proc/contego-nowhere/contego.prom.tmp" "
 "$contego" monitor --policy "$policies/rover.policy" --virtual-bus 1 --socket "$dir/m.sock" \
   --audit "$dir/audit.jsonl" --metrics-file "$dir/m.prom" --metrics-interval 1 2>"$dir/mon.err" &
 mon=$!
-for _ in $(seq 100); do [ -S "$dir/m.sock" ] && break; sleep 0.1; done
+# The socket is bound a moment before the first metrics file is written (a
+# client that connects meanwhile waits in the backlog): wait for both.
+for _ in $(seq 100); do [ -S "$dir/m.sock" ] && [ -f "$dir/m.prom" ] && break; sleep 0.1; done
 [ -S "$dir/m.sock" ] || { cat "$dir/mon.err"; fail "the monitor did not start"; }
 grep -q '^contego_info{policy=".*rover.policy (SHA-256 [0-9a-f]*)",image_sha256="[0-9a-f]\{64\}",complain="0"} 1$' "$dir/m.prom" ||
   fail "no contego_info at start"
