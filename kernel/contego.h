@@ -253,5 +253,6 @@ int ct_refusal(u32 decider);
 
 /* contego_policy.c */
 void ct_policy_free(struct ct_policy *p);
+void ct_seed_shadows(struct ct_policy *p, int bus);
 
 #endif /* CONTEGO_H */

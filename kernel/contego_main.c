@@ -140,13 +140,15 @@ static void ct_record_adapter(const struct ct_node *node, u8 why)
 }
 
 /*
- * The devices on adapters that came back go to their safe state: whatever
- * the chips hold now (a new adapter, a chip reset with it) is not what the
- * checks last allowed. From the work queue, once the adapter is registered.
+ * The devices on adapters that came back: their samples dropped and their
+ * shadows read back from the chips, then their safe state. What the chips hold now (a new adapter, a
+ * chip reset with it) is not what the checks last allowed. From the work
+ * queue, once the adapter is registered.
  */
 static void ct_adapter_work(struct work_struct *w)
 {
-	u32 n;
+	contego_device_info info;
+	u32 n, d;
 	int i;
 
 	mutex_lock(&ct.lock);
@@ -156,7 +158,13 @@ static void ct_adapter_work(struct work_struct *w)
 		if (!node->returned || ct.unloading)
 			continue;
 		node->returned = false;
-		n = ct.policy ? ct_drive_safe_states_on(ct.policy, node->bus, CONTEGO_KMOD_SAFE_ADAPTER) : 0;
+		if (!ct.policy)
+			continue;
+		for (d = 0; d < CONTEGO_MAX_DEVICES; d++)
+			if (contego_device_info_of(ct.policy->checker, d, &info) && info.bus == node->bus)
+				ct.policy->samples[d].valid = false;
+		ct_seed_shadows(ct.policy, node->bus);
+		n = ct_drive_safe_states_on(ct.policy, node->bus, CONTEGO_KMOD_SAFE_ADAPTER);
 		pr_info("contego: adapter i2c-%d is back as the policy's bus %u: %u devices driven to their safe state\n",
 			node->nr, node->bus, n);
 	}

@@ -17,9 +17,11 @@ void ct_policy_free(struct ct_policy *p)
  * the core keeps of it is read back from the device, every register its
  * commands cover, as the monitor does at start. A device that refuses a
  * read keeps the power-on shadow (a write-only chip). Before the policy is
- * live, so the safe state and the first checks see what the chip holds.
+ * live, so the safe state and the first checks see what the chip holds; and
+ * for the devices of an adapter that came back (`bus`; -1: every bus), under
+ * ct.lock, since the policy is live then.
  */
-static void ct_seed_shadows(struct ct_policy *p)
+void ct_seed_shadows(struct ct_policy *p, int bus)
 {
 	u32 d, i, n, count = contego_device_count(p->checker);
 	u8 *regs = kmalloc(2 * 256, GFP_KERNEL);
@@ -35,7 +37,8 @@ static void ct_seed_shadows(struct ct_policy *p)
 		int ret = -ENODEV;
 
 		n = contego_command_registers(p->checker, d, regs);
-		if (n == 0 || !contego_device_info_of(p->checker, d, &info))
+		if (n == 0 || !contego_device_info_of(p->checker, d, &info) ||
+		    (bus >= 0 && info.bus != bus))
 			continue;
 		node = ct_node_for_bus(info.bus);
 		adap = node ? i2c_get_adapter(node->nr) : NULL;
@@ -267,7 +270,7 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 			goto fail;
 		}
 	}
-	ct_seed_shadows(p);
+	ct_seed_shadows(p, -1);
 	if (mutex_lock_killable(&ct.lock)) {
 		ret = -EINTR;
 		goto fail;

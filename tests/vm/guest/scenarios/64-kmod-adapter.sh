@@ -33,6 +33,13 @@ run_logged load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=
   --budget-factor 0
 [ $RC = 0 ] && ok "contego kmod load: arm.policy in force" || bad "contego kmod load (exit $RC)"
 
+# MODE1 with auto-increment (0x21), as the vendor library sets it: a block
+# write then fills LED5's four registers. (This call's own session ends with
+# it: it drives the arm's safe state.)
+run_logged mode1 as_task i2cset -y 0 $A 0x00 0x21
+[ $RC = 0 ] && ok "arm_init: MODE1 = 0x21 (auto-increment)" || bad "MODE1 write (exit $RC)"
+wait_sessions_closed
+
 # A live session of arm_init: a script that set LED5 off = 577 and sleeps.
 # It holds no descriptor of the node: only its session is open.
 rm -f /tmp/holder.pid
@@ -41,7 +48,7 @@ as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sb
 wait_for /tmp/holder.pid 10
 HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
 [ "$(led5)" = 577 ] && ok "a session of arm_init is open (pid $HOLDER), LED5 off = 577" ||
-  bad "LED5 off reads $(led5) with the session open, expected 577"
+  { bad "LED5 off reads $(led5) with the session open, expected 577"; show "$LOGDIR/holder.out"; }
 contego kmod stats | grep -q " sessions=1 " && ok "the module counts the session" ||
   bad "module counters: $(contego kmod stats)"
 
@@ -58,7 +65,8 @@ run_logged gone as_task i2cset -y 0 $A 0x01 0x04
 [ $RC != 0 ] && ok "a write while the adapter is away fails (exit $RC): nothing is written" ||
   bad "i2cset succeeded with the adapter away"
 
-# Back under the same number: a fresh chip (every register zero).
+# Back under the same number: a fresh chip (every register zero, MODE1's
+# auto-increment off: the module reads the shadow back before it drives).
 insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS && ok "i2c-stub loaded again" || bad "insmod i2c-stub"
 wait_for /dev/i2c-0 10 && ok "/dev/i2c-0 is back with its adapter" || bad "no /dev/i2c-0 after the adapter came back"
 chmod 0666 /dev/i2c-0
@@ -66,17 +74,22 @@ led5_becomes 420 && ok "the returned adapter's PCA9685 went to its safe state: L
   bad "after the adapter came back LED5 off reads $(led5), expected the safe state 420"
 dmesg | grep -q "contego: adapter i2c-0 is back as the policy's bus 1: 1 devices driven to their safe state" &&
   ok "the kernel log says the adapter is back and its device was driven" || bad "no return line in the kernel log"
-run_logged again as_task i2cset -y 0 $A 0x01 0x04
-[ $RC = 0 ] && [ "$(as_task i2cget -y 0 $A 0x01)" = 0x04 ] &&
-  ok "arm_init writes MODE2 = 0x04 through the returned adapter, checked" || bad "write after the return (exit $RC)"
+dmesg | tail -n +$((klog_lines + 1)) | grep -q "contego: device 0 (bus 1 0x40): shadow read back from the device" &&
+  ok "the returned chip's registers were read back into the shadow" || bad "no shadow read back after the return"
 
 # The session opened before the removal ends now: its end drives the arm on
 # the returned adapter.
+klog_at_kill=$(dmesg | wc -l)
 [ -n "$HOLDER" ] && kill -TERM "$HOLDER"
 wait_sessions_closed && ok "the session opened before the removal ended after the return" ||
   bad "sessions still open: $(contego kmod stats)"
-dmesg | grep -q "contego: task 0: session of pid $HOLDER ended .*: 1 of 1 devices driven to their safe state" &&
-  ok "its end drove the arm on the returned adapter" || bad "no session end of pid $HOLDER driving the arm"
+dmesg | tail -n +$((klog_at_kill + 1)) |
+  grep -q "contego: task 0: session of pid [0-9]* ended (wait status 0x[0-9a-f]*, with its group's leader): 1 of 1 devices driven to their safe state" &&
+  ok "its end drove the arm on the returned adapter" || bad "no session end driving the arm after the return"
+# The task has no live session now: a new process of it acts, checked.
+run_logged again as_task i2cset -y 0 $A 0x01 0x04
+[ $RC = 0 ] && [ "$(as_task i2cget -y 0 $A 0x01)" = 0x04 ] &&
+  ok "arm_init writes MODE2 = 0x04 through the returned adapter, checked" || bad "write after the return (exit $RC)"
 
 stop_reader && ok "contego kmod audit stops on SIGTERM" || bad "contego kmod audit exit $rc"
 run_logged verify contego audit $AUDIT_LOG
