@@ -57,7 +57,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
     default:
       return {};
   }
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (descends_from_supervised(s.conn->pid)) {
     return fmt::format(
         "the peer (pid {}) is a program supervised by contego (or its child): it "
@@ -125,10 +125,10 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   {
     // As for a task's sessions below: a supervisor whose last program just
     // exited is listed until that session's thread notices the hang-up.
-    std::unique_lock lock(mu_);
+    base::MutexLock lock(mu_);
     if (descends_from_supervised(c.pid) && session_ending(-1, c.pid)) {
-      session_ended_.wait_for(lock, std::chrono::seconds(2),
-                              [&] { return !descends_from_supervised(c.pid) || stopping_; });
+      lock.wait_for(session_ended_, std::chrono::seconds(2),
+                    [&]() REQUIRES(mu_) { return !descends_from_supervised(c.pid) || stopping_; });
     }
     if (descends_from_supervised(c.pid)) {
       return "the peer is a program supervised by contego (or its child): its supervisor "
@@ -138,8 +138,8 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
   auto binding = bindings_.find(name);
   const uint32_t allowed = binding == bindings_.end() ? 1 : binding->second.sessions;
-  std::unique_lock lock(mu_);
-  auto live = [&] {
+  base::MutexLock lock(mu_);
+  auto live = [&]() REQUIRES(mu_) {
     const auto it = live_sessions_.find(task);
     return it == live_sessions_.end() ? 0u : it->second;
   };
@@ -148,8 +148,8 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   // notices the hang-up (within the channel's poll interval): wait for that
   // rather than refuse its successor. A live peer is refused at once.
   if (live() >= allowed && session_ending(task, 0)) {
-    session_ended_.wait_for(lock, std::chrono::seconds(2),
-                            [&] { return live() < allowed || stopping_; });
+    lock.wait_for(session_ended_, std::chrono::seconds(2),
+                  [&]() REQUIRES(mu_) { return live() < allowed || stopping_; });
   }
   if (live() >= allowed) {
     return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
@@ -175,7 +175,7 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
 // the binding is checked against the executable the kernel reports now.
 std::string Server::revouch_refusal(const Session& s, pid_t pid) {
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     bool below = false;
     pid_t p = pid;
     for (int depth = 0; depth < 64 && p > 1 && !below; ++depth) {
@@ -237,7 +237,7 @@ bool Server::session_ending(int task, pid_t pid) const {
 void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
   monitor_.task_exited(s.task);
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
     live_sessions_.erase(it);
   }
