@@ -373,11 +373,11 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty()) {
         return refuse(EPROTO, e);
       }
-      auto it = tasks_.find(name);
-      if (s.bound || it == tasks_.end()) {
+      const std::optional<uint16_t> task = task_of(name);
+      if (s.bound || !task) {
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
-      if (std::string why = admit(s, name, it->second, vouch); !why.empty()) {
+      if (std::string why = admit(s, name, *task, vouch); !why.empty()) {
         hellos_refused_.fetch_add(1);
         client_event(s.conn->uid, "hello-refused",
                      fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, why));

@@ -163,6 +163,18 @@ class Server {
   std::string identity_refusal(const Conn& c, const std::string& name,
                                const gate::wire::Vouch& vouch);
   bool descends_from_supervised(pid_t pid) REQUIRES(mu_);
+  // Task `name`'s id and binding (none: anyone allowed to connect, one
+  // session) as the policy says now: copies, taken under mu_.
+  std::optional<uint16_t> task_of(const std::string& name) EXCLUDES(mu_) {
+    base::MutexLock lock(mu_);
+    const auto it = tasks_.find(name);
+    return it == tasks_.end() ? std::nullopt : std::optional<uint16_t>(it->second);
+  }
+  std::optional<TaskBinding> binding_of(const std::string& name) EXCLUDES(mu_) {
+    base::MutexLock lock(mu_);
+    const auto it = bindings_.find(name);
+    return it == bindings_.end() ? std::nullopt : std::optional<TaskBinding>(it->second);
+  }
   // The peer rules for every message but hello ("" when it may be answered).
   std::string message_refusal(const Session& s, gate::wire::Type type);
   // A supervisor's re-vouch after its program's exec ("" = may go on).
@@ -219,7 +231,7 @@ class Server {
   void end_session(Session& s);
   Monitor& monitor_;
   AuditLog& audit_;
-  std::map<std::string, uint16_t> tasks_;
+  std::map<std::string, uint16_t> tasks_ GUARDED_BY(mu_);  // a reload replaces it
   std::set<uid_t> allowed_;
   gate::SpinPolicy spin_;
   bool realtime_;  // serve each connection at its task's priority (SCHED_FIFO)
@@ -236,9 +248,9 @@ class Server {
   std::map<uid_t, uint32_t> per_uid_ GUARDED_BY(mu_);  // live connections
   // New connections per uid in the current second (the accept loop's only).
   std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
-  std::map<std::string, TaskBinding> bindings_;
-  std::map<uint16_t, uint32_t> live_sessions_ GUARDED_BY(mu_);  // per task
-  std::condition_variable session_ended_;                       // a session ended; with mu_
+  std::map<std::string, TaskBinding> bindings_ GUARDED_BY(mu_);  // a reload replaces it
+  std::map<uint16_t, uint32_t> live_sessions_ GUARDED_BY(mu_);   // per task
+  std::condition_variable session_ended_;                        // a session ended; with mu_
   std::multiset<pid_t> supervised_ GUARDED_BY(mu_);  // live supervisors and their programs
   // The executables whose word on a program's `exe` is taken: this one, and
   // the supervisor trusted with trust_supervisor() (device, inode).

@@ -69,8 +69,8 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
 
 std::string Server::identity_refusal(const Conn& c, const std::string& name,
                                      const wire::Vouch& vouch) {
-  auto binding = bindings_.find(name);
-  const bool binds = binding != bindings_.end() && binding->second.binds();
+  const std::optional<TaskBinding> binding = binding_of(name);
+  const bool binds = binding && binding->binds();
   if (vouch.pid == 0 && !binds) return {};
   if (!c.pidfd.valid()) return "the peer process cannot be pinned (pidfd)";
   auto peer = process_facts(c.pidfd.get(), c.pid);
@@ -96,7 +96,7 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
     }
     facts = *program;
     facts.exe_known = false;
-    if (binds && binding->second.has_exe) {
+    if (binds && binding->has_exe) {
       // The program has not executed yet: the path it will execute is the
       // supervisor's word, taken only from this very contego binary.
       if (supervisors_.empty() || !peer->exe_known) {
@@ -116,7 +116,7 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
       facts.exe_path = vouch.exe;
     }
   }
-  return binds ? binding_mismatch(name, binding->second, facts) : std::string();
+  return binds ? binding_mismatch(name, *binding, facts) : std::string();
 }
 
 std::string Server::admit(Session& s, const std::string& name, uint16_t task,
@@ -136,8 +136,8 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
     }
   }
   if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
-  auto binding = bindings_.find(name);
-  const uint32_t allowed = binding == bindings_.end() ? 1 : binding->second.sessions;
+  const std::optional<TaskBinding> binding = binding_of(name);
+  const uint32_t allowed = binding ? binding->sessions : 1;
   base::MutexLock lock(mu_);
   auto live = [&]() REQUIRES(mu_) {
     const auto it = live_sessions_.find(task);
@@ -189,8 +189,8 @@ std::string Server::revouch_refusal(const Session& s, pid_t pid) {
     if (!below)
       return fmt::format("pid {} is not a process of the supervisor (pid {})", pid, s.conn->pid);
   }
-  auto binding = bindings_.find(s.task_name);
-  if (binding == bindings_.end() || !binding->second.has_exe) return {};  // exe alone can change
+  const std::optional<TaskBinding> binding = binding_of(s.task_name);
+  if (!binding || !binding->has_exe) return {};  // exe alone can change
   const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, pid, 0)));
   if (!fd.valid()) return fmt::format("pid {} is gone", pid);
   auto facts = process_facts(fd.get(), pid);
@@ -199,7 +199,7 @@ std::string Server::revouch_refusal(const Session& s, pid_t pid) {
     return "the program's executable cannot be read, so a task bound by `exe` cannot be checked "
            "after an exec (the monitor needs root or CAP_SYS_PTRACE)";
   }
-  return binding_mismatch(s.task_name, binding->second, *facts);
+  return binding_mismatch(s.task_name, *binding, *facts);
 }
 
 wire::Type Server::revouch(Session& s, std::span<const uint8_t> payload) {
