@@ -136,7 +136,7 @@ void on_sigbus(int sig, siginfo_t* info, void* context) {
     return;
   }
   if (g_previous_bus.sa_handler == SIG_DFL || g_previous_bus.sa_handler == SIG_IGN) {
-    signal(SIGBUS, SIG_DFL);  // the faulting access repeats and ends the process
+    (void)signal(SIGBUS, SIG_DFL);  // the faulting access repeats and ends the process
     return;
   }
   g_previous_bus.sa_handler(sig);

@@ -608,7 +608,7 @@ void Monitor::task_exited(uint16_t task) {
     audit_.event("staged-dropped", what);
     if (std::FILE* out = drops_.out(); out != nullptr) {
       fmt::print(out, "contego: {}\n", what);
-      std::fflush(out);
+      (void)std::fflush(out);
     }
   }
   // The job grid stays: a program that reconnects or restarts under the same
