@@ -243,7 +243,7 @@ class Server {
   std::optional<gid_t> status_group_;
   std::atomic<bool> stopping_{false};
   ServerLimits limits_;
-  mutable base::Mutex mu_;
+  base::Mutex mu_;
   std::vector<std::unique_ptr<Conn>> conns_ GUARDED_BY(mu_);
   std::map<uid_t, uint32_t> per_uid_ GUARDED_BY(mu_);  // live connections
   // New connections per uid in the current second (the accept loop's only).
