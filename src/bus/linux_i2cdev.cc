@@ -47,7 +47,7 @@ int LinuxI2cDev::transfer(std::span<Msg> msgs) {
     }
   }
   i2c_rdwr_ioctl_data arg{raw.data(), static_cast<uint32_t>(raw.size())};
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (::ioctl(fd_.get(), I2C_RDWR, &arg) < 0) return errno;
   for (size_t i = 0; i < msgs.size(); ++i) msgs[i].len = raw[i].len;
   return 0;
@@ -74,7 +74,7 @@ int LinuxI2cDev::smbus(const SmbusOp& op, std::span<Msg> msgs) {
   arg.size = static_cast<uint32_t>(op.size);
   arg.data = &data;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     // The monitor owns the adapter: FORCE, so a kernel driver bound to the
     // address does not make the transfer fail differently from I2C_RDWR.
     if (::ioctl(fd_.get(), I2C_SLAVE_FORCE, static_cast<unsigned long>(op.addr)) < 0) return errno;
@@ -100,7 +100,7 @@ int LinuxI2cDev::smbus(const SmbusOp& op, std::span<Msg> msgs) {
 
 int LinuxI2cDev::quick(uint16_t addr, bool read) {
   if (!(funcs_ & kFuncSmbusQuick)) return EOPNOTSUPP;
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (::ioctl(fd_.get(), I2C_SLAVE_FORCE, static_cast<unsigned long>(addr)) < 0) return errno;
   i2c_smbus_ioctl_data arg{};
   arg.read_write = read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE;

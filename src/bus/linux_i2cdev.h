@@ -9,9 +9,9 @@
 #define CONTEGO_BUS_LINUX_I2CDEV_H_
 
 #include <memory>
-#include <mutex>
 #include <string>
 
+#include "base/mutex.h"
 #include "base/result.h"
 #include "base/unique_fd.h"
 #include "bus/bus.h"
@@ -33,8 +33,8 @@ class LinuxI2cDev final : public Bus {
  private:
   LinuxI2cDev(base::UniqueFd fd, uint64_t funcs) : fd_(std::move(fd)), funcs_(funcs) {}
   int smbus(const SmbusOp& op, std::span<Msg> msgs);
-  std::mutex mu_;
-  base::UniqueFd fd_;
+  base::Mutex mu_;
+  base::UniqueFd fd_ GUARDED_BY(mu_);  // one transfer at a time on the adapter
   uint64_t funcs_;
 };
 

@@ -19,7 +19,7 @@ struct Candidate {
 
 std::string hex(uint64_t v, int width = 2) {
   char buf[24];
-  std::snprintf(buf, sizeof buf, "0x%0*llx", width, static_cast<unsigned long long>(v));
+  (void)std::snprintf(buf, sizeof buf, "0x%0*llx", width, static_cast<unsigned long long>(v));
   return buf;
 }
 

@@ -7,7 +7,7 @@
 namespace contego::bus {
 
 void VirtualBus::attach(std::shared_ptr<DeviceModel> device) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   devices_.push_back(std::move(device));
 }
 
@@ -23,7 +23,7 @@ int VirtualBus::transfer(std::span<Msg> msgs) {
   // the same bytes on the wire, so the models below see the same messages.
   if (carries_refused_flags(msgs)) return EINVAL;
   if (!expressible(msgs).ok()) return EOPNOTSUPP;
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   ++operations_;
   for (Msg& m : msgs) {
     const bool read = (m.flags & kMsgRead) != 0;
@@ -53,18 +53,18 @@ int VirtualBus::transfer(std::span<Msg> msgs) {
 
 int VirtualBus::quick(uint16_t addr, bool /*read*/) {
   if (!(funcs() & kFuncSmbusQuick)) return EOPNOTSUPP;
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   ++operations_;
   return find(addr) != nullptr ? 0 : ENXIO;
 }
 
 uint64_t VirtualBus::operations() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return operations_;
 }
 
 void VirtualBus::with_lock(const std::function<void()>& fn) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   fn();
 }
 

@@ -14,10 +14,10 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <span>
 #include <vector>
 
+#include "base/mutex.h"
 #include "bus/bus.h"
 
 namespace contego::bus {
@@ -50,13 +50,13 @@ class VirtualBus final : public Bus {
   uint64_t operations() const;
   // Runs `fn` under the bus lock, so tests and plants can read a model
   // consistently while a monitor is serving.
-  void with_lock(const std::function<void()>& fn);
+  void with_lock(const std::function<void()>& fn) EXCLUDES(mu_);
 
  private:
-  DeviceModel* find(uint16_t addr) const;
-  mutable std::mutex mu_;
-  std::vector<std::shared_ptr<DeviceModel>> devices_;
-  uint64_t operations_ = 0;
+  DeviceModel* find(uint16_t addr) const REQUIRES(mu_);
+  mutable base::Mutex mu_;
+  std::vector<std::shared_ptr<DeviceModel>> devices_ GUARDED_BY(mu_);
+  uint64_t operations_ GUARDED_BY(mu_) = 0;
   std::atomic<uint64_t> funcs_{kFuncs};
 };
 

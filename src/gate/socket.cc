@@ -134,9 +134,11 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
   auto fd = connect_to_monitor(path);
   if (!fd) return make_error(fd.error());
   std::unique_ptr<SocketClient> c(new SocketClient(fd->release()));
+  SocketClient* const client = c.get();
+  base::MutexLock lock(client->mu_);  // not shared yet: for exchange()'s REQUIRES
   wire::Header h;
   std::span<const uint8_t> answer;
-  if (!c->exchange(wire::Type::kHello, wire::encode_hello(task, vouch), &h, &answer)) {
+  if (!client->exchange(wire::Type::kHello, wire::encode_hello(task, vouch), &h, &answer)) {
     return make_error("the monitor at " + path + " closed the connection during hello");
   }
   if (h.type == static_cast<uint8_t>(wire::Type::kError)) {
@@ -151,7 +153,7 @@ Result<std::unique_ptr<SocketClient>> SocketClient::connect(const std::string& p
   }
   c->task_id_ = ok.task;
   c->task_priority_ = ok.priority;
-  if (channel) c->open_channel(*channel);
+  if (channel) client->open_channel(*channel);
   return c;
 }
 
@@ -213,7 +215,7 @@ bool SocketClient::wait_closed(int timeout_ms) const {
 }
 
 TransferReply SocketClient::transfer(uint16_t /*task: bound by hello*/, const Transfer& t) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   TransferReply reply;
   wire::Header h;
   std::span<const uint8_t> answer;
@@ -236,7 +238,7 @@ TransferReply SocketClient::transfer(uint16_t /*task: bound by hello*/, const Tr
 }
 
 void SocketClient::job_boundary(uint16_t /*task*/) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (broken_) return;
   uint32_t seq = 0;
   // Through the channel: posted, not awaited (the next post waits for the slot).
@@ -247,14 +249,14 @@ void SocketClient::job_boundary(uint16_t /*task*/) {
 
 void SocketClient::task_exited(uint16_t /*task*/) {
   // The monitor sees the connection close and drives the safe state itself.
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   ::shutdown(fd_, SHUT_RDWR);
   if (channel_) channel_->hang_up();  // wake the monitor's thread to see it now
   broken_ = true;
 }
 
 wire::BusInfo SocketClient::bus_info(uint8_t bus) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   auto it = buses_.find(bus);
   if (it != buses_.end()) return it->second;
   wire::Header h;
@@ -275,7 +277,7 @@ std::string SocketClient::revouch(pid_t pid, const std::string& task) {
   const std::string link = "/proc/" + std::to_string(pid) + "/exe";
   const ssize_t n = readlink(link.c_str(), exe, sizeof exe - 1);
   const std::string path = n > 0 ? std::string(exe, static_cast<size_t>(n)) : "/";
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   wire::Header h;
   std::span<const uint8_t> answer;
   const std::vector<uint8_t> request =

@@ -7,12 +7,12 @@
 
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "base/mutex.h"
 #include "base/result.h"
 #include "base/unique_fd.h"
 #include "gate/channel.h"
@@ -91,19 +91,21 @@ class SocketClient final : public Endpoint {
   // One request/answer exchange; false if the connection is unusable.
   // *answer is valid until the next exchange.
   bool exchange(wire::Type type, std::span<const uint8_t> payload, wire::Header* h,
-                std::span<const uint8_t>* answer);
-  wire::BusInfo bus_info(uint8_t bus);
-  void open_channel(SpinPolicy policy);
-  std::mutex mu_;
+                std::span<const uint8_t>* answer) REQUIRES(mu_);
+  wire::BusInfo bus_info(uint8_t bus) EXCLUDES(mu_);
+  void open_channel(SpinPolicy policy) REQUIRES(mu_);
+  // One exchange at a time on the connection (and its channel).
+  base::Mutex mu_;
   int fd_;
-  FrameReader reader_;
-  std::vector<uint8_t> out_;  // reused: the encoded transfer
-  bool broken_ = false;
-  uint32_t seq_ = 0;
-  uint16_t task_id_ = 0;
-  uint16_t task_priority_ = 0;
-  std::map<uint8_t, wire::BusInfo> buses_;
-  std::unique_ptr<Channel> channel_;
+  FrameReader reader_ GUARDED_BY(mu_);
+  std::vector<uint8_t> out_ GUARDED_BY(mu_);  // reused: the encoded transfer
+  bool broken_ GUARDED_BY(mu_) = false;
+  uint32_t seq_ GUARDED_BY(mu_) = 0;
+  uint16_t task_id_ = 0;        // set by connect(), then read only
+  uint16_t task_priority_ = 0;  // set by connect(), then read only
+  std::map<uint8_t, wire::BusInfo> buses_ GUARDED_BY(mu_);
+  // Set by connect() (before the client is shared), then used under mu_.
+  std::unique_ptr<Channel> channel_ PT_GUARDED_BY(mu_);
 };
 
 }  // namespace contego::gate

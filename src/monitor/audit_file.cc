@@ -136,7 +136,7 @@ void on_sigbus(int sig, siginfo_t* info, void* context) {
     return;
   }
   if (g_previous_bus.sa_handler == SIG_DFL || g_previous_bus.sa_handler == SIG_IGN) {
-    signal(SIGBUS, SIG_DFL);  // the faulting access repeats and ends the process
+    (void)signal(SIGBUS, SIG_DFL);  // the faulting access repeats and ends the process
     return;
   }
   g_previous_bus.sa_handler(sig);
@@ -181,13 +181,13 @@ bool guarded_copy(char* dst, const char* src, size_t n) {
 AuditLog::~AuditLog() {
   if (grower_.joinable()) {
     {
-      std::lock_guard g(grow_mu_);
+      base::MutexLock g(grow_mu_);
       grow_stop_ = true;
     }
     grow_cv_.notify_one();
     grower_.join();
   }
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   close_file_locked();
   for (const auto& [addr, len] : retired_) munmap(addr, len);
   retired_.clear();
@@ -307,7 +307,7 @@ void AuditLog::grow_ahead() {
   (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), 19);
   (void)pthread_setname_np(pthread_self(), kGrowerThreadName);  // for top -H, ps -L and the tests
   const size_t step = static_cast<size_t>(sysconf(_SC_PAGESIZE));
-  std::unique_lock g(grow_mu_);
+  base::MutexLock g(grow_mu_);
   while (!grow_stop_) {
     if (!retired_.empty()) {
       std::vector<std::pair<char*, size_t>> old;
@@ -327,7 +327,7 @@ void AuditLog::grow_ahead() {
       // it then notifies after every record until this thread has caught
       // up, so a notification lost just before this wait is followed by
       // another with the next record, and an idle log wakes no one.
-      grow_cv_.wait(g);
+      g.wait(grow_cv_);
       continue;
     }
     // One step of the file at a time, like the pages below: the kernel
@@ -336,12 +336,12 @@ void AuditLog::grow_ahead() {
       // No space: the writer sees it when it reaches the end of what is
       // allocated (its record fails, the action is refused); this thread
       // tries again at the writer's next notification.
-      grow_cv_.wait(g);
+      g.wait(grow_cv_);
       continue;
     }
     if (!prefault_) {
       ready_.store(file_room_, std::memory_order_release);
-      grow_cv_.wait(g);
+      g.wait(grow_cv_);
       continue;
     }
     // Fault the next pages in without the lock: a window the writer
@@ -364,7 +364,7 @@ void AuditLog::grow_ahead() {
     if (!ok) {
       if (err == EFAULT) {
         // The file was cut under the window: the writer's check resyncs.
-        grow_cv_.wait(g);
+        g.wait(grow_cv_);
         continue;
       }
       prefault_ = false;  // an older kernel: records fault their pages in themselves
@@ -379,7 +379,7 @@ void AuditLog::grow_ahead() {
 }
 
 Status AuditLog::open(const std::string& path, const AuditOptions& options) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   close_file_locked();
   std::memcpy(prev_, kAuditGenesis, sizeof prev_);
   line_.reserve(1024);
@@ -467,7 +467,7 @@ Status AuditLog::open_file_locked() {
     return make_error(
         fmt::format("no room for the audit log {} on its file system: {}", path_, strerror(err)));
   }
-  std::lock_guard g(grow_mu_);
+  base::MutexLock g(grow_mu_);
   fd_ = owned.release();
   owned_ = true;
   dev_ = st.st_dev;
@@ -488,7 +488,7 @@ Status AuditLog::open_file_locked() {
 void AuditLog::close_file_locked() {
   if (fd_ < 0) return;
   {
-    std::lock_guard g(grow_mu_);
+    base::MutexLock g(grow_mu_);
     if (map_ != nullptr) retired_.emplace_back(map_, map_len_);
     map_ = nullptr;
     ready_.store(0, std::memory_order_release);

@@ -247,7 +247,7 @@ bool AuditLog::rotate_locked(const std::string& why) {
 }
 
 Result<std::string> AuditLog::reopen() {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (mode_ != Mode::kFile) return std::string("the audit log is not a file: nothing to reopen");
   struct stat named {};
   const bool still_named =
@@ -354,7 +354,7 @@ bool AuditLog::put_locked(const std::string& line) {
     // populated: the copy faults its page in itself, and one fault maps the
     // whole folio the append made (Linux 6.x page cache), so a burst pays
     // one system call per 64 KiB of records, not one per page.
-    std::lock_guard g(grow_mu_);
+    base::MutexLock g(grow_mu_);
     if (at + line.size() <= map_len_) {
       (void)extend_locked(at + line.size() + kGrowStep);
       room = at + line.size() <= allocated_.load(std::memory_order_relaxed);
@@ -436,7 +436,7 @@ bool AuditLog::commit_locked(std::string& body, bool continuation) {
 // comes last (it is appended when the rest of the line is known).
 bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
   const uint64_t t = names.t_us >= 0 ? static_cast<uint64_t>(names.t_us) : wall_us();
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (mode_ == Mode::kNone) {
     ++lines_;
     return true;
@@ -555,7 +555,7 @@ void AuditLog::echo_violation_locked(const core::AuditRecord& r, const RecordNam
 }
 
 void AuditLog::set_journal(JournalSink journal) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   options_.journal = std::move(journal);
 }
 
@@ -578,7 +578,7 @@ bool AuditLog::event(const std::string& kind, const std::string& detail) {
 bool AuditLog::event(const std::string& kind, const std::string& detail, int64_t t_us,
                      int64_t mono_us) {
   const uint64_t t = t_us >= 0 ? static_cast<uint64_t>(t_us) : wall_us();
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (mode_ == Mode::kNone) {
     ++lines_;
     return true;
@@ -600,7 +600,7 @@ bool AuditLog::anchored_event(
     const std::string& kind,
     const std::function<std::string(const std::string& prev_hash, uint64_t records)>& detail) {
   const uint64_t t = wall_us();
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (mode_ == Mode::kNone) return false;
   const std::string text = detail(prev_, lines_);
   if (text.empty()) return false;
@@ -617,32 +617,32 @@ bool AuditLog::anchored_event(
 }
 
 uint64_t AuditLog::failures() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return failures_;
 }
 
 uint64_t AuditLog::rotations() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return rotations_;
 }
 
 std::string AuditLog::path() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return path_;
 }
 
 std::string AuditLog::last_hash() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return prev_;
 }
 
 uint64_t AuditLog::position() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return static_cast<uint64_t>(pos_);
 }
 
 uint64_t AuditLog::lines() const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return lines_;
 }
 }  // namespace contego::monitor

@@ -32,7 +32,6 @@
 #include <functional>
 #include <istream>
 #include <map>
-#include <mutex>
 #include <string>
 #include <sys/types.h>
 #include <thread>
@@ -41,6 +40,7 @@
 
 #include "contego/core/verdict.h"
 
+#include "base/mutex.h"
 #include "base/result.h"
 #include "monitor/journal_entry.h"
 
@@ -164,28 +164,30 @@ class AuditLog {
  private:
   // Appends ,"prev":"..."} and the newline to body, hashes, writes; on
   // success the chain advances. Handles rotation, truncation, deletion and
-  // a lost write (a retry after resync). mu_ held.
-  bool commit_locked(std::string& body, bool continuation = false);
-  bool put_locked(const std::string& line);  // the bytes reach the file (or not at all)
-  // One stderr line for a decision that is not `allow` (echo_violations). mu_ held.
-  void echo_violation_locked(const core::AuditRecord& record, const RecordNames& names);
-  bool write_fd_locked(const std::string& line);
-  // Opens path_ (the checks of open()) and continues at its end. mu_ held.
-  Status open_file_locked();
-  void close_file_locked();  // unmap, cut the padding, unlock, close
+  // a lost write (a retry after resync).
+  bool commit_locked(std::string& body, bool continuation = false) REQUIRES(mu_);
+  // The bytes reach the file (or not at all).
+  bool put_locked(const std::string& line) REQUIRES(mu_);
+  // One stderr line for a decision that is not `allow` (echo_violations).
+  void echo_violation_locked(const core::AuditRecord& record, const RecordNames& names)
+      REQUIRES(mu_);
+  bool write_fd_locked(const std::string& line) REQUIRES(mu_);
+  // Opens path_ (the checks of open()) and continues at its end.
+  Status open_file_locked() REQUIRES(mu_);
+  void close_file_locked() REQUIRES(mu_);  // unmap, cut the padding, unlock, close
   // The file behind fd_ changed (truncated, deleted, replaced)? Then
   // continue accordingly. True if a line was lost or needs a retry.
-  void check_file_locked(bool force);
-  bool rotate_locked(const std::string& why);  // PATH -> PATH.1 ..., new PATH
+  void check_file_locked(bool force) REQUIRES(mu_);
+  bool rotate_locked(const std::string& why) REQUIRES(mu_);  // PATH -> PATH.1 ..., new PATH
   bool start_continuation_locked(const std::string& follows, const char* old_hash,
-                                 const std::string& why);
-  void report_failure_locked(const std::string& why);
+                                 const std::string& why) REQUIRES(mu_);
+  void report_failure_locked(const std::string& why) REQUIRES(mu_);
   // Maps the file from `pos` with room for `need` more bytes, extending it
   // with zeros in kGrowStep steps. False (and unmapped) on failure.
-  bool map_from_locked(off_t pos, size_t need);
-  bool extend_locked(size_t upto);  // the file backs the window up to `upto`; grow_mu_ held
-  bool grow_locked(size_t upto);    // extended and faulted in up to `upto`; grow_mu_ held
-  void grow_ahead();                // the grower thread
+  bool map_from_locked(off_t pos, size_t need) REQUIRES(mu_, grow_mu_);
+  bool extend_locked(size_t upto) REQUIRES(grow_mu_);   // the file backs the window up to `upto`
+  bool grow_locked(size_t upto) REQUIRES(grow_mu_);     // extended and faulted in up to `upto`
+  void grow_ahead();                                    // the grower thread
   static constexpr size_t kWindow = size_t{256} << 20;  // mapped at once (address space only)
   static constexpr size_t kMapChunk = 1 << 20;          // a window's length is a multiple
   // The file grows by this much per write(2) of zeros: a step of the
@@ -196,50 +198,53 @@ class AuditLog {
   static constexpr size_t kGrowStep = 64 * 1024;
   static constexpr size_t kPrefault = 64 * 1024;  // pages faulted in per step
   static constexpr size_t kAhead = 256 * 1024;    // kept ready ahead of the writer
-  mutable std::mutex mu_;
-  char prev_[65] = {};  // SHA-256 (hex) of the last line written, NUL-terminated
-  std::string line_;    // reused: the line being formatted
+  mutable base::Mutex mu_ ACQUIRED_BEFORE(grow_mu_);
+  char prev_[65] GUARDED_BY(mu_) = {};  // SHA-256 (hex) of the last line written, NUL-terminated
+  std::string line_ GUARDED_BY(mu_);    // reused: the line being formatted
   enum class Mode { kNone, kStream, kFile };  // discard; write(2) only; a checked regular file
-  Mode mode_ = Mode::kNone;
+  Mode mode_ GUARDED_BY(mu_) = Mode::kNone;
+  // fd_ and the window (map_, map_base_, map_len_) change with mu_ and
+  // grow_mu_ held and are read with either: the analysis has no word for
+  // that, so they carry no annotation.
   int fd_ = -1;  // kFile: -1 after the file was lost and could not be reopened
-  bool owned_ = false;
-  std::string last_error_;
+  bool owned_ GUARDED_BY(mu_) = false;
+  std::string last_error_ GUARDED_BY(mu_);
   char* map_ = nullptr;  // the mapped window of a regular file, or null (write(2))
   off_t map_base_ = 0;   // file offset of map_[0]
   size_t map_len_ = 0;
-  off_t pos_ = 0;  // file offset of the next record (the end of the records)
-  uint64_t lines_ = 0;
-  uint64_t failures_ = 0;
-  uint64_t rotations_ = 0;
+  off_t pos_ GUARDED_BY(mu_) = 0;  // file offset of the next record (the end of the records)
+  uint64_t lines_ GUARDED_BY(mu_) = 0;
+  uint64_t failures_ GUARDED_BY(mu_) = 0;
+  uint64_t rotations_ GUARDED_BY(mu_) = 0;
   // Lines written to the current file other than `signal` events and its
   // `continues` record: a SIGHUP rotates only a file that recorded something.
-  uint64_t recorded_in_file_ = 0;
-  std::string path_;
-  AuditOptions options_;
-  dev_t dev_ = 0;
-  ino_t ino_ = 0;
-  uint64_t next_check_us_ = 0;          // monotonic: when the file is next checked
-  uint64_t next_report_us_ = 0;         // monotonic: stderr rate limit
-  uint64_t unreported_ = 0;             // failures not yet on stderr
-  PerSecondLimit violation_limit_{10};  // violations echoed or sent to the journal
-  PerSecondLimit event_limit_{20};      // events sent to the journal
-  void journal_event_locked(const std::string& kind, const std::string& detail);
-  std::string cont_;           // a continues or audit-gap record being formatted
-  uint64_t gap_ = 0;           // records lost since the last one written
-  uint64_t gap_since_us_ = 0;  // wall clock of the first of them
-  std::string gap_why_;        // the last reason
+  uint64_t recorded_in_file_ GUARDED_BY(mu_) = 0;
+  std::string path_ GUARDED_BY(mu_);
+  AuditOptions options_ GUARDED_BY(mu_);
+  dev_t dev_ GUARDED_BY(mu_) = 0;
+  ino_t ino_ GUARDED_BY(mu_) = 0;
+  uint64_t next_check_us_ GUARDED_BY(mu_) = 0;          // monotonic: when the file is next checked
+  uint64_t next_report_us_ GUARDED_BY(mu_) = 0;         // monotonic: stderr rate limit
+  uint64_t unreported_ GUARDED_BY(mu_) = 0;             // failures not yet on stderr
+  PerSecondLimit violation_limit_ GUARDED_BY(mu_){10};  // violations echoed or sent to the journal
+  PerSecondLimit event_limit_ GUARDED_BY(mu_){20};      // events sent to the journal
+  void journal_event_locked(const std::string& kind, const std::string& detail) REQUIRES(mu_);
+  std::string cont_ GUARDED_BY(mu_);           // a continues or audit-gap record being formatted
+  uint64_t gap_ GUARDED_BY(mu_) = 0;           // records lost since the last one written
+  uint64_t gap_since_us_ GUARDED_BY(mu_) = 0;  // wall clock of the first of them
+  std::string gap_why_ GUARDED_BY(mu_);        // the last reason
   // The grower: extends the file and faults its pages in ahead of the
   // writer. Lock order: mu_, then grow_mu_. The writer takes no lock but
   // mu_ below allocated_ (below ready_ without a page fault): it takes
   // grow_mu_ only to extend the file itself, so the grower, which holds it
   // while it appends zeros and gets the CPU last, rarely stalls it.
-  std::mutex grow_mu_;
+  base::Mutex grow_mu_;
   std::condition_variable grow_cv_;
   std::thread grower_;
-  bool grow_stop_ = false;                         // grow_mu_
-  size_t file_room_ = 0;                           // window bytes the file backs; grow_mu_
-  bool prefault_ = true;                           // MADV_POPULATE_WRITE works; grow_mu_
-  std::vector<std::pair<char*, size_t>> retired_;  // old windows to unmap; grow_mu_
+  bool grow_stop_ GUARDED_BY(grow_mu_) = false;
+  size_t file_room_ GUARDED_BY(grow_mu_) = 0;  // window bytes the file backs
+  bool prefault_ GUARDED_BY(grow_mu_) = true;  // MADV_POPULATE_WRITE works
+  std::vector<std::pair<char*, size_t>> retired_ GUARDED_BY(grow_mu_);  // old windows to unmap
   std::atomic<size_t> ready_{0};      // window bytes the writer may fill without a fault
   std::atomic<size_t> written_{0};    // window bytes filled so far
   std::atomic<size_t> allocated_{0};  // file_room_, for the writer and the file check

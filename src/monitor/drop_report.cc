@@ -56,7 +56,7 @@ void DropReport::note(const core::AuditRecord& r, const RecordNames& names, uint
   fmt::print(out_, "contego: task {}: {} to {} {}: {}, {}{}\n", name(names.task, "(none)"),
              name(names.command, "a command"), name(names.device, "(no device)"), verdict,
              name(names.rule, "no rule"), core::reason_name(r.reason), more);
-  std::fflush(out_);
+  (void)std::fflush(out_);
   t.told = true;
   t.reported_at_us = now_us;
   t.unreported = 0;

@@ -26,17 +26,17 @@ Monitor::Monitor(Decider& decider, AuditLog& audit, Clock& clock)
 Monitor::~Monitor() { stop_sampling(); }
 
 void Monitor::add_bus(uint8_t number, bus::Bus* bus) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   buses_[number] = bus;
 }
 
 bool Monitor::has_bus(uint8_t bus) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return buses_.count(bus) != 0;
 }
 
 uint64_t Monitor::funcs(uint8_t bus) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   auto it = buses_.find(bus);
   return it == buses_.end() ? 0 : it->second->funcs();
 }
@@ -46,6 +46,7 @@ uint64_t Monitor::funcs(uint8_t bus) {
 uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us) {
   auto* self = static_cast<Monitor*>(ctx);
+  self->mu_.assume_held();  // the core calls back from check(), under mu_
   const readings::Reading* r =
       self->readings_.for_check(self->checking_task_, device, self->checking_now_us_);
   if (r == nullptr) return 0;
@@ -57,6 +58,7 @@ uint32_t Monitor::host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uin
 
 void Monitor::host_audit(void* ctx, const core::AuditRecord* record) {
   auto* self = static_cast<Monitor*>(ctx);
+  self->mu_.assume_held();  // the core calls back from check(), under mu_
   // No action without a record: a decision whose line is not in the log
   // is refused by transfer() (checked after each check()).
   RecordNames names = self->names_.of(*record);
@@ -102,7 +104,7 @@ bool Monitor::ComplainScope::any() const {
 }
 
 void Monitor::set_complain(ComplainScope scope) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   complain_ = std::move(scope);
 }
 
@@ -113,7 +115,7 @@ bool Monitor::complains_task_locked(uint16_t task) const {
 bool Monitor::complains_locked(uint16_t task, const gate::Transfer& t) const {
   if (complains_task_locked(task)) return true;
   if (complain_.devices == 0) return false;
-  auto complaining = [&](uint16_t addr) {
+  auto complaining = [&](uint16_t addr) REQUIRES(mu_) {
     for (uint16_t d = 0; d < decider_->device_count() && d < 32; ++d) {
       const core::DeviceRecord& rec = decider_->device(d);
       if (rec.bus == t.bus && rec.addr == addr) return ((complain_.devices >> d) & 1u) != 0;
@@ -147,17 +149,17 @@ int Monitor::act_as_sent_locked(const gate::Transfer& t,
 }
 
 std::string Monitor::decision_summary(uint16_t task) const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return drops_.summary(task);
 }
 
 DecisionCounts Monitor::decision_counts(uint16_t task) const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return drops_.counts(task);
 }
 
 void Monitor::set_drop_report(std::FILE* out) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   drops_ = DropReport(out);
 }
 
@@ -181,7 +183,7 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit) {
 void Monitor::set_budget_factor(uint32_t factor) { budget_factor_.store(factor); }
 
 void Monitor::set_task_facts(TaskFacts facts) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   facts_ = std::move(facts);
 }
 
@@ -195,7 +197,7 @@ uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
 }
 
 Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   const auto& names = names_.devices;
   const auto it = std::find(names.begin(), names.end(), device);
   if (it == names.end()) return make_error("the policy has no device '" + device + "'");
@@ -227,7 +229,7 @@ void Monitor::hold_if_over_budget(uint16_t task) {
   if (factor == 0) return;
   uint64_t hold_until = 0;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     if (complains_task_locked(task)) return;  // observed as it runs, never held
     const uint64_t period = decider_->task_period_us(task);
     const uint64_t budget = uint64_t{factor} * decider_->task_actuations_per_job(task);
@@ -322,7 +324,7 @@ gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
   uint64_t hold_until = 0;
   gate::TransferReply reply;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     bool acted = false;
     reply = decide_and_act_locked(task, t, &acted);
     complain_now_ = false;  // records written outside a transfer (safe states) are enforced
@@ -539,7 +541,7 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
 }
 
 void Monitor::job_boundary(uint16_t task) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   (void)job_at_locked(task, clock_.now_us());  // at most sets the phase
 }
 
@@ -575,12 +577,12 @@ uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
 }
 
 uint16_t Monitor::task_priority(uint16_t task) const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return decider_->task_priority(task);
 }
 
 uint32_t Monitor::job(uint16_t task) const {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   auto it = job_phase_us_.find(task);
   const uint64_t period = decider_->task_period_us(task);
   if (it == job_phase_us_.end() || period == 0) return 0;
@@ -588,7 +590,7 @@ uint32_t Monitor::job(uint16_t task) const {
 }
 
 void Monitor::task_exited(uint16_t task) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   // Only the actuators this task may command: the end of one task's session
   // must not override what the others are doing.
   const uint32_t devices = task < task_devices_.size() ? task_devices_[task] : UINT32_MAX;
@@ -606,7 +608,7 @@ void Monitor::task_exited(uint16_t task) {
     audit_.event("staged-dropped", what);
     if (std::FILE* out = drops_.out(); out != nullptr) {
       fmt::print(out, "contego: {}\n", what);
-      std::fflush(out);
+      (void)std::fflush(out);
     }
   }
   // The job grid stays: a program that reconnects or restarts under the same
@@ -615,7 +617,7 @@ void Monitor::task_exited(uint16_t task) {
 }
 
 std::vector<DeviceFailure> Monitor::drive_safe_state(const std::string& why) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return drive_safe_state_locked(why);
 }
 
@@ -679,7 +681,7 @@ int Monitor::sample_device_locked(uint16_t d) {
 }
 
 std::vector<DeviceFailure> Monitor::sample_all() {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   std::vector<DeviceFailure> failed;
   for (uint16_t d = 0; d < decider_->device_count(); ++d) {
     if ((decider_->device(d).role & core::kRoleSensor) == 0) continue;
@@ -689,7 +691,7 @@ std::vector<DeviceFailure> Monitor::sample_all() {
 }
 
 uint64_t Monitor::sample_due() {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   return sample_due_locked();
 }
 
@@ -710,7 +712,7 @@ uint64_t Monitor::sample_due_locked() {
 }
 
 void Monitor::start_sampling() {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (sampler_.joinable()) return;
   // No sensor with a sample period: a thread would only wake to find
   // nothing due (every 100 ms, for the life of the monitor).
@@ -722,18 +724,18 @@ void Monitor::start_sampling() {
   if (!periodic) return;
   sampler_stop_ = false;
   sampler_ = std::thread([this] {
-    std::unique_lock held(mu_);
+    base::MutexLock held(mu_);
     while (!sampler_stop_) {
       const uint64_t next = sample_due_locked();
-      sampler_cv_.wait_for(held, std::chrono::microseconds(next - std::min(next, clock_.now_us())),
-                           [this] { return sampler_stop_; });
+      held.wait_for(sampler_cv_, std::chrono::microseconds(next - std::min(next, clock_.now_us())),
+                    [this]() REQUIRES(mu_) { return sampler_stop_; });
     }
   });
 }
 
 void Monitor::stop_sampling() {
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     sampler_stop_ = true;
   }
   sampler_cv_.notify_all();

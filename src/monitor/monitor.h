@@ -19,7 +19,6 @@
 #include <cstdint>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -28,6 +27,7 @@
 #include "contego/core/limits.h"
 
 #include "base/clock.h"
+#include "base/mutex.h"
 #include "bus/bus.h"
 #include "gate/endpoint.h"
 #include "monitor/audit_log.h"
@@ -79,13 +79,20 @@ class Monitor final : public gate::Endpoint {
   ~Monitor() override;
 
   void add_bus(uint8_t number, bus::Bus* bus);
-  void set_task_names(std::vector<std::string> names) { names_.tasks = std::move(names); }
+  void set_task_names(std::vector<std::string> names) {
+    base::MutexLock lock(mu_);
+    names_.tasks = std::move(names);
+  }
   // The image's names, written beside the numbers of every audit record.
-  void set_names(NameTable names) { names_ = std::move(names); }
+  void set_names(NameTable names) {
+    base::MutexLock lock(mu_);
+    names_ = std::move(names);
+  }
   // Per task id, bit k: the task may actuate device k (the image's access
   // matrix). When set, a task's exit drives only its own actuators safe;
   // unset (or a task beyond the list), every actuator.
   void set_task_devices(std::vector<uint32_t> actuate_masks) {
+    base::MutexLock lock(mu_);
     task_devices_ = std::move(actuate_masks);
   }
   // Over-budget hold (0 = off): once `factor` x its declared actuations per
@@ -210,72 +217,76 @@ class Monitor final : public gate::Endpoint {
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
-  int perform_emits(const core::Verdict& v, bool ten_bit);  // under mu_
-  bool complains_locked(uint16_t task, const gate::Transfer& t) const;
-  bool complains_task_locked(uint16_t task) const;
+  int perform_emits(const core::Verdict& v, bool ten_bit) REQUIRES(mu_);
+  bool complains_locked(uint16_t task, const gate::Transfer& t) const REQUIRES(mu_);
+  bool complains_task_locked(uint16_t task) const REQUIRES(mu_);
   // Complain mode: every write of `planned` emits the bytes the program sent.
-  int act_as_sent_locked(const gate::Transfer& t, const std::vector<gate::PlannedTx>& planned);
+  int act_as_sent_locked(const gate::Transfer& t, const std::vector<gate::PlannedTx>& planned)
+      REQUIRES(mu_);
   // The readings of every sensor as the check of `checking_task_` sees them,
   // as the JSON object of the decision records (readings_json_).
-  void describe_readings_locked();
+  void describe_readings_locked() REQUIRES(mu_);
   // transfer()'s steps, under mu_ (verdicts_ holds the verdicts).
   int check_transfer(uint16_t task, const gate::Transfer& t,
-                     const std::vector<gate::PlannedTx>& planned, size_t* checked);
+                     const std::vector<gate::PlannedTx>& planned, size_t* checked) REQUIRES(mu_);
   gate::TransferReply perform_transfer(uint16_t task, const gate::Transfer& t,
-                                       const std::vector<gate::PlannedTx>& planned);
-  void drive_transfer_safe_states(uint16_t task, size_t checked);
-  int sample_device_locked(uint16_t device);  // 0 or the bus's errno
-  uint64_t sample_due_locked();
+                                       const std::vector<gate::PlannedTx>& planned) REQUIRES(mu_);
+  void drive_transfer_safe_states(uint16_t task, size_t checked) REQUIRES(mu_);
+  int sample_device_locked(uint16_t device) REQUIRES(mu_);  // 0 or the bus's errno
+  uint64_t sample_due_locked() REQUIRES(mu_);
   void hold_if_over_budget(uint16_t task);
-  uint64_t charge_transfer_locked(uint16_t task, bool acted);
-  void renew_budget_locked(Budget& b, uint32_t job, uint64_t period);
-  void report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget,
-                          const char* what);
-  gate::TransferReply decide_and_act_locked(uint16_t task, const gate::Transfer& t, bool* acted);
+  uint64_t charge_transfer_locked(uint16_t task, bool acted) REQUIRES(mu_);
+  void renew_budget_locked(Budget& b, uint32_t job, uint64_t period) REQUIRES(mu_);
+  void report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget, const char* what)
+      REQUIRES(mu_);
+  gate::TransferReply decide_and_act_locked(uint16_t task, const gate::Transfer& t, bool* acted)
+      REQUIRES(mu_);
   // The task's job at `now_us` on its period grid (1 = the first), starting
   // the grid on the first call; 0 for a task without a period.
-  uint32_t job_at_locked(uint16_t task, uint64_t now_us);
+  uint32_t job_at_locked(uint16_t task, uint64_t now_us) REQUIRES(mu_);
   // When job `job` + 1 of the task is released (0: never).
-  uint64_t next_release_locked(uint16_t task, uint32_t job) const;
+  uint64_t next_release_locked(uint16_t task, uint32_t job) const REQUIRES(mu_);
   // The actuators whose bit is set in `devices` (all by default).
   std::vector<DeviceFailure> drive_safe_state_locked(const std::string& why,
-                                                     uint32_t devices = UINT32_MAX);
+                                                     uint32_t devices = UINT32_MAX) REQUIRES(mu_);
 
-  Decider* decider_;  // under mu_ (reload swaps it)
+  Decider* decider_ GUARDED_BY(mu_);  // reload swaps it
   AuditLog& audit_;
   Clock& clock_;
-  mutable std::mutex mu_;
-  std::map<uint8_t, bus::Bus*> buses_;
-  NameTable names_;
-  std::vector<uint32_t> task_devices_;
-  std::vector<core::Verdict> verdicts_;   // transfer()'s, under mu_: reused, not allocated per call
-  std::vector<gate::PlannedTx> planned_;  // transfer()'s plan, under mu_: reused the same way
-  readings::SensorReadings readings_;
-  uint16_t checking_task_ = core::kNoTask;  // under mu_: whose command the core is judging
-  uint64_t checking_now_us_ = 0;
-  uint64_t check_seq_ = 0;          // under mu_: core checks so far (the records' `tx`)
-  bool complain_now_ = false;       // under mu_: the transfer being checked complains
-  std::string readings_json_;       // under mu_: describe_readings_locked()'s
-  uint64_t readings_json_seq_ = 0;  // the check readings_json_ is of (0: none)
-  ComplainScope complain_;
-  std::map<uint16_t, uint64_t> job_phase_us_;  // the release of each task's job 1
-  TaskFacts facts_;                            // under mu_
-  std::atomic<uint32_t> budget_factor_{0};     // read without mu_ when off
-  std::map<uint16_t, Budget> budgets_;
+  mutable base::Mutex mu_;
+  std::map<uint8_t, bus::Bus*> buses_ GUARDED_BY(mu_);
+  NameTable names_ GUARDED_BY(mu_);
+  std::vector<uint32_t> task_devices_ GUARDED_BY(mu_);
+  std::vector<core::Verdict> verdicts_
+      GUARDED_BY(mu_);  // transfer()'s: reused, not allocated per call
+  std::vector<gate::PlannedTx> planned_ GUARDED_BY(mu_);  // transfer()'s plan: reused the same way
+  readings::SensorReadings readings_ GUARDED_BY(mu_);
+  uint16_t checking_task_ GUARDED_BY(mu_) = core::kNoTask;  // whose command the core is judging
+  uint64_t checking_now_us_ GUARDED_BY(mu_) = 0;
+  uint64_t check_seq_ GUARDED_BY(mu_) = 0;          // core checks so far (the records' `tx`)
+  bool complain_now_ GUARDED_BY(mu_) = false;       // the transfer being checked complains
+  std::string readings_json_ GUARDED_BY(mu_);       // describe_readings_locked()'s
+  uint64_t readings_json_seq_ GUARDED_BY(mu_) = 0;  // the check readings_json_ is of (0: none)
+  ComplainScope complain_ GUARDED_BY(mu_);
+  std::map<uint16_t, uint64_t> job_phase_us_ GUARDED_BY(mu_);  // the release of each task's job 1
+  TaskFacts facts_ GUARDED_BY(mu_);
+  std::atomic<uint32_t> budget_factor_{0};  // read without mu_ when off
+  std::map<uint16_t, Budget> budgets_ GUARDED_BY(mu_);
   std::atomic<uint64_t> holds_{0};
-  DropReport drops_;  // under mu_
+  DropReport drops_ GUARDED_BY(mu_);
   std::atomic<uint64_t> decisions_{0};
   std::atomic<uint64_t> audit_refusals_{0};
-  bool audit_lost_ = false;  // under mu_: the last check()'s record was not written
-  std::map<uint16_t, uint64_t> sample_due_us_;  // under mu_: each periodic sensor's next sample
-  std::map<uint16_t, uint64_t> safe_at_us_;     // under mu_: each actuator's last safe state
+  bool audit_lost_ GUARDED_BY(mu_) = false;  // the last check()'s record was not written
+  std::map<uint16_t, uint64_t> sample_due_us_
+      GUARDED_BY(mu_);                                       // each periodic sensor's next sample
+  std::map<uint16_t, uint64_t> safe_at_us_ GUARDED_BY(mu_);  // each actuator's last safe state
   // What deciding a transfer cost (check_transfer: the core's checks, not the
   // bus), as a histogram for the metrics: counts per upper bound in
   // kCheckCostBoundsNs (the last: above every bound), their sum and count.
-  CheckCost check_cost_;  // under mu_
+  CheckCost check_cost_ GUARDED_BY(mu_);
   std::thread sampler_;
   std::condition_variable sampler_cv_;
-  bool sampler_stop_ = false;
+  bool sampler_stop_ GUARDED_BY(mu_) = false;
 };
 
 }  // namespace contego::monitor

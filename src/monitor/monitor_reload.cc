@@ -8,7 +8,7 @@ namespace contego::monitor {
 
 Result<std::string> Monitor::reload(Decider& decider, Policy policy,
                                     const std::function<Result<std::string>()>& carry) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (decider.device_count() != decider_->device_count()) {
     return make_error(
         fmt::format("the new policy has {} devices, the running one {}: a reload "

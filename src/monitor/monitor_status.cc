@@ -9,7 +9,7 @@ namespace contego::monitor {
 std::string Monitor::status_json() const {
   nlohmann::json tasks = nlohmann::json::array();
   nlohmann::json devices = nlohmann::json::array();
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   const uint64_t now = clock_.now_us();
   for (size_t i = 0; i < names_.tasks.size(); ++i) {
     const auto task = static_cast<uint16_t>(i);

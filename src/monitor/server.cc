@@ -50,15 +50,11 @@ bool Server::trust_supervisor(const std::string& path) {
   return true;
 }
 
-void Server::set_bindings(std::map<std::string, TaskBinding> bindings) {
-  bindings_ = std::move(bindings);
-}
-
 Server::~Server() {
   stop();
   std::vector<std::unique_ptr<Conn>> conns;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     conns.swap(conns_);
   }
   for (auto& c : conns) {
@@ -128,7 +124,7 @@ void Server::wake() {
 }
 
 size_t Server::live_connections() {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   size_t n = 0;
   for (const auto& c : conns_) n += c->done.load() ? 0 : 1;
   return n;
@@ -136,7 +132,7 @@ size_t Server::live_connections() {
 
 void Server::client_event(uid_t uid, const std::string& kind, const std::string& detail) {
   {
-    std::lock_guard lock(events_mu_);
+    base::MutexLock lock(events_mu_);
     const uint64_t now = now_us();
     EventBudget& b = budgets_[uid];
     if (now >= b.window_us + 1000000) {
@@ -168,7 +164,7 @@ void Server::refuse_peer(int fd, pid_t pid, uid_t uid, const std::string& why, i
 }
 
 void Server::flush_suppressed(bool all) {
-  std::lock_guard lock(events_mu_);
+  base::MutexLock lock(events_mu_);
   const uint64_t now = now_us();
   for (auto it = budgets_.begin(); it != budgets_.end();) {
     EventBudget& b = it->second;
@@ -190,7 +186,7 @@ int Server::housekeeping() {
   std::vector<std::pair<uid_t, int>> timed_out;
   uint64_t next_us = UINT64_MAX;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     const uint64_t now = now_us();
     for (auto it = conns_.begin(); it != conns_.end();) {
       Conn& c = **it;
@@ -220,7 +216,7 @@ int Server::housekeeping() {
   }
   flush_suppressed(false);
   {
-    std::lock_guard lock(events_mu_);
+    base::MutexLock lock(events_mu_);
     for (const auto& [uid, b] : budgets_) next_us = std::min(next_us, b.window_us + 1000000);
   }
   if (next_us == UINT64_MAX) return -1;
@@ -305,7 +301,7 @@ void Server::accept_one(int listener, bool read_only, AcceptReports* reports) {
       return;
     }
   }
-  std::unique_lock lock(mu_);
+  base::MutexLock lock(mu_);
   uint32_t& live = per_uid_[cred.uid];
   if (limits_.max_per_uid > 0 && live >= limits_.max_per_uid) {
     lock.unlock();
@@ -346,7 +342,7 @@ void Server::stop() {
   wake();
   if (listen_fd_.valid()) shutdown(listen_fd_.get(), SHUT_RDWR);
   if (status_fd_.valid()) shutdown(status_fd_.get(), SHUT_RDWR);
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   for (const auto& c : conns_) {
     if (!c->done.load()) shutdown(c->fd.get(), SHUT_RDWR);
   }
@@ -377,11 +373,11 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty()) {
         return refuse(EPROTO, e);
       }
-      auto it = tasks_.find(name);
-      if (s.bound || it == tasks_.end()) {
+      const std::optional<uint16_t> task = task_of(name);
+      if (s.bound || !task) {
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
-      if (std::string why = admit(s, name, it->second, vouch); !why.empty()) {
+      if (std::string why = admit(s, name, *task, vouch); !why.empty()) {
         hellos_refused_.fetch_add(1);
         client_event(s.conn->uid, "hello-refused",
                      fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, why));
@@ -519,7 +515,7 @@ void Server::connection(Conn* conn) {
   }
   if (channel) serve_channel(s, *channel);
   end_session(s);
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   c->fd.reset();
   c->pidfd.reset();
   if (auto it = per_uid_.find(c->uid); it != per_uid_.end() && --it->second == 0) {

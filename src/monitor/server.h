@@ -41,7 +41,6 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <set>
 #include <span>
@@ -50,6 +49,7 @@
 #include <thread>
 #include <vector>
 
+#include "base/mutex.h"
 #include "base/result.h"
 #include "base/unique_fd.h"
 #include "gate/channel.h"
@@ -76,7 +76,10 @@ class Server {
   ~Server();
   // Who may run each task, by name (a task not named: anyone allowed to
   // connect, one session). Call before serve().
-  void set_bindings(std::map<std::string, TaskBinding> bindings);
+  void set_bindings(std::map<std::string, TaskBinding> bindings) {
+    base::MutexLock lock(mu_);
+    bindings_ = std::move(bindings);
+  }
   Status listen(const std::string& path);  // replaces a stale socket file; mode 0660
   // A second, read-only socket: it answers `contego status` and nothing
   // else, to root, the monitor's uid and members of the status group (the
@@ -122,8 +125,9 @@ class Server {
     std::atomic<bool> done{false};
     bool read_only = false;     // came in on the status socket: status requests only
     bool status_group = false;  // the peer is in the status group
-    bool timed_out = false;     // mu_
-    int task = -1;              // the task its session is bound to, -1 none; mu_
+    // Server::mu_ (the analysis cannot name an enclosing object's lock here)
+    bool timed_out = false;
+    int task = -1;  // the task its session is bound to, -1 none; Server::mu_
     std::thread thread;
   };
   struct EventBudget {
@@ -158,7 +162,19 @@ class Server {
                     const gate::wire::Vouch& vouch);
   std::string identity_refusal(const Conn& c, const std::string& name,
                                const gate::wire::Vouch& vouch);
-  bool descends_from_supervised(pid_t pid);  // mu_ held
+  bool descends_from_supervised(pid_t pid) REQUIRES(mu_);
+  // Task `name`'s id and binding (none: anyone allowed to connect, one
+  // session) as the policy says now: copies, taken under mu_.
+  std::optional<uint16_t> task_of(const std::string& name) EXCLUDES(mu_) {
+    base::MutexLock lock(mu_);
+    const auto it = tasks_.find(name);
+    return it == tasks_.end() ? std::nullopt : std::optional<uint16_t>(it->second);
+  }
+  std::optional<TaskBinding> binding_of(const std::string& name) EXCLUDES(mu_) {
+    base::MutexLock lock(mu_);
+    const auto it = bindings_.find(name);
+    return it == bindings_.end() ? std::nullopt : std::optional<TaskBinding>(it->second);
+  }
   // The peer rules for every message but hello ("" when it may be answered).
   std::string message_refusal(const Session& s, gate::wire::Type type);
   // A supervisor's re-vouch after its program's exec ("" = may go on).
@@ -170,6 +186,7 @@ class Server {
   // What the status answer names the running policy by (its source and
   // image SHA-256), set once before serve().
   void set_policy_source(std::string source, std::string image_sha256 = {}) {
+    base::MutexLock lock(mu_);
     policy_source_ = std::move(source);
     image_sha256_ = std::move(image_sha256);
   }
@@ -204,18 +221,17 @@ class Server {
   std::string status_json();
 
  private:
-  std::string policy_source_;  // mu_ (a reload replaces it)
-  std::string image_sha256_;   // mu_
-  Reloader reloader_;          // set before serve()
+  std::string policy_source_ GUARDED_BY(mu_);  // a reload replaces it
+  std::string image_sha256_ GUARDED_BY(mu_);
+  Reloader reloader_;  // set before serve()
   const uint64_t started_us_ = monotonic_us();
   // Whether a bound session of `task` (with `pid`: any of that peer's) has a
   // peer that hung up: its connection's thread has yet to notice and end it.
-  // mu_ held.
-  bool session_ending(int task, pid_t pid) const;
+  bool session_ending(int task, pid_t pid) const REQUIRES(mu_);
   void end_session(Session& s);
   Monitor& monitor_;
   AuditLog& audit_;
-  std::map<std::string, uint16_t> tasks_;
+  std::map<std::string, uint16_t> tasks_ GUARDED_BY(mu_);  // a reload replaces it
   std::set<uid_t> allowed_;
   gate::SpinPolicy spin_;
   bool realtime_;  // serve each connection at its task's priority (SCHED_FIFO)
@@ -227,20 +243,20 @@ class Server {
   std::optional<gid_t> status_group_;
   std::atomic<bool> stopping_{false};
   ServerLimits limits_;
-  std::mutex mu_;
-  std::vector<std::unique_ptr<Conn>> conns_;  // mu_
-  std::map<uid_t, uint32_t> per_uid_;         // live connections; mu_
+  base::Mutex mu_;
+  std::vector<std::unique_ptr<Conn>> conns_ GUARDED_BY(mu_);
+  std::map<uid_t, uint32_t> per_uid_ GUARDED_BY(mu_);  // live connections
   // New connections per uid in the current second (the accept loop's only).
   std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
-  std::map<std::string, TaskBinding> bindings_;
-  std::map<uint16_t, uint32_t> live_sessions_;  // per task; mu_
-  std::condition_variable session_ended_;       // a session ended; with mu_
-  std::multiset<pid_t> supervised_;             // live supervisors and their programs; mu_
+  std::map<std::string, TaskBinding> bindings_ GUARDED_BY(mu_);  // a reload replaces it
+  std::map<uint16_t, uint32_t> live_sessions_ GUARDED_BY(mu_);   // per task
+  std::condition_variable session_ended_;                        // a session ended; with mu_
+  std::multiset<pid_t> supervised_ GUARDED_BY(mu_);  // live supervisors and their programs
   // The executables whose word on a program's `exe` is taken: this one, and
   // the supervisor trusted with trust_supervisor() (device, inode).
   std::vector<std::pair<dev_t, ino_t>> supervisors_;
-  std::mutex events_mu_;
-  std::map<uid_t, EventBudget> budgets_;  // events_mu_
+  base::Mutex events_mu_;
+  std::map<uid_t, EventBudget> budgets_ GUARDED_BY(events_mu_);
   std::atomic<uint64_t> over_cap_{0}, hello_timeouts_{0}, accept_failures_{0}, suppressed_total_{0},
       hellos_refused_{0}, over_rate_{0};
 };

@@ -57,7 +57,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
     default:
       return {};
   }
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (descends_from_supervised(s.conn->pid)) {
     return fmt::format(
         "the peer (pid {}) is a program supervised by contego (or its child): it "
@@ -69,8 +69,8 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
 
 std::string Server::identity_refusal(const Conn& c, const std::string& name,
                                      const wire::Vouch& vouch) {
-  auto binding = bindings_.find(name);
-  const bool binds = binding != bindings_.end() && binding->second.binds();
+  const std::optional<TaskBinding> binding = binding_of(name);
+  const bool binds = binding && binding->binds();
   if (vouch.pid == 0 && !binds) return {};
   if (!c.pidfd.valid()) return "the peer process cannot be pinned (pidfd)";
   auto peer = process_facts(c.pidfd.get(), c.pid);
@@ -96,7 +96,7 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
     }
     facts = *program;
     facts.exe_known = false;
-    if (binds && binding->second.has_exe) {
+    if (binds && binding->has_exe) {
       // The program has not executed yet: the path it will execute is the
       // supervisor's word, taken only from this very contego binary.
       if (supervisors_.empty() || !peer->exe_known) {
@@ -116,7 +116,7 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
       facts.exe_path = vouch.exe;
     }
   }
-  return binds ? binding_mismatch(name, binding->second, facts) : std::string();
+  return binds ? binding_mismatch(name, *binding, facts) : std::string();
 }
 
 std::string Server::admit(Session& s, const std::string& name, uint16_t task,
@@ -125,10 +125,10 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   {
     // As for a task's sessions below: a supervisor whose last program just
     // exited is listed until that session's thread notices the hang-up.
-    std::unique_lock lock(mu_);
+    base::MutexLock lock(mu_);
     if (descends_from_supervised(c.pid) && session_ending(-1, c.pid)) {
-      session_ended_.wait_for(lock, std::chrono::seconds(2),
-                              [&] { return !descends_from_supervised(c.pid) || stopping_; });
+      lock.wait_for(session_ended_, std::chrono::seconds(2),
+                    [&]() REQUIRES(mu_) { return !descends_from_supervised(c.pid) || stopping_; });
     }
     if (descends_from_supervised(c.pid)) {
       return "the peer is a program supervised by contego (or its child): its supervisor "
@@ -136,10 +136,10 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
     }
   }
   if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
-  auto binding = bindings_.find(name);
-  const uint32_t allowed = binding == bindings_.end() ? 1 : binding->second.sessions;
-  std::unique_lock lock(mu_);
-  auto live = [&] {
+  const std::optional<TaskBinding> binding = binding_of(name);
+  const uint32_t allowed = binding ? binding->sessions : 1;
+  base::MutexLock lock(mu_);
+  auto live = [&]() REQUIRES(mu_) {
     const auto it = live_sessions_.find(task);
     return it == live_sessions_.end() ? 0u : it->second;
   };
@@ -148,8 +148,8 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
   // notices the hang-up (within the channel's poll interval): wait for that
   // rather than refuse its successor. A live peer is refused at once.
   if (live() >= allowed && session_ending(task, 0)) {
-    session_ended_.wait_for(lock, std::chrono::seconds(2),
-                            [&] { return live() < allowed || stopping_; });
+    lock.wait_for(session_ended_, std::chrono::seconds(2),
+                  [&]() REQUIRES(mu_) { return live() < allowed || stopping_; });
   }
   if (live() >= allowed) {
     return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
@@ -175,7 +175,7 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
 // the binding is checked against the executable the kernel reports now.
 std::string Server::revouch_refusal(const Session& s, pid_t pid) {
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     bool below = false;
     pid_t p = pid;
     for (int depth = 0; depth < 64 && p > 1 && !below; ++depth) {
@@ -189,8 +189,8 @@ std::string Server::revouch_refusal(const Session& s, pid_t pid) {
     if (!below)
       return fmt::format("pid {} is not a process of the supervisor (pid {})", pid, s.conn->pid);
   }
-  auto binding = bindings_.find(s.task_name);
-  if (binding == bindings_.end() || !binding->second.has_exe) return {};  // exe alone can change
+  const std::optional<TaskBinding> binding = binding_of(s.task_name);
+  if (!binding || !binding->has_exe) return {};  // exe alone can change
   const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, pid, 0)));
   if (!fd.valid()) return fmt::format("pid {} is gone", pid);
   auto facts = process_facts(fd.get(), pid);
@@ -199,7 +199,7 @@ std::string Server::revouch_refusal(const Session& s, pid_t pid) {
     return "the program's executable cannot be read, so a task bound by `exe` cannot be checked "
            "after an exec (the monitor needs root or CAP_SYS_PTRACE)";
   }
-  return binding_mismatch(s.task_name, binding->second, *facts);
+  return binding_mismatch(s.task_name, *binding, *facts);
 }
 
 wire::Type Server::revouch(Session& s, std::span<const uint8_t> payload) {
@@ -237,7 +237,7 @@ bool Server::session_ending(int task, pid_t pid) const {
 void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
   monitor_.task_exited(s.task);
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
     live_sessions_.erase(it);
   }

@@ -40,7 +40,7 @@ Result<std::string> Server::apply_reload(
     std::map<std::string, uint16_t> tasks, std::map<std::string, TaskBinding> bindings,
     std::string source, std::string image_sha256,
     const std::function<Result<std::string>()>& monitor_reload) {
-  std::lock_guard lock(mu_);
+  base::MutexLock lock(mu_);
   for (const auto& [name, id] : tasks_) {
     const auto live = live_sessions_.find(id);
     if (live == live_sessions_.end() || live->second == 0) continue;

@@ -36,7 +36,7 @@ std::string Server::status_json() {
   j["pid"] = getpid();
   j["uptime_s"] = (monotonic_us() - started_us_) / 1000000u;
   {
-    std::lock_guard lock(mu_);
+    base::MutexLock lock(mu_);
     j["policy"] = policy_source_;
     j["image_sha256"] = image_sha256_;
     for (auto& t : j["tasks"]) {

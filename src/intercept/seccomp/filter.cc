@@ -139,7 +139,7 @@ Result<std::vector<sock_filter>> build_filter(FdRange range) {
   if (Status s = add_refusals(ctx.get()); !s.ok()) return make_error(s.error());
   // An int descriptor, compared on its low 32 bits: in the range iff its
   // bits above the range's alignment equal the range's first descriptor.
-  const auto mask = static_cast<scmp_datum_t>(~static_cast<uint32_t>(kReservedFds - 1));
+  const scmp_datum_t mask = ~static_cast<uint32_t>(kReservedFds - 1);  // 32 bits, widened
   const auto first = static_cast<scmp_datum_t>(range.first);
   for (int nr : kOnDescriptor) {
     if (int rc = seccomp_rule_add(ctx.get(), SCMP_ACT_NOTIFY, nr, 1,

@@ -62,7 +62,7 @@ namespace {
 // parenthesis: state, then ppid); -1 if gone.
 pid_t parent_of(pid_t pid) {
   char path[32];
-  std::snprintf(path, sizeof path, "/proc/%d/stat", pid);
+  (void)std::snprintf(path, sizeof path, "/proc/%d/stat", pid);
   const base::UniqueFd fd(::open(path, O_RDONLY | O_CLOEXEC));
   if (!fd.valid()) return -1;
   char buf[512];
@@ -81,7 +81,7 @@ pid_t parent_of(pid_t pid) {
 // the supervisor's own helpers (`contego run`'s guardian) do not.
 bool filtered(pid_t pid) {
   char path[32];
-  std::snprintf(path, sizeof path, "/proc/%d/status", pid);
+  (void)std::snprintf(path, sizeof path, "/proc/%d/status", pid);
   std::FILE* f = std::fopen(path, "re");
   if (f == nullptr) return false;
   char line[256];
@@ -92,7 +92,7 @@ bool filtered(pid_t pid) {
       break;
     }
   }
-  std::fclose(f);
+  (void)std::fclose(f);  // read only: nothing to lose
   return yes;
 }
 

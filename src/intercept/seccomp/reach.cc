@@ -4,9 +4,10 @@
 #include <stdlib.h>
 #include <unistd.h>
 
-#include <mutex>
 #include <sys/prctl.h>
 #include <sys/stat.h>
+
+#include "base/mutex.h"
 
 namespace contego::intercept::seccomp {
 
@@ -36,20 +37,20 @@ std::string resolve_program(const std::string& name) {
 }
 
 namespace {
-std::mutex dumpable_mu;
-int dumpable_users = 0;
-int dumpable_before = 1;
+base::Mutex dumpable_mu;
+int dumpable_users GUARDED_BY(dumpable_mu) = 0;
+int dumpable_before GUARDED_BY(dumpable_mu) = 1;
 }  // namespace
 
 void enter_undumpable() {
-  std::lock_guard lock(dumpable_mu);
+  base::MutexLock lock(dumpable_mu);
   if (dumpable_users++ == 0) {
     dumpable_before = prctl(PR_GET_DUMPABLE, 0, 0, 0, 0);
     prctl(PR_SET_DUMPABLE, 0, 0, 0, 0);
   }
 }
 void leave_undumpable() {
-  std::lock_guard lock(dumpable_mu);
+  base::MutexLock lock(dumpable_mu);
   if (--dumpable_users == 0 && dumpable_before > 0) {
     prctl(PR_SET_DUMPABLE, dumpable_before, 0, 0, 0);
   }

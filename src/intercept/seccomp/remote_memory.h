@@ -19,12 +19,14 @@ class RemoteMemory final : public i2c_abi::Memory {
   bool read(uint64_t addr, void* dst, size_t len) override {
     if (len == 0) return true;
     iovec local{dst, len};
+    // NOLINTNEXTLINE(performance-no-int-to-ptr): an address in the supervised program
     iovec remote{reinterpret_cast<void*>(addr), len};
     return process_vm_readv(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
   }
   bool write(uint64_t addr, const void* src, size_t len) override {
     if (len == 0) return true;
     iovec local{const_cast<void*>(src), len};
+    // NOLINTNEXTLINE(performance-no-int-to-ptr): an address in the supervised program
     iovec remote{reinterpret_cast<void*>(addr), len};
     return process_vm_writev(pid_, &local, 1, &remote, 1, 0) == static_cast<ssize_t>(len);
   }

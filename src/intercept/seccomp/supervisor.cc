@@ -66,7 +66,7 @@ class Loop {
  private:
   bool in_range(uint64_t fd) const {
     return fd >= static_cast<uint64_t>(range_.first) &&
-           fd < static_cast<uint64_t>(range_.first + range_.count);
+           fd < static_cast<uint64_t>(range_.first) + static_cast<uint64_t>(range_.count);
   }
   bool valid(uint64_t id) { return ioctl(listener_, SECCOMP_IOCTL_NOTIF_ID_VALID, &id) == 0; }
   void reply(uint64_t id, int64_t value, int err) {
