@@ -8,10 +8,7 @@
 # register of the chip afterwards (read through the plain i2c-dev).
 . /vm/lib.sh
 . /vm/inc/kmod.sh
-if [ ! -f $KO ]; then
-  echo "VM-CHECK SKIP $SCENARIO: contego.ko was not built (no kernel headers on the host)"
-  exit 0
-fi
+kmod_built_or_skip
 A=0x40
 
 fresh_chip() {  # i2c-stub reloaded: every register 0, then PRE_SCALE as reset leaves it

@@ -16,11 +16,7 @@
 . /vm/lib.sh
 . /vm/inc/kmod.sh
 PROG=/vm/attack/kmod_sessions
-if [ ! -f $KO ]; then
-  # Not a failure: the host had no linux-headers for this kernel (tools/bootstrap.sh).
-  echo "VM-CHECK SKIP $SCENARIO: contego.ko was not built (no kernel headers on the host)"
-  exit 0
-fi
+kmod_built_or_skip
 [ -x $PROG ] || { bad "no $PROG (run.sh --attack-binary build/dev/tests/intercept/kmod_sessions)"; finish; }
 COUNTS=1,16 JOBS=20 READER_NICE=0
 for arg in $(cat /proc/cmdline); do

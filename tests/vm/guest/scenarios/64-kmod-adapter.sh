@@ -6,23 +6,9 @@
 # The live session then ends on the returned adapter and drives it too.
 . /vm/lib.sh
 . /vm/inc/kmod.sh
-if [ ! -f $KO ]; then
-  # Not a failure: the host had no linux-headers for this kernel (tools/bootstrap.sh).
-  echo "VM-CHECK SKIP $SCENARIO: contego.ko was not built (no kernel headers on the host)"
-  exit 0
-fi
+kmod_built_or_skip
 A=0x40
 AUDIT_LOG=$LOGDIR/kmod-adapter.jsonl
-led5() {  # LED5 off as arm_init reads it through contego.ko
-  lo=$(as_task i2cget -y 0 $A 0x1c) && hi=$(as_task i2cget -y 0 $A 0x1d) && echo $(( (hi << 8) | lo ))
-}
-led5_becomes() {  # led5_becomes VALUE: waits up to 5 s
-  i=0
-  while [ "$(led5)" != "$1" ]; do
-    i=$((i + 1)); [ $i -gt 50 ] && return 1
-    usleep 100000
-  done
-}
 
 rmmod i2c_dev || { bad "cannot unload i2c-dev"; finish; }
 run_logged insmod insmod $KO adapters=0 buses=1
@@ -53,13 +39,13 @@ contego kmod stats | grep -q " sessions=1 " && ok "the module counts the session
   bad "module counters: $(contego kmod stats)"
 
 # The adapter goes away under the module.
-klog_lines=$(dmesg | wc -l)
+klog_mark removal
 rmmod i2c_stub && ok "i2c-stub unloads while contego.ko protects its adapter and a session is open" ||
   bad "rmmod i2c_stub (the module must not hold the adapter)"
 i=0
 while [ -e /dev/i2c-0 ] && [ $i -lt 50 ]; do i=$((i + 1)); usleep 100000; done
 [ ! -e /dev/i2c-0 ] && ok "/dev/i2c-0 is gone with its adapter" || bad "/dev/i2c-0 outlived its adapter"
-dmesg | grep -q "contego: adapter i2c-0 removed" && ok "the kernel log says the adapter was removed" ||
+klog_since removal | grep -q "contego: adapter i2c-0 removed" && ok "the kernel log says the adapter was removed" ||
   bad "no removal line in the kernel log"
 run_logged gone as_task i2cset -y 0 $A 0x01 0x04
 [ $RC != 0 ] && ok "a write while the adapter is away fails (exit $RC): nothing is written" ||
@@ -72,20 +58,21 @@ wait_for /dev/i2c-0 10 && ok "/dev/i2c-0 is back with its adapter" || bad "no /d
 chmod 0666 /dev/i2c-0
 led5_becomes 420 && ok "the returned adapter's PCA9685 went to its safe state: LED5 off = 420" ||
   bad "after the adapter came back LED5 off reads $(led5), expected the safe state 420"
-dmesg | grep -q "contego: adapter i2c-0 is back as the policy's bus 1: 1 devices driven to their safe state" &&
+klog_since removal | grep -q "contego: adapter i2c-0 is back as the policy's bus 1: 1 devices driven to their safe state" &&
   ok "the kernel log says the adapter is back and its device was driven" || bad "no return line in the kernel log"
-dmesg | tail -n +$((klog_lines + 1)) | grep -q "contego: device 0 (bus 1 0x40): shadow read back from the device" &&
+klog_since removal | grep -q "contego: device 0 (bus 1 0x40): shadow read back from the device" &&
   ok "the returned chip's registers were read back into the shadow" || bad "no shadow read back after the return"
 
 # The session opened before the removal ends now: its end drives the arm on
 # the returned adapter.
-klog_at_kill=$(dmesg | wc -l)
+klog_mark kill
 [ -n "$HOLDER" ] && kill -TERM "$HOLDER"
 wait_sessions_closed && ok "the session opened before the removal ended after the return" ||
   bad "sessions still open: $(contego kmod stats)"
-dmesg | tail -n +$((klog_at_kill + 1)) |
+klog_since kill |
   grep -q "contego: task 0: session of pid [0-9]* ended (wait status 0x[0-9a-f]*, with its group's leader): 1 of 1 devices driven to their safe state" &&
-  ok "its end drove the arm on the returned adapter" || bad "no session end driving the arm after the return"
+  ok "its end drove the arm on the returned adapter" ||
+  { bad "no session end driving the arm after the return"; dmesg | grep "contego: task" | tail -n 5; }
 # The task has no live session now: a new process of it acts, checked.
 run_logged again as_task i2cset -y 0 $A 0x01 0x04
 [ $RC = 0 ] && [ "$(as_task i2cget -y 0 $A 0x01)" = 0x04 ] &&
@@ -98,7 +85,7 @@ for what in 'adapter i2c-0 (the policy.s bus 1) removed' 'adapter i2c-0 (the pol
     'its adapter came back' '"kind":"adapter"'; do
   grep -q "$what" $AUDIT_LOG && ok "the log has $what" || bad "the log lacks $what"
 done
-dmesg | tail -n +$((klog_lines + 1)) | grep -E "BUG|Oops|WARNING|general protection|refcount" >/tmp/klog.bad
+klog_since removal | grep -E "BUG|Oops|WARNING|general protection|refcount" >/tmp/klog.bad
 [ -s /tmp/klog.bad ] && bad "kernel log: $(head -n 1 /tmp/klog.bad)" ||
   ok "no kernel warning through the removal and the return"
 rmmod contego && ok "contego.ko unloads after its adapter came and went" || bad "rmmod contego"
