@@ -151,6 +151,15 @@ try:
 except OSError as e:
     print(errno.errorcode[e.errno])' 2>&1)
 [ "$err" = EACCES ] && ok "contego-gripper cannot open /dev/i2c-0 itself: $err" || bad "contego-gripper opening /dev/i2c-0: $err"
+# `contego doctor` on the installed robot, as root: the node is the
+# monitor's alone, the monitor answers at its socket, no problem.
+contego doctor >/tmp/doctor.out 2>&1
+rc=$?
+show /tmp/doctor.out
+[ $rc = 0 ] && grep -q '^\[ ok \] /dev/i2c-0 .*(the monitor.s alone)' /tmp/doctor.out &&
+  grep -q '^\[ ok \] a monitor answers at /run/contego/monitor.sock' /tmp/doctor.out &&
+  ok "contego doctor: the node the monitor's alone, the monitor answering, exit 0" ||
+  bad "contego doctor on the installed system (exit $rc)"
 
 # ---- audit log and journal ----------------------------------------------------
 n=$(wc -l </var/log/contego/audit.jsonl 2>/dev/null || echo 0)
