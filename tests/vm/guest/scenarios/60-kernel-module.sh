@@ -294,14 +294,14 @@ kbench_lines=$(grep -c '"task_name":"arm_init"' $AUDIT_LOG)
   bad "only $kbench_lines arm_init records for $N bench commands"
 
 # What reached the chips, through the plain i2c-dev.
-klog_lines=$(dmesg | wc -l)
+klog_mark unload
 rmmod contego && ok "contego.ko unloads" || bad "rmmod contego"
 dmesg | grep -q "contego: unloading: 1 devices driven to their safe state" &&
   ok "the unload drove the arm's safe state" || bad "no safe state at unload in the kernel log"
 # The session the unload took off its wait queue: its process ends after the module.
 [ -n "$HOLDER" ] && kill -KILL "$HOLDER"
 sleep 1
-dmesg | tail -n +$((klog_lines + 1)) | grep -E "BUG|Oops|WARNING|general protection" >/tmp/klog.bad
+klog_since unload | grep -E "BUG|Oops|WARNING|general protection" >/tmp/klog.bad
 [ -s /tmp/klog.bad ] && bad "kernel log after the unload and the held session's end: $(head -n 1 /tmp/klog.bad)" ||
   ok "a session live at the unload ends after it without a kernel warning"
 back_to_i2c_dev

@@ -74,7 +74,7 @@ i=0; until contego kmod stats 2>/dev/null | grep -q "reader=1"; do i=\$((i + 1))
 contego kmod load --policy $POLICY $BINDS --budget-factor 0 >>$LOGDIR/load.log 2>&1
 EOF
 
-klog_lines=$(dmesg | wc -l)
+klog_mark sessions
 echo "  sessions sweep: N = $COUNTS, $JOBS jobs each, audit reader at nice $READER_NICE, ${ACCEL:-unknown accelerator} ($(nproc) vCPUs)"
 run_logged sweep $PROG sweep $COUNTS $JOBS "sh /tmp/to_plain.sh" "sh /tmp/to_kmod.sh"
 [ $RC = 0 ] && tail -n 1 "$OUT" | grep -q '^ok$' &&
@@ -118,7 +118,7 @@ stop_reader_file
 run_logged verify contego audit $AUDIT_LOG
 [ $RC = 0 ] && [ "$(grep '"kind":"session-refused"' $AUDIT_LOG | grep -c '(EAGAIN)')" = 1 ] &&
   ok "the log verifies and has the one EAGAIN refusal" || bad "the log (contego audit exit $RC): $(grep EAGAIN $AUDIT_LOG | head -n 2)"
-dmesg | tail -n +$((klog_lines + 1)) | grep -E "BUG|Oops|WARNING|general protection|hung task" >/tmp/ks-klog.bad
+klog_since sessions | grep -E "BUG|Oops|WARNING|general protection|hung task" >/tmp/ks-klog.bad
 [ -s /tmp/ks-klog.bad ] && bad "kernel log: $(head -n 1 /tmp/ks-klog.bad)" || ok "no kernel warning"
 rm -f $AUDIT_LOG
 back_to_i2c_dev
