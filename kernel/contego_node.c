@@ -133,17 +133,12 @@ static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		cf->addr = arg;
 		return 0;
 	case I2C_TENBIT:
-		if (arg)
-			cf->flags |= I2C_M_TEN;
-		else
-			cf->flags &= ~I2C_M_TEN;
+	case I2C_PEC: {
+		u16 flag = cmd == I2C_TENBIT ? I2C_M_TEN : I2C_CLIENT_PEC;
+
+		cf->flags = arg ? cf->flags | flag : cf->flags & ~flag;
 		return 0;
-	case I2C_PEC:
-		if (arg)
-			cf->flags |= I2C_CLIENT_PEC;
-		else
-			cf->flags &= ~I2C_CLIENT_PEC;
-		return 0;
+	}
 	case I2C_FUNCS:
 		return put_user(i2c_get_functionality(cf->adap), (unsigned long __user *)arg);
 	case I2C_RDWR:

@@ -69,3 +69,15 @@ wait_sessions_closed() {
     usleep 100000
   done
 }
+
+# A live session of arm_init holding LED5 off = 577: a script (its own
+# process group, as a shell gives it) that wrote 420 then 577 and sleeps,
+# holding no descriptor of the node. Sets HOLDER (its pid; empty if it
+# did not get that far).
+start_led5_holder() {
+  rm -f /tmp/holder.pid
+  as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
+    >"$LOGDIR/holder.out" 2>&1 &
+  wait_for /tmp/holder.pid 10
+  HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+}

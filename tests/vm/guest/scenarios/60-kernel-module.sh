@@ -270,11 +270,7 @@ led5_becomes 420 && ok "the script's end ended its session: LED5 off = 420" ||
 # LED5 to 577 again, held by a live session (a script still running), so
 # that the unload's safe state shows on the chip and the unload meets a
 # session it must take off its wait queue.
-rm -f /tmp/holder.pid
-as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
-  >"$LOGDIR/holder.out" 2>&1 &
-wait_for /tmp/holder.pid 10
-HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+start_led5_holder
 [ "$(led5)" = 577 ] && ok "arm_init: LED5 off = 577 before the unload, its session live (pid $HOLDER)" ||
   bad "LED5 off reads $(led5) before the unload, expected 577"
 
@@ -754,11 +750,7 @@ run_logged reload_fresh contego kmod reload --policy $POLICIES/arm.policy --bind
   ok "kmod reload with nothing loaded: refused (exit 1), $(cat "$OUT")" || bad "kmod reload with nothing loaded: exit $RC"
 run_logged reload_load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --bind gripper=contego \
   --budget-factor 0
-rm -f /tmp/holder.pid
-as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
-  >"$LOGDIR/holder2.out" 2>&1 &
-wait_for /tmp/holder.pid 10
-HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+start_led5_holder
 sed 's/^limit gripper -> arm.led 1 per job/limit gripper -> arm.led 2 per job/' $POLICIES/arm.policy >/tmp/arm-more.policy
 run_logged reload_inplace contego kmod reload --policy /tmp/arm-more.policy --bind arm_init=task \
   --bind gripper=contego --budget-factor 0

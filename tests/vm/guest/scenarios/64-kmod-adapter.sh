@@ -28,11 +28,7 @@ wait_sessions_closed
 
 # A live session of arm_init: a script that set LED5 off = 577 and sleeps.
 # It holds no descriptor of the node: only its session is open.
-rm -f /tmp/holder.pid
-as_task setsid sh -c '/usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0xa4 0x01 i && /usr/sbin/i2cset -y 0 0x40 0x1a 0 0 0x41 0x02 i && echo $$ >/tmp/holder.pid && exec sleep 600' \
-  >"$LOGDIR/holder.out" 2>&1 &
-wait_for /tmp/holder.pid 10
-HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
+start_led5_holder
 [ "$(led5)" = 577 ] && ok "a session of arm_init is open (pid $HOLDER), LED5 off = 577" ||
   { bad "LED5 off reads $(led5) with the session open, expected 577"; show "$LOGDIR/holder.out"; }
 contego kmod stats | grep -q " sessions=1 " && ok "the module counts the session" ||
