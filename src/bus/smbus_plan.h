@@ -1,31 +1,10 @@
-// How a combined I2C transfer reaches an adapter: plain I2C (I2C_RDWR) when
-// the adapter has I2C_FUNC_I2C, otherwise the one SMBus transaction
-// (I2C_SMBUS) that puts exactly the same bytes on the wire, chosen by the
-// adapter's I2C_FUNCS bits; or a refusal with the reason, decided before any
-// part of the transfer acts.
-//
-// Wire forms (S start, Sr repeated start, P stop, A address):
-//   [write 0]                      quick write        S A+W P
-//   [read 0]                       quick read         S A+R P
-//   [write c]                      send byte          S A+W c P
-//   [read 1]                       receive byte       S A+R d P
-//   [write c d]                    write byte data    (or I2C block write of 1)
-//   [write c lo hi]                write word data    (or I2C block write of 2,
-//                                                      or SMBus block write if hi == 1)
-//   [write c d1..dn], n <= 32      I2C block write    (or SMBus block write if d1 == n-1)
-//   [write c 32 d1..d32]           SMBus block write  (only form of 34 bytes)
-//   [write c][read 1]              read byte data     (or I2C block read of 1)
-//   [write c][read 2]              read word data     (or I2C block read of 2)
-//   [write c][read n], 3 <= n <= 32  I2C block read
-//   [write c][read RECV_LEN]       SMBus block read
-//   [write c lo hi][read 2]        process call
-//   [write c k d1..dk][read RECV_LEN], 1 <= k <= 32  block process call
-// The raw I2C-block form is preferred over the count-prefixed SMBus block
-// form: both put the same bytes on the wire, but only the former is chosen
-// for bytes that merely happen to look count-prefixed. Every other shape
-// (more than two messages, a read without a register byte longer than one
-// byte, different addresses, ten-bit addresses, protocol-mangling flags)
-// has no SMBus form and is refused on an adapter without plain I2C.
+// How a combined I2C transfer reaches an adapter, for the monitor's buses:
+// the shared i2c-dev model's planner (contego/i2c_plan.h, which has the
+// table of wire forms; contego.ko links the same code), with the reason of a
+// refusal as text for the audit log. Plain I2C (I2C_RDWR) when the adapter
+// has I2C_FUNC_I2C, otherwise the one SMBus transaction (I2C_SMBUS) that puts
+// exactly the same bytes on the wire, or a refusal decided before any part of
+// the transfer acts.
 //
 // Pure: no kernel, no allocation beyond the reason text.
 #ifndef CONTEGO_BUS_SMBUS_PLAN_H_
@@ -40,7 +19,7 @@
 
 namespace contego::bus {
 
-// I2C_SMBUS transaction sizes (<linux/i2c.h>).
+// I2C_SMBUS transaction sizes (<linux/i2c.h>; contego_smbus_size).
 enum class SmbusSize : uint32_t {
   kQuick = 0,
   kByte = 1,

@@ -1,8 +1,11 @@
 #include "gate/transfer.h"
 
+#include <algorithm>
 #include <string>
 
+#include "contego/core_c.h"
 #include "contego/i2c_msg_flags.h"
+#include "contego/i2c_plan.h"
 
 namespace contego::gate {
 
@@ -41,30 +44,26 @@ void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out) {
     out.resize(n);
     return;
   }
+  // The shared normalisation (contego/i2c_plan.h), over the messages as
+  // struct i2c_msg; validate() has bounded them to 42.
   const auto& msgs = transfer.messages;
-  for (uint32_t i = 0; i < msgs.size(); ++i) {
-    const Message& m = msgs[i];
+  contego_i2c_msg raw[kMaxMessages];
+  contego_i2c_tx txs[kMaxMessages];
+  const uint32_t count = static_cast<uint32_t>(std::min<size_t>(msgs.size(), kMaxMessages));
+  for (uint32_t i = 0; i < count; ++i) {
+    // Only a write's bytes are read, never written through.
+    raw[i] = {msgs[i].addr, msgs[i].flags, msgs[i].len, const_cast<uint8_t*>(msgs[i].data.data())};
+  }
+  const uint32_t planned = contego_i2c_transactions(raw, count, txs);
+  for (uint32_t k = 0; k < planned; ++k) {
+    const contego_i2c_tx& c = txs[k];
     PlannedTx& tx = next();
-    tx.addr = m.addr;
-    tx.ten_bit = (m.flags & kMsgTen) != 0;
-    tx.first_message = i;
-    tx.message_count = 1;
-    if (m.is_read()) {
-      tx.kind = core::TxKind::kRead;
-    } else {
-      const bool pointer = m.data.size() == 1 && i + 1 < msgs.size() && msgs[i + 1].is_read() &&
-                           msgs[i + 1].addr == m.addr &&
-                           (msgs[i + 1].flags & kMsgTen) == (m.flags & kMsgTen) &&
-                           // General call (address 0) is write-only: a byte sent there is a
-                           // command to every listener (0x06 = software reset), never a pointer.
-                           m.addr != 0;
-      tx.kind = pointer ? core::TxKind::kRead : core::TxKind::kWrite;
-      tx.bytes.assign(m.data.begin(), m.data.end());
-      if (pointer) {
-        tx.message_count = 2;
-        ++i;
-      }
-    }
+    tx.kind = static_cast<core::TxKind>(c.kind);
+    tx.addr = c.addr;
+    tx.ten_bit = c.ten != 0;
+    tx.first_message = c.first_msg;
+    tx.message_count = c.msg_count;
+    if (c.kind != CONTEGO_TX_READ || c.msg_count == 2) tx.bytes.assign(c.bytes, c.bytes + c.len);
   }
   out.resize(n);
 }

@@ -1,0 +1,158 @@
+/* The i2c-dev model both enclave clients share (docs/kernel-client.md, "One
+ * i2c-dev model"): how a combined transfer becomes the trusted core's
+ * transactions, and how it reaches an adapter: as plain I2C (I2C_RDWR) when
+ * the adapter has I2C_FUNC_I2C, otherwise as the one SMBus transaction that
+ * puts exactly the same bytes on the wire, chosen by the adapter's
+ * I2C_FUNCS bits; or a refusal with its reason, decided before any part of
+ * the transfer acts. contego.ko links it beside the core, the monitor and
+ * `contego run` through src/bus and src/gate: one planner, so a transfer
+ * that one client can send the other can too.
+ *
+ * Wire forms (S start, Sr repeated start, P stop, A address):
+ *   [write 0]                      quick write        S A+W P
+ *   [read 0]                       quick read         S A+R P
+ *   [write c]                      send byte          S A+W c P
+ *   [read 1]                       receive byte       S A+R d P
+ *   [write c d]                    write byte data    (or I2C block write of 1)
+ *   [write c lo hi]                write word data    (or I2C block write of 2,
+ *                                                      or SMBus block write if hi == 1)
+ *   [write c d1..dn], n <= 32      I2C block write    (or SMBus block write if d1 == n-1)
+ *   [write c 32 d1..d32]           SMBus block write  (only form of 34 bytes)
+ *   [write c][read 1]              read byte data     (or I2C block read of 1)
+ *   [write c][read 2]              read word data     (or I2C block read of 2)
+ *   [write c][read n], 3 <= n <= 32  I2C block read
+ *   [write c][read RECV_LEN]       SMBus block read
+ *   [write c lo hi][read 2]        process call
+ *   [write c k d1..dk][read RECV_LEN], 1 <= k <= 32  block process call
+ * The raw I2C-block form is preferred over the count-prefixed SMBus block
+ * form: both put the same bytes on the wire, but only the former is chosen
+ * for bytes that merely happen to look count-prefixed. Every other shape
+ * has no SMBus form and is refused on an adapter without plain I2C.
+ *
+ * Freestanding C ABI (implemented in C++, src/i2cdev): no allocation, no
+ * OS calls, no floating point; usable in the kernel. */
+#ifndef CONTEGO_I2C_PLAN_H_
+#define CONTEGO_I2C_PLAN_H_
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* One message of a combined transfer: struct i2c_msg's layout, so the kernel
+ * passes its own array. For a read, `buf` receives up to `len` bytes. */
+struct contego_i2c_msg {
+  uint16_t addr;
+  uint16_t flags; /* CONTEGO_I2C_M_* (contego/i2c_msg_flags.h) */
+  uint16_t len;
+  uint8_t *buf;
+};
+
+/* I2C_SMBUS transaction sizes (<linux/i2c.h>). */
+enum contego_smbus_size {
+  CONTEGO_SMBUS_QUICK = 0,
+  CONTEGO_SMBUS_BYTE = 1,
+  CONTEGO_SMBUS_BYTE_DATA = 2,
+  CONTEGO_SMBUS_WORD_DATA = 3,
+  CONTEGO_SMBUS_PROC_CALL = 4,
+  CONTEGO_SMBUS_BLOCK_DATA = 5,
+  CONTEGO_SMBUS_BLOCK_PROC_CALL = 7,
+  CONTEGO_SMBUS_I2C_BLOCK_DATA = 8,
+};
+
+#define CONTEGO_SMBUS_BLOCK_MAX 32u
+#define CONTEGO_SMBUS_DATA_BYTES 34u /* union i2c_smbus_data */
+
+/* One I2C_SMBUS call. `data` is union i2c_smbus_data as bytes, with the word
+ * as [lo, hi] (the order on the wire; the executor converts to the host's
+ * u16): byte in data[0]; word in data[0..1]; block: data[0] = count (I2C
+ * block read: bytes wanted), then the bytes. */
+struct contego_smbus_op {
+  uint16_t addr;
+  uint8_t read; /* read_write is I2C_SMBUS_READ (quick: the R/W bit) */
+  uint8_t command;
+  uint8_t size; /* enum contego_smbus_size */
+  int8_t reply; /* the read message that receives the result, -1: none */
+  uint8_t data[CONTEGO_SMBUS_DATA_BYTES];
+};
+
+enum contego_i2c_form {
+  CONTEGO_I2C_FORM_I2C = 0,
+  CONTEGO_I2C_FORM_SMBUS = 1,
+  CONTEGO_I2C_FORM_REFUSED = 2
+};
+
+/* Why a transfer has no form on the adapter (contego_i2c_refusal_text). */
+enum contego_i2c_refusal {
+  CONTEGO_I2C_NOT_REFUSED = 0,
+  CONTEGO_I2C_NO_MESSAGES,
+  CONTEGO_I2C_NO_ZERO_LENGTH, /* plain I2C without the quick bit */
+  CONTEGO_I2C_TEN_BIT,
+  CONTEGO_I2C_FLAGS, /* plan.flags: the message's flags */
+  CONTEGO_I2C_RECV_LEN_SHAPE,
+  CONTEGO_I2C_NO_BYTES,
+  CONTEGO_I2C_NO_FORM, /* plan.candidates: the forms the adapter lacks */
+  CONTEGO_I2C_WRITE_TOO_LONG,
+  CONTEGO_I2C_COUNTED_READ_ALONE,
+  CONTEGO_I2C_LONG_READ_ALONE,
+  CONTEGO_I2C_EMPTY_POINTER,
+  CONTEGO_I2C_READ_LENGTH,
+  CONTEGO_I2C_WRITE_READ_SHAPE,
+  CONTEGO_I2C_SHAPE,
+};
+
+struct contego_i2c_plan {
+  uint8_t form;               /* enum contego_i2c_form */
+  uint8_t refusal;            /* enum contego_i2c_refusal */
+  uint8_t candidates_read;    /* NO_FORM: read forms (for their names) */
+  uint8_t candidate_count;    /* NO_FORM */
+  uint8_t candidates[3];      /* NO_FORM: sizes, preferred first */
+  uint16_t flags;             /* FLAGS */
+  struct contego_smbus_op op; /* FORM_SMBUS */
+};
+
+/* The form of one combined transfer on an adapter with I2C_FUNCS `funcs`. */
+void contego_i2c_plan_transfer(const struct contego_i2c_msg *msgs, uint32_t n, uint64_t funcs,
+                               struct contego_i2c_plan *plan);
+
+/* Copies the result of a read op (`data` as I2C_SMBUS returned it, word as
+ * [lo, hi]) into the read message op->reply names, setting its len
+ * (RECV_LEN: 1 + count). 0, or a positive Linux errno: EPROTO (71) for a
+ * block count of 0, above 32 or beyond the message's buffer, EINVAL (22) for
+ * a reply index outside msgs. Nothing to do for a write. */
+int contego_i2c_deliver_reply(const struct contego_smbus_op *op,
+                              const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
+                              struct contego_i2c_msg *msgs, uint32_t n);
+
+/* Human names, for messages and audit. */
+const char *contego_smbus_name(uint32_t size, int read);
+/* The fixed part of a refusal's reason ("a ten-bit address needs an adapter
+ * with plain I2C", ...); NO_FORM and FLAGS add their details. */
+const char *contego_i2c_refusal_text(uint32_t refusal);
+
+/* One transaction for the trusted core (contego_transaction's fields) and
+ * the messages it covers. */
+struct contego_i2c_tx {
+  uint8_t kind; /* CONTEGO_TX_WRITE, _READ or _QUICK (contego/core_c.h) */
+  uint8_t ten;
+  uint16_t addr;
+  uint32_t len;
+  const uint8_t *bytes; /* a write's bytes, or a read's register pointer */
+  uint32_t first_msg;   /* messages [first_msg, first_msg + msg_count) */
+  uint32_t msg_count;
+};
+
+/* The normalisation every client shares (docs/gate-protocol.md,
+ * "Normalisation"): every write message is a write transaction of its bytes,
+ * except that a one-byte write followed by a read of the same address (not
+ * the general call address 0) is that read's register pointer; every other
+ * read is a read without pointer. `out` has room for n; returns how many. */
+uint32_t contego_i2c_transactions(const struct contego_i2c_msg *msgs, uint32_t n,
+                                  struct contego_i2c_tx *out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* CONTEGO_I2C_PLAN_H_ */

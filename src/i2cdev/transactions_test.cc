@@ -1,0 +1,53 @@
+// The shared normalisation through its C ABI (gate/transfer_test.cc tests it
+// through the gate's Transfer).
+#include <gtest/gtest.h>
+#include <linux/i2c.h>
+
+#include "contego/core_c.h"
+#include "contego/i2c_plan.h"
+
+namespace {
+
+TEST(I2cTransactions, AOneByteWriteBeforeAReadIsItsRegisterPointer) {
+  uint8_t reg[1] = {0x06}, r[2] = {}, w[3] = {0x08, 1, 2};
+  contego_i2c_msg m[3] = {{0x40, 0, 1, reg}, {0x40, I2C_M_RD, 2, r}, {0x40, 0, 3, w}};
+  contego_i2c_tx tx[3];
+  ASSERT_EQ(contego_i2c_transactions(m, 3, tx), 2u);
+  EXPECT_EQ(tx[0].kind, CONTEGO_TX_READ);
+  EXPECT_EQ(tx[0].len, 1u);
+  EXPECT_EQ(tx[0].bytes, reg);
+  EXPECT_EQ(tx[0].first_msg, 0u);
+  EXPECT_EQ(tx[0].msg_count, 2u);
+  EXPECT_EQ(tx[1].kind, CONTEGO_TX_WRITE);
+  EXPECT_EQ(tx[1].len, 3u);
+  EXPECT_EQ(tx[1].first_msg, 2u);
+  EXPECT_EQ(tx[1].msg_count, 1u);
+}
+
+TEST(I2cTransactions, NoPointerAcrossAddressesTenBitOrTheGeneralCall) {
+  uint8_t b[1] = {0x06}, r[1] = {};
+  contego_i2c_tx tx[2];
+  contego_i2c_msg other[2] = {{0x40, 0, 1, b}, {0x41, I2C_M_RD, 1, r}};
+  ASSERT_EQ(contego_i2c_transactions(other, 2, tx), 2u);
+  EXPECT_EQ(tx[0].kind, CONTEGO_TX_WRITE);
+  EXPECT_EQ(tx[1].kind, CONTEGO_TX_READ);
+  EXPECT_EQ(tx[1].len, 0u);
+  contego_i2c_msg ten[2] = {{0x40, 0, 1, b}, {0x40, I2C_M_RD | I2C_M_TEN, 1, r}};
+  ASSERT_EQ(contego_i2c_transactions(ten, 2, tx), 2u);
+  EXPECT_EQ(tx[1].ten, 1);
+  contego_i2c_msg general[2] = {{0x00, 0, 1, b}, {0x00, I2C_M_RD, 1, r}};
+  ASSERT_EQ(contego_i2c_transactions(general, 2, tx), 2u);
+  EXPECT_EQ(tx[0].kind, CONTEGO_TX_WRITE);
+}
+
+TEST(I2cTransactions, ALongerWriteBeforeAReadIsAWriteOfItsOwn) {
+  uint8_t w[2] = {0x06, 1}, r[1] = {};
+  contego_i2c_msg m[2] = {{0x40, 0, 2, w}, {0x40, I2C_M_RD, 1, r}};
+  contego_i2c_tx tx[2];
+  ASSERT_EQ(contego_i2c_transactions(m, 2, tx), 2u);
+  EXPECT_EQ(tx[0].kind, CONTEGO_TX_WRITE);
+  EXPECT_EQ(tx[1].kind, CONTEGO_TX_READ);
+  EXPECT_EQ(contego_i2c_transactions(m, 0, tx), 0u);
+}
+
+}  // namespace
