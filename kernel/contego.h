@@ -42,6 +42,7 @@
 
 #include "contego/core_c.h"
 #include "contego/i2c_msg_flags.h"
+#include "contego/i2c_plan.h"
 #include "contego_compat.h"
 #include <linux/contego_kmod.h>
 
@@ -92,16 +93,6 @@ struct ct_policy {
 	 */
 	u32 full_unreported[CONTEGO_KMOD_MAX_TASKS];
 	u64 full_reported_us[CONTEGO_KMOD_MAX_TASKS];
-};
-
-
-struct ct_tx {
-	u8 kind;
-	u16 addr;
-	bool ten;
-	u32 len;
-	const u8 *bytes;
-	u32 first_msg, msg_count; /* messages covered (RDWR) */
 };
 
 
@@ -174,7 +165,7 @@ struct ct_state {
 	/* The safe state was driven for the current run of lost records. */
 	bool failing_closed;
 	/* Scratch for one call (kept off the 16 KiB kernel stack). */
-	struct ct_tx txs[CT_MAX_MSGS];
+	struct contego_i2c_tx txs[CT_MAX_MSGS]; /* a call's transactions (contego/i2c_plan.h) */
 	contego_verdict verdicts[CT_MAX_MSGS];
 	contego_verdict safe_verdict;
 	char cgroup_buf[PATH_MAX];
@@ -224,6 +215,7 @@ void ct_record_start(struct contego_kmod_record *r, u8 type, bool caller);
 void ct_audit(void *context, const contego_audit_record *a);
 
 /* contego_bus.c */
+int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags, bool check_only);
 int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len);
 int ct_perform_emits(struct i2c_adapter *adap, const contego_verdict *v, u16 flags);
 bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr);

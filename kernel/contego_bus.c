@@ -2,47 +2,62 @@
 /* contego.ko: bus operations: a verdict's writes, and the devices' safe states. */
 #include "contego.h"
 
-/* One write of `len` bytes at `addr`: a plain I2C message when the adapter
- * has I2C_FUNC_I2C, else the SMBus transaction with the same wire bytes
- * (src/bus/smbus_plan.h's forms).
+/* One combined transfer in the form the shared i2c-dev model gives it on
+ * this adapter (contego/i2c_plan.h, the planner the monitor's buses use):
+ * plain I2C, or the one SMBus transaction that puts the same bytes on the
+ * wire. `client_flags`: the node's I2C_CLIENT_PEC for an SMBus form.
+ * `check_only`: whether it has a form, nothing sent. 0 or -errno
+ * (-EOPNOTSUPP: no form on this adapter).
  */
-int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len)
+int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags, bool check_only)
 {
-	u32 funcs = i2c_get_functionality(adap);
+	struct contego_i2c_plan plan;
 	union i2c_smbus_data data;
+	u8 reply[CONTEGO_SMBUS_DATA_BYTES];
+	u32 i;
 	int ret;
 
-	if (funcs & I2C_FUNC_I2C) {
-		struct i2c_msg m = { .addr = addr, .flags = flags & I2C_M_TEN, .len = len,
-				     .buf = (u8 *)b };
-
-		ret = i2c_transfer(adap, &m, 1);
-		return ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
-	}
-	if (flags & I2C_M_TEN)
+	/* The planner reads struct i2c_msg as its own contego_i2c_msg. */
+	BUILD_BUG_ON(sizeof(struct contego_i2c_msg) != sizeof(struct i2c_msg));
+	BUILD_BUG_ON(offsetof(struct contego_i2c_msg, len) != offsetof(struct i2c_msg, len));
+	BUILD_BUG_ON(offsetof(struct contego_i2c_msg, buf) != offsetof(struct i2c_msg, buf));
+	BUILD_BUG_ON(sizeof(data) != CONTEGO_SMBUS_DATA_BYTES);
+	contego_i2c_plan_transfer((struct contego_i2c_msg *)m, n, i2c_get_functionality(adap),
+				  &plan);
+	if (plan.form == CONTEGO_I2C_FORM_REFUSED)
 		return -EOPNOTSUPP;
-	flags &= I2C_CLIENT_PEC;
-	switch (len) {
-	case 0:
-		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, 0, I2C_SMBUS_QUICK, NULL);
-	case 1:
-		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0], I2C_SMBUS_BYTE, NULL);
-	case 2:
-		data.byte = b[1];
-		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
-				      I2C_SMBUS_BYTE_DATA, &data);
-	case 3:
-		data.word = b[1] | (b[2] << 8);
-		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
-				      I2C_SMBUS_WORD_DATA, &data);
-	default:
-		if (len > 1 + I2C_SMBUS_BLOCK_MAX || !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))
-			return -EOPNOTSUPP;
-		data.block[0] = len - 1;
-		memcpy(&data.block[1], b + 1, len - 1);
-		return i2c_smbus_xfer(adap, addr, flags, I2C_SMBUS_WRITE, b[0],
-				      I2C_SMBUS_I2C_BLOCK_DATA, &data);
+	if (check_only)
+		return 0;
+	if (plan.form == CONTEGO_I2C_FORM_I2C) {
+		/* i2c-dev's RECV_LEN: the driver counts on from buf[0]'s preset. */
+		for (i = 0; i < n; i++)
+			if (m[i].flags & I2C_M_RECV_LEN)
+				m[i].len = m[i].buf[0];
+		ret = i2c_transfer(adap, m, n);
+		return ret == n ? 0 : (ret < 0 ? ret : -EIO);
 	}
+	memcpy(data.block, plan.op.data, sizeof(data.block));
+	if (plan.op.size == I2C_SMBUS_WORD_DATA || plan.op.size == I2C_SMBUS_PROC_CALL)
+		data.word = plan.op.data[0] | (plan.op.data[1] << 8);
+	ret = i2c_smbus_xfer(adap, plan.op.addr, client_flags & I2C_CLIENT_PEC,
+			     plan.op.read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE, plan.op.command,
+			     plan.op.size, &data);
+	if (ret < 0 || plan.op.reply < 0)
+		return ret < 0 ? ret : 0;
+	memcpy(reply, data.block, sizeof(reply));
+	if (plan.op.size == I2C_SMBUS_WORD_DATA || plan.op.size == I2C_SMBUS_PROC_CALL) {
+		reply[0] = data.word & 0xff;
+		reply[1] = data.word >> 8;
+	}
+	return -contego_i2c_deliver_reply(&plan.op, reply, (struct contego_i2c_msg *)m, n);
+}
+
+/* One write of `len` bytes at `addr` (ct_xfer's forms). */
+int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len)
+{
+	struct i2c_msg m = { .addr = addr, .flags = flags & I2C_M_TEN, .len = len, .buf = (u8 *)b };
+
+	return ct_xfer(adap, &m, 1, flags, false);
 }
 
 /* The writes a verdict allows or substitutes, in order, at the verdict's address. */

@@ -37,7 +37,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 		kfree(tmp);
 		return ret;
 	}
-	ct.txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
+	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
 	action = ct_decide(cf, task, 1, &decider);
 	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
@@ -54,7 +54,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t *off)
 {
 	struct ct_file *cf = file->private_data;
-	u32 funcs = i2c_get_functionality(cf->adap);
+	struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN) };
 	u32 decider;
 	u8 *tmp, action;
 	u16 task;
@@ -62,41 +62,27 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 
 	if (count > CT_MAX_LEN)
 		count = CT_MAX_LEN;
-	if (!(funcs & I2C_FUNC_I2C) && !(count == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE)))
+	m.len = count;
+	if (ct_xfer(cf->adap, &m, 1, 0, true) < 0) /* no form on this adapter */
 		return -EOPNOTSUPP;
 	tmp = kzalloc(count ? count : 1, GFP_KERNEL);
 	if (!tmp)
 		return -ENOMEM;
+	m.buf = tmp;
 	if (mutex_lock_killable(&ct.lock)) {
 		kfree(tmp);
 		return -EINTR;
 	}
 	ct_enter(false, &task); /* a read is never held */
-	ct.txs[0] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
-				   .ten = !!(cf->flags & I2C_M_TEN) };
+	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
+					     .ten = !!(cf->flags & I2C_M_TEN) };
 	action = ct_decide(cf, task, 1, &decider);
-	if (action == CT_PERFORM) {
-		if (funcs & I2C_FUNC_I2C) {
-			struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
-					     .len = count, .buf = tmp };
-
-			ret = i2c_transfer(cf->adap, &m, 1);
-			ret = ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
-		} else {
-			union i2c_smbus_data d;
-
-			ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags & I2C_CLIENT_PEC,
-					     I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, &d);
-			if (ret >= 0) {
-				tmp[0] = d.byte;
-				ret = 0;
-			}
-		}
-	} else if (action == CT_REFUSE) {
+	if (action == CT_PERFORM)
+		ret = ct_xfer(cf->adap, &m, 1, cf->flags, false);
+	else if (action == CT_REFUSE)
 		ret = ct_refusal(decider);
-	} else {
+	else
 		ret = 0; /* ignored: it succeeds and reads nothing (zeros) */
-	}
 	mutex_unlock(&ct.lock);
 	if (ret == 0 && copy_to_user(buf, tmp, count))
 		ret = -EFAULT;

@@ -4,76 +4,29 @@
 
 /* Reads a sample of `info`'s sensor into buf (info->sample_len bytes), as the
  * monitor's sample_device_locked does: the sample request written, then the
- * sample read. An adapter without plain I2C reads a one-byte request's
- * register in one SMBus transaction (register, repeated start, read):
- * byte data, word data or an I2C block read (src/bus/smbus_plan.h).
+ * sample read, each in its form on this adapter (ct_xfer). An adapter
+ * without plain I2C reads a register only in one transaction (register,
+ * repeated start, read), so a one-byte request and the read go together.
  */
 static int ct_read_sample_bus(struct i2c_adapter *adap, const contego_device_info *info, u8 *buf)
 {
-	u32 funcs = i2c_get_functionality(adap);
 	u16 ten = info->ten_bit ? I2C_M_TEN : 0;
-	u8 n = info->sample_len, reg = info->sample_request[0];
-	union i2c_smbus_data data;
+	u8 req_len = min_t(u8, info->sample_request_len, sizeof(info->sample_request));
+	bool combined = req_len == 1 && !(i2c_get_functionality(adap) & I2C_FUNC_I2C);
+	struct i2c_msg m[2] = {
+		{ .addr = info->addr, .flags = ten, .len = req_len, .buf = (u8 *)info->sample_request },
+		{ .addr = info->addr, .flags = ten | I2C_M_RD, .len = info->sample_len, .buf = buf },
+	};
 	int ret;
 
-	if (funcs & I2C_FUNC_I2C) {
-		struct i2c_msg m = { .addr = info->addr, .flags = ten | I2C_M_RD, .len = n, .buf = buf };
-
-		if (info->sample_request_len) {
-			ret = ct_write_bytes(adap, info->addr, ten, info->sample_request,
-					     info->sample_request_len);
-			if (ret < 0)
-				return ret;
-		}
-		ret = i2c_transfer(adap, &m, 1);
-		return ret == 1 ? 0 : (ret < 0 ? ret : -EIO);
-	}
-	if (ten)
-		return -EOPNOTSUPP;
-	if (info->sample_request_len == 1) {
-		if (n == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE_DATA)) {
-			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
-					     I2C_SMBUS_BYTE_DATA, &data);
-			if (ret == 0)
-				buf[0] = data.byte;
-			return ret;
-		}
-		if (n == 2 && (funcs & I2C_FUNC_SMBUS_READ_WORD_DATA)) {
-			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
-					     I2C_SMBUS_WORD_DATA, &data);
-			if (ret == 0) {
-				buf[0] = data.word & 0xff;
-				buf[1] = data.word >> 8;
-			}
-			return ret;
-		}
-		if (n <= I2C_SMBUS_BLOCK_MAX && (funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK)) {
-			data.block[0] = n;
-			ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, reg,
-					     I2C_SMBUS_I2C_BLOCK_DATA, &data);
-			if (ret < 0)
-				return ret;
-			if (data.block[0] < n)
-				return -EIO;
-			memcpy(buf, &data.block[1], n);
-			return 0;
-		}
-		return -EOPNOTSUPP;
-	}
-	/* A longer request (or none) on its own, then a read without a pointer:
-	 * one byte is all SMBus can receive that way.
-	 */
-	if (n != 1 || !(funcs & I2C_FUNC_SMBUS_READ_BYTE))
-		return -EOPNOTSUPP;
-	if (info->sample_request_len) {
-		ret = ct_write_bytes(adap, info->addr, 0, info->sample_request,
-				     info->sample_request_len);
+	if (req_len && !combined) {
+		ret = ct_xfer(adap, &m[0], 1, 0, false);
 		if (ret < 0)
 			return ret;
 	}
-	ret = i2c_smbus_xfer(adap, info->addr, 0, I2C_SMBUS_READ, 0, I2C_SMBUS_BYTE, &data);
-	if (ret == 0)
-		buf[0] = data.byte;
+	ret = combined ? ct_xfer(adap, m, 2, 0, false) : ct_xfer(adap, &m[1], 1, 0, false);
+	if (ret == 0 && m[1].len < info->sample_len)
+		return -EIO; /* a short I2C block read: no sample */
 	return ret;
 }
 

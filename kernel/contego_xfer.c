@@ -4,106 +4,27 @@
 
 /* ---- I2C_RDWR ------------------------------------------------------------ */
 
-/* The gate's normalisation (src/gate/transfer.cc, to_transactions): a
- * one-byte write followed by a read of the same address is that read's
- * register pointer (except at the general-call address 0).
+/* The call's transactions in ct.txs, by the normalisation every client
+ * shares (contego/i2c_plan.h): a one-byte write then a read of the same
+ * address is that read's register pointer. Returns how many.
  */
 static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
 {
-	u32 i, t = 0;
-
 	lockdep_assert_held(&ct.lock);
-	for (i = 0; i < n; i++, t++) {
-		struct ct_tx *tx = &ct.txs[t];
-
-		*tx = (struct ct_tx){ .addr = m[i].addr, .ten = !!(m[i].flags & I2C_M_TEN),
-				      .first_msg = i, .msg_count = 1 };
-		if (m[i].flags & I2C_M_RD) {
-			tx->kind = CONTEGO_TX_READ;
-		} else if (m[i].len == 1 && i + 1 < n && (m[i + 1].flags & I2C_M_RD) &&
-			   m[i + 1].addr == m[i].addr &&
-			   (m[i + 1].flags & I2C_M_TEN) == (m[i].flags & I2C_M_TEN) && m[i].addr != 0) {
-			tx->kind = CONTEGO_TX_READ;
-			tx->bytes = m[i].buf;
-			tx->len = 1;
-			tx->msg_count = 2;
-			i++;
-		} else {
-			tx->kind = CONTEGO_TX_WRITE;
-			tx->bytes = m[i].buf;
-			tx->len = m[i].len;
-		}
-	}
-	return t;
+	return contego_i2c_transactions((const struct contego_i2c_msg *)m, n, ct.txs);
 }
 
-/*
- * A read of an I2C_RDWR call on an SMBus-only adapter (i2c-stub, many SoC
- * controllers), as the monitor sends it (src/bus/smbus_plan.h): a one-byte
- * register pointer and a read become read byte data (1 byte), read word data
- * (2) or an I2C block read (up to 32); a lone one-byte read is receive byte.
- * `check_only`: whether the adapter has the form, nothing sent. 0 or -errno.
+/* Every transaction of the call has a form on this adapter (ct_xfer), as the
+ * monitor asks before anything acts.
  */
-static int ct_smbus_read(struct i2c_adapter *adap, struct i2c_msg *m, const struct ct_tx *tx,
-			 bool check_only)
-{
-	u32 funcs = i2c_get_functionality(adap);
-	struct i2c_msg *rd = &m[tx->first_msg + tx->msg_count - 1];
-	union i2c_smbus_data data;
-	int size, r;
-
-	if (rd->flags & I2C_M_TEN)
-		return -EOPNOTSUPP;
-	if (tx->msg_count == 1)
-		size = rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE) ? I2C_SMBUS_BYTE : -1;
-	else if (rd->len == 1 && (funcs & I2C_FUNC_SMBUS_READ_BYTE_DATA))
-		size = I2C_SMBUS_BYTE_DATA;
-	else if (rd->len == 2 && (funcs & I2C_FUNC_SMBUS_READ_WORD_DATA))
-		size = I2C_SMBUS_WORD_DATA;
-	else if (rd->len >= 1 && rd->len <= I2C_SMBUS_BLOCK_MAX &&
-		 (funcs & I2C_FUNC_SMBUS_READ_I2C_BLOCK))
-		size = I2C_SMBUS_I2C_BLOCK_DATA;
-	else
-		size = -1;
-	if (size < 0)
-		return -EOPNOTSUPP;
-	if (check_only)
-		return 0;
-	data.block[0] = rd->len;
-	r = i2c_smbus_xfer(adap, rd->addr, 0, I2C_SMBUS_READ,
-			   tx->msg_count == 2 ? tx->bytes[0] : 0, size, &data);
-	if (r < 0)
-		return r;
-	if (size == I2C_SMBUS_WORD_DATA) {
-		rd->buf[0] = data.word & 0xff;
-		rd->buf[1] = data.word >> 8;
-	} else if (size == I2C_SMBUS_I2C_BLOCK_DATA) {
-		memcpy(rd->buf, &data.block[1], rd->len);
-	} else {
-		rd->buf[0] = data.byte;
-	}
-	return 0;
-}
-
-/* The call's reads and writes all have a form on this adapter. */
 static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
 {
-	u32 funcs = i2c_get_functionality(adap), i;
+	u32 i;
 
 	lockdep_assert_held(&ct.lock);
-	if (funcs & I2C_FUNC_I2C)
-		return true;
-	for (i = 0; i < ntx; i++) {
-		const struct ct_tx *tx = &ct.txs[i];
-
-		if (tx->kind == CONTEGO_TX_READ) {
-			if (ct_smbus_read(adap, m, tx, true) < 0)
-				return false;
-		} else if (tx->ten || tx->len > 1 + I2C_SMBUS_BLOCK_MAX ||
-			   (tx->len > 3 && !(funcs & I2C_FUNC_SMBUS_WRITE_I2C_BLOCK))) {
+	for (i = 0; i < ntx; i++)
+		if (ct_xfer(adap, &m[ct.txs[i].first_msg], ct.txs[i].msg_count, 0, true) < 0)
 			return false;
-		}
-	}
 	return true;
 }
 
@@ -139,17 +60,14 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
 		/* In message order, only what the core allowed or substituted. */
 		for (i = 0; i < ntx && ret == 0; i++) {
-			struct ct_tx *tx = &ct.txs[i];
+			const struct contego_i2c_tx *tx = &ct.txs[i];
 
-			if (tx->kind == CONTEGO_TX_WRITE) {
+			if (tx->kind == CONTEGO_TX_WRITE)
 				ret = ct_perform_emits(cf->adap, &ct.verdicts[i],
 						       tx->ten ? I2C_M_TEN : 0);
-			} else if (!(i2c_get_functionality(cf->adap) & I2C_FUNC_I2C)) {
-				ret = ct_smbus_read(cf->adap, msgs, tx, false);
-			} else {
-				r = i2c_transfer(cf->adap, &msgs[tx->first_msg], tx->msg_count);
-				ret = r == tx->msg_count ? 0 : (r < 0 ? r : -EIO);
-			}
+			else
+				ret = ct_xfer(cf->adap, &msgs[tx->first_msg], tx->msg_count, 0,
+					      false);
 		}
 	} else {
 		for (i = 0; i < nmsgs; i++) /* ignored: reads read zeros */
@@ -196,6 +114,9 @@ long ct_rdwr_msgs(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs)
 			ret = PTR_ERR(msgs[i].buf);
 			break;
 		}
+		/* i2c-dev's RECV_LEN rule. The length stays the buffer's, as
+		 * the planner sees it; ct_xfer presets buf[0] for the driver.
+		 */
 		if ((msgs[i].flags & I2C_M_RECV_LEN) &&
 		    (!(msgs[i].flags & I2C_M_RD) || msgs[i].len < 1 || msgs[i].buf[0] < 1 ||
 		     msgs[i].len < msgs[i].buf[0] + I2C_SMBUS_BLOCK_MAX)) {
@@ -203,8 +124,6 @@ long ct_rdwr_msgs(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs)
 			ret = -EINVAL;
 			break;
 		}
-		if (msgs[i].flags & I2C_M_RECV_LEN)
-			msgs[i].len = msgs[i].buf[0];
 	}
 	if (ret == 0)
 		ret = ct_ioctl_rdwr(cf, msgs, nmsgs, user_bufs);
@@ -298,9 +217,9 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	n = 0;
 	pointer = a.command;
 	if (a.size == I2C_SMBUS_QUICK) {
-		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr };
+		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr };
 	} else if (read) {
-		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
+		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
 					     .len = a.size == I2C_SMBUS_BYTE ? 0 : 1,
 					     .bytes = &pointer };
 	} else {
@@ -328,10 +247,10 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 			len += data.block[0];
 			break;
 		}
-		ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
+		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 					     .len = len, .bytes = wire };
 		if (proc) /* then a read without pointer (the write is longer than one byte) */
-			ct.txs[n++] = (struct ct_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
+			ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
 	}
 
 	action = ct_decide(cf, task, n, &decider);

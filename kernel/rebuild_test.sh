@@ -13,7 +13,7 @@ work=${1:?usage: kernel/rebuild_test.sh WORK_DIR}
 rm -rf "$work"
 mkdir -p "$work/tree/src"
 cp -r "$root/kernel" "$root/include" "$work/tree/"
-cp -r "$root/src/core" "$work/tree/src/"
+cp -r "$root/src/core" "$root/src/i2cdev" "$work/tree/src/"
 build() { bash "$work/tree/kernel/build.sh" "$work/out" >"$work/build.log" 2>&1 || {
   rc=$?; cat "$work/build.log" >&2; exit $rc; }; }
 stamp() { stat -c %Y.%y "$work/out/kbuild/$1"; }

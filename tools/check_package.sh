@@ -135,7 +135,8 @@ if [[ -n $dkms_deb ]]; then
   src=$(ls -d "$tmp"/dkms/usr/src/contego-* 2>/dev/null | head -n1)
   [[ -n $src ]] || bad "$dkms_deb has no /usr/src/contego-VERSION"
   for f in dkms.conf Kbuild contego_main.c contego_xfer.c contego.h include/uapi/linux/contego_kmod.h shim/stdint.h include/contego/core_c.h \
-    src/core/checker.cc src/core/interpreter.cc src/core/verifier.cc src/core/state.h; do
+    src/core/checker.cc src/core/interpreter.cc src/core/verifier.cc src/core/state.h \
+    src/i2cdev/plan.cc src/i2cdev/transactions.cc include/contego/i2c_plan.h; do
     [[ -n $src && -e $src/$f ]] || bad "$dkms_deb has no /usr/src/contego-VERSION/$f"
   done
   if [[ -n $src ]] && find "$src" -name '*test*' | grep .; then bad "$dkms_deb holds test sources"; fi

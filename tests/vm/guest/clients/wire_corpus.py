@@ -1,0 +1,124 @@
+# One corpus of wire shapes, for the differential test of the two clients
+# (scenario 65): every form of include/contego/i2c_plan.h's table and the
+# shapes beyond it, as I2C_RDWR message lists (combined reads of 1..40
+# bytes, RECV_LEN block reads, process calls, three-message transfers,
+# zero-length messages, ten-bit addresses), as every I2C_SMBUS size and as
+# plain read()/write() after I2C_SLAVE, to a register-file chip at 0x40.
+# Prints one line per step: what the program was told (ok and the bytes
+# read, or the errno's name). Under contego.ko and under the monitor, on the
+# same adapter, the two outputs must be the same.
+# Usage: wire_corpus.py BUS
+import errno
+import fcntl
+import os
+import sys
+
+from smbus2 import SMBus, i2c_msg
+
+I2C_SLAVE = 0x0703
+I2C_M_TEN = 0x0010
+I2C_M_RECV_LEN = 0x0400
+A = 0x40
+bus = SMBus(int(sys.argv[1]))
+
+
+def rdwr(*msgs):
+    bus.i2c_rdwr(*msgs)
+    return [b for m in msgs if m.flags & 1 for b in list(m)]
+
+
+def w(*data, addr=A):
+    return i2c_msg.write(addr, list(data))
+
+
+def r(n, addr=A):
+    return i2c_msg.read(addr, n)
+
+
+def recv_len():  # an SMBus block read's message: 33 bytes, the count preset to 1
+    m = i2c_msg.read(A, 33)
+    m.flags |= I2C_M_RECV_LEN
+    m.buf[0] = b"\x01"
+    return m
+
+
+def ten_bit(m):
+    m.flags |= I2C_M_TEN
+    return m
+
+
+def raw_write(data):
+    fcntl.ioctl(bus.fd, I2C_SLAVE, A)
+    return os.write(bus.fd, bytes(data))
+
+
+def raw_read(n):
+    fcntl.ioctl(bus.fd, I2C_SLAVE, A)
+    return list(os.read(bus.fd, n))
+
+
+steps = [
+    # I2C_RDWR writes: byte data, word data, I2C block, SMBus block, too long.
+    ("rdwr write 2 (byte data)", lambda: rdwr(w(0x02, 0x11))),
+    ("rdwr write 3 (word data)", lambda: rdwr(w(0x03, 0x22, 0x33))),
+    ("rdwr write 9 (I2C block)", lambda: rdwr(w(0x05, *range(1, 9)))),
+    ("rdwr write 5 counted", lambda: rdwr(w(0x08, 3, 0xA, 0xB, 0xC))),
+    ("rdwr write 33", lambda: rdwr(w(0x00, *range(0x40, 0x60)))),
+    ("rdwr write 34 counted (SMBus block)", lambda: rdwr(w(0x00, 32, *range(0x60, 0x80)))),
+    ("rdwr write 40", lambda: rdwr(w(0x00, *range(0x80, 0x80 + 39)))),
+    ("rdwr write 1 (send byte)", lambda: rdwr(w(0x02))),
+    ("rdwr write 0 (quick)", lambda: rdwr(w())),
+    ("rdwr read 0 (quick read)", lambda: rdwr(r(0))),
+    # Combined reads.
+    ("rdwr [w1][r1]", lambda: rdwr(w(0x02), r(1))),
+    ("rdwr [w1][r2]", lambda: rdwr(w(0x02), r(2))),
+    ("rdwr [w1][r16]", lambda: rdwr(w(0x00), r(16))),
+    ("rdwr [w1][r32]", lambda: rdwr(w(0x00), r(32))),
+    ("rdwr [w1][r40]", lambda: rdwr(w(0x00), r(40))),
+    ("rdwr [w1][RECV_LEN]", lambda: rdwr(w(0x08), recv_len())),
+    ("rdwr [w3][r2] (process call)", lambda: rdwr(w(0x04, 0x34, 0x12), r(2))),
+    ("rdwr [w4][RECV_LEN] (block process call)", lambda: rdwr(w(0x08, 2, 0x5, 0x6), recv_len())),
+    ("rdwr [w2][r1]", lambda: rdwr(w(0x02, 0x44), r(1))),
+    ("rdwr [w1][w1][r1]", lambda: rdwr(w(0x02, 0x55), w(0x02), r(1))),
+    ("rdwr [w1][r1][w2]", lambda: rdwr(w(0x03), r(1), w(0x04, 0x66))),
+    ("rdwr lone r1 (receive byte)", lambda: rdwr(r(1))),
+    ("rdwr lone r4", lambda: rdwr(r(4))),
+    ("rdwr lone RECV_LEN", lambda: rdwr(recv_len())),
+    ("rdwr [w1][r1] other address", lambda: rdwr(w(0x02, addr=0x41), r(1, addr=0x41))),
+    ("rdwr ten-bit write", lambda: rdwr(ten_bit(w(0x02, 0x11)))),
+    ("rdwr forbidden register", lambda: rdwr(w(0xF0, 0x01))),
+    # I2C_SMBUS, every size.
+    ("smbus write quick", lambda: bus.write_quick(A)),
+    ("smbus write byte", lambda: bus.write_byte(A, 0x06)),
+    ("smbus read byte", lambda: bus.read_byte(A)),
+    ("smbus write byte data", lambda: bus.write_byte_data(A, 0x06, 0x77)),
+    ("smbus read byte data", lambda: bus.read_byte_data(A, 0x06)),
+    ("smbus write word data", lambda: bus.write_word_data(A, 0x09, 0x1234)),
+    ("smbus read word data", lambda: bus.read_word_data(A, 0x09)),
+    ("smbus process call", lambda: bus.process_call(A, 0x0B, 0x5678)),
+    ("smbus write block data", lambda: bus.write_block_data(A, 0x0D, [1, 2, 3])),
+    ("smbus read block data", lambda: bus.read_block_data(A, 0x0D)),
+    ("smbus block process call", lambda: bus.block_process_call(A, 0x0D, [2, 9, 8])),
+    ("smbus write i2c block 8", lambda: bus.write_i2c_block_data(A, 0x10, list(range(0x21, 0x29)))),
+    ("smbus read i2c block 8", lambda: bus.read_i2c_block_data(A, 0x10, 8)),
+    ("smbus read i2c block 32", lambda: bus.read_i2c_block_data(A, 0x00, 32)),
+    ("smbus write byte data forbidden", lambda: bus.write_byte_data(A, 0xF1, 1)),
+    # read() and write() after I2C_SLAVE.
+    ("write() 3", lambda: raw_write([0x18, 0x31, 0x32])),
+    ("write() 40", lambda: raw_write([0x00] + list(range(0xA0, 0xA0 + 39)))),
+    ("read() 1", lambda: raw_read(1)),
+    ("read() 4", lambda: raw_read(4)),
+    ("read() 0", lambda: raw_read(0)),
+    ("final [w1][r32]", lambda: rdwr(w(0x00), r(32))),
+]
+
+for name, step in steps:
+    try:
+        got = step()
+        if isinstance(got, int):
+            got = [got]
+        print(name, "ok", " ".join("%02x" % b for b in (got or [])))
+    except OSError as e:
+        print(name, "err", errno.errorcode.get(e.errno, e.errno))
+    sys.stdout.flush()
+print("done")

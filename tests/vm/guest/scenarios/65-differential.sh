@@ -1,0 +1,114 @@
+# The differential test of the two clients over the i2c-dev model they share
+# (include/contego/i2c_plan.h): one corpus of wire shapes
+# (clients/wire_corpus.py: every SMBus form of the planner's table and the
+# shapes beyond it, as I2C_RDWR, I2C_SMBUS and read()/write()) sent by one
+# task, once through the monitor embedded in `contego run` and once through
+# contego.ko, on each kind of adapter: i2c-stub (SMBus only, as many SoC
+# controllers) and i2c-plain-stub (plain I2C, as the Raspberry Pi's), each
+# run on a freshly loaded chip. Compared per adapter: what the program was
+# told at every step, the decisions of the two audit logs, and the chip's
+# registers afterwards (read through the plain i2c-dev).
+. /vm/lib.sh
+. /vm/inc/kmod.sh
+kmod_built_or_skip
+PLAIN=/lib/modules/i2c-plain-stub.ko
+[ -f $PLAIN ] || { echo "VM-CHECK SKIP $SCENARIO: i2c-plain-stub.ko was not built"; exit 0; }
+A=0x40
+
+# A register file at 0x40 whose 48 first registers the task may write
+# (auto-increment) and every register read; 0xf0.. never written.
+POLICY=/tmp/wire.policy
+{
+  echo "device chip : regmap at i2c-1 0x40 {"
+  echo "  auto_increment"
+  r=0
+  while [ $r -lt 48 ]; do printf '  register 0x%02x r%02x : u8\n' $r $r; r=$((r + 1)); done
+  echo "  forbid 0xF0..0xFF"
+  echo "}"
+  echo "task wire { period 1s; deadline 1s; wcet 10ms; priority 1 }"
+  echo "allow wire -> chip"
+  echo "allow wire reads chip"
+} >$POLICY
+
+decisions() {  # LOG: one line per decision, the fields both clients write
+  python3 - "$1" <<'PY'
+import json, sys
+for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
+    line = line.strip("\0\n")
+    if not line.startswith("{"):
+        continue
+    j = json.loads(line)
+    if j.get("kind") == "decision" and j.get("task_name") == "wire":
+        print(j.get("command_name", "-"), j["decision"], j.get("reason_name"),
+              j.get("rule_name", "-"), j.get("bytes"))
+PY
+}
+
+# fresh NAME: the adapter's chip reloaded, all registers 0. Sets NR, its number.
+fresh() {
+  if [ "$1" = smbus ]; then
+    stub_reload || return 1
+    NR=0
+  else
+    rmmod i2c_plain_stub 2>/dev/null
+    insmod $PLAIN chip_addr=$A || return 1
+    NR=1
+    wait_for /dev/i2c-1 10 || return 1
+  fi
+}
+
+# one ADAPTER CLIENT: the corpus through CLIENT (monitor or kmod) on ADAPTER
+# (smbus or plain); leaves LOGDIR/ADAPTER-CLIENT.{steps,chip,decisions}.
+one() {
+  key=$1-$2
+  fresh $1 || { bad "$1: the chip could not be reloaded"; return 1; }
+  if [ $2 = monitor ]; then
+    run_logged $key contego run --policy $POLICY --bus 1=/dev/i2c-$NR --user 1000 --task wire \
+      --budget-factor 0 --audit $LOGDIR/$key.jsonl -- python3 $CLIENTS/wire_corpus.py 1
+    grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+  else
+    rmmod i2c_dev
+    run_logged $key-insmod insmod $KO adapters=$NR buses=1
+    wait_for /dev/i2c-$NR 10 && chmod 0666 /dev/i2c-$NR
+    AUDIT_LOG=$LOGDIR/$key.jsonl
+    start_reader $POLICY || return 1
+    run_logged $key-load contego kmod load --policy $POLICY --bind wire=task --budget-factor 0
+    run_logged $key as_task python3 $CLIENTS/wire_corpus.py $NR
+    grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+    wait_sessions_closed
+    stop_reader
+    back_to_i2c_dev
+  fi
+  i2cdump -y $NR $A b >$LOGDIR/$key.chip 2>&1
+  decisions $LOGDIR/$key.jsonl >$LOGDIR/$key.decisions
+}
+
+for adapter in smbus plain; do
+  one $adapter monitor && one $adapter kmod || { bad "$adapter: a run did not complete"; continue; }
+  m=$LOGDIR/$adapter-monitor k=$LOGDIR/$adapter-kmod
+  steps=$(($(wc -l <$k.steps) - 1))
+  grep -q "^done" $m.steps && grep -q "^done" $k.steps &&
+    ok "$adapter: the corpus ran to its end under both clients" || bad "$adapter: the corpus did not finish under both"
+  if cmp -s $m.steps $k.steps; then
+    ok "$adapter: the program was told the same at each of its $steps steps: 0 mismatches" \
+      "($(grep -c ' ok' $k.steps) answered, $(grep -c ' err EOPNOTSUPP' $k.steps) without a form on this adapter," \
+      "$(grep -c ' err ' $k.steps) errors in all)"
+  else
+    bad "$adapter: the program was told different things (monitor <, contego.ko >):"; diff $m.steps $k.steps
+  fi
+  n=$(wc -l <$k.decisions)
+  if [ "$n" -gt 20 ] && cmp -s $m.decisions $k.decisions; then
+    ok "$adapter: both logs hold the same $n decisions: 0 mismatches"
+  else
+    bad "$adapter: the decisions differ ($n under contego.ko):"; diff $m.decisions $k.decisions
+  fi
+  if cmp -s $m.chip $k.chip; then
+    ok "$adapter: the chip's registers are the same after both runs"
+  else
+    bad "$adapter: the chip differs:"; diff $m.chip $k.chip
+  fi
+  show $k.steps
+done
+rmmod i2c_plain_stub 2>/dev/null
+stub_reload
+finish
