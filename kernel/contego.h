@@ -110,6 +110,12 @@ struct ct_file {
 	u8 bus;
 	u16 addr;
 	u16 flags; /* I2C_M_TEN, I2C_CLIENT_PEC */
+	/* I2C_RETRIES and I2C_TIMEOUT of this descriptor alone (own_timing),
+	 * applied to its transfers only (ct_bus_transfer), never adapter-wide.
+	 */
+	bool own_timing;
+	int retries;
+	unsigned long timeout; /* jiffies */
 };
 
 enum { CT_S_PROCESS = 0, CT_S_LEADER = 1 };
@@ -215,9 +221,13 @@ void ct_record_start(struct contego_kmod_record *r, u8 type, bool caller);
 void ct_audit(void *context, const contego_audit_record *a);
 
 /* contego_bus.c */
-int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags, bool check_only);
-int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len);
-int ct_perform_emits(struct i2c_adapter *adap, const contego_verdict *v, u16 flags);
+int ct_bus_transfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, int n);
+int ct_bus_smbus(struct i2c_adapter *adap, const struct ct_file *cf, u16 addr, u16 flags,
+		 char read_write, u8 command, int size, union i2c_smbus_data *data);
+int ct_xfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, u32 n,
+	    u16 client_flags, bool check_only);
+int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
+		     const contego_verdict *v, u16 flags);
 bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr);
 int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s);
 bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why);

@@ -2,14 +2,62 @@
 /* contego.ko: bus operations: a verdict's writes, and the devices' safe states. */
 #include "contego.h"
 
+/* i2c_transfer and i2c_smbus_xfer for a descriptor `cf` that set its own
+ * I2C_RETRIES or I2C_TIMEOUT: the adapter's values swapped for the call's
+ * under the adapter's bus lock, so no other caller's transfer sees them
+ * (i2c-dev sets them adapter-wide). `cf` NULL: the module's own transfers.
+ */
+static void ct_swap_timing(struct i2c_adapter *adap, int *retries, unsigned long *timeout)
+{
+	swap(adap->retries, *retries);
+	swap(adap->timeout, *timeout);
+}
+
+int ct_bus_transfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, int n)
+{
+	unsigned long timeout;
+	int ret, retries;
+
+	if (!cf || !cf->own_timing)
+		return i2c_transfer(adap, m, n);
+	retries = cf->retries;
+	timeout = cf->timeout;
+	i2c_lock_bus(adap, I2C_LOCK_SEGMENT);
+	ct_swap_timing(adap, &retries, &timeout);
+	ret = __i2c_transfer(adap, m, n);
+	ct_swap_timing(adap, &retries, &timeout);
+	i2c_unlock_bus(adap, I2C_LOCK_SEGMENT);
+	return ret;
+}
+
+int ct_bus_smbus(struct i2c_adapter *adap, const struct ct_file *cf, u16 addr, u16 flags,
+		 char read_write, u8 command, int size, union i2c_smbus_data *data)
+{
+	unsigned long timeout;
+	int ret, retries;
+
+	if (!cf || !cf->own_timing)
+		return i2c_smbus_xfer(adap, addr, flags, read_write, command, size, data);
+	retries = cf->retries;
+	timeout = cf->timeout;
+	i2c_lock_bus(adap, I2C_LOCK_SEGMENT);
+	ct_swap_timing(adap, &retries, &timeout);
+	ret = __i2c_smbus_xfer(adap, addr, flags, read_write, command, size, data);
+	ct_swap_timing(adap, &retries, &timeout);
+	i2c_unlock_bus(adap, I2C_LOCK_SEGMENT);
+	return ret;
+}
+
 /* One combined transfer in the form the shared i2c-dev model gives it on
  * this adapter (contego/i2c_plan.h, the planner the monitor's buses use):
  * plain I2C, or the one SMBus transaction that puts the same bytes on the
- * wire. `client_flags`: the node's I2C_CLIENT_PEC for an SMBus form.
+ * wire, with `cf`'s timing (ct_bus_transfer). `client_flags`: the node's
+ * I2C_CLIENT_PEC for an SMBus form.
  * `check_only`: whether it has a form, nothing sent. 0 or -errno
  * (-EOPNOTSUPP: no form on this adapter).
  */
-int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags, bool check_only)
+int ct_xfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, u32 n,
+	    u16 client_flags, bool check_only)
 {
 	struct contego_i2c_plan plan;
 	union i2c_smbus_data data;
@@ -33,15 +81,15 @@ int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags
 		for (i = 0; i < n; i++)
 			if (m[i].flags & I2C_M_RECV_LEN)
 				m[i].len = m[i].buf[0];
-		ret = i2c_transfer(adap, m, n);
+		ret = ct_bus_transfer(adap, cf, m, n);
 		return ret == n ? 0 : (ret < 0 ? ret : -EIO);
 	}
 	memcpy(data.block, plan.op.data, sizeof(data.block));
 	if (plan.op.size == I2C_SMBUS_WORD_DATA || plan.op.size == I2C_SMBUS_PROC_CALL)
 		data.word = plan.op.data[0] | (plan.op.data[1] << 8);
-	ret = i2c_smbus_xfer(adap, plan.op.addr, client_flags & I2C_CLIENT_PEC,
-			     plan.op.read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE, plan.op.command,
-			     plan.op.size, &data);
+	ret = ct_bus_smbus(adap, cf, plan.op.addr, client_flags & I2C_CLIENT_PEC,
+			   plan.op.read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE, plan.op.command,
+			   plan.op.size, &data);
 	if (ret < 0 || plan.op.reply < 0)
 		return ret < 0 ? ret : 0;
 	memcpy(reply, data.block, sizeof(reply));
@@ -52,26 +100,23 @@ int ct_xfer(struct i2c_adapter *adap, struct i2c_msg *m, u32 n, u16 client_flags
 	return -contego_i2c_deliver_reply(&plan.op, reply, (struct contego_i2c_msg *)m, n);
 }
 
-/* One write of `len` bytes at `addr` (ct_xfer's forms). */
-int ct_write_bytes(struct i2c_adapter *adap, u16 addr, u16 flags, const u8 *b, u32 len)
-{
-	struct i2c_msg m = { .addr = addr, .flags = flags & I2C_M_TEN, .len = len, .buf = (u8 *)b };
-
-	return ct_xfer(adap, &m, 1, flags, false);
-}
-
-/* The writes a verdict allows or substitutes, in order, at the verdict's address. */
-int ct_perform_emits(struct i2c_adapter *adap, const contego_verdict *v, u16 flags)
+/* The writes a verdict allows or substitutes, in order, at the verdict's
+ * address, each one message in its form (ct_xfer), with `cf`'s timing.
+ */
+int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
+		     const contego_verdict *v, u16 flags)
 {
 	u32 off = 0, i;
 	int ret;
 
 	for (i = 0; i < v->emit_count && i < CONTEGO_MAX_EMITS; i++) {
 		u32 len = v->emit_len[i];
+		struct i2c_msg m = { .addr = v->addr, .flags = flags & I2C_M_TEN, .len = len,
+				     .buf = (u8 *)v->emit_bytes + off };
 
 		if (off + len > CONTEGO_MAX_EMIT_BYTES)
 			return -EIO; /* malformed verdict: fail closed */
-		ret = ct_write_bytes(adap, v->addr, flags, v->emit_bytes + off, len);
+		ret = ct_xfer(adap, cf, &m, 1, flags, false);
 		if (ret < 0)
 			return ret;
 		off += len;
@@ -105,7 +150,7 @@ int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_s
 	node = ct_node_for_bus(ct.safe_verdict.bus);
 	adap = node ? i2c_get_adapter(node->nr) : NULL;
 	if (adap) {
-		done = ct_perform_emits(adap, &ct.safe_verdict, 0) == 0;
+		done = ct_perform_emits(adap, NULL, &ct.safe_verdict, 0) == 0;
 		i2c_put_adapter(adap);
 	}
 	if (!done)

@@ -17,6 +17,7 @@ struct ct_node *ct_node_for_bus(u8 bus)
 static ssize_t ct_write(struct file *file, const char __user *buf, size_t count, loff_t *off)
 {
 	struct ct_file *cf = file->private_data;
+	struct i2c_msg m = { .addr = cf->addr, .flags = cf->flags & I2C_M_TEN };
 	u32 decider;
 	u8 *tmp, action;
 	u16 task;
@@ -27,6 +28,15 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	tmp = memdup_user(buf, count);
 	if (IS_ERR(tmp))
 		return PTR_ERR(tmp);
+	/* No form on this adapter: refused before the core decides, as the
+	 * monitor does (read() and I2C_RDWR alike).
+	 */
+	m.len = count;
+	m.buf = tmp;
+	if (ct_xfer(cf->adap, cf, &m, 1, 0, true) < 0) {
+		kfree(tmp);
+		return -EOPNOTSUPP;
+	}
 	if (mutex_lock_killable(&ct.lock)) {
 		kfree(tmp);
 		return -EINTR;
@@ -41,7 +51,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
 	action = ct_decide(cf, task, 1, &decider);
 	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
-		ret = ct_perform_emits(cf->adap, &ct.verdicts[0], cf->flags);
+		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	else if (action == CT_REFUSE)
 		ret = ct_refusal(decider);
 	else
@@ -63,7 +73,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	if (count > CT_MAX_LEN)
 		count = CT_MAX_LEN;
 	m.len = count;
-	if (ct_xfer(cf->adap, &m, 1, 0, true) < 0) /* no form on this adapter */
+	if (ct_xfer(cf->adap, cf, &m, 1, 0, true) < 0) /* no form on this adapter */
 		return -EOPNOTSUPP;
 	tmp = kzalloc(count ? count : 1, GFP_KERNEL);
 	if (!tmp)
@@ -78,7 +88,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 					     .ten = !!(cf->flags & I2C_M_TEN) };
 	action = ct_decide(cf, task, 1, &decider);
 	if (action == CT_PERFORM)
-		ret = ct_xfer(cf->adap, &m, 1, cf->flags, false);
+		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
 	else if (action == CT_REFUSE)
 		ret = ct_refusal(decider);
 	else
@@ -137,14 +147,25 @@ static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		return ct_smbus(cf, a);
 	}
 	case I2C_RETRIES:
-		if (arg > INT_MAX)
-			return -EINVAL;
-		cf->adap->retries = arg;
-		return 0;
 	case I2C_TIMEOUT:
-		if (arg > INT_MAX / 10) /* as i2c-dev: arg * 10 must not wrap */
+		/* This descriptor's own (ct_bus_transfer), not the adapter's:
+		 * an unprivileged caller cannot change another's transfers.
+		 * The limits are i2c-dev's: arg * 10 must not wrap.
+		 */
+		if (arg > (cmd == I2C_RETRIES ? INT_MAX : INT_MAX / 10))
 			return -EINVAL;
-		cf->adap->timeout = msecs_to_jiffies(arg * 10);
+		if (mutex_lock_killable(&ct.lock))
+			return -EINTR;
+		if (!cf->own_timing) {
+			cf->retries = cf->adap->retries;
+			cf->timeout = cf->adap->timeout;
+			cf->own_timing = true;
+		}
+		if (cmd == I2C_RETRIES)
+			cf->retries = arg;
+		else
+			cf->timeout = msecs_to_jiffies(arg * 10);
+		mutex_unlock(&ct.lock);
 		return 0;
 	default:
 		return -ENOTTY;

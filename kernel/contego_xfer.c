@@ -23,7 +23,7 @@ static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
 
 	lockdep_assert_held(&ct.lock);
 	for (i = 0; i < ntx; i++)
-		if (ct_xfer(adap, &m[ct.txs[i].first_msg], ct.txs[i].msg_count, 0, true) < 0)
+		if (ct_xfer(adap, NULL, &m[ct.txs[i].first_msg], ct.txs[i].msg_count, 0, true) < 0)
 			return false;
 	return true;
 }
@@ -63,11 +63,11 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 			const struct contego_i2c_tx *tx = &ct.txs[i];
 
 			if (tx->kind == CONTEGO_TX_WRITE)
-				ret = ct_perform_emits(cf->adap, &ct.verdicts[i],
+				ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[i],
 						       tx->ten ? I2C_M_TEN : 0);
 			else
-				ret = ct_xfer(cf->adap, &msgs[tx->first_msg], tx->msg_count, 0,
-					      false);
+				ret = ct_xfer(cf->adap, cf, &msgs[tx->first_msg], tx->msg_count,
+					      0, false);
 		}
 	} else {
 		for (i = 0; i < nmsgs; i++) /* ignored: reads read zeros */
@@ -154,13 +154,48 @@ long ct_rdwr(struct ct_file *cf, unsigned long arg)
 
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
+/* A process call whose write the core changed (its emits are not the
+ * request), as the monitor performs one: the write's emits, then the answer
+ * read on its own (ct_xfer's form), into `data`. Nothing is written when
+ * the read has no form on this adapter. 0 or -errno.
+ */
+static int ct_proc_split(struct ct_file *cf, int size, union i2c_smbus_data *data)
+{
+	u8 buf[1 + I2C_SMBUS_BLOCK_MAX] = { 1 }; /* RECV_LEN's preset */
+	struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
+			     .len = 2, .buf = buf };
+	int ret;
+
+	if (size == I2C_SMBUS_BLOCK_PROC_CALL) {
+		m.flags |= I2C_M_RECV_LEN;
+		m.len = sizeof(buf);
+	}
+	ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, true);
+	if (ret == 0)
+		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
+	if (ret == 0)
+		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
+	if (ret < 0)
+		return ret;
+	if (size == I2C_SMBUS_PROC_CALL) {
+		data->word = buf[0] | (buf[1] << 8);
+		return 0;
+	}
+	if (buf[0] > I2C_SMBUS_BLOCK_MAX || m.len < 1 + buf[0])
+		return -EPROTO;
+	memcpy(data->block, buf, 1 + buf[0]);
+	return 0;
+}
+
 /* I2C_SMBUS with its arguments copied in (native or compat). */
 long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 {
 	union i2c_smbus_data data;
 	u8 wire[2 + I2C_SMBUS_BLOCK_MAX + 1]; /* command, count, data: the write's bytes */
-	u8 pointer;
-	u32 datasize = 0, n, decider;
+	u8 rbuf[1 + I2C_SMBUS_BLOCK_MAX] = { 1 }; /* a read message's (RECV_LEN: preset 1) */
+	struct i2c_msg m[2];
+	u32 datasize = 0, n, nm = 0, decider;
+	u16 ten;
 	bool read, proc;
 	u8 action;
 	u16 task;
@@ -200,35 +235,36 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	     a.size == I2C_SMBUS_I2C_BLOCK_DATA) && !read &&
 	    (data.block[0] < 1 || data.block[0] > I2C_SMBUS_BLOCK_MAX))
 		return -EINVAL;
+	/* An I2C block read asks for at most 32 bytes (as the emulation checks). */
+	if (a.size == I2C_SMBUS_I2C_BLOCK_DATA && read && data.block[0] > I2C_SMBUS_BLOCK_MAX)
+		return -EINVAL;
 
-	if (mutex_lock_killable(&ct.lock))
-		return -EINTR;
-	/* Held before ct.txs is made: an SMBus call writes unless it is a
-	 * quick command or a read (a process call writes).
+	/* The messages this call puts on the wire (i2c-core-smbus's emulation,
+	 * as the monitor's decoder makes them): then the transactions and the
+	 * forms come from the shared model, as for I2C_RDWR.
 	 */
-	ret = ct_enter(a.size != I2C_SMBUS_QUICK && !read, &task);
-	if (ret < 0) {
-		mutex_unlock(&ct.lock);
-		return ret;
-	}
-	/* ct.txs is shared scratch, used under ct.lock only. The transactions
-	 * this call puts on the wire (smbus_plan.h's table, backwards):
-	 */
-	n = 0;
-	pointer = a.command;
+	ten = cf->flags & I2C_M_TEN;
+	wire[0] = a.command;
 	if (a.size == I2C_SMBUS_QUICK) {
-		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr };
+		m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten |
+					    (a.read_write == I2C_SMBUS_READ ? I2C_M_RD : 0) };
 	} else if (read) {
-		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
-					     .len = a.size == I2C_SMBUS_BYTE ? 0 : 1,
-					     .bytes = &pointer };
+		if (a.size != I2C_SMBUS_BYTE)
+			m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten, .len = 1,
+						    .buf = wire };
+		m[nm] = (struct i2c_msg){ .addr = cf->addr, .flags = ten | I2C_M_RD, .buf = rbuf,
+					  .len = a.size == I2C_SMBUS_BYTE_DATA ? 1 :
+						 a.size == I2C_SMBUS_WORD_DATA ? 2 :
+						 a.size == I2C_SMBUS_I2C_BLOCK_DATA ? data.block[0] : 1 };
+		if (a.size == I2C_SMBUS_BLOCK_DATA) {
+			m[nm].flags |= I2C_M_RECV_LEN;
+			m[nm].len = sizeof(rbuf);
+		}
+		nm++;
 	} else {
 		u32 len = 1;
 
-		wire[0] = a.command;
 		switch (a.size) {
-		case I2C_SMBUS_BYTE:
-			break;
 		case I2C_SMBUS_BYTE_DATA:
 			wire[len++] = data.byte;
 			break;
@@ -247,12 +283,38 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 			len += data.block[0];
 			break;
 		}
-		ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
-					     .len = len, .bytes = wire };
-		if (proc) /* then a read without pointer (the write is longer than one byte) */
-			ct.txs[n++] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr };
+		m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten, .len = len,
+					    .buf = wire };
+		if (proc) /* then the answer: a read without pointer */
+			m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten | I2C_M_RD,
+						    .len = a.size == I2C_SMBUS_PROC_CALL ? 2 :
+							   sizeof(rbuf),
+						    .buf = rbuf };
+		if (a.size == I2C_SMBUS_BLOCK_PROC_CALL)
+			m[1].flags |= I2C_M_RECV_LEN;
 	}
 
+	if (mutex_lock_killable(&ct.lock))
+		return -EINTR;
+	/* ct.txs is shared scratch, used under ct.lock only. */
+	n = a.size == I2C_SMBUS_QUICK ? 1 : ct_plan_msgs(m, nm);
+	if (a.size == I2C_SMBUS_QUICK)
+		ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr,
+						     .ten = !!ten, .msg_count = 1 };
+	if (!ct_expressible(cf->adap, m, n)) {
+		mutex_unlock(&ct.lock);
+		return -EOPNOTSUPP; /* no form on this adapter: nothing decided */
+	}
+	/* An SMBus call writes unless it is a quick command or a read (a
+	 * process call writes).
+	 */
+	ret = ct_enter(a.size != I2C_SMBUS_QUICK && !read, &task);
+	if (ret < 0) {
+		mutex_unlock(&ct.lock);
+		return ret;
+	}
+	if (ret > 0 && a.size != I2C_SMBUS_QUICK) /* held: ct.txs served other calls */
+		n = ct_plan_msgs(m, nm);
 	action = ct_decide(cf, task, n, &decider);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
@@ -262,13 +324,13 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	} else if (a.size == I2C_SMBUS_QUICK || read ||
 		   ct_emits_are(&ct.verdicts[0], wire, ct.txs[0].len, cf->addr)) {
 		/* Exactly what was asked: the call itself, from our copy. */
-		ret = i2c_smbus_xfer(cf->adap, cf->addr, cf->flags, a.read_write, a.command,
-				     a.size, (a.size == I2C_SMBUS_QUICK ||
-					      (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
+		ret = ct_bus_smbus(cf->adap, cf, cf->addr, cf->flags, a.read_write, a.command,
+				   a.size, (a.size == I2C_SMBUS_QUICK ||
+					    (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
 	} else if (proc) {
-		ret = -EOPNOTSUPP; /* a substituted process call has no SMBus form */
+		ret = ct_proc_split(cf, a.size, &data);
 	} else {
-		ret = ct_perform_emits(cf->adap, &ct.verdicts[0], cf->flags);
+		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	}
 	mutex_unlock(&ct.lock);
 	if (ret < 0)

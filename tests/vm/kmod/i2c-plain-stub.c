@@ -29,6 +29,11 @@
  *     0xff, then 0xff stored there). contego must refuse such a read
  *     (include/contego/i2c_msg_flags.h); scenario 61 shows the write bare.
  *
+ * The adapter's retries and timeout as the last transfer saw them, and as
+ * they are now, read from the parameter `timing` ("seen R T now R T", T in
+ * ms): a client that gives a descriptor its own I2C_RETRIES/I2C_TIMEOUT must
+ * show them in `seen` for that descriptor's transfers and leave `now` alone.
+ *
  * The I2C core serialises master_xfer calls on the adapter (its bus lock),
  * so the register files need no lock of their own.
  *
@@ -39,6 +44,7 @@
 #include <linux/kernel.h>
 #include <linux/module.h>
 #include <linux/slab.h>
+#include <linux/sysfs.h>
 
 #define PLAIN_MAX_CHIPS 10
 
@@ -53,6 +59,19 @@ struct plain_chip {
 };
 
 static struct plain_chip *chips;
+static int seen_retries;
+static unsigned int seen_timeout_ms;
+static struct i2c_adapter plain_adapter;
+
+static int timing_get(char *buf, const struct kernel_param *kp)
+{
+	return sysfs_emit(buf, "seen %d %u now %d %u\n", seen_retries, seen_timeout_ms,
+			  plain_adapter.retries, jiffies_to_msecs(plain_adapter.timeout));
+}
+
+static const struct kernel_param_ops timing_ops = { .get = timing_get };
+module_param_cb(timing, &timing_ops, NULL, 0444);
+MODULE_PARM_DESC(timing, "the adapter's retries and timeout (ms): as the last transfer saw them, and now");
 
 static struct plain_chip *plain_find(const struct i2c_msg *m)
 {
@@ -70,6 +89,8 @@ static int plain_xfer(struct i2c_adapter *adap, struct i2c_msg *msgs, int num)
 {
 	int i, j;
 
+	seen_retries = adap->retries;
+	seen_timeout_ms = jiffies_to_msecs(adap->timeout);
 	/* An address nobody answers fails the whole transfer before anything acts. */
 	for (i = 0; i < num; i++)
 		if (!plain_find(&msgs[i]))

@@ -3,7 +3,8 @@
 # shapes beyond it, as I2C_RDWR message lists (combined reads of 1..40
 # bytes, RECV_LEN block reads, process calls, three-message transfers,
 # zero-length messages, ten-bit addresses), as every I2C_SMBUS size and as
-# plain read()/write() after I2C_SLAVE, to a register-file chip at 0x40.
+# plain read()/write() after I2C_SLAVE, to a register-file chip at 0x40,
+# after giving the descriptor its own I2C_RETRIES and I2C_TIMEOUT.
 # Prints one line per step: what the program was told (ok and the bytes
 # read, or the errno's name). Under contego.ko and under the monitor, on the
 # same adapter, the two outputs must be the same.
@@ -15,6 +16,8 @@ import sys
 
 from smbus2 import SMBus, i2c_msg
 
+I2C_RETRIES = 0x0701
+I2C_TIMEOUT = 0x0702
 I2C_SLAVE = 0x0703
 I2C_M_TEN = 0x0010
 I2C_M_RECV_LEN = 0x0400
@@ -57,7 +60,13 @@ def raw_read(n):
     return list(os.read(bus.fd, n))
 
 
+def own_timing():  # this descriptor's own: 3 retries, 70 ms (units of 10 ms)
+    fcntl.ioctl(bus.fd, I2C_RETRIES, 3)
+    fcntl.ioctl(bus.fd, I2C_TIMEOUT, 7)
+
+
 steps = [
+    ("I2C_RETRIES 3, I2C_TIMEOUT 7", own_timing),
     # I2C_RDWR writes: byte data, word data, I2C block, SMBus block, too long.
     ("rdwr write 2 (byte data)", lambda: rdwr(w(0x02, 0x11))),
     ("rdwr write 3 (word data)", lambda: rdwr(w(0x03, 0x22, 0x33))),
