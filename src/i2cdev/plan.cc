@@ -242,70 +242,41 @@ int contego_i2c_deliver_reply(const contego_smbus_op* op,
 }
 
 const char* contego_smbus_name(uint32_t size, int read) {
-  switch (size) {
-    case CONTEGO_SMBUS_QUICK:
-      return read ? "quick read" : "quick write";
-    case CONTEGO_SMBUS_BYTE:
-      return read ? "receive byte" : "send byte";
-    case CONTEGO_SMBUS_BYTE_DATA:
-      return read ? "read byte data" : "write byte data";
-    case CONTEGO_SMBUS_WORD_DATA:
-      return read ? "read word data" : "write word data";
-    case CONTEGO_SMBUS_PROC_CALL:
-      return "process call";
-    case CONTEGO_SMBUS_BLOCK_DATA:
-      return read ? "SMBus block read" : "SMBus block write";
-    case CONTEGO_SMBUS_BLOCK_PROC_CALL:
-      return "block process call";
-    case CONTEGO_SMBUS_I2C_BLOCK_DATA:
-      return read ? "I2C block read" : "I2C block write";
-    default:
-      return "?";
-  }
+  // [size][read]; sizes 6 (BROKEN) and above 8 have no name.
+  static const char* const kNames[9][2] = {
+      {"quick write", "quick read"},         {"send byte", "receive byte"},
+      {"write byte data", "read byte data"}, {"write word data", "read word data"},
+      {"process call", "process call"},      {"SMBus block write", "SMBus block read"},
+      {"?", "?"},                            {"block process call", "block process call"},
+      {"I2C block write", "I2C block read"}};
+  return size < 9 ? kNames[size][read ? 1 : 0] : "?";
 }
 
 const char* contego_i2c_refusal_text(uint32_t refusal) {
-  switch (refusal) {
-    case CONTEGO_I2C_NOT_REFUSED:
-      return "";
-    case CONTEGO_I2C_NO_MESSAGES:
-      return "a transfer without messages";
-    case CONTEGO_I2C_NO_ZERO_LENGTH:
-      return "the adapter cannot send a zero-length message (no quick command in I2C_FUNCS)";
-    case CONTEGO_I2C_TEN_BIT:
-      return "a ten-bit address needs an adapter with plain I2C";
-    case CONTEGO_I2C_FLAGS:
-      return "these message flags need an adapter with plain I2C";
-    case CONTEGO_I2C_RECV_LEN_SHAPE:
-      return "RECV_LEN only on a read of a 33-byte buffer";
-    case CONTEGO_I2C_NO_BYTES:
-      return "a write without its bytes";
-    case CONTEGO_I2C_NO_FORM:
-      return "the adapter has no plain I2C and no SMBus form it names";
-    case CONTEGO_I2C_WRITE_TOO_LONG:
-      return "no SMBus write carries more than a command byte and 32 data bytes (33 bytes, or 34 "
-             "with a block count), and the adapter has no plain I2C";
-    case CONTEGO_I2C_COUNTED_READ_ALONE:
-      return "a count-prefixed read without a command byte has no SMBus form, and the adapter "
-             "has no plain I2C";
-    case CONTEGO_I2C_LONG_READ_ALONE:
-      return "a read of more than one byte needs a register byte before it (SMBus has no other "
-             "form), and the adapter has no plain I2C";
-    case CONTEGO_I2C_EMPTY_POINTER:
-      return "an empty write before a read has no SMBus form";
-    case CONTEGO_I2C_READ_LENGTH:
-      return "an SMBus read after a command byte returns 1 to 32 bytes, and the adapter has no "
-             "plain I2C";
-    case CONTEGO_I2C_WRITE_READ_SHAPE:
-      return "a read after more than a command byte is an SMBus form only as a process call ([cmd "
-             "lo hi] + read 2) or a block process call ([cmd count data] + RECV_LEN), and the "
-             "adapter has no plain I2C";
-    case CONTEGO_I2C_SHAPE:
-      return "only one message, or a write then a read of the same address, is an SMBus "
-             "transaction, and the adapter has no plain I2C";
-    default:
-      return "?";
-  }
+  static const char* const kText[] = {
+      "",
+      "a transfer without messages",
+      "the adapter cannot send a zero-length message (no quick command in I2C_FUNCS)",
+      "a ten-bit address needs an adapter with plain I2C",
+      "these message flags need an adapter with plain I2C",
+      "RECV_LEN only on a read of a 33-byte buffer",
+      "a write without its bytes",
+      "the adapter has no plain I2C and no SMBus form it names",
+      "no SMBus write carries more than a command byte and 32 data bytes (33 bytes, or 34 with a "
+      "block count), and the adapter has no plain I2C",
+      "a count-prefixed read without a command byte has no SMBus form, and the adapter has no "
+      "plain I2C",
+      "a read of more than one byte needs a register byte before it (SMBus has no other form), and "
+      "the adapter has no plain I2C",
+      "an empty write before a read has no SMBus form",
+      "an SMBus read after a command byte returns 1 to 32 bytes, and the adapter has no plain I2C",
+      "a read after more than a command byte is an SMBus form only as a process call ([cmd lo hi] "
+      "+ read 2) or a block process call ([cmd count data] + RECV_LEN), and the adapter has no "
+      "plain I2C",
+      "only one message, or a write then a read of the same address, is an SMBus transaction, and "
+      "the adapter has no plain I2C"};
+  static_assert(sizeof kText / sizeof kText[0] == CONTEGO_I2C_SHAPE + 1);
+  return refusal <= CONTEGO_I2C_SHAPE ? kText[refusal] : "?";
 }
 
 }  // extern "C"
