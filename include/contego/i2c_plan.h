@@ -73,8 +73,8 @@ struct contego_smbus_op {
   uint8_t read; /* read_write is I2C_SMBUS_READ (quick: the R/W bit) */
   uint8_t command;
   uint8_t size; /* enum contego_smbus_size */
-  int8_t reply; /* the read message that receives the result, -1: none */
   uint8_t data[CONTEGO_SMBUS_DATA_BYTES];
+  int32_t reply; /* the read message that receives the result, -1: none */
 };
 
 enum contego_i2c_form {

@@ -98,7 +98,7 @@ int deliver_reply(const SmbusOp& op, const std::array<uint8_t, 34>& data, std::s
   contego_smbus_op raw{};
   raw.size = static_cast<uint8_t>(op.size);
   raw.read = op.read ? 1 : 0;
-  raw.reply = static_cast<int8_t>(op.reply);
+  raw.reply = op.reply;
   std::copy_n(op.data.begin(), op.data.size(), raw.data);
   if (op.reply < 0) return 0;
   if (static_cast<size_t>(op.reply) >= msgs.size()) return EINVAL;
