@@ -243,12 +243,15 @@ int contego_i2c_deliver_reply(const contego_smbus_op* op,
 
 const char* contego_smbus_name(uint32_t size, int read) {
   // [size][read]; sizes 6 (BROKEN) and above 8 have no name.
-  static const char* const kNames[9][2] = {
-      {"quick write", "quick read"},         {"send byte", "receive byte"},
-      {"write byte data", "read byte data"}, {"write word data", "read word data"},
-      {"process call", "process call"},      {"SMBus block write", "SMBus block read"},
-      {"?", "?"},                            {"block process call", "block process call"},
-      {"I2C block write", "I2C block read"}};
+  static const char* const kNames[9][2] = {{"quick write", "quick read"},
+                                           {"send byte", "receive byte"},
+                                           {"write byte data", "read byte data"},
+                                           {"write word data", "read word data"},
+                                           {"process call", "process call"},
+                                           {"SMBus block write", "SMBus block read"},
+                                           {"?", "?"},
+                                           {"block process call", "block process call"},
+                                           {"I2C block write", "I2C block read"}};
   return size < 9 ? kNames[size][read ? 1 : 0] : "?";
 }
 
