@@ -95,16 +95,14 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
 }
 
 int deliver_reply(const SmbusOp& op, const std::array<uint8_t, 34>& data, std::span<Msg> msgs) {
-  contego_smbus_op raw{};
-  raw.size = static_cast<uint8_t>(op.size);
-  raw.read = op.read ? 1 : 0;
-  raw.reply = op.reply;
-  std::copy_n(op.data.begin(), op.data.size(), raw.data);
   if (op.reply < 0) return 0;
   if (static_cast<size_t>(op.reply) >= msgs.size()) return EINVAL;
+  // The shared model's, on the one message that receives the reply.
+  contego_smbus_op raw{};
+  raw.size = static_cast<uint8_t>(op.size);
+  std::copy_n(op.data.begin(), op.data.size(), raw.data);
   Msg& m = msgs[static_cast<size_t>(op.reply)];
   contego_i2c_msg reply{m.addr, m.flags, m.len, m.buf};
-  raw.reply = 0;
   const int err = contego_i2c_deliver_reply(&raw, data.data(), &reply, 1);
   m.len = reply.len;
   return err;
