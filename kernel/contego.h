@@ -43,11 +43,17 @@
 #include "contego/core_c.h"
 #include "contego/i2c_msg_flags.h"
 #include "contego/i2c_plan.h"
+#include "contego/job_budget.h"
 #include "contego_compat.h"
 #include <linux/contego_kmod.h>
 
 #define CT_MAX_ADAPTERS 8
 #define CT_MAX_MSGS I2C_RDWR_IOCTL_MAX_MSGS /* 42 */
+/* Transfers that did not act a task may send per job, at budget factor 1,
+ * before its sender waits (the monitor's kNonActingFloor): room for a vendor
+ * library's start-up writes a policy ignores by design.
+ */
+#define CT_NON_ACTING_FLOOR 8
 #define CT_MAX_LEN 8192
 
 /* The latest sample of a sensor (the core's read_sample host callback). */
@@ -80,11 +86,11 @@ struct ct_policy {
 	u32 budget_factor;
 	u32 complain; /* bit per task: complain mode (docs/learn.md) */
 	u8 ignore_errno[CONTEGO_KMOD_MAX_TASKS]; /* the policy's `ignore_errno`, 0: none */
-	/* The over-budget hold (as the monitor's hold_if_over_budget): the
-	 * job each task's budget counts, and the transfers charged to it.
+	/* The over-budget hold: each task's counts in the model the monitor
+	 * shares (contego/job_budget.h): its job, the transfers that acted
+	 * and those that did not.
 	 */
-	u32 budget_job[CONTEGO_KMOD_MAX_TASKS];
-	u32 budget_used[CONTEGO_KMOD_MAX_TASKS];
+	struct contego_job_budget budget[CONTEGO_KMOD_MAX_TASKS];
 	u32 holds_unreported[CONTEGO_KMOD_MAX_TASKS];
 	u64 hold_reported_us[CONTEGO_KMOD_MAX_TASKS];
 	u32 hold_told; /* bit per task: the first hold is in the kernel log */
@@ -211,6 +217,8 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a);
 /* contego_hold.c */
 u32 ct_job(struct ct_policy *p, u16 task, u64 now);
 int ct_enter(bool writes, u16 *task);
+u64 ct_charge_after(struct ct_policy *p, u16 task, bool acted);
+void ct_hold_after(u64 until);
 
 /* contego_bind.c */
 u16 ct_task_of_current(const struct ct_policy *p);
@@ -250,7 +258,7 @@ void ct_record_sessions_full(struct ct_policy *p, u16 task, u64 now);
 
 /* contego_decide.c */
 bool ct_call_writes(u32 checked);
-u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider);
+u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider, u64 *hold_until);
 int ct_refusal(u32 decider);
 
 /* contego_policy.c */

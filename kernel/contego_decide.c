@@ -60,8 +60,11 @@ static void ct_act_as_sent(u32 n)
 	}
 }
 
-/* Decides the call of `task` (ct_enter's) in ct.txs[0..n). Under ct.lock. */
-u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
+/* Decides the call of `task` (ct_enter's) in ct.txs[0..n). Under ct.lock.
+ * *hold_until: when the caller waits after its answer (ct_hold_after), 0:
+ * not at all.
+ */
+u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider, u64 *hold_until)
 {
 	struct ct_policy *p = ct.policy;
 	struct ct_session *fresh = NULL;
@@ -73,6 +76,7 @@ u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 
 	lockdep_assert_held(&ct.lock);
 	*decider = 0;
+	*hold_until = 0;
 	if (!p) {
 		/* No verified image: deny, as the core's kNotLoaded would. */
 		ct.verdicts[0].decision = CONTEGO_REJECT;
@@ -187,6 +191,12 @@ u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider)
 		action = CT_REFUSE;
 	}
 	result = action;
+	/* Counted as acting or not, for the over-budget hold: a call that
+	 * writes (a read acts nothing and is never held).
+	 */
+	if (task != CONTEGO_NONE && ct_call_writes(n))
+		*hold_until = ct_charge_after(p, task, action == CT_PERFORM ||
+						       action == CT_SUBSTITUTE);
 out:
 	/* A session begins with the first call that acts as the task: a write
 	 * the core allowed or substituted (docs/kernel-client.md "Sessions").

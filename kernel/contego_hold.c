@@ -2,6 +2,9 @@
 /* contego.ko: the job grid and the over-budget hold (docs/kernel-client.md "Budget"). */
 #include "contego.h"
 
+/* The task's job at `now` on its period grid (1 = the first), starting the
+ * grid at its first transaction; 0 for a task without a period.
+ */
 u32 ct_job(struct ct_policy *p, u16 task, u64 now)
 {
 	u32 period = task < CONTEGO_MAX_TASKS ? contego_task_period_us(p->checker, task) : 0;
@@ -11,45 +14,17 @@ u32 ct_job(struct ct_policy *p, u16 task, u64 now)
 		return 0; /* no task: the core's own windows */
 	if (!(p->phase_set & (1u << task))) {
 		p->phase_set |= 1u << task;
-		p->phase_us[task] = now;
+		p->phase_us[task] = contego_grid_first_release(0, 0, period, now);
 	}
-	if (now <= p->phase_us[task])
-		return 1;
-	return (u32)div64_u64(now - p->phase_us[task], period) + 1;
+	return contego_grid_job(p->phase_us[task], period, now);
 }
 
-
-/* The monitor's hold_if_over_budget: each task's transfers that write are
- * counted per job on its period grid; past budget_factor x its actuations,
- * the transfer is charged to the next job and waits for that job's release
- * before it is checked. A transfer charged to a later job than the current
- * one (another thread of the task was held before it) waits for that
- * job's release too. Under ct.lock. Returns when the caller may go on: 0
- * now, else the release (CLOCK_MONOTONIC, us) to sleep until.
+/* A hold, audited at most once a second per task (the count since the
+ * last record), and the first of each task under a policy in the kernel log.
  */
-static u64 ct_charge(struct ct_policy *p, u16 task, u64 now)
+static void ct_report_hold(struct ct_policy *p, u16 task, u32 job, u64 budget, u64 now,
+			   const char *what)
 {
-	u32 period, job;
-	u64 budget;
-
-	lockdep_assert_held(&ct.lock);
-	if (p->budget_factor == 0 || task >= CONTEGO_KMOD_MAX_TASKS || (p->complain >> task) & 1)
-		return 0; /* a complaining task is observed as it runs, never held */
-	period = contego_task_period_us(p->checker, task);
-	budget = (u64)p->budget_factor * p->actuations[task];
-	if (period == 0 || budget == 0)
-		return 0;
-	job = ct_job(p, task, now);
-	if (job > p->budget_job[task]) { /* a new release: a fresh budget */
-		p->budget_job[task] = job;
-		p->budget_used[task] = 0;
-	}
-	if (++p->budget_used[task] > budget) {
-		p->budget_job[task]++;
-		p->budget_used[task] = 1;
-	}
-	if (p->budget_job[task] <= job)
-		return 0;
 	ct.stats.holds++;
 	p->holds_unreported[task]++;
 	if (p->hold_reported_us[task] == 0 || now - p->hold_reported_us[task] >= 1000000) {
@@ -67,10 +42,65 @@ static u64 ct_charge(struct ct_policy *p, u16 task, u64 now)
 	}
 	if (!(p->hold_told & (1u << task))) {
 		p->hold_told |= 1u << task;
-		pr_info("contego: task %u: more than %llu transfers in one job (budget_factor x actuations); further ones wait for the next release\n",
-			task, budget);
+		pr_info("contego: task %u: more than %llu %s in one job (budget_factor x actuations); the thread sending more waits for the next release\n",
+			task, budget, what);
 	}
-	return p->phase_us[task] + (u64)(p->budget_job[task] - 1) * period;
+}
+
+/* Whether the hold counts `task`'s calls: a budget factor, a task with a
+ * period and actuations, not complaining (observed as it runs, never held).
+ * Sets its period and actuations.
+ */
+static bool ct_budgeted(struct ct_policy *p, u16 task, u32 *period, u64 *actuations)
+{
+	lockdep_assert_held(&ct.lock);
+	if (p->budget_factor == 0 || task >= CONTEGO_KMOD_MAX_TASKS || (p->complain >> task) & 1)
+		return false;
+	*period = contego_task_period_us(p->checker, task);
+	*actuations = p->actuations[task];
+	return *period != 0 && *actuations != 0;
+}
+
+/* Before a call that may act (the monitor's hold_if_over_budget, the shared
+ * model's contego_budget_before): once budget_factor x its actuations of
+ * the task's calls acted in one job, the next is charged to the next job and
+ * waits for that job's release before it is checked. Under ct.lock.
+ * Returns 0 (go on now) or the release (CLOCK_MONOTONIC, us) to sleep until.
+ */
+static u64 ct_charge(struct ct_policy *p, u16 task, u64 now)
+{
+	u64 actuations, budget;
+	u32 period, job, charged;
+
+	if (!ct_budgeted(p, task, &period, &actuations))
+		return 0;
+	budget = (u64)p->budget_factor * actuations;
+	job = ct_job(p, task, now);
+	charged = contego_budget_before(&p->budget[task], job, period, budget);
+	if (charged == job)
+		return 0;
+	ct_report_hold(p, task, job, budget, now, "acting transfers");
+	return p->phase_us[task] + (u64)(charged - 1) * period;
+}
+
+/* After a call's decision (the monitor's charge_transfer_locked): counts it
+ * as acting or not. One that did not act past budget_factor x
+ * max(actuations, CT_NON_ACTING_FLOOR) returns the release its caller
+ * waits for after its answer (ct_hold_after); 0: none. Under ct.lock.
+ */
+u64 ct_charge_after(struct ct_policy *p, u16 task, bool acted)
+{
+	u64 actuations, budget, now = div_u64(ktime_get_ns(), 1000);
+	u32 period, job;
+
+	if (!ct_budgeted(p, task, &period, &actuations))
+		return 0;
+	budget = (u64)p->budget_factor * max_t(u64, actuations, CT_NON_ACTING_FLOOR);
+	job = ct_job(p, task, now);
+	if (!contego_budget_after(&p->budget[task], job, period, acted, budget))
+		return 0;
+	ct_report_hold(p, task, job, budget, now, "transfers that did not act");
+	return p->phase_us[task] + (u64)job * period;
 }
 
 /* Sleeps until `until_us` on CLOCK_MONOTONIC; -ERESTARTSYS when a signal
@@ -93,15 +123,13 @@ static int ct_sleep_until(u64 until_us)
  * for a call that writes, the over-budget hold, with ct.lock dropped while
  * it sleeps. 0: go on; 1: go on, but ct.lock was dropped (the call's
  * scratch in ct.txs must be made again); -ERESTARTSYS: a signal cut the
- * hold short, the call does nothing (its charge is given back; restarted,
- * it is charged and held again). A process refused for its task's
+ * hold short, the call does nothing (restarted, it is held again). A process refused for its task's
  * `sessions` is not charged: it spends nothing of the task's budget.
  */
 int ct_enter(bool writes, u16 *task)
 {
 	struct ct_policy *p;
 	u64 charged_gen = 0, until;
-	u32 charged_job = 0;
 	int slept = 0, ret;
 
 	lockdep_assert_held(&ct.lock);
@@ -115,17 +143,20 @@ int ct_enter(bool writes, u16 *task)
 		if (until == 0)
 			return slept;
 		charged_gen = p->gen;
-		charged_job = p->budget_job[*task];
 		mutex_unlock(&ct.lock);
 		ret = ct_sleep_until(until);
 		mutex_lock(&ct.lock); /* not killable: the caller holds it on return */
 		slept = 1;
-		if (ret) {
-			p = ct.policy; /* the one charged, unless another was loaded meanwhile */
-			if (p && p->gen == charged_gen && p->budget_job[*task] == charged_job &&
-			    p->budget_used[*task] > 0)
-				p->budget_used[*task]--;
-			return ret;
-		}
+		if (ret)
+			return ret; /* nothing was counted: counts come after a decision */
 	}
+}
+
+/* The wait after a call's answer that ct_charge_after asked for (`until`, 0:
+ * none), without ct.lock. A signal ends it early: the call's result stands.
+ */
+void ct_hold_after(u64 until)
+{
+	if (until)
+		ct_sleep_until(until);
 }

@@ -19,6 +19,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	struct ct_file *cf = file->private_data;
 	struct i2c_msg m = { .addr = cf->addr, .flags = cf->flags & I2C_M_TEN };
 	u32 decider;
+	u64 hold_until;
 	u8 *tmp, action;
 	u16 task;
 	int ret;
@@ -49,7 +50,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	}
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
-	action = ct_decide(cf, task, 1, &decider);
+	action = ct_decide(cf, task, 1, &decider, &hold_until);
 	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	else if (action == CT_REFUSE)
@@ -57,6 +58,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	else
 		ret = 0;
 	mutex_unlock(&ct.lock);
+	ct_hold_after(hold_until);
 	kfree(tmp);
 	return ret < 0 ? ret : count;
 }
@@ -66,6 +68,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	struct ct_file *cf = file->private_data;
 	struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN) };
 	u32 decider;
+	u64 hold_until;
 	u8 *tmp, action;
 	u16 task;
 	int ret;
@@ -86,7 +89,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	ct_enter(false, &task); /* a read is never held */
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
 					     .ten = !!(cf->flags & I2C_M_TEN) };
-	action = ct_decide(cf, task, 1, &decider);
+	action = ct_decide(cf, task, 1, &decider, &hold_until);
 	if (action == CT_PERFORM)
 		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
 	else if (action == CT_REFUSE)
@@ -94,6 +97,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	else
 		ret = 0; /* ignored: it succeeds and reads nothing (zeros) */
 	mutex_unlock(&ct.lock);
+	ct_hold_after(hold_until);
 	if (ret == 0 && copy_to_user(buf, tmp, count))
 		ret = -EFAULT;
 	kfree(tmp);

@@ -133,8 +133,7 @@ static int ct_carry_locked(struct ct_policy *p, const struct ct_policy *old, str
 			p->phase_us[t] = old->phase_us[o];
 			p->phase_set |= BIT(t);
 		}
-		p->budget_job[t] = old->budget_job[o];
-		p->budget_used[t] = old->budget_used[o];
+		p->budget[t] = old->budget[o];
 	}
 	for (d = 0; d < c->counts[1] && d < ARRAY_SIZE(p->samples); d++)
 		if (map.devices[d] < ARRAY_SIZE(old->samples))

@@ -32,6 +32,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 			  u8 __user **user_bufs)
 {
 	u32 ntx, decider, i;
+	u64 hold_until;
 	u8 action;
 	u16 task;
 	long ret = 0;
@@ -54,7 +55,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	}
 	if (r > 0) /* held: ct.txs served other calls meanwhile */
 		ntx = ct_plan_msgs(msgs, nmsgs);
-	action = ct_decide(cf, task, ntx, &decider);
+	action = ct_decide(cf, task, ntx, &decider, &hold_until);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
@@ -75,6 +76,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 				memset(msgs[i].buf, 0, msgs[i].len);
 	}
 	mutex_unlock(&ct.lock);
+	ct_hold_after(hold_until);
 	if (ret < 0)
 		return ret;
 	for (i = 0; i < nmsgs; i++) {
@@ -191,12 +193,13 @@ static int ct_proc_split(struct ct_file *cf, int size, union i2c_smbus_data *dat
 long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 {
 	union i2c_smbus_data data;
-	u8 wire[2 + I2C_SMBUS_BLOCK_MAX + 1]; /* command, count, data: the write's bytes */
-	u8 rbuf[1 + I2C_SMBUS_BLOCK_MAX] = { 1 }; /* a read message's (RECV_LEN: preset 1) */
+	u8 bytes[CONTEGO_SMBUS_DATA_BYTES]; /* the union as bytes, word as [lo, hi] */
+	u8 wire[CONTEGO_SMBUS_WIRE_BYTES], rbuf[CONTEGO_SMBUS_DATA_BYTES - 1];
 	struct i2c_msg m[2];
-	u32 datasize = 0, n, nm = 0, decider;
-	u16 ten;
+	u32 datasize = 0, n, nm, decider;
+	u64 hold_until;
 	bool read, proc;
+	int r;
 	u8 action;
 	u16 task;
 	long ret;
@@ -231,68 +234,21 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	proc = a.size == I2C_SMBUS_PROC_CALL || a.size == I2C_SMBUS_BLOCK_PROC_CALL;
 	read = a.read_write == I2C_SMBUS_READ && !proc;
 
-	if ((a.size == I2C_SMBUS_BLOCK_DATA || a.size == I2C_SMBUS_BLOCK_PROC_CALL ||
-	     a.size == I2C_SMBUS_I2C_BLOCK_DATA) && !read &&
-	    (data.block[0] < 1 || data.block[0] > I2C_SMBUS_BLOCK_MAX))
-		return -EINVAL;
-	/* An I2C block read asks for at most 32 bytes (as the emulation checks). */
-	if (a.size == I2C_SMBUS_I2C_BLOCK_DATA && read && data.block[0] > I2C_SMBUS_BLOCK_MAX)
-		return -EINVAL;
-
-	/* The messages this call puts on the wire (i2c-core-smbus's emulation,
-	 * as the monitor's decoder makes them): then the transactions and the
-	 * forms come from the shared model, as for I2C_RDWR.
+	/* The messages this call puts on the wire: the shared model's table
+	 * (contego/i2c_plan.h, as the monitor's decoder makes them); then the
+	 * transactions and the forms come from it too, as for I2C_RDWR.
 	 */
-	ten = cf->flags & I2C_M_TEN;
-	wire[0] = a.command;
-	if (a.size == I2C_SMBUS_QUICK) {
-		m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten |
-					    (a.read_write == I2C_SMBUS_READ ? I2C_M_RD : 0) };
-	} else if (read) {
-		if (a.size != I2C_SMBUS_BYTE)
-			m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten, .len = 1,
-						    .buf = wire };
-		m[nm] = (struct i2c_msg){ .addr = cf->addr, .flags = ten | I2C_M_RD, .buf = rbuf,
-					  .len = a.size == I2C_SMBUS_BYTE_DATA ? 1 :
-						 a.size == I2C_SMBUS_WORD_DATA ? 2 :
-						 a.size == I2C_SMBUS_I2C_BLOCK_DATA ? data.block[0] : 1 };
-		if (a.size == I2C_SMBUS_BLOCK_DATA) {
-			m[nm].flags |= I2C_M_RECV_LEN;
-			m[nm].len = sizeof(rbuf);
-		}
-		nm++;
-	} else {
-		u32 len = 1;
-
-		switch (a.size) {
-		case I2C_SMBUS_BYTE_DATA:
-			wire[len++] = data.byte;
-			break;
-		case I2C_SMBUS_WORD_DATA:
-		case I2C_SMBUS_PROC_CALL:
-			wire[len++] = data.word & 0xff;
-			wire[len++] = data.word >> 8;
-			break;
-		case I2C_SMBUS_BLOCK_DATA:
-		case I2C_SMBUS_BLOCK_PROC_CALL:
-			memcpy(&wire[len], data.block, 1 + data.block[0]);
-			len += 1 + data.block[0];
-			break;
-		case I2C_SMBUS_I2C_BLOCK_DATA:
-			memcpy(&wire[len], &data.block[1], data.block[0]);
-			len += data.block[0];
-			break;
-		}
-		m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten, .len = len,
-					    .buf = wire };
-		if (proc) /* then the answer: a read without pointer */
-			m[nm++] = (struct i2c_msg){ .addr = cf->addr, .flags = ten | I2C_M_RD,
-						    .len = a.size == I2C_SMBUS_PROC_CALL ? 2 :
-							   sizeof(rbuf),
-						    .buf = rbuf };
-		if (a.size == I2C_SMBUS_BLOCK_PROC_CALL)
-			m[1].flags |= I2C_M_RECV_LEN;
+	memcpy(bytes, data.block, sizeof(bytes));
+	if (a.size == I2C_SMBUS_WORD_DATA || a.size == I2C_SMBUS_PROC_CALL) {
+		bytes[0] = data.word & 0xff;
+		bytes[1] = data.word >> 8;
 	}
+	r = contego_i2c_smbus_msgs(cf->addr, cf->flags & I2C_M_TEN,
+				   a.read_write == I2C_SMBUS_READ, a.command, a.size, bytes,
+				   (struct contego_i2c_msg *)m, wire, rbuf);
+	if (r < 0)
+		return r;
+	nm = r;
 
 	if (mutex_lock_killable(&ct.lock))
 		return -EINTR;
@@ -300,7 +256,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	n = a.size == I2C_SMBUS_QUICK ? 1 : ct_plan_msgs(m, nm);
 	if (a.size == I2C_SMBUS_QUICK)
 		ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr,
-						     .ten = !!ten, .msg_count = 1 };
+						     .ten = !!(cf->flags & I2C_M_TEN), .msg_count = 1 };
 	if (!ct_expressible(cf->adap, m, n)) {
 		mutex_unlock(&ct.lock);
 		return -EOPNOTSUPP; /* no form on this adapter: nothing decided */
@@ -315,7 +271,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	}
 	if (ret > 0 && a.size != I2C_SMBUS_QUICK) /* held: ct.txs served other calls */
 		n = ct_plan_msgs(m, nm);
-	action = ct_decide(cf, task, n, &decider);
+	action = ct_decide(cf, task, n, &decider, &hold_until);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if (action == CT_IGNORE || action == CT_SAFE_STATE) {
@@ -333,6 +289,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	}
 	mutex_unlock(&ct.lock);
+	ct_hold_after(hold_until);
 	if (ret < 0)
 		return ret;
 	if ((read || proc) && datasize && copy_to_user(a.data, &data, datasize))

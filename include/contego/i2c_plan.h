@@ -63,6 +63,7 @@ enum contego_smbus_size {
 
 #define CONTEGO_SMBUS_BLOCK_MAX 32u
 #define CONTEGO_SMBUS_DATA_BYTES 34u /* union i2c_smbus_data */
+#define CONTEGO_SMBUS_WIRE_BYTES 35u /* an SMBus write: command, count, 32 data bytes, spare */
 
 /* One I2C_SMBUS call. `data` is union i2c_smbus_data as bytes, with the word
  * as [lo, hi] (the order on the wire; the executor converts to the host's
@@ -150,6 +151,19 @@ struct contego_i2c_tx {
  * read is a read without pointer. `out` has room for n; returns how many. */
 uint32_t contego_i2c_transactions(const struct contego_i2c_msg *msgs, uint32_t n,
                                   struct contego_i2c_tx *out);
+
+/* The messages an I2C_SMBUS call puts on the wire, i2c-core's SMBus
+ * emulation's table (the rows of the planner's, backwards): `data` is the
+ * call's union i2c_smbus_data as bytes (word as [lo, hi]), copied in, with
+ * I2C_SMBUS_I2C_BLOCK_BROKEN already made I2C_SMBUS_I2C_BLOCK_DATA. A write's
+ * bytes go to `wire`; a read message receives into `rbuf` (RECV_LEN's
+ * count preset to 1). `ten`: I2C_M_TEN for a ten-bit address. `read`: the
+ * call's read_write is I2C_SMBUS_READ. Returns the number of messages (1
+ * or 2), or -22 (EINVAL) for an unknown size or a block count above 32. */
+int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read, uint8_t command,
+                           uint32_t size, const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
+                           struct contego_i2c_msg m[2], uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES],
+                           uint8_t rbuf[CONTEGO_SMBUS_DATA_BYTES - 1]);
 
 #ifdef __cplusplus
 }

@@ -164,8 +164,7 @@ void Planner::write_read(const contego_i2c_msg& w, const contego_i2c_msg& r) {
 
 }  // namespace
 
-extern "C" {
-
+// The functions below keep the C linkage of their declarations in the header.
 void contego_i2c_plan_transfer(const contego_i2c_msg* msgs, uint32_t n, uint64_t funcs,
                                contego_i2c_plan* plan) {
   Planner p(funcs, plan);
@@ -281,5 +280,3 @@ const char* contego_i2c_refusal_text(uint32_t refusal) {
   static_assert(sizeof kText / sizeof kText[0] == CONTEGO_I2C_SHAPE + 1);
   return refusal <= CONTEGO_I2C_SHAPE ? kText[refusal] : "?";
 }
-
-}  // extern "C"

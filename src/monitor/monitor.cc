@@ -189,11 +189,8 @@ void Monitor::set_task_facts(TaskFacts facts) {
 
 uint64_t first_release_us(std::optional<uint64_t> phase_us, uint64_t period_us,
                           uint64_t contact_us) {
-  if (!phase_us || period_us == 0 || contact_us < *phase_us) {
-    // Before the declared grid's first release the contact is in job 1 too.
-    return phase_us && period_us != 0 ? *phase_us : contact_us;
-  }
-  return *phase_us + (contact_us - *phase_us) / period_us * period_us;
+  return contego_grid_first_release(phase_us.has_value(), phase_us.value_or(0), period_us,
+                                    contact_us);
 }
 
 Result<bool> Monitor::reset_latch(const std::string& device, uid_t uid) {
@@ -237,29 +234,12 @@ void Monitor::hold_if_over_budget(uint16_t task) {
     const uint64_t now = clock_.now_us();
     const uint32_t job = job_at_locked(task, now);
     Budget& b = budgets_[task];
-    renew_budget_locked(b, job, period);
-    // Past the budget, a transfer is the first of the next job's. One that
-    // arrives while earlier ones are held into a later job (another thread
-    // or process of the task) is charged to that job and waits for it too.
-    if (b.acted >= budget) {
-      ++b.job;
-      b.acted = 0;
-      b.dropped = 0;
-    }
-    if (b.job == job) return;
-    hold_until = next_release_locked(task, b.job - 1);
+    const uint32_t charged = contego_budget_before(&b.counts, job, period, budget);
+    if (charged == job) return;
+    hold_until = next_release_locked(task, charged - 1);
     report_hold_locked(task, b, now, budget, "acting transfers");
   }
   clock_.sleep_until_us(hold_until);
-}
-
-void Monitor::renew_budget_locked(Budget& b, uint32_t job, uint64_t period) {
-  if (job > b.job || period != b.period) {  // a new release (or grid): a fresh budget
-    b.job = job;
-    b.acted = 0;
-    b.dropped = 0;
-    b.period = period;
-  }
 }
 
 void Monitor::report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget,
@@ -299,13 +279,8 @@ uint64_t Monitor::charge_transfer_locked(uint16_t task, bool acted) {
   const uint64_t now = clock_.now_us();
   const uint32_t job = job_at_locked(task, now);
   Budget& b = budgets_[task];
-  renew_budget_locked(b, job, period);
-  if (acted) {
-    ++b.acted;
-    return 0;
-  }
   const uint64_t budget = uint64_t{factor} * std::max<uint64_t>(actuations, kNonActingFloor);
-  if (++b.dropped <= budget) return 0;
+  if (!contego_budget_after(&b.counts, job, period, acted ? 1 : 0, budget)) return 0;
   report_hold_locked(task, b, now, budget, "transfers that did not act");
   return next_release_locked(task, job);
 }
@@ -545,17 +520,6 @@ void Monitor::job_boundary(uint16_t task) {
   (void)job_at_locked(task, clock_.now_us());  // at most sets the phase
 }
 
-namespace {
-
-// Job k (1-based) of a grid with phase `phase_us` spans
-// [phase + (k - 1)·period, phase + k·period).
-uint32_t grid_job(uint64_t phase_us, uint64_t period_us, uint64_t now_us) {
-  if (now_us <= phase_us) return 1;
-  return static_cast<uint32_t>((now_us - phase_us) / period_us + 1);
-}
-
-}  // namespace
-
 uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
   const uint64_t period = decider_->task_period_us(task);
   if (period == 0) return 0;  // no declared task: the core's own windows
@@ -566,7 +530,7 @@ uint32_t Monitor::job_at_locked(uint16_t task, uint64_t now_us) {
         d == facts_.phases.end() ? std::nullopt : std::optional<uint64_t>(d->second);
     it = job_phase_us_.emplace(task, first_release_us(declared, period, now_us)).first;
   }
-  return grid_job(it->second, period, now_us);
+  return contego_grid_job(it->second, period, now_us);
 }
 
 uint64_t Monitor::next_release_locked(uint16_t task, uint32_t job) const {
@@ -586,7 +550,7 @@ uint32_t Monitor::job(uint16_t task) const {
   auto it = job_phase_us_.find(task);
   const uint64_t period = decider_->task_period_us(task);
   if (it == job_phase_us_.end() || period == 0) return 0;
-  return grid_job(it->second, period, clock_.now_us());
+  return contego_grid_job(it->second, period, clock_.now_us());
 }
 
 void Monitor::task_exited(uint16_t task) {

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "contego/core/limits.h"
+#include "contego/job_budget.h"
 
 #include "base/clock.h"
 #include "base/mutex.h"
@@ -205,10 +206,7 @@ class Monitor final : public gate::Endpoint {
 
  private:
   struct Budget {
-    uint32_t job = 0;      // the job the counts are of; ahead of now while transfers are held
-    uint32_t acted = 0;    // transfers that acted
-    uint32_t dropped = 0;  // transfers that did not
-    uint64_t period = 0;   // the grid `job` is on (a new policy may change it)
+    contego_job_budget counts{};  // job, acted, dropped: the shared model's (job_budget.h)
     uint64_t holds_unreported = 0;
     uint64_t reported_at_us = 0;
     bool told = false;  // the first hold was explained on standard error
@@ -236,7 +234,6 @@ class Monitor final : public gate::Endpoint {
   uint64_t sample_due_locked() REQUIRES(mu_);
   void hold_if_over_budget(uint16_t task);
   uint64_t charge_transfer_locked(uint16_t task, bool acted) REQUIRES(mu_);
-  void renew_budget_locked(Budget& b, uint32_t job, uint64_t period) REQUIRES(mu_);
   void report_hold_locked(uint16_t task, Budget& b, uint64_t now, uint64_t budget, const char* what)
       REQUIRES(mu_);
   gate::TransferReply decide_and_act_locked(uint16_t task, const gate::Transfer& t, bool* acted)

@@ -26,15 +26,11 @@ std::string Monitor::status_json() const {
                         {"complain", complains_task_locked(task)}};
     const auto phase = job_phase_us_.find(task);
     const uint64_t period = decider_->task_period_us(task);
-    // The job now on the task's grid (monitor.cc's grid_job): 0 before contact.
-    uint64_t job = 0;
-    if (phase != job_phase_us_.end() && period != 0) {
-      job = now <= phase->second ? 1 : (now - phase->second) / period + 1;
-    }
-    t["job"] = job;
+    // The job now on the task's grid: 0 before contact.
+    t["job"] = phase == job_phase_us_.end() ? 0 : contego_grid_job(phase->second, period, now);
     if (auto b = budgets_.find(task); b != budgets_.end()) {
-      t["budget"] = {
-          {"job", b->second.job}, {"acted", b->second.acted}, {"dropped", b->second.dropped}};
+      const contego_job_budget& counts = b->second.counts;
+      t["budget"] = {{"job", counts.job}, {"acted", counts.acted}, {"dropped", counts.dropped}};
     }
     tasks.push_back(std::move(t));
   }

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "contego/i2c_msg_flags.h"
+#include "contego/i2c_plan.h"
 
 namespace contego::intercept::i2c_abi {
 namespace {
@@ -57,16 +58,6 @@ gate::Message write_msg(const FdState& s, std::vector<uint8_t> bytes) {
   return m;
 }
 
-// A write of the command (register) byte followed by `n` data bytes.
-gate::Message command_write(const FdState& s, uint8_t cmd, const uint8_t* data, size_t n) {
-  std::vector<uint8_t> bytes(n + 1);
-  bytes[0] = cmd;
-  // Copied only when there is something to copy: `data` may be null for
-  // n = 0 (and an insert from it made link-time optimisation warn).
-  if (n != 0) std::memcpy(bytes.data() + 1, data, n);
-  return write_msg(s, std::move(bytes));
-}
-
 gate::Message read_msg(const FdState& s, uint16_t len, uint16_t extra_flags = 0) {
   gate::Message m;
   m.addr = s.addr;
@@ -99,19 +90,15 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
     c.smbus_size = size;
     return d;
   }
-  if (size == kSmbusByte && !read) {
-    d.transfer.messages.push_back(write_msg(s, {a.command}));
-    c.smbus_size = size;
-    return d;
-  }
-  if (a.data == 0) return fail(EINVAL);
+  if (a.data == 0 && !(size == kSmbusByte && !read)) return fail(EINVAL);
   size_t datasize = kSmbusDataSize;
   if (size == kSmbusByte || size == kSmbusByteData) datasize = 1;
   if (size == kSmbusWordData || size == kSmbusProcCall) datasize = 2;
 
+  // Byte write uses no data (the kernel does not look at the pointer).
   uint8_t data[kSmbusDataSize] = {};
-  if (size == kSmbusProcCall || size == kSmbusBlockProcCall || size == kSmbusI2cBlockData ||
-      !read) {
+  if (!(size == kSmbusByte && !read) && (size == kSmbusProcCall || size == kSmbusBlockProcCall ||
+                                         size == kSmbusI2cBlockData || !read)) {
     if (!memory.read(a.data, data, datasize)) return fail(EFAULT);
   }
   if (size == kSmbusI2cBlockBroken) {
@@ -120,55 +107,24 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
   }
   c.smbus_data = a.data;
   c.smbus_size = size;
-  c.smbus_datasize = datasize;
+  c.smbus_datasize = size == kSmbusByte && !read ? 0 : datasize;
+  if (size == kSmbusProcCall || size == kSmbusBlockProcCall) c.smbus_read_write = kSmbusRead;
+  if (size == kSmbusI2cBlockData && read) c.smbus_block_len = data[0];
 
-  auto& msgs = d.transfer.messages;
-  const uint8_t cmd = a.command;
-  switch (size) {
-    case kSmbusByte:  // read: one byte, no register
-      msgs.push_back(read_msg(s, 1));
-      break;
-    case kSmbusByteData:  // datasize 1
-    case kSmbusWordData:  // datasize 2
-      if (read) {
-        msgs.push_back(write_msg(s, {cmd}));
-        msgs.push_back(read_msg(s, static_cast<uint16_t>(datasize)));
-      } else {
-        msgs.push_back(command_write(s, cmd, data, datasize));
-      }
-      break;
-    case kSmbusProcCall:
-      c.smbus_read_write = kSmbusRead;
-      msgs.push_back(command_write(s, cmd, data, 2));
-      msgs.push_back(read_msg(s, 2));
-      break;
-    case kSmbusBlockData:
-      if (read) {
-        msgs.push_back(write_msg(s, {cmd}));
-        msgs.push_back(read_msg(s, 1 + gate::kSmbusBlockMax, gate::kMsgRecvLen));
-      } else {
-        if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
-        msgs.push_back(command_write(s, cmd, data, 1 + data[0]));  // the count, then the data
-      }
-      break;
-    case kSmbusBlockProcCall:
-      c.smbus_read_write = kSmbusRead;
-      if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
-      msgs.push_back(command_write(s, cmd, data, 1 + data[0]));
-      msgs.push_back(read_msg(s, 1 + gate::kSmbusBlockMax, gate::kMsgRecvLen));
-      break;
-    case kSmbusI2cBlockData:
-      if (data[0] > gate::kSmbusBlockMax) return fail(EINVAL);
-      if (read) {
-        c.smbus_block_len = data[0];
-        msgs.push_back(write_msg(s, {cmd}));
-        msgs.push_back(read_msg(s, data[0]));
-      } else {
-        msgs.push_back(command_write(s, cmd, data + 1, data[0]));  // the data without the length
-      }
-      break;
-    default:
-      return fail(EINVAL);
+  // The call's messages: the shared model's table (contego/i2c_plan.h), as
+  // contego.ko makes them.
+  contego_i2c_msg m[2];
+  uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES], rbuf[CONTEGO_SMBUS_DATA_BYTES - 1];
+  const int n = contego_i2c_smbus_msgs(s.addr, s.ten_bit ? gate::kMsgTen : 0, read ? 1 : 0,
+                                       a.command, size, data, m, wire, rbuf);
+  if (n < 0) return fail(EINVAL);
+  for (int i = 0; i < n; ++i) {
+    gate::Message msg;
+    msg.addr = m[i].addr;
+    msg.flags = m[i].flags;
+    msg.len = m[i].len;
+    if (!(m[i].flags & gate::kMsgRead)) msg.data.assign(m[i].buf, m[i].buf + m[i].len);
+    d.transfer.messages.push_back(std::move(msg));
   }
   return d;
 }
@@ -247,8 +203,8 @@ Decoded decode_ioctl(FdState& state, unsigned long request, uint64_t arg, Memory
       if (arg > INT_MAX) return fail(EINVAL);
       state.retries = static_cast<uint32_t>(arg);
       return ret(0);
-    case kI2cTimeout:
-      if (arg > INT_MAX) return fail(EINVAL);
+    case kI2cTimeout:  // tens of milliseconds: arg * 10 must not wrap (as contego.ko)
+      if (arg > INT_MAX / 10) return fail(EINVAL);
       state.timeout_10ms = static_cast<uint32_t>(arg);
       return ret(0);
     case kI2cRdwr:

@@ -4,6 +4,7 @@
 
 #include <errno.h>
 
+#include <climits>
 #include <cstring>
 #include <gtest/gtest.h>
 #include <linux/i2c-dev.h>
@@ -86,6 +87,13 @@ TEST_F(I2cAbi, RetriesAndTimeoutAboveIntMaxAreEinval) {
   EXPECT_EQ(decode_ioctl(state, I2C_RETRIES, 0x80000000ul, mem, 0).err, EINVAL);
   EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 0x80000000ul, mem, 0).err, EINVAL);
   EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 10, mem, 0).err, 0);
+}
+
+// Tens of milliseconds, so arg * 10 must fit an int, as contego.ko checks.
+TEST_F(I2cAbi, TimeoutWhoseMillisecondsWouldWrapIsEinval) {
+  EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, INT_MAX / 10 + 1ul, mem, 0).err, EINVAL);
+  EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, INT_MAX / 10, mem, 0).err, 0);
+  EXPECT_EQ(state.timeout_10ms, static_cast<uint32_t>(INT_MAX / 10));
 }
 
 TEST_F(I2cAbi, SmbusByteDataWriteIsCommandThenByte) {

@@ -1,0 +1,68 @@
+// contego/i2c_plan.h: an I2C_SMBUS call as the messages it puts on the
+// wire, i2c-core's SMBus emulation's table, shared by contego.ko and the
+// user-space decoder. Freestanding.
+#include "contego/i2c_msg_flags.h"
+#include "contego/i2c_plan.h"
+
+extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read, uint8_t command,
+                                      uint32_t size, const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
+                                      struct contego_i2c_msg m[2],
+                                      uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES],
+                                      uint8_t rbuf[CONTEGO_SMBUS_DATA_BYTES - 1]) {
+  constexpr int kEinval = -22;
+  constexpr uint32_t kMax = CONTEGO_SMBUS_BLOCK_MAX;
+  const uint16_t flags = ten & CONTEGO_I2C_M_TEN, rd = flags | CONTEGO_I2C_M_RD;
+  const bool proc = size == CONTEGO_SMBUS_PROC_CALL || size == CONTEGO_SMBUS_BLOCK_PROC_CALL;
+  uint32_t len = 1;  // the write's: the command byte, then the data
+  wire[0] = command;
+  rbuf[0] = 1;  // RECV_LEN's preset, as i2c-dev's callers set it
+  switch (size) {
+    case CONTEGO_SMBUS_QUICK:  // the address and the R/W bit only
+      m[0] = {addr, static_cast<uint16_t>(read ? rd : flags), 0, nullptr};
+      return 1;
+    case CONTEGO_SMBUS_BYTE:  // send byte, or receive byte (no command)
+      m[0] = read ? contego_i2c_msg{addr, rd, 1, rbuf} : contego_i2c_msg{addr, flags, 1, wire};
+      return 1;
+    case CONTEGO_SMBUS_BYTE_DATA:
+    case CONTEGO_SMBUS_WORD_DATA:
+    case CONTEGO_SMBUS_PROC_CALL: {
+      const uint32_t n = size == CONTEGO_SMBUS_BYTE_DATA ? 1 : 2;
+      if (read && !proc) {
+        m[0] = {addr, flags, 1, wire};
+        m[1] = {addr, rd, static_cast<uint16_t>(n), rbuf};
+        return 2;
+      }
+      for (uint32_t i = 0; i < n; ++i) wire[len++] = data[i];
+      break;
+    }
+    case CONTEGO_SMBUS_BLOCK_DATA:
+    case CONTEGO_SMBUS_BLOCK_PROC_CALL:
+      if (read && !proc) {  // the count comes from the device
+        m[0] = {addr, flags, 1, wire};
+        m[1] = {addr, static_cast<uint16_t>(rd | CONTEGO_I2C_M_RECV_LEN), 1 + kMax, rbuf};
+        return 2;
+      }
+      if (data[0] > kMax) return kEinval;
+      for (uint32_t i = 0; i <= data[0]; ++i) wire[len++] = data[i];  // the count, then the data
+      break;
+    case CONTEGO_SMBUS_I2C_BLOCK_DATA:  // data[0]: the length, not sent
+      if (data[0] > kMax) return kEinval;
+      if (read) {
+        m[0] = {addr, flags, 1, wire};
+        m[1] = {addr, rd, data[0], rbuf};
+        return 2;
+      }
+      for (uint32_t i = 1; i <= data[0]; ++i) wire[len++] = data[i];
+      break;
+    default:
+      return kEinval;
+  }
+  m[0] = {addr, flags, static_cast<uint16_t>(len), wire};
+  if (!proc) return 1;
+  // A process call's answer: a read without pointer after the write.
+  m[1] = size == CONTEGO_SMBUS_PROC_CALL
+             ? contego_i2c_msg{addr, rd, 2, rbuf}
+             : contego_i2c_msg{addr, static_cast<uint16_t>(rd | CONTEGO_I2C_M_RECV_LEN), 1 + kMax,
+                               rbuf};
+  return 2;
+}
