@@ -535,6 +535,20 @@ alarm_ms=$(sed -n 's/^elapsed_ms \([0-9]*\) .*/\1/p' "$OUT")
   ok "over-budget hold under a 50 ms timer: 8 writes still took one period ($(cat "$OUT"))" ||
   bad "over-budget hold under signals (exit $RC): $(cat "$OUT")"
 
+# Calls that did not act have their own budget, 4 x max(1, 8) = 32 per job
+# (contego/job_budget.h, as the monitor's): 40 writes of PRE_SCALE = 3,
+# which the policy ignores, answer at once until the 33rd, whose sender
+# waits after its answer for the next release; the task's acting budget is
+# untouched, so its next acting write is not held.
+limits_load 4
+run_logged flood as_task i2c-write-loop 0 $A 0xfe 3 40
+flood_ms=$(sed -n 's/.*mean_us=\([0-9.]*\).*/\1/p' "$OUT" | awk '{ printf "%d", $1 * 40 / 1000 }')
+run_logged after_flood as_task i2c-write-loop 0 $A 0xfd 0 1
+acting_ms=$(sed -n 's/.*mean_us=\([0-9.]*\).*/\1/p' "$OUT" | awk '{ printf "%d", $1 / 1000 }')
+[ -n "$flood_ms" ] && [ "$flood_ms" -ge 400 ] && [ "$flood_ms" -le 1500 ] && [ -n "$acting_ms" ] && [ "$acting_ms" -lt 200 ] &&
+  ok "dropped-call budget: 40 ignored writes took $flood_ms ms (the 33rd waited for the next release), the next acting write $acting_ms ms" ||
+  bad "dropped-call budget: 40 ignored writes took '$flood_ms' ms (expected 400 to 1500), the acting write '$acting_ms' ms"
+
 # Another contego's load request (the size before the per-task limits, 48
 # bytes; or this size with version 2, before ignore_errno) is refused with
 # EPROTO, not misread;
