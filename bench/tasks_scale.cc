@@ -29,6 +29,7 @@
 
 #include "bus/virtual_bus.h"
 #include "gate/socket.h"
+#include "gate/socket_client.h"
 #include "monitor/audit_log.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"

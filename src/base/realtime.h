@@ -14,18 +14,21 @@
 #include <cstring>
 #include <string>
 
+#include "base/result.h"
+
 namespace contego {
 
 // SCHED_FIFO priorities used: 1..98 (99 is left to the kernel's own threads).
 inline int fifo_priority(int policy_priority) { return std::clamp(policy_priority, 1, 98); }
 
 // Puts the calling thread under SCHED_FIFO at `policy_priority` (clamped).
-// Returns "" or why not (EPERM without CAP_SYS_NICE or an RLIMIT_RTPRIO).
-inline std::string make_thread_realtime(int policy_priority) {
+// Ok, or why not (EPERM without CAP_SYS_NICE or an RLIMIT_RTPRIO).
+inline Status make_thread_realtime(int policy_priority) {
   sched_param p{};
   p.sched_priority = fifo_priority(policy_priority);
   const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
-  return rc == 0 ? std::string() : std::string(std::strerror(rc));
+  if (rc != 0) return make_error(std::strerror(rc));
+  return {};
 }
 
 }  // namespace contego

@@ -20,6 +20,7 @@
 #include "cli/trusted_setup.h"
 #include "cli/user_spec.h"
 #include "gate/socket.h"
+#include "gate/socket_client.h"
 #include "intercept/seccomp/lineage.h"
 #include "intercept/seccomp/supervisor.h"
 

@@ -356,8 +356,8 @@ bool send_frame_with_fd(int fd, wire::Type type, uint32_t seq, std::span<const u
   return n == static_cast<ssize_t>(f.size());  // a small frame goes out whole
 }
 
-std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t>* payload,
-                               int* passed_fd) {
+Status recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t>* payload,
+                          int* passed_fd) {
   *passed_fd = -1;
   uint8_t raw[wire::kHeaderSize];
   iovec iov{raw, sizeof raw};
@@ -376,16 +376,16 @@ std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t
       passed.reset(got);
     }
   }
-  if (n == 0) return "closed";
-  if (n != static_cast<ssize_t>(sizeof raw)) return "truncated header";
-  if (msg.msg_flags & MSG_CTRUNC) return "descriptor truncated";
-  if (std::string why = wire::decode_header(raw, header); !why.empty()) return why;
+  if (n == 0) return make_error("closed");
+  if (n != static_cast<ssize_t>(sizeof raw)) return make_error("truncated header");
+  if (msg.msg_flags & MSG_CTRUNC) return make_error("descriptor truncated");
+  if (Status st = wire::decode_header(raw, header); !st.ok()) return st;
   payload->resize(header->length);
   size_t off = 0;
   while (off < header->length) {
     const ssize_t m = recv(fd, payload->data() + off, header->length - off, 0);
     if (m < 0 && errno == EINTR) continue;
-    if (m <= 0) return "truncated payload";
+    if (m <= 0) return make_error("truncated payload");
     off += static_cast<size_t>(m);
   }
   *passed_fd = passed.release();

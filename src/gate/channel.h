@@ -165,8 +165,8 @@ class Channel {
 // kChannelOk answer. recv_frame_with_fd reads exactly one frame.
 bool send_frame_with_fd(int fd, wire::Type type, uint32_t seq, std::span<const uint8_t> payload,
                         int passed_fd);
-std::string recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t>* payload,
-                               int* passed_fd);
+Status recv_frame_with_fd(int fd, wire::Header* header, std::vector<uint8_t>* payload,
+                          int* passed_fd);
 
 }  // namespace contego::gate
 

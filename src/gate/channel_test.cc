@@ -407,7 +407,7 @@ TEST(ChannelHandOver, AFrameCarriesItsDescriptor) {
   wire::Header h;
   std::vector<uint8_t> got;
   int passed = -1;
-  ASSERT_EQ(recv_frame_with_fd(sv[1], &h, &got, &passed), "");
+  ASSERT_TRUE(recv_frame_with_fd(sv[1], &h, &got, &passed).ok());
   EXPECT_EQ(h.seq, 9u);
   EXPECT_EQ(got, std::vector<uint8_t>(payload, payload + 4));
   EXPECT_GE(passed, 0);

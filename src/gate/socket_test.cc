@@ -10,6 +10,7 @@
 
 #include "base/test_temp.h"
 #include "gate/operator.h"
+#include "gate/socket_client.h"
 
 namespace contego::gate {
 namespace {

@@ -74,25 +74,26 @@ std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
   return out;
 }
 
-std::string validate(const Transfer& transfer) {
+Status validate(const Transfer& transfer) {
   if (transfer.quick) {
-    if (!transfer.messages.empty()) return "quick transfer carries messages";
+    if (!transfer.messages.empty()) return make_error("quick transfer carries messages");
     if (transfer.quick_addr > (transfer.quick_ten_bit ? 0x3FF : 0x7F))
-      return "address out of range";
+      return make_error("address out of range");
     return {};
   }
-  if (transfer.messages.empty()) return "no messages";
-  if (transfer.messages.size() > kMaxMessages) return "more than 42 messages";
+  if (transfer.messages.empty()) return make_error("no messages");
+  if (transfer.messages.size() > kMaxMessages) return make_error("more than 42 messages");
   // The message's number is put into the answer only when there is one to
   // give: a valid transfer, the common case, costs no string at all.
   auto bad = [](size_t i, const char* what) {
-    return "message " + std::to_string(i) + ": " + what;
+    return make_error("message " + std::to_string(i) + ": " + what);
   };
   for (size_t i = 0; i < transfer.messages.size(); ++i) {
     const Message& m = transfer.messages[i];
     if (const unsigned refused = contego_i2c_refused_flags(m.flags); refused != 0) {
-      return "message " + std::to_string(i) + ": flag " + contego_i2c_flag_name(refused) +
-             " is not allowed (contego/i2c_msg_flags.h)";
+      return make_error("message " + std::to_string(i) + ": flag " +
+                        contego_i2c_flag_name(refused) +
+                        " is not allowed (contego/i2c_msg_flags.h)");
     }
     if (m.addr > ((m.flags & kMsgTen) ? 0x3FF : 0x7F)) return bad(i, "address out of range");
     if (m.len > kMaxMessageLen) return bad(i, "longer than 8192 bytes");

@@ -16,6 +16,8 @@
 #include "contego/core/transaction.h"
 #include "contego/core/verdict.h"
 
+#include "base/result.h"
+
 namespace contego::gate {
 
 // Limits of the Linux i2c-dev ABI (drivers/i2c/i2c-dev.c).
@@ -81,9 +83,9 @@ std::vector<PlannedTx> to_transactions(const Transfer& transfer);
 // allocation per transfer).
 void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out);
 
-// Structural validity (limits above, lengths consistent). Returns an empty
-// string when valid, else what is wrong; the caller answers EINVAL.
-std::string validate(const Transfer& transfer);
+// Structural validity (limits above, lengths consistent): what is wrong, if
+// anything; the caller answers EINVAL.
+Status validate(const Transfer& transfer);
 
 }  // namespace contego::gate
 

@@ -100,19 +100,19 @@ TEST(ToTransactions, QuickIsOneQuickTransaction) {
 
 TEST(Validate, RefusesKernelLimits) {
   Transfer t;
-  EXPECT_NE(validate(t), "");  // no messages
+  EXPECT_FALSE(validate(t).ok());  // no messages
   t.messages.assign(43, r(0x40, 1));
-  EXPECT_NE(validate(t), "");
+  EXPECT_FALSE(validate(t).ok());
   t.messages.assign(42, r(0x40, 1));
-  EXPECT_EQ(validate(t), "");
+  EXPECT_TRUE(validate(t).ok());
   t.messages = {r(0x40, 8193)};
-  EXPECT_NE(validate(t), "");
+  EXPECT_FALSE(validate(t).ok());
   t.messages = {w(0x80, {1})};
-  EXPECT_NE(validate(t), "");
+  EXPECT_FALSE(validate(t).ok());
   Message bad = w(0x40, {1, 2});
   bad.len = 5;
   t.messages = {bad};
-  EXPECT_NE(validate(t), "");
+  EXPECT_FALSE(validate(t).ok());
 }
 
 // What a client sends over the wire meets the same allow-list as a program's
@@ -123,21 +123,21 @@ TEST(Validate, RefusesProtocolManglingFlagsAndNamesThem) {
   Message read = r(0x40, 2);
   read.flags = static_cast<uint16_t>(kMsgRead | 0x2000);  // I2C_M_REV_DIR_ADDR
   t.messages = {pointer, read};
-  EXPECT_NE(validate(t).find("message 1: flag I2C_M_REV_DIR_ADDR is not allowed"),
+  EXPECT_NE(validate(t).error().find("message 1: flag I2C_M_REV_DIR_ADDR is not allowed"),
             std::string::npos)
-      << validate(t);
+      << validate(t).error();
   for (const int flag : {0x4000, 0x1000, 0x0800, 0x8000, 0x0200, 0x0100, 0x0002}) {
     read.flags = static_cast<uint16_t>(kMsgRead | flag);
     t.messages = {pointer, read};
-    EXPECT_NE(validate(t), "") << flag;
+    EXPECT_FALSE(validate(t).ok()) << flag;
     pointer.flags = static_cast<uint16_t>(flag);
     t.messages = {pointer};
-    EXPECT_NE(validate(t), "") << flag;
+    EXPECT_FALSE(validate(t).ok()) << flag;
     pointer.flags = 0;
   }
   read.flags = static_cast<uint16_t>(kMsgRead | kMsgTen);
   t.messages = {read};
-  EXPECT_EQ(validate(t), "");
+  EXPECT_TRUE(validate(t).ok());
 }
 
 }  // namespace

@@ -77,18 +77,19 @@ std::vector<uint8_t> encoded(void (*encode)(const T&, std::vector<uint8_t>*), co
 
 }  // namespace
 
-std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
+Status decode_header(std::span<const uint8_t> bytes, Header* h) {
   Reader r(bytes);
-  if (bytes.size() != kHeaderSize) return "header is not 12 bytes";
+  if (bytes.size() != kHeaderSize) return make_error("header is not 12 bytes");
   r.u16(&h->magic);
   r.u8(&h->version);
   r.u8(&h->type);
   r.u32(&h->seq);
   r.u32(&h->length);
-  if (h->magic != kMagic) return "bad magic";
-  if (h->version != kVersion) return "unsupported protocol version " + std::to_string(h->version);
+  if (h->magic != kMagic) return make_error("bad magic");
+  if (h->version != kVersion)
+    return make_error("unsupported protocol version " + std::to_string(h->version));
   if (h->length > kMaxPayload)
-    return "payload of " + std::to_string(h->length) + " bytes exceeds 524288";
+    return make_error("payload of " + std::to_string(h->length) + " bytes exceeds 524288");
   switch (static_cast<Type>(h->type)) {
     case Type::kHello:
     case Type::kHelloOk:
@@ -111,7 +112,7 @@ std::string decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kError:
       return {};
   }
-  return "unknown message type " + std::to_string(h->type);
+  return make_error("unknown message type " + std::to_string(h->type));
 }
 
 void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeaderSize]) {
@@ -149,12 +150,12 @@ std::vector<uint8_t> encode_hello(const std::string& task, const Vouch& vouch) {
   return std::move(w.out);
 }
 
-std::string decode_hello(std::span<const uint8_t> p, std::string* task, Vouch* vouch) {
+Status decode_hello(std::span<const uint8_t> p, std::string* task, Vouch* vouch) {
   Reader r(p);
   uint16_t n = 0;
   std::vector<uint8_t> b;
   if (!r.u16(&n) || n == 0 || n > kMaxTaskName || !r.bytes(n, &b)) {
-    return "malformed hello (task name of 1..64 bytes expected)";
+    return make_error("malformed hello (task name of 1..64 bytes expected)");
   }
   task->assign(b.begin(), b.end());
   Vouch v;
@@ -164,8 +165,9 @@ std::string decode_hello(std::span<const uint8_t> p, std::string* task, Vouch* v
     if (!r.u32(&v.pid) || v.pid == 0 || !r.u16(&len) || len == 0 || len > 4095 ||
         !r.bytes(len, &exe) || !r.done() || exe[0] != '/' ||
         std::find(exe.begin(), exe.end(), 0) != exe.end()) {
-      return "malformed hello (a supervisor's pid and absolute program path expected after the "
-             "task name)";
+      return make_error(
+          "malformed hello (a supervisor's pid and absolute program path expected after the "
+          "task name)");
     }
     v.exe.assign(exe.begin(), exe.end());
   }
@@ -180,9 +182,10 @@ std::vector<uint8_t> encode_hello_ok(const HelloOk& h) {
   return std::move(w.out);
 }
 
-std::string decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
+Status decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
   Reader r(p);
-  if (!r.u16(&h->task) || !r.u16(&h->priority) || !r.done()) return "malformed hello answer";
+  if (!r.u16(&h->task) || !r.u16(&h->priority) || !r.done())
+    return make_error("malformed hello answer");
   return {};
 }
 
@@ -203,27 +206,28 @@ void encode_transfer(const Transfer& t, std::vector<uint8_t>* out) {
   }
 }
 
-std::string decode_transfer(std::span<const uint8_t> p, Transfer* t) {
+Status decode_transfer(std::span<const uint8_t> p, Transfer* t) {
   Reader r(p);
   uint8_t flags = 0;
   uint16_t count = 0;
   if (!r.u8(&t->bus) || !r.u8(&flags) || !r.u16(&t->quick_addr) || !r.u16(&count)) {
-    return "truncated transfer header";
+    return make_error("truncated transfer header");
   }
-  if (flags & ~7u) return "unknown transfer flags";
+  if (flags & ~7u) return make_error("unknown transfer flags");
   t->quick = flags & 1;
   t->quick_read = flags & 2;
   t->quick_ten_bit = flags & 4;
-  if (count > kMaxMessages) return "more than 42 messages";
+  if (count > kMaxMessages) return make_error("more than 42 messages");
   // Reuses the messages (and their buffers) of a Transfer decoded before.
   t->messages.resize(count);
   for (Message& m : t->messages) {
     m.data.clear();
-    if (!r.u16(&m.addr) || !r.u16(&m.flags) || !r.u16(&m.len)) return "truncated message header";
-    if (m.len > kMaxMessageLen) return "message longer than 8192 bytes";
-    if (!m.is_read() && !r.bytes(m.len, &m.data)) return "truncated message data";
+    if (!r.u16(&m.addr) || !r.u16(&m.flags) || !r.u16(&m.len))
+      return make_error("truncated message header");
+    if (m.len > kMaxMessageLen) return make_error("message longer than 8192 bytes");
+    if (!m.is_read() && !r.bytes(m.len, &m.data)) return make_error("truncated message data");
   }
-  if (!r.done()) return "trailing bytes after the transfer";
+  if (!r.done()) return make_error("trailing bytes after the transfer");
   return validate(*t);
 }
 
@@ -239,20 +243,21 @@ void encode_reply(const TransferReply& rep, std::vector<uint8_t>* out) {
   }
 }
 
-std::string decode_reply(std::span<const uint8_t> p, TransferReply* rep) {
+Status decode_reply(std::span<const uint8_t> p, TransferReply* rep) {
   Reader r(p);
   uint32_t err = 0;
   uint16_t count = 0;
-  if (!r.u32(&err) || !r.u16(&count)) return "truncated reply";
-  if (err > 4095) return "errno out of range";
-  if (count > kMaxMessages) return "more than 42 reads";
+  if (!r.u32(&err) || !r.u16(&count)) return make_error("truncated reply");
+  if (err > 4095) return make_error("errno out of range");
+  if (count > kMaxMessages) return make_error("more than 42 reads");
   rep->err = static_cast<int>(err);
   rep->reads.resize(count);  // reuses the buffers of a reply decoded before
   for (auto& rd : rep->reads) {
     uint16_t n = 0;
-    if (!r.u16(&n) || n > kMaxMessageLen || !r.bytes(n, &rd)) return "truncated read data";
+    if (!r.u16(&n) || n > kMaxMessageLen || !r.bytes(n, &rd))
+      return make_error("truncated read data");
   }
-  if (!r.done()) return "trailing bytes after the reply";
+  if (!r.done()) return make_error("trailing bytes after the reply");
   return {};
 }
 
@@ -263,10 +268,11 @@ std::vector<uint8_t> encode_bus_info(const BusInfo& b) {
   return std::move(w.out);
 }
 
-std::string decode_bus_info(std::span<const uint8_t> p, BusInfo* b) {
+Status decode_bus_info(std::span<const uint8_t> p, BusInfo* b) {
   Reader r(p);
   uint8_t present = 0;
-  if (!r.u8(&present) || present > 1 || !r.u64(&b->funcs) || !r.done()) return "malformed bus info";
+  if (!r.u8(&present) || present > 1 || !r.u64(&b->funcs) || !r.done())
+    return make_error("malformed bus info");
   b->present = present == 1;
   return {};
 }
@@ -280,13 +286,13 @@ std::vector<uint8_t> encode_error(const ErrorMsg& e) {
   return std::move(w.out);
 }
 
-std::string decode_error(std::span<const uint8_t> p, ErrorMsg* e) {
+Status decode_error(std::span<const uint8_t> p, ErrorMsg* e) {
   Reader r(p);
   uint32_t err = 0;
   uint16_t n = 0;
   std::vector<uint8_t> b;
   if (!r.u32(&err) || err > 4095 || !r.u16(&n) || n > 1024 || !r.bytes(n, &b) || !r.done()) {
-    return "malformed error message";
+    return make_error("malformed error message");
   }
   e->err = static_cast<int32_t>(err);
   e->reason.assign(b.begin(), b.end());
@@ -302,18 +308,20 @@ std::vector<uint8_t> encode_reload(const ReloadRequest& r) {
   return std::move(w.out);
 }
 
-std::string decode_reload(std::span<const uint8_t> p, ReloadRequest* r) {
+Status decode_reload(std::span<const uint8_t> p, ReloadRequest* r) {
   Reader reader(p);
   for (std::string* part : {&r->bundle, &r->signature}) {
     uint32_t n = 0;
     std::vector<uint8_t> b;
     if (!reader.u32(&n) || n > kMaxPayload || !reader.bytes(n, &b)) {
-      return "malformed reload request (a bundle and a signature, each a u32 length and bytes)";
+      return make_error(
+          "malformed reload request (a bundle and a signature, each a u32 length and bytes)");
     }
     part->assign(b.begin(), b.end());
   }
   if (!reader.done() || r->bundle.empty()) {
-    return "malformed reload request (a bundle and a signature, each a u32 length and bytes)";
+    return make_error(
+        "malformed reload request (a bundle and a signature, each a u32 length and bytes)");
   }
   return {};
 }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "base/result.h"
 #include "gate/transfer.h"
 
 namespace contego::gate::wire {
@@ -77,28 +78,27 @@ struct ErrorMsg {
   std::string reason;
 };
 
-// Header: returns "" or why it is refused (bad magic, version, type, length).
-std::string decode_header(std::span<const uint8_t> bytes, Header* out);
+// Header: ok, or why it is refused (bad magic, version, type, length).
+Status decode_header(std::span<const uint8_t> bytes, Header* out);
 std::vector<uint8_t> frame(Type type, uint32_t seq, std::span<const uint8_t> payload);
 // The 12 header bytes of a frame with `length` payload bytes.
 void encode_header(Type type, uint32_t seq, uint32_t length, uint8_t out[kHeaderSize]);
 
 std::vector<uint8_t> encode_hello(const std::string& task, const Vouch& vouch = {});
-std::string decode_hello(std::span<const uint8_t> payload, std::string* task,
-                         Vouch* vouch = nullptr);
+Status decode_hello(std::span<const uint8_t> payload, std::string* task, Vouch* vouch = nullptr);
 std::vector<uint8_t> encode_hello_ok(const HelloOk& h);
-std::string decode_hello_ok(std::span<const uint8_t> payload, HelloOk* h);
+Status decode_hello_ok(std::span<const uint8_t> payload, HelloOk* h);
 std::vector<uint8_t> encode_transfer(const Transfer& t);
 // The same into *out (cleared first): a reused buffer, no allocation once grown.
 void encode_transfer(const Transfer& t, std::vector<uint8_t>* out);
-std::string decode_transfer(std::span<const uint8_t> payload, Transfer* t);
+Status decode_transfer(std::span<const uint8_t> payload, Transfer* t);
 std::vector<uint8_t> encode_reply(const TransferReply& r);
 void encode_reply(const TransferReply& r, std::vector<uint8_t>* out);
-std::string decode_reply(std::span<const uint8_t> payload, TransferReply* r);
+Status decode_reply(std::span<const uint8_t> payload, TransferReply* r);
 std::vector<uint8_t> encode_bus_info(const BusInfo& b);
-std::string decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);
+Status decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);
 std::vector<uint8_t> encode_error(const ErrorMsg& e);
-std::string decode_error(std::span<const uint8_t> payload, ErrorMsg* e);
+Status decode_error(std::span<const uint8_t> payload, ErrorMsg* e);
 
 // `contego reload`: a policy bundle (contego check --emit-bundle) and its
 // minisign signature (empty: none), as u32 length + bytes each.
@@ -107,7 +107,7 @@ struct ReloadRequest {
   std::string signature;
 };
 std::vector<uint8_t> encode_reload(const ReloadRequest& r);
-std::string decode_reload(std::span<const uint8_t> payload, ReloadRequest* r);
+Status decode_reload(std::span<const uint8_t> payload, ReloadRequest* r);
 
 }  // namespace contego::gate::wire
 

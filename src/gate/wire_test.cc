@@ -18,7 +18,7 @@ TEST(Wire, TransferRoundTrip) {
   r.len = 3;
   t.messages = {w, r};
   Transfer back;
-  ASSERT_EQ(decode_transfer(encode_transfer(t), &back), "");
+  ASSERT_TRUE(decode_transfer(encode_transfer(t), &back).ok());
   ASSERT_EQ(back.messages.size(), 2u);
   EXPECT_EQ(back.messages[0].data, w.data);
   EXPECT_TRUE(back.messages[1].is_read());
@@ -36,32 +36,34 @@ TEST(Wire, TruncatedAndTrailingTransfersAreRefused) {
   Transfer back;
   auto cut = bytes;
   cut.pop_back();
-  EXPECT_EQ(decode_transfer(cut, &back), "truncated message data");
+  EXPECT_EQ(decode_transfer(cut, &back).error(), "truncated message data");
   auto extra = bytes;
   extra.push_back(0);
-  EXPECT_EQ(decode_transfer(extra, &back), "trailing bytes after the transfer");
+  EXPECT_EQ(decode_transfer(extra, &back).error(), "trailing bytes after the transfer");
 }
 
 TEST(Wire, HeaderRefusesOversizeBadMagicAndUnknownTypes) {
   auto f = frame(Type::kTransfer, 7, {});
   Header h;
-  EXPECT_EQ(decode_header({f.data(), kHeaderSize}, &h), "");
+  EXPECT_TRUE(decode_header({f.data(), kHeaderSize}, &h).ok());
   EXPECT_EQ(h.seq, 7u);
   auto big = f;
   big[8] = 0xFF;
   big[9] = 0xFF;
   big[10] = 0xFF;
-  EXPECT_NE(decode_header({big.data(), kHeaderSize}, &h).find("exceeds"), std::string::npos);
+  EXPECT_NE(decode_header({big.data(), kHeaderSize}, &h).error().find("exceeds"),
+            std::string::npos);
   auto magic = f;
   magic[0] = 0;
-  EXPECT_EQ(decode_header({magic.data(), kHeaderSize}, &h), "bad magic");
+  EXPECT_EQ(decode_header({magic.data(), kHeaderSize}, &h).error(), "bad magic");
   auto type = f;
   type[3] = 0x42;
-  EXPECT_NE(decode_header({type.data(), kHeaderSize}, &h).find("unknown message type"),
+  EXPECT_NE(decode_header({type.data(), kHeaderSize}, &h).error().find("unknown message type"),
             std::string::npos);
   auto version = f;
   version[2] = 2;
-  EXPECT_NE(decode_header({version.data(), kHeaderSize}, &h).find("version"), std::string::npos);
+  EXPECT_NE(decode_header({version.data(), kHeaderSize}, &h).error().find("version"),
+            std::string::npos);
 }
 
 TEST(Wire, ReplyHelloAndErrorRoundTrip) {
@@ -69,43 +71,43 @@ TEST(Wire, ReplyHelloAndErrorRoundTrip) {
   r.err = 0;
   r.reads = {{1, 2, 3}};
   TransferReply rb;
-  ASSERT_EQ(decode_reply(encode_reply(r), &rb), "");
+  ASSERT_TRUE(decode_reply(encode_reply(r), &rb).ok());
   EXPECT_EQ(rb.reads, r.reads);
   std::string task;
-  ASSERT_EQ(decode_hello(encode_hello("rover"), &task), "");
+  ASSERT_TRUE(decode_hello(encode_hello("rover"), &task).ok());
   EXPECT_EQ(task, "rover");
-  EXPECT_NE(decode_hello(encode_hello(""), &task), "");
-  EXPECT_NE(decode_hello(encode_hello(std::string(65, 'x')), &task), "");
+  EXPECT_FALSE(decode_hello(encode_hello(""), &task).ok());
+  EXPECT_FALSE(decode_hello(encode_hello(std::string(65, 'x')), &task).ok());
   ErrorMsg e;
-  ASSERT_EQ(decode_error(encode_error({13, "no"}), &e), "");
+  ASSERT_TRUE(decode_error(encode_error({13, "no"}), &e).ok());
   EXPECT_EQ(e.err, 13);
   EXPECT_EQ(e.reason, "no");
 }
 
 TEST(Wire, HelloAnswerCarriesTheTaskAndItsPriority) {
   HelloOk ok;
-  ASSERT_EQ(decode_hello_ok(encode_hello_ok({3, 20}), &ok), "");
+  ASSERT_TRUE(decode_hello_ok(encode_hello_ok({3, 20}), &ok).ok());
   EXPECT_EQ(ok.task, 3);
   EXPECT_EQ(ok.priority, 20);
   const std::vector<uint8_t> id_only = {3, 0};
-  EXPECT_NE(decode_hello_ok(id_only, &ok), "");  // the id alone is malformed
+  EXPECT_FALSE(decode_hello_ok(id_only, &ok).ok());  // the id alone is malformed
 }
 
 TEST(Wire, ReloadCarriesABundleAndItsSignature) {
   ReloadRequest r;
-  ASSERT_EQ(decode_reload(encode_reload({"{bundle}", "sig"}), &r), "");
+  ASSERT_TRUE(decode_reload(encode_reload({"{bundle}", "sig"}), &r).ok());
   EXPECT_EQ(r.bundle, "{bundle}");
   EXPECT_EQ(r.signature, "sig");
-  ASSERT_EQ(decode_reload(encode_reload({"{bundle}", ""}), &r), "");
+  ASSERT_TRUE(decode_reload(encode_reload({"{bundle}", ""}), &r).ok());
   EXPECT_EQ(r.signature, "");
-  EXPECT_NE(decode_reload(encode_reload({"", "sig"}), &r), "");  // no bundle
+  EXPECT_FALSE(decode_reload(encode_reload({"", "sig"}), &r).ok());  // no bundle
   std::vector<uint8_t> bytes = encode_reload({"{bundle}", "sig"});
   bytes.push_back(0);
-  EXPECT_NE(decode_reload(bytes, &r), "");  // trailing bytes
+  EXPECT_FALSE(decode_reload(bytes, &r).ok());  // trailing bytes
   bytes.resize(bytes.size() - 3);
-  EXPECT_NE(decode_reload(bytes, &r), "");  // truncated signature
+  EXPECT_FALSE(decode_reload(bytes, &r).ok());  // truncated signature
   const std::vector<uint8_t> huge = {0xFF, 0xFF, 0xFF, 0xFF};
-  EXPECT_NE(decode_reload(huge, &r), "");
+  EXPECT_FALSE(decode_reload(huge, &r).ok());
 }
 
 }  // namespace

@@ -16,14 +16,14 @@
 
 namespace contego::monitor {
 
-// "" when `bus` can perform every transaction of `planned` (from
+// Ok when `bus` can perform every transaction of `planned` (from
 // gate::to_transactions(t)) as Monitor::transfer sends it: a quick command,
 // one write message, or [register byte] + the read message. Else why not.
-std::string inexpressible(const bus::Bus& bus, const gate::Transfer& t,
-                          const std::vector<gate::PlannedTx>& planned);
+Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
+                     const std::vector<gate::PlannedTx>& planned);
 
-// "" when `bus` can send each of the verdict's emits as one write message.
-std::string emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit);
+// Ok when `bus` can send each of the verdict's emits as one write message.
+Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit);
 
 }  // namespace contego::monitor
 

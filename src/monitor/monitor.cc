@@ -286,8 +286,8 @@ uint64_t Monitor::charge_transfer_locked(uint16_t task, bool acted) {
 }
 
 gate::TransferReply Monitor::transfer(uint16_t task, const gate::Transfer& t) {
-  if (std::string why = gate::validate(t); !why.empty()) {
-    audit_.event("malformed", fmt::format("task {}: {}", task, why));
+  if (Status st = gate::validate(t); !st.ok()) {
+    audit_.event("malformed", fmt::format("task {}: {}", task, st.error()));
     gate::TransferReply reply;
     reply.err = EINVAL;
     return reply;
@@ -322,8 +322,8 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
   const std::vector<gate::PlannedTx>& planned = planned_;
   // What this adapter cannot put on the wire (an SMBus-only one) is refused
   // before the core decides: no rate window spent, no decision logged.
-  if (std::string why = inexpressible(bus, t, planned); !why.empty()) {
-    audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
+  if (Status st = inexpressible(bus, t, planned); !st.ok()) {
+    audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, st.error()));
     reply.err = EOPNOTSUPP;
     return reply;
   }
@@ -346,10 +346,9 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     // A substitute is checked the same way before any part of the call acts.
     for (size_t i = 0; i < planned.size(); ++i) {
       if (planned[i].kind != core::TxKind::kWrite) continue;
-      if (std::string why = emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit);
-          !why.empty()) {
+      if (Status st = emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit); !st.ok()) {
         decider_->abort_transfer(core::Decision::kReject);
-        audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, why));
+        audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, st.error()));
         reply.err = EOPNOTSUPP;
         return reply;
       }
@@ -600,7 +599,7 @@ std::vector<DeviceFailure> Monitor::drive_safe_state_locked(const std::string& w
     if (int err = perform_emits(v, rec.ten_bit != 0); err != 0) {
       auto it = buses_.find(v.bus);
       const std::string cause =
-          it == buses_.end() ? "" : emits_inexpressible(*it->second, v, rec.ten_bit);
+          it == buses_.end() ? "" : emits_inexpressible(*it->second, v, rec.ten_bit).error();
       audit_.event("fault",
                    fmt::format("safe state of device {} (i2c-{} 0x{:02x}) failed: errno {}{}{}", d,
                                rec.bus, rec.addr, err, cause.empty() ? "" : ": ", cause));

@@ -15,6 +15,7 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "base/errorf.h"
 #include "base/unique_fd.h"
 
 #ifndef SO_PEERPIDFD
@@ -92,7 +93,7 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
   if (!id.exe.empty()) {
     struct stat st {};
     if (id.exe[0] != '/') {
-      return make_error(fmt::format("task '{}': exe \"{}\" is not an absolute path", task, id.exe));
+      return errorf("task '{}': exe \"{}\" is not an absolute path", task, id.exe);
     }
     if (stat(id.exe.c_str(), &st) != 0) {
       b.unresolved = fmt::format("task '{}': exe \"{}\": {}", task, id.exe, strerror(errno));
@@ -105,8 +106,7 @@ Result<TaskBinding> resolve_binding(const std::string& task, const TaskIdentity&
     b.exe_ino = st.st_ino;
   }
   if (!b.cgroup.empty() && b.cgroup[0] != '/') {
-    return make_error(
-        fmt::format("task '{}': cgroup \"{}\" is not an absolute cgroup path", task, b.cgroup));
+    return errorf("task '{}': cgroup \"{}\" is not an absolute cgroup path", task, b.cgroup);
   }
   return b;
 }
@@ -166,7 +166,7 @@ Result<PeerFacts> process_facts(int pidfd, pid_t pid) {
   f.pid = pid;
   const std::string dir = "/proc/" + std::to_string(pid);
   const std::string status = read_proc(dir + "/status");
-  if (status.empty()) return make_error(fmt::format("process {} is gone", pid));
+  if (status.empty()) return errorf("process {} is gone", pid);
   parse_status(status, &f);
   f.cgroup = unified_cgroup(read_proc(dir + "/cgroup"));
   struct stat st {};
@@ -180,32 +180,31 @@ Result<PeerFacts> process_facts(int pidfd, pid_t pid) {
   }
   // Read after pinning; the files are that process's only if it is still
   // alive now (a number is not reused while its process lives).
-  if (!pidfd_alive(pidfd)) return make_error(fmt::format("process {} exited", pid));
+  if (!pidfd_alive(pidfd)) return errorf("process {} exited", pid);
   return f;
 }
 
-std::string binding_mismatch(const std::string& task, const TaskBinding& b, const PeerFacts& f) {
-  if (!b.unresolved.empty()) return b.unresolved + " (no peer can run it)";
+Status binding_mismatch(const std::string& task, const TaskBinding& b, const PeerFacts& f) {
+  if (!b.unresolved.empty()) return make_error(b.unresolved + " (no peer can run it)");
   if (b.uid && f.uid != *b.uid) {
-    return fmt::format("task '{}' is bound to uid {}; the peer runs as uid {}", task, *b.uid,
-                       f.uid);
+    return errorf("task '{}' is bound to uid {}; the peer runs as uid {}", task, *b.uid, f.uid);
   }
   if (b.gid && f.gid != *b.gid &&
       std::find(f.groups.begin(), f.groups.end(), *b.gid) == f.groups.end()) {
-    return fmt::format("task '{}' is bound to group {}; the peer (gid {}) is not in it", task,
-                       *b.gid, f.gid);
+    return errorf("task '{}' is bound to group {}; the peer (gid {}) is not in it", task, *b.gid,
+                  f.gid);
   }
   if (b.has_exe) {
     if (!f.exe_known) {
-      return fmt::format(
+      return errorf(
           "task '{}' is bound to exe \"{}\"; the peer's executable cannot be read (a monitor "
           "checking `exe` must be able to read /proc/PID/exe of its peers: root or "
           "CAP_SYS_PTRACE)",
           task, b.exe);
     }
     if (f.exe_dev != b.exe_dev || f.exe_ino != b.exe_ino) {
-      return fmt::format("task '{}' is bound to exe \"{}\"; the peer runs \"{}\"", task, b.exe,
-                         f.exe_path);
+      return errorf("task '{}' is bound to exe \"{}\"; the peer runs \"{}\"", task, b.exe,
+                    f.exe_path);
     }
   }
   if (!b.cgroup.empty()) {
@@ -213,8 +212,8 @@ std::string binding_mismatch(const std::string& task, const TaskBinding& b, cons
                        (f.cgroup.size() > b.cgroup.size() && f.cgroup.rfind(b.cgroup, 0) == 0 &&
                         (b.cgroup == "/" || f.cgroup[b.cgroup.size()] == '/'));
     if (!under) {
-      return fmt::format("task '{}' is bound to cgroup \"{}\"; the peer is in \"{}\"", task,
-                         b.cgroup, f.cgroup);
+      return errorf("task '{}' is bound to cgroup \"{}\"; the peer is in \"{}\"", task, b.cgroup,
+                    f.cgroup);
     }
   }
   if (!b.unit.empty()) {
@@ -223,8 +222,8 @@ std::string binding_mismatch(const std::string& task, const TaskBinding& b, cons
     std::string part;
     while (std::getline(parts, part, '/')) in_unit = in_unit || part == b.unit;
     if (!in_unit) {
-      return fmt::format("task '{}' is bound to unit {}; the peer is in cgroup \"{}\"", task,
-                         b.unit, f.cgroup);
+      return errorf("task '{}' is bound to unit {}; the peer is in cgroup \"{}\"", task, b.unit,
+                    f.cgroup);
     }
   }
   return {};

@@ -87,9 +87,9 @@ int peer_pidfd(int socket_fd, pid_t peer_pid);
 // This process's own executable (device, inode), to recognise a contego supervisor.
 bool own_exe(dev_t* dev, ino_t* ino);
 
-// Why `facts` cannot run the task bound by `b` ("" = it may). `task` names
+// Why `facts` cannot run the task bound by `b` (ok: it may). `task` names
 // the task in the reason.
-std::string binding_mismatch(const std::string& task, const TaskBinding& b, const PeerFacts& facts);
+Status binding_mismatch(const std::string& task, const TaskBinding& b, const PeerFacts& facts);
 
 // The parsed /proc/PID/status and /proc/PID/cgroup fields (unit tests).
 void parse_status(const std::string& status, PeerFacts* facts);

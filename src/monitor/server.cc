@@ -370,27 +370,27 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
     case wire::Type::kHello: {
       std::string name;
       wire::Vouch vouch;
-      if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty()) {
-        return refuse(EPROTO, e);
+      if (Status st = wire::decode_hello(payload, &name, &vouch); !st.ok()) {
+        return refuse(EPROTO, st.error());
       }
       const std::optional<uint16_t> task = task_of(name);
       if (s.bound || !task) {
         return refuse(EPERM, s.bound ? "already bound to a task" : "no task named '" + name + "'");
       }
-      if (std::string why = admit(s, name, *task, vouch); !why.empty()) {
+      if (Status st = admit(s, name, *task, vouch); !st.ok()) {
         hellos_refused_.fetch_add(1);
         client_event(s.conn->uid, "hello-refused",
-                     fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, why));
-        s.out = wire::encode_error({EACCES, why});
+                     fmt::format("pid {} uid {}: {}", s.conn->pid, s.conn->uid, st.error()));
+        s.out = wire::encode_error({EACCES, st.error()});
         return wire::Type::kError;
       }
       s.conn->hello.store(true);
       const uint16_t priority = monitor_.task_priority(s.task);
       if (realtime_ && priority > 0) {
         // This thread checks the task's commands: it runs at the task's priority.
-        if (std::string e = make_thread_realtime(priority); !e.empty()) {
+        if (Status st = make_thread_realtime(priority); !st.ok()) {
           audit_.event("realtime-refused", fmt::format("task {}: SCHED_FIFO {}: {}", s.task,
-                                                       fifo_priority(priority), e));
+                                                       fifo_priority(priority), st.error()));
         }
       }
       s.out = wire::encode_hello_ok({s.task, priority});
@@ -398,12 +398,12 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
     }
     case wire::Type::kTransfer: {
       if (!s.bound) return refuse(EPERM, "transfer before hello");
-      if (std::string e = wire::decode_transfer(payload, &s.transfer); !e.empty()) {
-        return refuse(EINVAL, e);
+      if (Status st = wire::decode_transfer(payload, &s.transfer); !st.ok()) {
+        return refuse(EINVAL, st.error());
       }
       // Refused here, where the event is rate-limited per peer (the monitor
       // would log each one).
-      if (std::string e = gate::validate(s.transfer); !e.empty()) return refuse(EINVAL, e);
+      if (Status st = gate::validate(s.transfer); !st.ok()) return refuse(EINVAL, st.error());
       const gate::TransferReply r = monitor_.transfer(s.task, s.transfer);
       wire::encode_reply(r, &s.out);
       return wire::Type::kReply;
@@ -415,10 +415,11 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       return wire::Type::kJobEndOk;
     case wire::Type::kBusInfo: {
       if (payload.size() != 1) return refuse(EPROTO, "malformed bus info request");
-      if (std::string why = message_refusal(s, wire::Type::kBusInfo); !why.empty()) {
-        client_event(s.conn->uid, "request-refused",
-                     fmt::format("pid {} uid {}: bus info: {}", s.conn->pid, s.conn->uid, why));
-        s.out = wire::encode_error({EPERM, why});
+      if (Status st = message_refusal(s, wire::Type::kBusInfo); !st.ok()) {
+        client_event(
+            s.conn->uid, "request-refused",
+            fmt::format("pid {} uid {}: bus info: {}", s.conn->pid, s.conn->uid, st.error()));
+        s.out = wire::encode_error({EPERM, st.error()});
         return wire::Type::kError;
       }
       wire::BusInfo info{monitor_.has_bus(payload[0]), monitor_.funcs(payload[0])};
@@ -447,12 +448,12 @@ wire::Type Server::reset(Session& s, std::span<const uint8_t> payload) {
     s.out = wire::encode_error({err, reason});
     return wire::Type::kError;
   };
-  if (std::string e = wire::decode_hello(payload, &device); !e.empty()) {
+  if (Status st = wire::decode_hello(payload, &device); !st.ok()) {
     return answer_error(EPROTO, "malformed reset request (a device name of 1..64 bytes expected)");
   }
-  if (std::string why = message_refusal(s, wire::Type::kReset); !why.empty()) {
-    audit_.event("reset-refused", fmt::format("device {}: uid {}: {}", device, uid, why));
-    return answer_error(EPERM, why);
+  if (Status st = message_refusal(s, wire::Type::kReset); !st.ok()) {
+    audit_.event("reset-refused", fmt::format("device {}: uid {}: {}", device, uid, st.error()));
+    return answer_error(EPERM, st.error());
   }
   if (uid != 0 && uid != geteuid()) {
     audit_.event("reset-refused", fmt::format("device {}: uid {} is neither root nor the "

@@ -158,10 +158,8 @@ class Server {
   gate::wire::Type reset(Session& s, std::span<const uint8_t> payload);  // `contego reset`
   void serve_channel(Session& s, gate::Channel& channel);
   // Binds the session to `task` if the peer may run it; else the reason.
-  std::string admit(Session& s, const std::string& name, uint16_t task,
-                    const gate::wire::Vouch& vouch);
-  std::string identity_refusal(const Conn& c, const std::string& name,
-                               const gate::wire::Vouch& vouch);
+  Status admit(Session& s, const std::string& name, uint16_t task, const gate::wire::Vouch& vouch);
+  Status identity_refusal(const Conn& c, const std::string& name, const gate::wire::Vouch& vouch);
   bool descends_from_supervised(pid_t pid) REQUIRES(mu_);
   // Task `name`'s id and binding (none: anyone allowed to connect, one
   // session) as the policy says now: copies, taken under mu_.
@@ -175,10 +173,10 @@ class Server {
     const auto it = bindings_.find(name);
     return it == bindings_.end() ? std::nullopt : std::optional<TaskBinding>(it->second);
   }
-  // The peer rules for every message but hello ("" when it may be answered).
-  std::string message_refusal(const Session& s, gate::wire::Type type);
-  // A supervisor's re-vouch after its program's exec ("" = may go on).
-  std::string revouch_refusal(const Session& s, pid_t pid);
+  // The peer rules for every message but hello (ok when it may be answered).
+  Status message_refusal(const Session& s, gate::wire::Type type);
+  // A supervisor's re-vouch after its program's exec (ok: it may go on).
+  Status revouch_refusal(const Session& s, pid_t pid);
   gate::wire::Type revouch(Session& s, std::span<const uint8_t> payload);
   gate::wire::Type status(Session& s);  // `contego status` (server_status.cc)
   gate::wire::Type reload(Session& s, std::span<const uint8_t> payload);  // server_reload.cc

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "base/errorf.h"
 #include "base/unique_fd.h"
 #include "monitor/server.h"
 
@@ -35,7 +36,7 @@ bool Server::descends_from_supervised(pid_t pid) {
 // supervisor's session. A task's session (bound by its hello) transfers,
 // ends jobs and asks bus facts; it never administers the monitor, so a task
 // cannot clear the latch its own violations set.
-std::string Server::message_refusal(const Session& s, wire::Type type) {
+Status Server::message_refusal(const Session& s, wire::Type type) {
   switch (type) {
     case wire::Type::kTransfer:
     case wire::Type::kJobEnd:
@@ -48,7 +49,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
     case wire::Type::kStatus:
     case wire::Type::kReload:
       if (s.bound) {
-        return fmt::format(
+        return errorf(
             "the connection speaks for task {}: a task's session may not "
             "administer the monitor",
             s.task);
@@ -59,7 +60,7 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
   }
   base::MutexLock lock(mu_);
   if (descends_from_supervised(s.conn->pid)) {
-    return fmt::format(
+    return errorf(
         "the peer (pid {}) is a program supervised by contego (or its child): it "
         "may not act on the monitor",
         s.conn->pid);
@@ -67,14 +68,13 @@ std::string Server::message_refusal(const Session& s, wire::Type type) {
   return {};
 }
 
-std::string Server::identity_refusal(const Conn& c, const std::string& name,
-                                     const wire::Vouch& vouch) {
+Status Server::identity_refusal(const Conn& c, const std::string& name, const wire::Vouch& vouch) {
   const std::optional<TaskBinding> binding = binding_of(name);
   const bool binds = binding && binding->binds();
   if (vouch.pid == 0 && !binds) return {};
-  if (!c.pidfd.valid()) return "the peer process cannot be pinned (pidfd)";
+  if (!c.pidfd.valid()) return make_error("the peer process cannot be pinned (pidfd)");
   auto peer = process_facts(c.pidfd.get(), c.pid);
-  if (!peer.ok()) return "the peer: " + peer.error();
+  if (!peer.ok()) return make_error("the peer: " + peer.error());
   PeerFacts facts = *peer;
   facts.uid = c.uid;  // SO_PEERCRED: the credentials the peer connected with
   if (vouch.pid != 0) {
@@ -84,15 +84,14 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
     // can claim for its child it could claim by letting the child connect).
     const pid_t child = static_cast<pid_t>(vouch.pid);
     const base::UniqueFd child_fd(static_cast<int>(syscall(SYS_pidfd_open, child, 0)));
-    if (!child_fd.valid()) return fmt::format("the supervised program (pid {}) is gone", child);
+    if (!child_fd.valid()) return errorf("the supervised program (pid {}) is gone", child);
     auto program = process_facts(child_fd.get(), child);
-    if (!program.ok()) return "the supervised program: " + program.error();
+    if (!program.ok()) return make_error("the supervised program: " + program.error());
     if (program->ppid != c.pid) {
-      return fmt::format("pid {} is not a child of the supervisor (pid {})", child, c.pid);
+      return errorf("pid {} is not a child of the supervisor (pid {})", child, c.pid);
     }
     if (c.uid != 0 && c.uid != program->uid) {
-      return fmt::format("a supervisor of uid {} speaks for a program of uid {}", c.uid,
-                         program->uid);
+      return errorf("a supervisor of uid {} speaks for a program of uid {}", c.uid, program->uid);
     }
     facts = *program;
     facts.exe_known = false;
@@ -100,14 +99,16 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
       // The program has not executed yet: the path it will execute is the
       // supervisor's word, taken only from this very contego binary.
       if (supervisors_.empty() || !peer->exe_known) {
-        return "the peer's executable cannot be read, so its word on the program's executable "
-               "cannot be taken (a monitor checking `exe` must be able to read /proc/PID/exe of "
-               "its peers: root or CAP_SYS_PTRACE)";
+        return make_error(
+            "the peer's executable cannot be read, so its word on the program's executable "
+            "cannot be taken (a monitor checking `exe` must be able to read /proc/PID/exe of "
+            "its peers: root or CAP_SYS_PTRACE)");
       }
       if (std::find(supervisors_.begin(), supervisors_.end(),
                     std::pair{peer->exe_dev, peer->exe_ino}) == supervisors_.end()) {
-        return "the peer vouches for a program but is not a contego supervisor (its executable "
-               "is neither the monitor's own nor the contego beside it)";
+        return make_error(
+            "the peer vouches for a program but is not a contego supervisor (its executable "
+            "is neither the monitor's own nor the contego beside it)");
       }
       struct stat st {};
       facts.exe_known = stat(vouch.exe.c_str(), &st) == 0;
@@ -116,11 +117,11 @@ std::string Server::identity_refusal(const Conn& c, const std::string& name,
       facts.exe_path = vouch.exe;
     }
   }
-  return binds ? binding_mismatch(name, *binding, facts) : std::string();
+  if (!binds) return {};
+  return binding_mismatch(name, *binding, facts);
 }
 
-std::string Server::admit(Session& s, const std::string& name, uint16_t task,
-                          const wire::Vouch& vouch) {
+Status Server::admit(Session& s, const std::string& name, uint16_t task, const wire::Vouch& vouch) {
   const Conn& c = *s.conn;
   {
     // As for a task's sessions below: a supervisor whose last program just
@@ -131,11 +132,12 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
                     [&]() REQUIRES(mu_) { return !descends_from_supervised(c.pid) || stopping_; });
     }
     if (descends_from_supervised(c.pid)) {
-      return "the peer is a program supervised by contego (or its child): its supervisor "
-             "speaks for it; it may not open a connection of its own";
+      return make_error(
+          "the peer is a program supervised by contego (or its child): its supervisor "
+          "speaks for it; it may not open a connection of its own");
     }
   }
-  if (std::string why = identity_refusal(c, name, vouch); !why.empty()) return why;
+  if (Status st = identity_refusal(c, name, vouch); !st.ok()) return st;
   const std::optional<TaskBinding> binding = binding_of(name);
   const uint32_t allowed = binding ? binding->sessions : 1;
   base::MutexLock lock(mu_);
@@ -152,8 +154,8 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
                   [&]() REQUIRES(mu_) { return live() < allowed || stopping_; });
   }
   if (live() >= allowed) {
-    return fmt::format("task '{}' already has {} live session(s) (the policy allows {})", name,
-                       live(), allowed);
+    return errorf("task '{}' already has {} live session(s) (the policy allows {})", name, live(),
+                  allowed);
   }
   ++live_sessions_[task];
   s.conn->task = task;
@@ -173,7 +175,7 @@ std::string Server::admit(Session& s, const std::string& name, uint16_t task,
 // new image's first call is answered. The process must be below the
 // supervisor (`contego run` is a subreaper, so its descendants stay there);
 // the binding is checked against the executable the kernel reports now.
-std::string Server::revouch_refusal(const Session& s, pid_t pid) {
+Status Server::revouch_refusal(const Session& s, pid_t pid) {
   {
     base::MutexLock lock(mu_);
     bool below = false;
@@ -187,17 +189,18 @@ std::string Server::revouch_refusal(const Session& s, pid_t pid) {
       p = facts->ppid;
     }
     if (!below)
-      return fmt::format("pid {} is not a process of the supervisor (pid {})", pid, s.conn->pid);
+      return errorf("pid {} is not a process of the supervisor (pid {})", pid, s.conn->pid);
   }
   const std::optional<TaskBinding> binding = binding_of(s.task_name);
   if (!binding || !binding->has_exe) return {};  // exe alone can change
   const base::UniqueFd fd(static_cast<int>(syscall(SYS_pidfd_open, pid, 0)));
-  if (!fd.valid()) return fmt::format("pid {} is gone", pid);
+  if (!fd.valid()) return errorf("pid {} is gone", pid);
   auto facts = process_facts(fd.get(), pid);
-  if (!facts.ok()) return "the program: " + facts.error();
+  if (!facts.ok()) return make_error("the program: " + facts.error());
   if (!facts->exe_known) {
-    return "the program's executable cannot be read, so a task bound by `exe` cannot be checked "
-           "after an exec (the monitor needs root or CAP_SYS_PTRACE)";
+    return make_error(
+        "the program's executable cannot be read, so a task bound by `exe` cannot be checked "
+        "after an exec (the monitor needs root or CAP_SYS_PTRACE)");
   }
   return binding_mismatch(s.task_name, *binding, *facts);
 }
@@ -209,18 +212,18 @@ wire::Type Server::revouch(Session& s, std::span<const uint8_t> payload) {
     s.out = wire::encode_error({err, why});
     return wire::Type::kError;
   };
-  if (std::string e = wire::decode_hello(payload, &name, &vouch); !e.empty() || vouch.pid == 0) {
-    return refuse(EPROTO, e.empty() ? "a re-vouch names no process" : e);
+  if (Status st = wire::decode_hello(payload, &name, &vouch); !st.ok() || vouch.pid == 0) {
+    return refuse(EPROTO, st.ok() ? "a re-vouch names no process" : st.error());
   }
   if (!s.bound || s.vouched == 0 || name != s.task_name) {
     return refuse(EPERM, "a re-vouch comes only from the supervisor that vouched for the task");
   }
   const auto pid = static_cast<pid_t>(vouch.pid);
-  const std::string why = revouch_refusal(s, pid);
-  audit_.event(why.empty() ? "identity" : "identity-refused",
+  const Status st = revouch_refusal(s, pid);
+  audit_.event(st.ok() ? "identity" : "identity-refused",
                fmt::format("task {} ({}): pid {} executed {}{}", s.task, name, pid, vouch.exe,
-                           why.empty() ? "" : ": " + why));
-  if (!why.empty()) return refuse(EACCES, why);
+                           st.ok() ? "" : ": " + st.error()));
+  if (!st.ok()) return refuse(EACCES, st.error());
   s.out.clear();
   return wire::Type::kRevouchOk;
 }

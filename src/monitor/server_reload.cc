@@ -7,6 +7,7 @@
 
 #include <fmt/core.h>
 
+#include "base/errorf.h"
 #include "monitor/server.h"
 
 namespace contego::monitor {
@@ -21,9 +22,10 @@ wire::Type Server::reload(Session& s, std::span<const uint8_t> payload) {
     return wire::Type::kError;
   };
   wire::ReloadRequest request;
-  if (std::string e = wire::decode_reload(payload, &request); !e.empty()) return refuse(EPROTO, e);
-  if (std::string why = message_refusal(s, wire::Type::kReload); !why.empty()) {
-    return refuse(EPERM, why);
+  if (Status st = wire::decode_reload(payload, &request); !st.ok())
+    return refuse(EPROTO, st.error());
+  if (Status st = message_refusal(s, wire::Type::kReload); !st.ok()) {
+    return refuse(EPERM, st.error());
   }
   if (uid != 0 && uid != geteuid()) {
     return refuse(
@@ -46,16 +48,16 @@ Result<std::string> Server::apply_reload(
     if (live == live_sessions_.end() || live->second == 0) continue;
     const auto now = tasks.find(name);
     if (now == tasks.end()) {
-      return make_error(
-          fmt::format("task {} has {} live session(s) and the new policy has no "
-                      "such task: stop them first",
-                      name, live->second));
+      return errorf(
+          "task {} has {} live session(s) and the new policy has no "
+          "such task: stop them first",
+          name, live->second);
     }
     if (now->second != id) {
-      return make_error(fmt::format(
+      return errorf(
           "task {} has {} live session(s) and would move from id {} to {}: keep the order of the "
           "policy's tasks (add new ones at the end), or stop them first",
-          name, live->second, id, now->second));
+          name, live->second, id, now->second);
     }
   }
   Result<std::string> done = monitor_reload();

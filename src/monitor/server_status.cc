@@ -22,7 +22,7 @@ wire::Type Server::status(Session& s) {
     s.out = wire::encode_error({EPERM, why});
     return wire::Type::kError;
   };
-  if (std::string why = message_refusal(s, wire::Type::kStatus); !why.empty()) return refuse(why);
+  if (Status st = message_refusal(s, wire::Type::kStatus); !st.ok()) return refuse(st.error());
   if (s.conn->uid != 0 && s.conn->uid != geteuid() && !s.conn->status_group) {
     return refuse("only root, the monitor's uid or the status group may read its status");
   }

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "base/clock.h"
+#include "gate/socket_client.h"
 #include "intercept/seccomp/supervisor.h"
 
 namespace contego::perf::detail {

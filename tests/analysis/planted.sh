@@ -43,4 +43,4 @@ expect_refused() {  # FILE FUNCTION FIELD: drop the lock FUNCTION takes, expect 
 
 expect_refused src/bus/virtual_bus.cc "uint64_t VirtualBus::operations()" operations_
 expect_refused src/monitor/monitor.cc "void Monitor::set_complain(" complain_
-expect_refused src/gate/socket.cc "void SocketClient::job_boundary(" broken_
+expect_refused src/gate/socket_client.cc "void SocketClient::job_boundary(" broken_

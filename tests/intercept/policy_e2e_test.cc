@@ -17,6 +17,7 @@
 
 #include "bus/virtual_bus.h"
 #include "gate/socket.h"
+#include "gate/socket_client.h"
 #include "intercept/seccomp/supervisor.h"
 #include "monitor/core_decider.h"
 #include "monitor/monitor.h"

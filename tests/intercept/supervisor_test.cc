@@ -35,6 +35,7 @@
 #include "bus/virtual_bus.h"
 #include "gate/channel.h"
 #include "gate/socket.h"
+#include "gate/socket_client.h"
 #include "monitor/monitor.h"
 #include "monitor/server.h"
 #include "monitor/test_audit_record.h"
@@ -589,10 +590,10 @@ TEST(MonitorServer, MalformedMessagesGetAnErrorAndTheServerKeepsServing) {
     ASSERT_EQ(write(fd, header.data(), header.size()), 12);
     gate::wire::Header h;
     std::vector<uint8_t> payload;
-    ASSERT_EQ(gate::recv_frame(fd, &h, &payload), "");
+    ASSERT_TRUE(gate::recv_frame(fd, &h, &payload).ok());
     EXPECT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
     gate::wire::ErrorMsg e;
-    ASSERT_EQ(gate::wire::decode_error(payload, &e), "");
+    ASSERT_TRUE(gate::wire::decode_error(payload, &e).ok());
     EXPECT_NE(e.reason.find("exceeds"), std::string::npos);
     close(fd);
   }
@@ -632,7 +633,7 @@ TEST(MonitorServer, ATaskSessionNeverAdministersTheMonitor) {
   auto ask = [](int fd, gate::wire::Type type, std::span<const uint8_t> payload,
                 gate::wire::Header* h, std::vector<uint8_t>* answer) {
     ASSERT_TRUE(gate::send_frame(fd, type, 1, payload));
-    ASSERT_EQ(gate::recv_frame(fd, h, answer), "");
+    ASSERT_TRUE(gate::recv_frame(fd, h, answer).ok());
   };
   const int fd = connect_raw(path);
   ASSERT_GE(fd, 0);
@@ -646,7 +647,7 @@ TEST(MonitorServer, ATaskSessionNeverAdministersTheMonitor) {
   ask(fd, gate::wire::Type::kReset, gate::wire::encode_hello("gopigo"), &h, &answer);
   ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
   gate::wire::ErrorMsg e;
-  ASSERT_EQ(gate::wire::decode_error(answer, &e), "");
+  ASSERT_TRUE(gate::wire::decode_error(answer, &e).ok());
   EXPECT_EQ(e.err, EPERM);
   EXPECT_NE(e.reason.find("a task's session may not administer the monitor"), std::string::npos)
       << e.reason;
@@ -656,7 +657,7 @@ TEST(MonitorServer, ATaskSessionNeverAdministersTheMonitor) {
   ASSERT_GE(op, 0);
   ask(op, gate::wire::Type::kReset, gate::wire::encode_hello("gopigo"), &h, &answer);
   ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kError));
-  ASSERT_EQ(gate::wire::decode_error(answer, &e), "");
+  ASSERT_TRUE(gate::wire::decode_error(answer, &e).ok());
   EXPECT_EQ(e.err, ENOENT) << e.reason;
   close(op);
   server.stop();
@@ -792,11 +793,11 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   ASSERT_TRUE(gate::send_frame(fd, gate::wire::Type::kHello, 1, gate::wire::encode_hello("t0")));
   gate::wire::Header h;
   std::vector<uint8_t> payload;
-  ASSERT_EQ(gate::recv_frame(fd, &h, &payload), "");
+  ASSERT_TRUE(gate::recv_frame(fd, &h, &payload).ok());
   ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kHelloOk));
   ASSERT_TRUE(gate::send_frame(fd, gate::wire::Type::kChannel, 2, {}));
   int memfd = -1;
-  ASSERT_EQ(gate::recv_frame_with_fd(fd, &h, &payload, &memfd), "");
+  ASSERT_TRUE(gate::recv_frame_with_fd(fd, &h, &payload, &memfd).ok());
   ASSERT_EQ(h.type, static_cast<uint8_t>(gate::wire::Type::kChannelOk));
   ASSERT_GE(memfd, 0);
   // The seals hold: the client cannot shrink the file under the monitor.
@@ -828,11 +829,11 @@ TEST(MonitorServer, HostileChannelClientOnlyHurtsItself) {
   EXPECT_EQ(request(3, static_cast<uint32_t>(prescale.size()), prescale),
             static_cast<uint32_t>(gate::wire::Type::kReply));
   gate::TransferReply r;
-  ASSERT_EQ(gate::wire::decode_reply({static_cast<uint8_t*>(shared) + gate::Channel::kControlSize +
-                                          gate::Channel::kSlotSize,
-                                      control->reply_len.load()},
-                                     &r),
-            "");
+  ASSERT_TRUE(gate::wire::decode_reply({static_cast<uint8_t*>(shared) +
+                                            gate::Channel::kControlSize + gate::Channel::kSlotSize,
+                                        control->reply_len.load()},
+                                       &r)
+                  .ok());
   EXPECT_EQ(r.err, EPERM);
   // Scribbled sequence numbers and flags delay nobody else.
   control->server_sleeping.store(0xFFFFFFFF);

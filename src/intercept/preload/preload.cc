@@ -37,6 +37,7 @@
 #include <unordered_map>
 
 #include "gate/socket.h"
+#include "gate/socket_client.h"
 #include "intercept/i2c_abi/bus_name.h"
 #include "intercept/i2c_abi/i2c_abi.h"
 

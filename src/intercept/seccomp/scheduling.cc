@@ -55,8 +55,8 @@ bool apply_priority(const Options& options, pid_t child, RunResult& result) {
     result.realtime_error = std::string("SCHED_FIFO for the program: ") + strerror(errno);
     return false;
   }
-  if (std::string e = make_thread_realtime(options.realtime_priority); !e.empty()) {
-    result.realtime_error = "SCHED_FIFO for the supervisor: " + e;
+  if (Status st = make_thread_realtime(options.realtime_priority); !st.ok()) {
+    result.realtime_error = "SCHED_FIFO for the supervisor: " + st.error();
     return false;
   }
   result.realtime = true;

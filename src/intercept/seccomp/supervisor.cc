@@ -404,8 +404,8 @@ void Loop::handle(const seccomp_notif& n) {
     // The first call of what it executed: is that still the task's program?
     p.exec_pending = false;
     --execs_pending_;
-    if (std::string why = options_.on_exec(static_cast<pid_t>(n.pid)); !why.empty()) {
-      if (result_.identity_refused.empty()) result_.identity_refused = why;
+    if (Status st = options_.on_exec(static_cast<pid_t>(n.pid)); !st.ok()) {
+      if (result_.identity_refused.empty()) result_.identity_refused = st.error();
       close_down();
       return reply(n.id, 0, EIO);
     }

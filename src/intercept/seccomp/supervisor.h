@@ -93,11 +93,11 @@ struct Options {
   std::vector<int> pass_fds;
   // Called with a supervised process's pid at its first intercepted call
   // after it called execve (before that call is answered, and before any
-  // bus call of the new image): "" to go on, or why its new executable may
+  // bus call of the new image): ok to go on, or why its new executable may
   // not act for the task. Then every supervised process is ended, as by
   // stop_fd, and RunResult::identity_refused says why. `contego run --socket`
   // asks the monitor to check the task's binding again (docs/threat-model.md).
-  std::function<std::string(pid_t pid)> on_exec;
+  std::function<Status(pid_t pid)> on_exec;
   // Called once, on the supervisor's watcher thread, when stop_fd becomes
   // readable and before the program is ended: `contego run` records the
   // signal there, so the log has it before the program's exit it causes.
