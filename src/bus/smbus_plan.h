@@ -15,20 +15,22 @@
 #include <span>
 #include <string>
 
+#include "contego/i2c_plan.h"
+
 #include "bus/bus.h"
 
 namespace contego::bus {
 
-// I2C_SMBUS transaction sizes (<linux/i2c.h>; contego_smbus_size).
+// I2C_SMBUS transaction sizes: the shared model's (contego_smbus_size), typed.
 enum class SmbusSize : uint32_t {
-  kQuick = 0,
-  kByte = 1,
-  kByteData = 2,
-  kWordData = 3,
-  kProcCall = 4,
-  kBlockData = 5,
-  kBlockProcCall = 7,
-  kI2cBlockData = 8,
+  kQuick = CONTEGO_SMBUS_QUICK,
+  kByte = CONTEGO_SMBUS_BYTE,
+  kByteData = CONTEGO_SMBUS_BYTE_DATA,
+  kWordData = CONTEGO_SMBUS_WORD_DATA,
+  kProcCall = CONTEGO_SMBUS_PROC_CALL,
+  kBlockData = CONTEGO_SMBUS_BLOCK_DATA,
+  kBlockProcCall = CONTEGO_SMBUS_BLOCK_PROC_CALL,
+  kI2cBlockData = CONTEGO_SMBUS_I2C_BLOCK_DATA,
 };
 
 // One I2C_SMBUS ioctl.

@@ -81,3 +81,22 @@ start_led5_holder() {
   wait_for /tmp/holder.pid 10
   HOLDER=$(cat /tmp/holder.pid 2>/dev/null)
 }
+
+# decisions LOG TASK: one line per decision of TASK in an audit log, the
+# fields both clients write: command, verdict, reason, rule, the command's
+# first 24 bytes (what contego.ko's record keeps; the monitor's keeps all)
+# and the decoded fields. Scenarios 62 and 65 compare the two clients' logs.
+decisions() {
+  python3 - "$1" "$2" <<'PY'
+import json, sys
+for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
+    line = line.strip("\0\n")
+    if not line.startswith("{"):
+        continue
+    j = json.loads(line)
+    if j.get("kind") == "decision" and j.get("task_name") == sys.argv[2]:
+        print(j.get("command_name", "-"), j["decision"], j.get("reason_name"),
+              j.get("rule_name", "-"), " ".join((j.get("bytes") or "").split()[:24]),
+              j.get("fields"))
+PY
+}

@@ -17,20 +17,6 @@ fresh_chip() {  # i2c-stub reloaded: every register 0, then PRE_SCALE as reset l
   stub_set $A 0x00 0x11
 }
 
-decisions() {  # LOG: one line per decision, the fields both clients write
-  python3 - "$1" <<'PY'
-import json, sys
-for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
-    line = line.strip("\0\n")
-    if not line.startswith("{"):
-        continue
-    j = json.loads(line)
-    if j.get("kind") == "decision" and j.get("task_name") == "arm_init":
-        print(j.get("command_name", "-"), j["decision"], j.get("reason_name"),
-              j.get("rule_name", "-"), j.get("bytes"), j.get("fields"))
-PY
-}
-
 # --- the monitor, embedded in contego run ------------------------------------
 fresh_chip || { bad "i2c-stub could not be reloaded"; finish; }
 run_logged monitor_run contego run --policy $POLICIES/arm.policy $BUS_ARGS --user 1000 \
@@ -62,8 +48,8 @@ if cmp -s $LOGDIR/monitor.steps $LOGDIR/kmod.steps; then
 else
   bad "the program was told different things:"; diff $LOGDIR/monitor.steps $LOGDIR/kmod.steps
 fi
-decisions $LOGDIR/monitor.jsonl >$LOGDIR/monitor.decisions
-decisions $LOGDIR/kmod.jsonl >$LOGDIR/kmod.decisions
+decisions $LOGDIR/monitor.jsonl arm_init >$LOGDIR/monitor.decisions
+decisions $LOGDIR/kmod.jsonl arm_init >$LOGDIR/kmod.decisions
 n=$(wc -l <$LOGDIR/kmod.decisions)
 if [ "$n" -gt 10 ] && cmp -s $LOGDIR/monitor.decisions $LOGDIR/kmod.decisions; then
   ok "both logs hold the same $n decisions (command, verdict, reason, rule, bytes, fields): 0 mismatches"

@@ -35,22 +35,6 @@ POLICY=/tmp/wire.policy
   echo "allow wire reads chip"
 } >$POLICY
 
-decisions() {  # LOG: one line per decision, the fields both clients write
-  python3 - "$1" <<'PY'
-import json, sys
-for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
-    line = line.strip("\0\n")
-    if not line.startswith("{"):
-        continue
-    j = json.loads(line)
-    if j.get("kind") == "decision" and j.get("task_name") == "wire":
-        # The module's record keeps a command's first 24 bytes
-        # (CONTEGO_KMOD_REC_BYTES); the monitor's all of them.
-        print(j.get("command_name", "-"), j["decision"], j.get("reason_name"),
-              j.get("rule_name", "-"), " ".join((j.get("bytes") or "").split()[:24]))
-PY
-}
-
 # fresh NAME: the adapter's chip reloaded, all registers 0. Sets NR, its number.
 fresh() {
   if [ "$1" = smbus ]; then
@@ -89,7 +73,7 @@ one() {
     back_to_i2c_dev
   fi
   i2cdump -y $NR $A b >$LOGDIR/$key.chip 2>&1
-  decisions $LOGDIR/$key.jsonl >$LOGDIR/$key.decisions
+  decisions $LOGDIR/$key.jsonl wire >$LOGDIR/$key.decisions
 }
 
 for adapter in smbus plain; do
