@@ -2,6 +2,8 @@
 /* contego.ko: sessions (docs/kernel-client.md "Sessions"). */
 #include "contego.h"
 
+static_assert(CT_ROOM_UNITS == CONTEGO_KMOD_MAX_TASK_SESSIONS);
+
 /* A session of task T is a process (thread group) that made a call the core
  * checked as T. It ends when the process exits -- not when it closes the
  * node -- and its end drives T's actuators (the image's access matrix, as
@@ -239,37 +241,28 @@ static struct pid *ct_session_unit(struct ct_session *s)
 	return unit;
 }
 
-
 /* Whether the caller may open a session of `task`: its unit already has a
  * live session of the task, or the task has fewer live units than its
  * `sessions`. Under ct.lock.
  */
 bool ct_session_room(struct ct_policy *p, u16 task)
 {
-	u32 allowed = task < CONTEGO_KMOD_MAX_TASKS ? p->sessions[task] : 1, n = 0, i;
+	u32 allowed = task < CONTEGO_KMOD_MAX_TASKS ? p->sessions[task] : 1;
 	struct ct_session *s;
-	struct pid *mine, *u;
+	struct pid *u;
 	bool room;
 
 	lockdep_assert_held(&ct.lock);
 	rcu_read_lock();
-	mine = ct_unit_of(current);
+	ct_room_start(&ct.room, ct_unit_of(current), allowed);
 	list_for_each_entry(s, &ct.sessions, node) {
 		if (s->task != task || s->gen != p->gen)
 			continue;
 		u = ct_session_unit(s);
-		if (!u)
-			continue;
-		if (u == mine) { /* one session with it */
-			rcu_read_unlock();
-			return true;
-		}
-		for (i = 0; i < n && ct.units[i] != u; i++)
-			;
-		if (i == n && n < allowed && n < ARRAY_SIZE(ct.units))
-			ct.units[n++] = u;
+		if (u && !ct_room_count(&ct.room, u))
+			break;
 	}
-	room = n < allowed;
+	room = ct_room_left(&ct.room);
 	rcu_read_unlock();
 	return room;
 }

@@ -26,7 +26,7 @@ tarball=$(ls /usr/src/linux-source-6.1.tar.* 2>/dev/null | head -n1 || true)
 }
 
 fails=0
-files=("$here"/contego*.c "$here"/contego*.h "$here"/include/uapi/linux/*.h)
+files=("$here"/contego*.c "$here"/contego*.h "$here"/kunit/contego_kunit.c "$here"/include/uapi/linux/*.h)
 
 # checkpatch.pl and the two data files it reads, unpacked once per tarball.
 cp_dir=$out/checkpatch

@@ -28,7 +28,9 @@
 #                           OUT.cpio CONTEGO KERNEL_DIR BENCH_CLIENT [TEST_BINARY...]
 #   KERNEL_DIR is what fetch-kernel.sh printed (it holds modules/).
 # Env: CONTEGO_KMOD  contego.ko built for that kernel (kernel/build.sh), put
-#                    beside the two i2c modules; unset or empty: none.
+#                    beside the two i2c modules; unset or empty: none. The
+#                    KUnit modules (kunit.ko, contego-kunit.ko) or the reason
+#                    they were not built (kunit-skipped), when beside it, too.
 #      CONTEGO_STATIC_CLIENT  a static build of the bench client, as
 #                    /usr/bin/i2c-write-loop-static; unset or empty: none.
 #      CONTEGO_PLAIN_STUB  the plain-I2C test adapter built for that kernel
@@ -150,6 +152,11 @@ cp "$kdir/version" "$root/etc/kernel-version"
 if [[ -n "${CONTEGO_KMOD:-}" ]]; then
   [[ -f "$CONTEGO_KMOD" ]] || die "no contego.ko at $CONTEGO_KMOD"
   cp "$CONTEGO_KMOD" "$root/lib/modules/contego.ko"
+  # The KUnit modules kernel/build.sh --kunit left beside it, or why not.
+  kmod_dir=$(dirname "$CONTEGO_KMOD")
+  for f in kunit.ko contego-kunit.ko kunit-skipped; do
+    [[ ! -f "$kmod_dir/$f" ]] || cp "$kmod_dir/$f" "$root/lib/modules/$f"
+  done
 fi
 if [[ -n "${CONTEGO_PLAIN_STUB:-}" ]]; then
   [[ -f "$CONTEGO_PLAIN_STUB" ]] || die "no i2c-plain-stub.ko at $CONTEGO_PLAIN_STUB"

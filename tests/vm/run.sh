@@ -116,17 +116,19 @@ else
       headers=/usr/src/linux-headers-$(cat "$kdir/version")
   fi
 fi
-# build_module NAME SCRIPT: prints the module's path, nothing when skipped
+# build_module NAME SCRIPT [OPTION]: prints the module's path, nothing when skipped
 build_module() {
   local rc=0
-  bash "$2" --arch "$arch" "$workdir/kmod" "$headers" >&2 || rc=$?
+  bash "$2" ${3:+"$3"} --arch "$arch" "$workdir/kmod" "$headers" >&2 || rc=$?
   case $rc in
     0) echo "$workdir/kmod/$1" ;;
     77) echo "run.sh: $1 not built (no headers for $(cat "$kdir/version")): its scenarios skip" >&2 ;;
     *) fail "building $1 failed ($2 exit $rc)" ;;
   esac
 }
-kmod=$(build_module contego.ko "$src/kernel/build.sh") || exit 1
+# --kunit: with the KUnit tests of its pure parts (scenario 66), which need
+# Debian's linux-source for KUnit itself (kernel/kunit/unpack.sh).
+kmod=$(build_module contego.ko "$src/kernel/build.sh" --kunit) || exit 1
 plain_stub=$(build_module i2c-plain-stub.ko "$here/kmod/build.sh") || exit 1
 # A statically linked copy of the bench client: no dynamic loader, so no
 # preload can reach it; only the kernel client checks it (scenario 60).
