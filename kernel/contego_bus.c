@@ -124,13 +124,35 @@ int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
 	return 0;
 }
 
+/* A write's one emit and the read of the same call that answers it
+ * (contego_i2c_write_then_read: a process call) as one transfer, with a
+ * repeated start as the program sent them, when the pair has a form on the
+ * adapter. True: sent, *ret its result (the read's length updated); false:
+ * not joinable, nothing sent, the two go apart.
+ */
+bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
+		       const contego_verdict *v, struct i2c_msg *read, int *ret)
+{
+	struct i2c_msg m[2];
+
+	if (v->emit_count != 1 || v->addr != read->addr || v->emit_len[0] > CONTEGO_MAX_EMIT_BYTES)
+		return false;
+	m[0] = (struct i2c_msg){ .addr = v->addr, .flags = read->flags & I2C_M_TEN,
+				 .len = v->emit_len[0], .buf = (u8 *)v->emit_bytes };
+	m[1] = *read;
+	if (ct_xfer(adap, cf, m, 2, 0, true) < 0)
+		return false;
+	*ret = ct_xfer(adap, cf, m, 2, 0, false);
+	read->len = m[1].len;
+	return true;
+}
+
 /* Whether the verdict writes exactly the requested bytes, once. */
 bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr)
 {
 	return v->emit_count == 1 && v->emit_len[0] == len && v->addr == addr &&
 	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
 }
-
 
 /* Device d's declared safe state, written and recorded (best effort: the
  * record may be lost, then counted in the gap). `s`: the session whose end

@@ -15,16 +15,24 @@ static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
 }
 
 /* Every transaction of the call has a form on this adapter (ct_xfer), as the
- * monitor asks before anything acts.
+ * monitor asks before anything acts; a write and the read answering it
+ * (contego_i2c_write_then_read) together, or else each apart.
  */
 static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
 {
+	const struct contego_i2c_tx *tx = ct.txs;
 	u32 i;
 
 	lockdep_assert_held(&ct.lock);
-	for (i = 0; i < ntx; i++)
-		if (ct_xfer(adap, NULL, &m[ct.txs[i].first_msg], ct.txs[i].msg_count, 0, true) < 0)
+	for (i = 0; i < ntx; i++) {
+		if (i + 1 < ntx && contego_i2c_write_then_read(&tx[i], &tx[i + 1]) &&
+		    ct_xfer(adap, NULL, &m[tx[i].first_msg], 2, 0, true) == 0) {
+			i++;
+			continue;
+		}
+		if (ct_xfer(adap, NULL, &m[tx[i].first_msg], tx[i].msg_count, 0, true) < 0)
 			return false;
+	}
 	return true;
 }
 
@@ -62,13 +70,20 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 		/* In message order, only what the core allowed or substituted. */
 		for (i = 0; i < ntx && ret == 0; i++) {
 			const struct contego_i2c_tx *tx = &ct.txs[i];
+			int joined;
 
-			if (tx->kind == CONTEGO_TX_WRITE)
+			if (i + 1 < ntx && contego_i2c_write_then_read(tx, tx + 1) &&
+			    ct_emit_with_read(cf->adap, cf, &ct.verdicts[i],
+					      &msgs[tx[1].first_msg], &joined)) {
+				ret = joined; /* the write and its answer, together */
+				i++;
+			} else if (tx->kind == CONTEGO_TX_WRITE) {
 				ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[i],
 						       tx->ten ? I2C_M_TEN : 0);
-			else
+			} else {
 				ret = ct_xfer(cf->adap, cf, &msgs[tx->first_msg], tx->msg_count,
 					      0, false);
+			}
 		}
 	} else {
 		for (i = 0; i < nmsgs; i++) /* ignored: reads read zeros */
@@ -157,9 +172,10 @@ long ct_rdwr(struct ct_file *cf, unsigned long arg)
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
 /* A process call whose write the core changed (its emits are not the
- * request), as the monitor performs one: the write's emits, then the answer
- * read on its own (ct_xfer's form), into `data`. Nothing is written when
- * the read has no form on this adapter. 0 or -errno.
+ * request), as the monitor performs one: the one emit and the answer
+ * together when they have a form (ct_emit_with_read), else the write's
+ * emits, then the answer read on its own (ct_xfer's form), into `data`.
+ * Nothing is written when the read has no form on this adapter. 0 or -errno.
  */
 static int ct_proc_split(struct ct_file *cf, int size, union i2c_smbus_data *data)
 {
@@ -172,11 +188,13 @@ static int ct_proc_split(struct ct_file *cf, int size, union i2c_smbus_data *dat
 		m.flags |= I2C_M_RECV_LEN;
 		m.len = sizeof(buf);
 	}
-	ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, true);
-	if (ret == 0)
-		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
-	if (ret == 0)
-		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
+	if (!ct_emit_with_read(cf->adap, cf, &ct.verdicts[0], &m, &ret)) {
+		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, true);
+		if (ret == 0)
+			ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
+		if (ret == 0)
+			ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
+	}
 	if (ret < 0)
 		return ret;
 	if (size == I2C_SMBUS_PROC_CALL) {

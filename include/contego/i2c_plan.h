@@ -152,6 +152,14 @@ struct contego_i2c_tx {
 uint32_t contego_i2c_transactions(const struct contego_i2c_msg *msgs, uint32_t n,
                                   struct contego_i2c_tx *out);
 
+/* Whether transactions a and b, adjacent in one call, are a write and the
+ * read that answers it without a register pointer of its own (a process
+ * call, a read at a two-byte register address): the program sent them as
+ * one combined transfer, with a repeated start and no stop between, and a
+ * client sends them so again when the write goes out as one message. Not
+ * at the general call address, which is write-only. */
+int contego_i2c_write_then_read(const struct contego_i2c_tx *a, const struct contego_i2c_tx *b);
+
 /* The messages an I2C_SMBUS call puts on the wire, i2c-core's SMBus
  * emulation's table (the rows of the planner's, backwards): `data` is the
  * call's union i2c_smbus_data as bytes (word as [lo, hi]), copied in, with

@@ -34,6 +34,7 @@ void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out) {
     tx.bytes.clear();
     tx.first_message = 0;
     tx.message_count = 0;
+    tx.answers_write = false;
     return tx;
   };
   if (transfer.quick) {
@@ -63,6 +64,7 @@ void to_transactions(const Transfer& transfer, std::vector<PlannedTx>& out) {
     tx.ten_bit = c.ten != 0;
     tx.first_message = c.first_msg;
     tx.message_count = c.msg_count;
+    tx.answers_write = k > 0 && contego_i2c_write_then_read(&txs[k - 1], &c);
     if (c.kind != CONTEGO_TX_READ || c.msg_count == 2) tx.bytes.assign(c.bytes, c.bytes + c.len);
   }
   out.resize(n);

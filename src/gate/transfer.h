@@ -76,6 +76,9 @@ struct PlannedTx {
   std::vector<uint8_t> bytes;
   uint32_t first_message = 0;  // messages [first_message, first_message + message_count)
   uint32_t message_count = 0;
+  // A read that answers the write before it in one combined transfer (a
+  // process call: contego_i2c_write_then_read); the two go out together.
+  bool answers_write = false;
 };
 
 std::vector<PlannedTx> to_transactions(const Transfer& transfer);

@@ -38,3 +38,9 @@ extern "C" uint32_t contego_i2c_transactions(const contego_i2c_msg* msgs, uint32
   }
   return t;
 }
+
+extern "C" int contego_i2c_write_then_read(const contego_i2c_tx* a, const contego_i2c_tx* b) {
+  return a->kind == CONTEGO_TX_WRITE && b->kind == CONTEGO_TX_READ && b->msg_count == 1 &&
+         a->len > 0 && a->addr == b->addr && a->ten == b->ten && a->addr != 0 &&
+         b->first_msg == a->first_msg + a->msg_count;
+}

@@ -50,4 +50,28 @@ TEST(I2cTransactions, ALongerWriteBeforeAReadIsAWriteOfItsOwn) {
   EXPECT_EQ(contego_i2c_transactions(m, 0, tx), 0u);
 }
 
+TEST(I2cTransactions, AWriteAndTheReadAnsweringItAreOneCombinedTransfer) {
+  uint8_t w[3] = {0x10, 0x34, 0x12}, reg[1] = {0x06}, r[2] = {};
+  contego_i2c_tx tx[3];
+  // A process call: the write, then the answer without a pointer.
+  contego_i2c_msg proc[2] = {{0x40, 0, 3, w}, {0x40, I2C_M_RD, 2, r}};
+  ASSERT_EQ(contego_i2c_transactions(proc, 2, tx), 2u);
+  EXPECT_TRUE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+  EXPECT_FALSE(contego_i2c_write_then_read(&tx[1], &tx[0]));
+  // A read with its own pointer answers no write before it.
+  contego_i2c_msg pointer[3] = {{0x40, 0, 3, w}, {0x40, 0, 1, reg}, {0x40, I2C_M_RD, 2, r}};
+  ASSERT_EQ(contego_i2c_transactions(pointer, 3, tx), 2u);
+  EXPECT_FALSE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+  // Another address, ten-bit against seven, the general call: separate.
+  contego_i2c_msg other[2] = {{0x40, 0, 3, w}, {0x41, I2C_M_RD, 2, r}};
+  ASSERT_EQ(contego_i2c_transactions(other, 2, tx), 2u);
+  EXPECT_FALSE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+  contego_i2c_msg ten[2] = {{0x40, 0, 3, w}, {0x40, I2C_M_RD | I2C_M_TEN, 2, r}};
+  ASSERT_EQ(contego_i2c_transactions(ten, 2, tx), 2u);
+  EXPECT_FALSE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+  contego_i2c_msg general[2] = {{0x00, 0, 3, w}, {0x00, I2C_M_RD, 2, r}};
+  ASSERT_EQ(contego_i2c_transactions(general, 2, tx), 2u);
+  EXPECT_FALSE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+}
+
 }  // namespace

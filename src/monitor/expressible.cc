@@ -17,10 +17,40 @@ Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten
   return {};
 }
 
+bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read,
+                         bus::Msg* emit) {
+  if (v.emit_count != 1 || v.addr != read.addr || v.emit_len[0] > core::kMaxEmitBytes) return false;
+  *emit = {v.addr, static_cast<uint16_t>(read.flags & gate::kMsgTen), v.emit_len[0],
+           const_cast<uint8_t*>(v.emit_bytes)};
+  const bus::Msg pair[2] = {*emit, read};
+  return bus.expressible(pair).ok();
+}
+
+Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read) {
+  if (bus::Msg emit; emit_goes_with_read(bus, v, read, &emit)) return {};
+  if (Status s = emits_inexpressible(bus, v, (read.flags & gate::kMsgTen) != 0); !s.ok()) return s;
+  return bus.expressible({&read, 1});
+}
+
+bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p) {
+  const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
+  return {rm.addr, rm.flags, rm.len, nullptr};
+}
+
 Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
                      const std::vector<gate::PlannedTx>& planned) {
-  for (const gate::PlannedTx& p : planned) {
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const gate::PlannedTx& p = planned[i];
     const uint16_t ten = p.ten_bit ? gate::kMsgTen : 0;
+    if (i + 1 < planned.size() && planned[i + 1].answers_write) {
+      const bus::Msg pair[2] = {{p.addr, ten, static_cast<uint16_t>(p.bytes.size()),
+                                 const_cast<uint8_t*>(p.bytes.data())},
+                                read_message(t, planned[i + 1])};
+      if (bus.expressible(pair).ok()) {
+        ++i;  // together, as sent
+        continue;
+      }
+    }
     bus::Msg msgs[2];
     size_t n = 0;
     if (p.kind == core::TxKind::kQuick) {
@@ -30,10 +60,7 @@ Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
       msgs[n++] = {p.addr, ten, static_cast<uint16_t>(p.bytes.size()),
                    const_cast<uint8_t*>(p.bytes.data())};
     }
-    if (p.kind == core::TxKind::kRead) {  // a read's buffer is not needed to plan it
-      const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
-      msgs[n++] = {rm.addr, rm.flags, rm.len, nullptr};
-    }
+    if (p.kind == core::TxKind::kRead) msgs[n++] = read_message(t, p);
     if (Status s = bus.expressible({msgs, n}); !s.ok()) return s;
   }
   return {};

@@ -18,12 +18,29 @@ namespace contego::monitor {
 
 // Ok when `bus` can perform every transaction of `planned` (from
 // gate::to_transactions(t)) as Monitor::transfer sends it: a quick command,
-// one write message, or [register byte] + the read message. Else why not.
+// one write message, [register byte] + the read message, or a write and the
+// read answering it together (apart when they have no form together). Else
+// why not.
 Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
                      const std::vector<gate::PlannedTx>& planned);
 
 // Ok when `bus` can send each of the verdict's emits as one write message.
 Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit);
+
+// The verdict's one emit, as a message to `read`'s address, when a write
+// whose verdict it is goes out together with the read answering it (a
+// process call: gate::PlannedTx::answers_write), with a repeated start: the
+// write is one message and the pair has a form on `bus`. Else false, and
+// the two go out apart.
+bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read,
+                         bus::Msg* emit);
+
+// emits_inexpressible for a write whose read answers it: ok when the two go
+// out together, or each apart.
+Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read);
+
+// The read message of transaction `p` of `t`, its buffer left out (to plan it).
+bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p);
 
 }  // namespace contego::monitor
 

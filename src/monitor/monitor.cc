@@ -346,7 +346,10 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
     // A substitute is checked the same way before any part of the call acts.
     for (size_t i = 0; i < planned.size(); ++i) {
       if (planned[i].kind != core::TxKind::kWrite) continue;
-      if (Status st = emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit); !st.ok()) {
+      const bool pair = i + 1 < planned.size() && planned[i + 1].answers_write;
+      if (Status st = pair ? pair_inexpressible(bus, verdicts_[i], read_message(t, planned[i + 1]))
+                           : emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit);
+          !st.ok()) {
         decider_->abort_transfer(core::Decision::kReject);
         audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, st.error()));
         reply.err = EOPNOTSUPP;
@@ -485,24 +488,20 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
     const core::Verdict& v = verdicts_[i];
+    bus::Msg emit;
     if (p.kind == core::TxKind::kQuick) {
       reply.err = bus.quick(p.addr, t.quick_read);
+    } else if (p.kind == core::TxKind::kWrite && i + 1 < planned.size() &&
+               planned[i + 1].answers_write &&
+               emit_goes_with_read(bus, v, read_message(t, planned[i + 1]), &emit)) {
+      // The write and the read answering it, together as the program sent
+      // them (a repeated start, no stop between).
+      reply.err = perform_read(task, t, planned[++i], &emit, reply);
+      if (reply.err == 0) readings_.on_write(v.bus, v.addr, {v.emit_bytes, v.emit_len[0]});
     } else if (p.kind == core::TxKind::kWrite) {
       reply.err = perform_emits(v, p.ten_bit);
-    } else {  // a read, with its pointer bytes (our copy) when it has them
-      const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
-      std::vector<uint8_t> out(rm.len, 0);
-      std::vector<uint8_t> pointer = p.bytes;
-      std::vector<bus::Msg> msgs;
-      if (!pointer.empty()) {
-        msgs.push_back({p.addr, static_cast<uint16_t>(p.ten_bit ? gate::kMsgTen : 0),
-                        static_cast<uint16_t>(pointer.size()), pointer.data()});
-      }
-      msgs.push_back({rm.addr, rm.flags, rm.len, out.data()});
-      reply.err = bus.transfer(msgs);
-      out.resize(msgs.back().len);
-      if (reply.err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, clock_.now_us());
-      reply.reads.push_back(std::move(out));
+    } else {
+      reply.err = perform_read(task, t, p, nullptr, reply);
     }
     if (reply.err != 0) {
       audit_.event("bus-error",
@@ -512,6 +511,32 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
     }
   }
   return reply;
+}
+
+// One read of `t`, after its register pointer (our copy) when it has one,
+// or after `write` (the emit it answers); its bytes appended to reply.reads.
+int Monitor::perform_read(uint16_t task, const gate::Transfer& t, const gate::PlannedTx& p,
+                          const bus::Msg* write, gate::TransferReply& reply) {
+  bus::Bus& bus = *buses_.at(t.bus);
+  const gate::Message& rm = t.messages[p.first_message + p.message_count - 1];
+  std::vector<uint8_t> out(rm.len, 0);
+  std::vector<uint8_t> pointer = p.bytes;
+  uint8_t written[core::kMaxEmitBytes];  // the bus gets a copy it may not write back into
+  bus::Msg msgs[2];
+  size_t n = 0;
+  if (write != nullptr) {
+    std::copy_n(write->buf, write->len, written);
+    msgs[n++] = {write->addr, write->flags, write->len, written};
+  } else if (!pointer.empty()) {
+    msgs[n++] = {p.addr, static_cast<uint16_t>(p.ten_bit ? gate::kMsgTen : 0),
+                 static_cast<uint16_t>(pointer.size()), pointer.data()};
+  }
+  msgs[n++] = {rm.addr, rm.flags, rm.len, out.data()};
+  const int err = bus.transfer({msgs, n});
+  out.resize(msgs[n - 1].len);
+  if (err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, clock_.now_us());
+  reply.reads.push_back(std::move(out));
+  return err;
 }
 
 void Monitor::job_boundary(uint16_t task) {

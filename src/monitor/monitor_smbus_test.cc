@@ -183,6 +183,29 @@ TEST_F(MonitorSmbus, InexpressibleTransferIsRefusedBeforeTheCoreDecides) {
   EXPECT_NE(text.find("SMBus block read"), std::string::npos) << text;
 }
 
+TEST_F(MonitorSmbus, AProcessCallGoesOutAsOneTransfer) {
+  // The write and the read answering it were one combined transfer of the
+  // program: they go out as one (an SMBus process call here, a repeated
+  // start on plain I2C), never as a write, a stop and a lone read (which
+  // this adapter could not even express).
+  for (const uint64_t funcs : {bus::kI2cStubFuncs | bus::kFuncSmbusProcCall, bus::kFuncI2c}) {
+    bus.set_funcs(funcs);
+    const uint64_t ops = bus.operations();
+    const auto r = send({wmsg(0x40, {0x10, 0x34, 0x12}), rmsg(0x40, 2)});
+    ASSERT_EQ(r.err, 0) << funcs;
+    EXPECT_EQ(bus.operations(), ops + 1) << funcs;
+    EXPECT_EQ(dev->regs[0x10], 0x34);
+    ASSERT_EQ(r.reads.size(), 1u);
+    EXPECT_EQ(r.reads[0], (std::vector<uint8_t>{dev->regs[0x12], dev->regs[0x13]}));
+  }
+  // Without the process call on an SMBus-only adapter it has no form:
+  // refused whole before the core decides.
+  bus.set_funcs(bus::kI2cStubFuncs);
+  const int checks = decider.checks;
+  EXPECT_EQ(send({wmsg(0x40, {0x10, 0x34, 0x12}), rmsg(0x40, 2)}).err, EOPNOTSUPP);
+  EXPECT_EQ(decider.checks, checks);
+}
+
 TEST_F(MonitorSmbus, QuickWithoutTheQuickBitIsRefusedBeforeTheCoreDecides) {
   gate::Transfer t;
   t.bus = 1;

@@ -34,8 +34,14 @@
  * ms): a client that gives a descriptor its own I2C_RETRIES/I2C_TIMEOUT must
  * show them in `seen` for that descriptor's transfers and leave `now` alone.
  *
+ * What went on the wire, one transfer (master_xfer call) after another, is
+ * read from the parameter `wire` and cleared by writing it: each transfer
+ * as its address and messages, "40:w3+r2" for a write of three bytes and a
+ * read of two with a repeated start between them (rL: a RECV_LEN read), so
+ * a test sees whether a client kept a program's combined transfer whole.
+ *
  * The I2C core serialises master_xfer calls on the adapter (its bus lock),
- * so the register files need no lock of their own.
+ * so the register files and the wire log need no lock of their own.
  *
  * Usage: insmod i2c-plain-stub.ko chip_addr=0x40,0x48
  */
@@ -73,6 +79,51 @@ static const struct kernel_param_ops timing_ops = { .get = timing_get };
 module_param_cb(timing, &timing_ops, NULL, 0444);
 MODULE_PARM_DESC(timing, "the adapter's retries and timeout (ms): as the last transfer saw them, and now");
 
+/* The wire log (`wire`): the transfers since it was last cleared, as much
+ * as one page of the parameter holds; "..." once it is full.
+ */
+static char wire_log[PAGE_SIZE - 8];
+static size_t wire_len;
+
+static int wire_get(char *buf, const struct kernel_param *kp)
+{
+	return sysfs_emit(buf, "%s\n", wire_log);
+}
+
+static int wire_set(const char *val, const struct kernel_param *kp)
+{
+	wire_len = 0;
+	wire_log[0] = '\0';
+	return 0;
+}
+
+static const struct kernel_param_ops wire_ops = { .get = wire_get, .set = wire_set };
+module_param_cb(wire, &wire_ops, NULL, 0644);
+MODULE_PARM_DESC(wire, "the transfers since the last write to it, e.g. 40:w3+r2 (write: clear)");
+
+static void wire_note(const struct i2c_msg *msgs, int num)
+{
+	char one[16 * 8 + 16];
+	size_t n;
+	int i;
+
+	n = scnprintf(one, sizeof(one), "%s%02x:", wire_len ? " " : "", msgs[0].addr);
+	for (i = 0; i < num && i < 16; i++) {
+		if (msgs[i].flags & I2C_M_RECV_LEN)
+			n += scnprintf(one + n, sizeof(one) - n, "%srL", i ? "+" : "");
+		else
+			n += scnprintf(one + n, sizeof(one) - n, "%s%c%u", i ? "+" : "",
+				       (msgs[i].flags & I2C_M_RD) ? 'r' : 'w', msgs[i].len);
+	}
+	if (wire_len + n + 4 >= sizeof(wire_log)) {
+		if (wire_len + 4 < sizeof(wire_log))
+			wire_len += scnprintf(wire_log + wire_len, sizeof(wire_log) - wire_len, " ...");
+		return;
+	}
+	memcpy(wire_log + wire_len, one, n + 1);
+	wire_len += n;
+}
+
 static struct plain_chip *plain_find(const struct i2c_msg *m)
 {
 	int i;
@@ -91,6 +142,8 @@ static int plain_xfer(struct i2c_adapter *adap, struct i2c_msg *msgs, int num)
 
 	seen_retries = adap->retries;
 	seen_timeout_ms = jiffies_to_msecs(adap->timeout);
+	if (num > 0)
+		wire_note(msgs, num);
 	/* An address nobody answers fails the whole transfer before anything acts. */
 	for (i = 0; i < num; i++)
 		if (!plain_find(&msgs[i]))

@@ -17,6 +17,8 @@ A=0x40
 # The plain adapter's retries and timeout (ms): as its last transfer saw
 # them, and now ("seen R T now R T").
 TIMING=/sys/module/i2c_plain_stub/parameters/timing
+# What went on the plain adapter's wire, transfer by transfer (write: clear).
+WIRE=/sys/module/i2c_plain_stub/parameters/wire
 
 # A register file at 0x40 whose 48 first registers the task may write
 # (auto-increment) and read (a query register makes the chip readable);
@@ -54,9 +56,11 @@ one() {
   key=$1-$2
   fresh $1 || { bad "$1: the chip could not be reloaded"; return 1; }
   if [ $2 = monitor ]; then
+    [ $1 = plain ] && echo >$WIRE
     run_logged $key contego run --policy $POLICY --bus 1=/dev/i2c-$NR --user 1000 --task wire \
       --budget-factor 0 --audit $LOGDIR/$key.jsonl -- python3 $CLIENTS/wire_corpus.py 1
     grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+    [ $1 = plain ] && tr ' ' '\n' <$WIRE >$LOGDIR/$key.wire
   else
     rmmod i2c_dev
     run_logged $key-insmod insmod $KO adapters=$NR buses=1
@@ -64,9 +68,10 @@ one() {
     AUDIT_LOG=$LOGDIR/$key.jsonl
     start_reader $POLICY || return 1
     run_logged $key-load contego kmod load --policy $POLICY --bind wire=task --budget-factor 0
-    [ $1 = plain ] && timing_before=$(cat $TIMING)
+    [ $1 = plain ] && timing_before=$(cat $TIMING) && echo >$WIRE
     run_logged $key as_task python3 $CLIENTS/wire_corpus.py $NR
     grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+    [ $1 = plain ] && tr ' ' '\n' <$WIRE >$LOGDIR/$key.wire
     [ $1 = plain ] && timing_after=$(cat $TIMING)
     wait_sessions_closed
     stop_reader
@@ -99,6 +104,28 @@ for adapter in smbus plain; do
     ok "$adapter: the chip's registers are the same after both runs"
   else
     bad "$adapter: the chip differs:"; diff $m.chip $k.chip
+  fi
+  # What went on the plain adapter's wire during the program, transfer by
+  # transfer: the same under both clients. The monitor's run begins with
+  # contego run's own start (its probe of the device and the register
+  # read-back of the regmap's shadow), before the program's first call.
+  if [ $adapter = plain ]; then
+    n=$(grep -c . $k.wire)
+    start=$(($(grep -c . $m.wire) - n))
+    if [ "$n" -gt 40 ] && [ "$start" -ge 0 ] && tail -n "$n" $m.wire | cmp -s - $k.wire &&
+        ! head -n "$start" $m.wire | grep -qvE '^40:(w0|w1\+r1)$'; then
+      ok "plain: the same $n transfers went on the wire in the same order under both clients" \
+        "(before them, the monitor's start: $start probes and register reads)"
+    else
+      bad "plain: the wire differs (monitor's start: $start transfers):"
+      tail -n "$n" $m.wire | diff - $k.wire
+    fi
+    # A write and the read answering it, sent by the program as one combined
+    # transfer, went out as one (a repeated start), not a write, a stop and
+    # a lone read.
+    grep -qx '40:w2+r1' $k.wire && grep -qx '40:w2+r1' $m.wire &&
+      ok "plain: [w2][r1] kept whole, a repeated start, under both clients" ||
+      bad "plain: [w2][r1] did not go out as one transfer ($(grep -c '+r' $k.wire) combined under contego.ko)"
   fi
   show $k.steps
 done
