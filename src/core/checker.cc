@@ -121,7 +121,7 @@ LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
 
 bool CheckerState::record_violation(uint16_t dev, uint64_t now_us) {
   const DeviceRecord& d = devices_[dev];
-  if (d.latch_mode == static_cast<uint8_t>(LatchMode::kOff)) return false;
+  if (d.latch_mode == LatchMode::kOff) return false;
   DeviceState& s = state_[dev];
   s.violations[s.violation_next] = now_us;
   s.violation_next = static_cast<uint8_t>((s.violation_next + 1) % kMaxLatchCount);
@@ -290,8 +290,7 @@ uint32_t CheckerState::find_targets(const Transaction& tx, uint16_t* targets) co
   if (tx.addr == 0 && tx.ten_bit == 0) {
     for (uint32_t i = 0; i < alias_count_; ++i) {
       const AliasRecord& a = aliases_[i];
-      if (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.bus == tx.bus &&
-          count < kMaxDevices) {
+      if (a.kind == AliasKind::kGeneralCall && a.bus == tx.bus && count < kMaxDevices) {
         targets[count++] = a.device;
       }
     }
@@ -307,8 +306,7 @@ uint32_t CheckerState::find_targets(const Transaction& tx, uint16_t* targets) co
   if (tx.ten_bit != 0) return 0;
   for (uint32_t i = 0; i < alias_count_; ++i) {
     const AliasRecord& a = aliases_[i];
-    if (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.bus == tx.bus &&
-        a.addr == tx.addr) {
+    if (a.kind == AliasKind::kAddress && a.bus == tx.bus && a.addr == tx.addr) {
       targets[0] = a.device;
       return 1;
     }
@@ -412,7 +410,7 @@ void CheckerState::check_device(const Transaction& tx, uint16_t dev) {
       decide(*o, Decision::kReject, Reason::kMalformed, RuleKind::kNoRule, kNone, kEinval);
     return;
   }
-  if (devices_[dev].profile == static_cast<uint8_t>(Profile::kFrame)) {
+  if (devices_[dev].profile == Profile::kFrame) {
     check_frame(tx, dev);
   } else {
     check_register_map(tx, dev);
@@ -421,13 +419,13 @@ void CheckerState::check_device(const Transaction& tx, uint16_t dev) {
 
 // Applies a rule's static response to `o`: ignore, reject, or fail-safe with
 // the rule's template (ignore when it has none).
-void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id,
+void CheckerState::respond(Outcome& o, Response response, uint8_t err, uint16_t template_id,
                            Reason reason, RuleKind kind, uint16_t rule) {
-  if (response == static_cast<uint8_t>(Response::kReject)) {
+  if (response == Response::kReject) {
     decide(o, Decision::kReject, reason, kind, rule, err);
     return;
   }
-  if (response == static_cast<uint8_t>(Response::kFailsafe) && template_id != kNone) {
+  if (response == Response::kFailsafe && template_id != kNone) {
     decide(o, Decision::kFailsafe, reason, kind, rule, 0);
     if (!emit_substitute(template_subst(templates_[template_id]), o)) {
       decide(o, Decision::kIgnore, Reason::kEncodeFailed, kind, rule, 0);
@@ -447,7 +445,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   o.field_count = d.field_count;
   copy_fields(o.fields, d.fields);
   const CommandRecord& cmd = commands_[d.command];
-  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kQuery)) {
+  if (cmd.command_class == CommandClass::kQuery) {
     if ((access_[tx.task].read_devices >> dev) & 1u) {
       decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
     } else {
@@ -455,7 +453,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
     }
     return;
   }
-  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+  if (cmd.command_class == CommandClass::kForbidden) {
     decide(o, Decision::kReject, Reason::kForbiddenCommand, RuleKind::kNoRule, kNone, kEperm);
   } else if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0) {
     decide(o, Decision::kReject, Reason::kAccessDenied, RuleKind::kAccess, tx.task, kEperm);
@@ -516,8 +514,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
             // A fault is a violation: fail closed with the invariant's template.
             const Reason why =
                 exit == Exit::kUnavailable ? Reason::kSignalUnavailable : Reason::kProgramFault;
-            respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
-                    RuleKind::kInvariant, rule);
+            respond(o, Response::kFailsafe, 0, inv.template_id, why, RuleKind::kInvariant, rule);
           }
           stop = true;  // the first invariant that does not pass decides
           break;
@@ -531,9 +528,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   // device latching on unrepaired violations only also lets pass what left
   // it on the policy's line: an expected substitute, a refused command of a
   // task that may not drive it, a forbidden command.
-  const bool counts =
-      devices_[dev].latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
-      unrepaired;
+  const bool counts = devices_[dev].latch_mode != LatchMode::kHoldSafeUnrepaired || unrepaired;
   if (o.decision != Decision::kAllow && o.reason != Reason::kRateExceeded && counts &&
       record_violation(dev, tx.now_us)) {
     // The K-th violation in the window: drive the safe state once, hold it.

@@ -52,8 +52,7 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
 void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   const uint8_t k = state_[dev].lookup[tx.bytes[0]];
-  if (k == 0xFF ||
-      commands_[dr.command_first + k].command_class != static_cast<uint8_t>(CommandClass::kQuery)) {
+  if (k == 0xFF || commands_[dr.command_first + k].command_class != CommandClass::kQuery) {
     return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
   }
   Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, 1);
@@ -260,9 +259,9 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     }
     return;
   }
-  const bool ai = dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kAlways) ||
-                  (dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kBit) &&
-                   ((st.shadow[dr.ai_reg] >> dr.ai_bit) & 1u));
+  const bool ai =
+      dr.auto_increment == AutoIncrement::kAlways ||
+      (dr.auto_increment == AutoIncrement::kBit && ((st.shadow[dr.ai_reg] >> dr.ai_bit) & 1u));
   const uint32_t first = tx.bytes[0];
   const uint32_t n = tx.len - 1;
   if (ai && first + n > kMaxRegisters) {
@@ -277,7 +276,7 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
     const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
     const CommandRecord& c = commands_[cid];
-    if (c.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+    if (c.command_class == CommandClass::kForbidden) {
       // Decoded far enough to know it is forbidden: evaluate() records the violation.
       decode_start(dev, cid, 0, 0);
       Outcome* o = new_outcome(dev);
@@ -322,7 +321,7 @@ bool CheckerState::build_substitute(const Subst& subst, const Decoded* request, 
   const CommandRecord& c = commands_[cid];
   const DeviceRecord& dr = devices_[dev];
   uint8_t idx = 0;
-  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
+  if (dr.profile == Profile::kFrame) {
     *len = dr.frame_len;
     if (request != nullptr && request->command == cid) {
       __builtin_memcpy(bytes, request->bytes, dr.frame_len);
@@ -358,7 +357,7 @@ bool CheckerState::build_substitute(const Subst& subst, const Decoded* request, 
 bool CheckerState::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes,
                                 uint32_t len, uint16_t command, uint8_t index) {
   const DeviceRecord& dr = devices_[dev];
-  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
+  if (dr.profile == Profile::kFrame) {
     uint8_t framed[kMaxWriteBytes + 1];
     uint32_t n = 0;
     if (request != nullptr && request->prefix != 0) framed[n++] = request->prefix_byte;
@@ -403,8 +402,7 @@ bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
 // The shadow of a register-map device, seeded by the host (read back from
 // the device after a load, before anything is checked).
 bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+  if (!loaded_ || device >= device_count_ || devices_[device].profile != Profile::kRegisterMap) {
     return false;
   }
   state_[device].shadow[reg] = value;
@@ -414,8 +412,7 @@ bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
 // Every register a command group of `device` covers (match + i*stride + j),
 // ascending and once each: the registers whose shadow a check can read.
 uint32_t CheckerState::command_registers(uint16_t device, uint8_t* regs) const {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+  if (!loaded_ || device >= device_count_ || devices_[device].profile != Profile::kRegisterMap) {
     return 0;
   }
   uint64_t covered[kMaxRegisters / 64] = {};

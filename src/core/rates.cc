@@ -63,8 +63,7 @@ uint16_t CheckerState::refusing_rate(const Transaction& tx, const Decoded& d) co
   for (uint64_t bits = rates_of_[tx.task][d.device]; bits != 0; bits &= bits - 1) {
     const uint32_t r = static_cast<uint32_t>(__builtin_ctzll(bits));
     const RateRecord& rr = rates_[r];
-    if (selects(rr, tx, d) && rr.response == static_cast<uint8_t>(Response::kReject) &&
-        rate_used_[r] >= rr.max_per_job) {
+    if (selects(rr, tx, d) && rr.response == Response::kReject && rate_used_[r] >= rr.max_per_job) {
       return static_cast<uint16_t>(r);
     }
   }

@@ -270,7 +270,7 @@ class CheckerState {
   bool rate_decides(const Transaction& tx, const Decoded& d) const;
   // A rate rule that refuses (reject) `d` now, or kNone.
   uint16_t refusing_rate(const Transaction& tx, const Decoded& d) const;
-  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
+  void respond(Outcome& o, Response response, uint8_t err, uint16_t template_id, Reason reason,
                RuleKind kind, uint16_t rule);
   void finish(const Transaction& tx, Verdict* out);
   void settle_model(const Transaction& tx, Decision decision);

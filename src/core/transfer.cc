@@ -25,7 +25,7 @@ bool CheckerState::journal_device(uint16_t dev) {
   if (!journal_.active || ((journal_.saved_devices >> dev) & 1u) != 0) return true;
   // Only a register map has a model to put back; copying a frame device's
   // unused 800 bytes on every check of the rover cost cache lines for nothing.
-  if (devices_[dev].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+  if (devices_[dev].profile != Profile::kRegisterMap) {
     journal_.saved_devices |= 1u << dev;
     return true;
   }
@@ -66,7 +66,7 @@ void CheckerState::journal_state(uint32_t invariant, uint16_t task) {
 }
 
 int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
-  if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kDevice) || task >= kMaxTasks) {
+  if (invariants_[i].scope == StateScope::kDevice || task >= kMaxTasks) {
     return state_words_[i];
   }
   return task_state_words_[task][i];
@@ -112,8 +112,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       l.time_us = tx.now_us;
       copy_fields(l.fields, o.bus_fields);
       const CommandRecord& c = commands_[o.bus_command];
-      if (c.group_len == 0 &&
-          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
+      if (c.group_len == 0 && devices_[o.device].profile == Profile::kRegisterMap) {
         // A general-call command (software reset) reached the device: its
         // registers are back at their power-on values, nothing is staged.
         DeviceState& s = state_[o.device];
@@ -127,7 +126,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
 uint32_t CheckerState::end_session(uint16_t task) {
   if (!loaded_ || task >= task_count_) return 0;
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kSession)) {
+    if (invariants_[i].scope == StateScope::kSession) {
       task_state_words_[task][i] = 0;
     }
   }
@@ -168,8 +167,7 @@ void CheckerState::abort_transfer(Decision decision) {
 }
 
 bool CheckerState::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+  if (!loaded_ || device >= device_count_ || devices_[device].profile != Profile::kRegisterMap) {
     return false;
   }
   *value = state_[device].shadow[reg];

@@ -46,11 +46,7 @@ LoadStatus check_field(const FieldRecord& f, uint32_t limit) {
   return LoadStatus::kOk;
 }
 
-bool response_ok(uint8_t r) {
-  return r == static_cast<uint8_t>(Response::kIgnore) ||
-         r == static_cast<uint8_t>(Response::kFailsafe) ||
-         r == static_cast<uint8_t>(Response::kReject);
-}
+bool response_ok(Response r) { return r >= Response::kIgnore && r <= Response::kReject; }
 
 }  // namespace
 
@@ -224,22 +220,19 @@ LoadResult CheckerState::verify_devices(const LoadInput&) {
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
     if (d.role == 0 || (d.role & ~(kRoleActuator | kRoleSensor)) != 0 ||
-        (d.profile != static_cast<uint8_t>(Profile::kFrame) &&
-         d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) ||
-        d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
-        d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
+        (d.profile != Profile::kFrame && d.profile != Profile::kRegisterMap) || d.ten_bit > 1 ||
+        d.auto_increment > AutoIncrement::kBit || d.latch_mode > LatchMode::kHoldSafeUnrepaired ||
         d.short_queries > 1 || d.gate_bit > 7 ||
-        (d.gated != 0 &&
-         (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) || d.gated > d.command_count)) ||
-        (d.short_queries != 0 && d.profile != static_cast<uint8_t>(Profile::kFrame))) {
+        (d.gated != 0 && (d.profile != Profile::kRegisterMap || d.gated > d.command_count)) ||
+        (d.short_queries != 0 && d.profile != Profile::kFrame)) {
       return fail(S::kBadTag, kDevSec, i);
     }
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
         d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes ||
-        (d.profile == static_cast<uint8_t>(Profile::kFrame) &&
+        (d.profile == Profile::kFrame &&
          (d.frame_len < 1 || d.prefix_len > 1 ||
           static_cast<uint32_t>(d.frame_len) + d.prefix_len > kMaxWriteBytes)) ||
-        (d.latch_mode != static_cast<uint8_t>(LatchMode::kOff) &&
+        (d.latch_mode != LatchMode::kOff &&
          (d.latch_count < 1 || d.latch_count > kMaxLatchCount))) {
       return fail(S::kBadField, kDevSec, i);
     }
@@ -276,12 +269,12 @@ LoadResult CheckerState::verify_aliases(const LoadInput&) {
   // --- aliases --------------------------------------------------------------------
   for (uint32_t i = 0; i < alias_count_; ++i) {
     const AliasRecord& a = aliases_[i];
-    if (a.kind > static_cast<uint8_t>(AliasKind::kGeneralCall) || a.pad != 0) {
+    if (a.kind > AliasKind::kGeneralCall || a.pad != 0) {
       return fail(S::kBadTag, sec(SectionKind::kAliases), i);
     }
     if (a.device >= device_count_) return fail(S::kBadReference, sec(SectionKind::kAliases), i);
-    if (a.addr > 0x7F || (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.addr != 0) ||
-        (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.addr == 0)) {
+    if (a.addr > 0x7F || (a.kind == AliasKind::kGeneralCall && a.addr != 0) ||
+        (a.kind == AliasKind::kAddress && a.addr == 0)) {
       return fail(S::kBadField, sec(SectionKind::kAliases), i);
     }
   }
@@ -299,8 +292,7 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
     if (i < d.command_first || i >= static_cast<uint32_t>(d.command_first) + d.command_count) {
       return fail(S::kBadReference, kCmdSec, i);  // not inside its device's range
     }
-    if (c.command_class < static_cast<uint8_t>(CommandClass::kActuate) ||
-        c.command_class > static_cast<uint8_t>(CommandClass::kForbidden)) {
+    if (c.command_class < CommandClass::kActuate || c.command_class > CommandClass::kForbidden) {
       return fail(S::kBadTag, kCmdSec, i);
     }
     if (c.field_count > kMaxFieldsPerCommand) return fail(S::kTooMany, kCmdSec, i);
@@ -308,7 +300,7 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
       return fail(S::kBadReference, kCmdSec, i);
     }
     uint32_t limit = 0;
-    if (d.profile == static_cast<uint8_t>(Profile::kFrame)) {
+    if (d.profile == Profile::kFrame) {
       if (c.group_len != 0 || c.repeat != 0 || c.stride != 0) return fail(S::kBadField, kCmdSec, i);
       limit = d.frame_len;
     } else if (c.group_len == 0) {
@@ -318,8 +310,8 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
       }
       bool listens = false;
       for (uint32_t a = 0; a < alias_count_; ++a) {
-        listens = listens || (aliases_[a].device == c.device &&
-                              aliases_[a].kind == static_cast<uint8_t>(AliasKind::kGeneralCall));
+        listens = listens ||
+                  (aliases_[a].device == c.device && aliases_[a].kind == AliasKind::kGeneralCall);
       }
       if (!listens) return fail(S::kBadReference, kCmdSec, i);
       for (uint32_t k = d.command_first; k < i; ++k) {
@@ -354,7 +346,7 @@ LoadResult CheckerState::verify_decoding(const LoadInput&) {
     for (uint32_t k = 0; k < d.command_count; ++k) {
       const uint32_t ci = d.command_first + k;
       const CommandRecord& c = commands_[ci];
-      if (d.profile == static_cast<uint8_t>(Profile::kFrame)) {
+      if (d.profile == Profile::kFrame) {
         if (lookup[c.match] != 0xFF) return fail(S::kBadField, kCmdSec, ci);
         lookup[c.match] = static_cast<uint8_t>(k);
       } else {
@@ -374,9 +366,8 @@ LoadResult CheckerState::verify_decoding(const LoadInput&) {
   for (uint32_t dv = 0; dv < device_count_; ++dv) {
     const DeviceRecord& d = devices_[dv];
     if (d.broadcast == 0 && d.broadcast_target == 0) continue;
-    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) ||
-        d.broadcast >= d.command_count || d.broadcast_target >= d.command_count ||
-        d.broadcast == d.broadcast_target) {
+    if (d.profile != Profile::kRegisterMap || d.broadcast >= d.command_count ||
+        d.broadcast_target >= d.command_count || d.broadcast == d.broadcast_target) {
       return fail(S::kBadReference, kDevSec, dv);
     }
     const CommandRecord& from = commands_[d.command_first + d.broadcast];
@@ -405,13 +396,12 @@ LoadResult CheckerState::verify_templates(const LoadInput&) {
       const CommandRecord& c = commands_[t.command < command_count_ ? t.command : 0];
       // A command of the image, addressable (not a general call), with the fields it sets.
       if (t.command >= command_count_ ||
-          (devices_[c.device].profile == static_cast<uint8_t>(Profile::kRegisterMap) &&
-           c.group_len == 0) ||
+          (devices_[c.device].profile == Profile::kRegisterMap && c.group_len == 0) ||
           (t.set_mask >> c.field_count) != 0) {
         return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
       }
       // A channel must exist; frame commands have none.
-      const bool frame = devices_[c.device].profile == static_cast<uint8_t>(Profile::kFrame);
+      const bool frame = devices_[c.device].profile == Profile::kFrame;
       if (t.index != kSameIndex && (frame || t.index >= c.repeat)) {
         return fail(S::kBadField, sec(SectionKind::kTemplates), i);
       }
@@ -423,7 +413,7 @@ LoadResult CheckerState::verify_templates(const LoadInput&) {
   // each of its templates names its channel.
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
-    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) continue;
+    if (d.profile != Profile::kRegisterMap) continue;
     for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
       if (templates_[t].index == kSameIndex) return fail(S::kBadField, kDevSec, i);
     }
@@ -437,7 +427,7 @@ LoadResult CheckerState::verify_signals(const LoadInput&) {
   for (uint32_t i = 0; i < signal_count_; ++i) {
     const SignalRecord& s = signals_[i];
     if (s.pad0 != 0) return fail(S::kBadTag, kSigSec, i);
-    if (s.kind == static_cast<uint8_t>(SignalKind::kRaw)) {
+    if (s.kind == SignalKind::kRaw) {
       if (s.device >= device_count_ || (devices_[s.device].role & kRoleSensor) == 0) {
         return fail(S::kBadReference, kSigSec, i);
       }
@@ -448,7 +438,7 @@ LoadResult CheckerState::verify_signals(const LoadInput&) {
       if (check_field(f, devices_[s.device].sample_len) != S::kOk || s.valid_min > s.valid_max) {
         return fail(S::kBadField, kSigSec, i);
       }
-    } else if (s.kind == static_cast<uint8_t>(SignalKind::kDerived)) {
+    } else if (s.kind == SignalKind::kDerived) {
       if (static_cast<uint32_t>(s.code_first) + s.code_len > code_count_) {
         return fail(S::kBadReference, kSigSec, i);
       }
@@ -495,8 +485,8 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
   // --- invariants -----------------------------------------------------------------------
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
-    if (!response_ok(v.response) || v.scope > static_cast<uint8_t>(StateScope::kSession) ||
-        (v.after_safe != 0 && v.scope != static_cast<uint8_t>(StateScope::kDevice))) {
+    if (!response_ok(v.response) || v.scope > StateScope::kSession ||
+        (v.after_safe != 0 && v.scope != StateScope::kDevice)) {
       return fail(S::kBadTag, kInvSec, i);
     }
     if (!is_actuator(v.device) || !mask_ok(v.commands, v.device) ||
@@ -523,8 +513,7 @@ LoadResult CheckerState::verify_access(const LoadInput& in) {
   for (uint32_t i = 0; i < in.init.count; ++i) {
     RegisterInitRecord r;
     __builtin_memcpy(&r, in.image + in.init.offset + 4u * i, sizeof(r));
-    if (r.device >= device_count_ ||
-        devices_[r.device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+    if (r.device >= device_count_ || devices_[r.device].profile != Profile::kRegisterMap) {
       return fail(S::kBadReference, sec(SectionKind::kRegisterInit), i);
     }
     state_[r.device].shadow[r.reg] = r.value;
@@ -542,7 +531,7 @@ LoadResult CheckerState::verify_programs(const LoadInput&) {
   LoadResult result{S::kOk, 0, 0};
   for (uint32_t i = 0; i < signal_count_; ++i) {
     const SignalRecord& s = signals_[i];
-    if (s.kind != static_cast<uint8_t>(SignalKind::kDerived)) continue;
+    if (s.kind != SignalKind::kDerived) continue;
     if (!verify_program(s.code_first, s.code_len, true, static_cast<uint16_t>(i), kNone, &result)) {
       return result;
     }
@@ -617,7 +606,7 @@ constexpr OpTable kOps = make_op_table();
 
 // The operand b of one instruction names something that exists.
 bool CheckerState::operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const {
-  switch (static_cast<Op>(in.op)) {
+  switch (in.op) {
     case Op::kPushConst:
       return in.b < constant_count_;
     case Op::kSignal:
@@ -651,14 +640,14 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
   uint64_t deps = 0;
   for (uint32_t pc = 0; pc < code_len; ++pc) {
     const Insn& in = code_[code_first + pc];
-    const OpInfo op = in.op <= static_cast<uint8_t>(Op::kReturn) ? kOps.at[in.op] : OpInfo{};
+    const OpInfo op = in.op <= Op::kReturn ? kOps.at[static_cast<uint8_t>(in.op)] : OpInfo{};
     const uint32_t wrong_kind = derived ? kInvariantOnly : kDerivedOnly;
     if (in.a != 0 || (op.flags & kValid) == 0 || (op.flags & wrong_kind) != 0 ||
         ((op.flags & kUsesB) == 0 && in.b != 0) || ((op.flags & kUsesImm) == 0 && in.imm != 0) ||
         !operand_ok(in, derived, self, device)) {
       return fail_at(S::kBadProgram, pc);
     }
-    if (derived && in.op == static_cast<uint8_t>(Op::kSignal)) {
+    if (derived && in.op == Op::kSignal) {
       deps |= signal_deps_[in.b];
       if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
     }
@@ -674,7 +663,7 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
     if (depth < op.pops) return fail_at(S::kStackUnderflow, pc);
     const int32_t after = depth - op.pops + op.pushes;
     if (after > static_cast<int32_t>(kMaxStackDepth)) return fail_at(S::kStackOverflow, pc);
-    if (in.op == static_cast<uint8_t>(Op::kReturn) && depth != 1) {
+    if (in.op == Op::kReturn && depth != 1) {
       return fail_at(S::kStackMismatch, pc);
     }
     auto flow_to = [&](uint32_t to) {
@@ -698,14 +687,14 @@ void CheckerState::compute_costs() {
   // (all of lower id, so already known) and theirs.
   for (uint32_t s = 0; s < signal_count_; ++s) {
     const SignalRecord& rec = signals_[s];
-    if (rec.kind == static_cast<uint8_t>(SignalKind::kRaw)) {
+    if (rec.kind == SignalKind::kRaw) {
       signal_devices_[s] = uint32_t{1} << rec.device;
       continue;
     }
     uint32_t devs = 0;
     for (uint32_t pc = 0; pc < rec.code_len; ++pc) {
       const Insn& in = code_[rec.code_first + pc];
-      if (in.op == static_cast<uint8_t>(Op::kSignal)) devs |= signal_devices_[in.b];
+      if (in.op == Op::kSignal) devs |= signal_devices_[in.b];
     }
     signal_devices_[s] = devs;
   }
@@ -716,7 +705,7 @@ void CheckerState::compute_costs() {
     uint64_t deps = 0;
     for (uint32_t pc = 0; pc < v.code_len; ++pc) {
       const Insn& in = code_[v.code_first + pc];
-      if (in.op == static_cast<uint8_t>(Op::kSignal)) {
+      if (in.op == Op::kSignal) {
         deps |= signal_deps_[in.b];
         if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
       }
