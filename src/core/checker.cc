@@ -554,7 +554,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
 bool CheckerState::emit_safe_state(uint16_t dev) {
   const DeviceRecord& d = devices_[dev];
   if (d.safe_count == 0) return false;
-  for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
+  for (uint32_t t = d.safe_first; t < d.safe_first + d.safe_count; ++t) {
     const Subst s = template_subst(templates_[t]);
     uint8_t bytes[kMaxRegisters];
     uint32_t len = 0;

@@ -28,7 +28,7 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   uint32_t prefix = 0;
   if (tx.len == dr.frame_len) {
     prefix = 0;
-  } else if (dr.prefix_len != 0 && tx.len == static_cast<uint32_t>(dr.frame_len) + dr.prefix_len) {
+  } else if (dr.prefix_len != 0 && tx.len == dr.frame_len + dr.prefix_len) {
     prefix = dr.prefix_len;
   } else {
     return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);

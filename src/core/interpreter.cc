@@ -110,7 +110,7 @@ static_assert(kMaxDevices <= 32, "signal_devices_ holds one bit per device");
 SignalStatus CheckerState::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
   const SignalRecord& s = signals_[id];
   const SampleMemo& m = sample(s.device, now_us);
-  if (m.len == 0 || static_cast<uint32_t>(s.field.offset) + s.field.nbytes > m.len) {
+  if (m.len == 0 || s.field.offset + s.field.nbytes > m.len) {
     return SignalStatus::kUnavailable;
   }
   if (!m.fresh) return SignalStatus::kUnavailable;

@@ -218,6 +218,12 @@ struct Env {
   Subst* subst;
 };
 
+// What a program's SIGNAL operands can reach (verifier.cc, reach()).
+struct Reach {
+  uint64_t signals;  // derived signals, transitively
+  uint32_t sensors;  // devices whose samples they read
+};
+
 // What the verifier's steps read from the image itself (not copied).
 struct LoadInput {
   const uint8_t* image;
@@ -249,6 +255,7 @@ class CheckerState {
   bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
   bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
                       uint16_t device, LoadResult* result);
+  Reach reach(uint32_t code_first, uint32_t code_len) const;
   void compute_costs();
   // interpreter.cc: after compute_costs, the superinstructions (Fused).
   void fuse_programs();
