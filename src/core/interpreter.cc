@@ -110,11 +110,9 @@ static_assert(kMaxDevices <= 32, "signal_devices_ holds one bit per device");
 SignalStatus CheckerState::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
   const SignalRecord& s = signals_[id];
   const SampleMemo& m = sample(s.device, now_us);
-  if (m.len == 0 || s.field.offset + s.field.nbytes > m.len) {
-    return SignalStatus::kUnavailable;
-  }
+  if (m.len == 0 || s.field.offset + s.field.nbytes > m.len) return SignalStatus::kUnavailable;
   if (!m.fresh) return SignalStatus::kUnavailable;
-  const int32_t v = internal::field_get(s.field, m.bytes);
+  const int32_t v = field_get(s.field, m.bytes);
   if (v < s.valid_min || v > s.valid_max) return SignalStatus::kUnavailable;
   *value = v;
   return SignalStatus::kOk;
@@ -369,7 +367,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         stack.push(env.d->index);
         break;
       case Op::kState:
-        stack.push(internal::bit_test(tx_.pending_state, env.invariant)
+        stack.push(bit_test(tx_.pending_state, env.invariant)
                        ? pending_state_[env.invariant]
                        : state_word(env.invariant, env.tx->task));
         break;
@@ -384,7 +382,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       }
       case Op::kSetState:
         pending_state_[env.invariant] = stack.pop();
-        internal::bit_set(tx_.pending_state, env.invariant);
+        bit_set(tx_.pending_state, env.invariant);
         tx_.any_pending = true;
         break;
         CONTEGO_BINARY_CASES;

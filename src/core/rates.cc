@@ -45,8 +45,7 @@ void CheckerState::update_window(const Transaction& tx) {
 }
 
 bool CheckerState::selects(const RateRecord& rr, const Transaction& tx, const Decoded& d) const {
-  return rr.task == tx.task && rr.device == d.device &&
-         internal::mask_has(rr.commands, d.command) &&
+  return rr.task == tx.task && rr.device == d.device && mask_has(rr.commands, d.command) &&
          (rr.only_channel == 0 || d.index == rr.only_channel - 1);
 }
 

@@ -39,13 +39,13 @@ bool CheckerState::journal_device(uint16_t dev) {
 }
 
 void CheckerState::drop_staged(uint16_t dev, uint32_t reg) {
-  internal::bit_clear(state_[dev].staged_bits, reg);
+  bit_clear(state_[dev].staged_bits, reg);
   mark_dropped(dev, reg);
 }
 
 void CheckerState::mark_dropped(uint16_t dev, uint32_t reg) {
   for (uint32_t i = 0; journal_.active && i < journal_.device_count; ++i) {
-    if (journal_.devices[i].device == dev) internal::bit_set(journal_.devices[i].dropped_bits, reg);
+    if (journal_.devices[i].device == dev) bit_set(journal_.devices[i].dropped_bits, reg);
   }
 }
 
@@ -59,16 +59,14 @@ void CheckerState::journal_history(LastCommand& slot) {
 
 // A transfer is one task's: the task-scoped words it saves are that task's.
 void CheckerState::journal_state(uint32_t invariant, uint16_t task) {
-  if (!journal_.active || internal::bit_test(journal_.saved_state, invariant)) return;
-  internal::bit_set(journal_.saved_state, invariant);
+  if (!journal_.active || bit_test(journal_.saved_state, invariant)) return;
+  bit_set(journal_.saved_state, invariant);
   journal_.state_task = task;
   journal_.state_words[invariant] = state_word(invariant, task);
 }
 
 int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
-  if (invariants_[i].scope == StateScope::kDevice || task >= kMaxTasks) {
-    return state_words_[i];
-  }
+  if (invariants_[i].scope == StateScope::kDevice || task >= kMaxTasks) return state_words_[i];
   return task_state_words_[task][i];
 }
 
@@ -134,8 +132,8 @@ uint32_t CheckerState::end_session(uint16_t task) {
   for (uint32_t d = 0; d < device_count_; ++d) {
     DeviceState& s = state_[d];
     for (uint32_t reg = 0; reg < kMaxRegisters; ++reg) {
-      if (!internal::bit_test(s.staged_bits, reg) || s.staged_task[reg] != task) continue;
-      internal::bit_clear(s.staged_bits, reg);
+      if (!bit_test(s.staged_bits, reg) || s.staged_task[reg] != task) continue;
+      bit_clear(s.staged_bits, reg);
       ++dropped;
     }
   }
@@ -149,7 +147,7 @@ void CheckerState::abort_transfer(Decision decision) {
     last_[journal_.history[i].slot] = journal_.history[i].last;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (internal::bit_test(journal_.saved_state, i)) {
+    if (bit_test(journal_.saved_state, i)) {
       state_word(i, journal_.state_task) = journal_.state_words[i];
     }
   }
@@ -167,9 +165,7 @@ void CheckerState::abort_transfer(Decision decision) {
 }
 
 bool CheckerState::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
-  if (!loaded_ || device >= device_count_ || devices_[device].profile != Profile::kRegisterMap) {
-    return false;
-  }
+  if (!register_map(device)) return false;
   *value = state_[device].shadow[reg];
   return true;
 }
@@ -184,7 +180,7 @@ uint32_t CheckerState::model_crc() const {
     buf[2] = static_cast<uint8_t>(crc >> 16);
     buf[3] = static_cast<uint8_t>(crc >> 24);
     __builtin_memcpy(buf + 4, p, len);
-    crc = internal::crc32(buf, 4 + len);
+    crc = crc32(buf, 4 + len);
   };
   for (uint32_t d = 0; d < device_count_; ++d) {
     const DeviceState& s = state_[d];
