@@ -68,7 +68,7 @@ std::vector<std::string> seed_shadows(core::Checker& checker, const image::Image
   std::vector<std::string> notes;
   for (uint16_t d = 0; d < checker.device_count(); ++d) {
     const core::DeviceRecord& r = checker.device(d);
-    if (r.profile != static_cast<uint8_t>(core::Profile::kRegisterMap)) continue;
+    if (r.profile != core::Profile::kRegisterMap) continue;
     auto it = adapters.find(r.bus);
     if (it == adapters.end()) continue;
     const std::string name = d < model.devices.size() ? model.devices[d].name : std::to_string(d);

@@ -31,7 +31,6 @@ Outcome* CheckerState::new_outcome(uint16_t dev) {
   return &o;
 }
 
-namespace {
 void decide(Outcome& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t err) {
   o.decision = d;
   o.reason = r;
@@ -39,7 +38,42 @@ void decide(Outcome& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint
   o.rule = rule;
   o.reply_errno = d == Decision::kReject ? err : 0;
 }
-}  // namespace
+
+// A new outcome of `dev` refused with `reason`, no rule (none when the
+// transaction has too many: finish() refuses it all).
+void CheckerState::refuse(uint16_t dev, Reason reason, uint8_t err) {
+  Outcome* o = new_outcome(dev);
+  if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNoRule, kNone, err);
+}
+
+// A read, a query or a register pointer: the task's read bit decides.
+void CheckerState::decide_read(Outcome& o, const Transaction& tx, uint16_t dev) const {
+  if ((access_[tx.task].read_devices >> dev) & 1u) {
+    decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
+  } else {
+    decide(o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
+  }
+}
+
+// Drops the verdict's writes from write `count` (at byte `bytes`) on.
+// Inlined, as begin_tx: the check's own path pays for no call.
+__attribute__((always_inline)) inline void CheckerState::truncate_emits(uint32_t count,
+                                                                        uint32_t bytes) {
+  tx_.out->emit_count = static_cast<uint8_t>(count);
+  tx_.out->emit_bytes_used = static_cast<uint16_t>(bytes);
+}
+
+// A fresh scratch for one check (or safe state) answering into `out`.
+__attribute__((always_inline)) inline void CheckerState::begin_tx(Verdict* out) {
+  tx_.out = out;
+  tx_.outcome_count = 0;
+  tx_.overflow = tx_.emit_failed = tx_.any_pending = false;
+  tx_.undo_count = tx_.shadow_count = 0;
+  tx_.undo_device = tx_.shadow_device = kNone;
+  __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
+  tx_.staged_command = kNone;
+  tx_.staged_index = 0;
+}
 
 bool CheckerState::emit(const uint8_t* bytes, uint32_t len) {
   Verdict& v = *tx_.out;
@@ -60,15 +94,15 @@ void CheckerState::undo_save(uint16_t dev, uint8_t reg) {
     tx_.undo_device = dev;
     __builtin_memset(tx_.saved, 0, sizeof(tx_.saved));
   }
-  if (internal::bit_test(tx_.saved, reg)) return;
+  if (bit_test(tx_.saved, reg)) return;
   if (tx_.undo_count >= kMaxRegisters) {
     tx_.overflow = true;
     return;
   }
-  internal::bit_set(tx_.saved, reg);
+  bit_set(tx_.saved, reg);
   const DeviceState& s = state_[dev];
   tx_.undo[tx_.undo_count++] =
-      Undo{dev, reg, s.staged[reg], s.staged_task[reg], internal::bit_test(s.staged_bits, reg)};
+      Undo{dev, reg, s.staged[reg], s.staged_task[reg], bit_test(s.staged_bits, reg)};
 }
 
 void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uint8_t value) {
@@ -79,8 +113,8 @@ void CheckerState::store_shadow(uint16_t dev, uint16_t command, uint8_t reg, uin
   }
   auto put = [&](uint8_t r) {  // journals a change only (once per register); a rewrite costs none
     if (s.shadow[r] == value) return;
-    if (!internal::bit_test(tx_.shadow_saved, r)) {
-      internal::bit_set(tx_.shadow_saved, r);
+    if (!bit_test(tx_.shadow_saved, r)) {
+      bit_set(tx_.shadow_saved, r);
       tx_.overflow |= tx_.shadow_count >= kMaxRegisters;
       if (tx_.shadow_count < kMaxRegisters)
         tx_.shadow_undo[tx_.shadow_count++] = {dev, r, s.shadow[r]};
@@ -105,7 +139,7 @@ void CheckerState::rollback() {
     DeviceState& s = state_[u.device];
     s.staged[u.reg] = u.staged;
     s.staged_task[u.reg] = u.staged_task;
-    internal::bit_clear(s.staged_bits, u.reg);
+    bit_clear(s.staged_bits, u.reg);
     s.staged_bits[u.reg / 32] |= uint32_t{u.staged_bit} << (u.reg % 32);
   }
   tx_.undo_count = tx_.shadow_count = 0;
@@ -121,7 +155,7 @@ LastCommand& CheckerState::last(uint16_t command, uint8_t index) {
 
 bool CheckerState::record_violation(uint16_t dev, uint64_t now_us) {
   const DeviceRecord& d = devices_[dev];
-  if (d.latch_mode == static_cast<uint8_t>(LatchMode::kOff)) return false;
+  if (d.latch_mode == LatchMode::kOff) return false;
   DeviceState& s = state_[dev];
   s.violations[s.violation_next] = now_us;
   s.violation_next = static_cast<uint8_t>((s.violation_next + 1) % kMaxLatchCount);
@@ -205,16 +239,7 @@ void CheckerState::audit(const Transaction& tx, const Outcome& o) {
 
 void CheckerState::check(const Transaction& tx, Verdict* out) {
   init_verdict(out, &tx);
-  tx_.out = out;
-  tx_.outcome_count = 0;
-  tx_.overflow = false;
-  tx_.emit_failed = false;
-  tx_.undo_count = tx_.shadow_count = 0;
-  tx_.undo_device = tx_.shadow_device = kNone;
-  __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
-  tx_.any_pending = false;
-  tx_.staged_command = kNone;
-  tx_.staged_index = 0;
+  begin_tx(out);
   latch_event_ = false;
   latch_device_ = kNone;
   now_us_ = tx.now_us;
@@ -229,19 +254,21 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
     epoch_ = 1;
   }
 
-  auto refuse = [&](uint16_t dev, Reason reason, uint8_t err) {
+  auto refuse_all = [&](uint16_t dev, Reason reason, uint8_t err) {
     Outcome* o = new_outcome(dev);
     if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNoRule, kNone, err);
     finish(tx, out);
   };
-  if (!loaded_) return refuse(kNone, Reason::kNotLoaded, kEperm);
+  if (!loaded_) return refuse_all(kNone, Reason::kNotLoaded, kEperm);
   if (tx.task == kNoTask || tx.task >= task_count_) {
-    return refuse(kNone, Reason::kUnknownTask, kEperm);
+    return refuse_all(kNone, Reason::kUnknownTask, kEperm);
   }
 
   uint16_t targets[kMaxDevices];
   const uint32_t target_count = find_targets(tx, targets);
-  if (reserved_address(tx, target_count)) return refuse(kNone, Reason::kReservedAddress, kEnxio);
+  if (reserved_address(tx, target_count)) {
+    return refuse_all(kNone, Reason::kReservedAddress, kEnxio);
+  }
   const bool general_call = tx.addr == 0 && tx.ten_bit == 0;
   general_call_ = general_call;
   if (general_call && (tx.kind != TxKind::kWrite || tx.len != 1 || target_count == 0)) {
@@ -253,12 +280,14 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
     finish(tx, out);
     return;
   }
-  if (target_count == 0) return refuse(kNone, Reason::kUnknownDevice, kEnxio);
+  if (target_count == 0) return refuse_all(kNone, Reason::kUnknownDevice, kEnxio);
   out->device = targets[0];
-  if (tx.len > kMaxWriteBytes) return refuse(targets[0], Reason::kTooLong, kEinval);
-  if (tx.len != 0 && tx.bytes == nullptr) return refuse(targets[0], Reason::kMalformed, kEinval);
+  if (tx.len > kMaxWriteBytes) return refuse_all(targets[0], Reason::kTooLong, kEinval);
+  if (tx.len != 0 && tx.bytes == nullptr) {
+    return refuse_all(targets[0], Reason::kMalformed, kEinval);
+  }
   for (uint32_t i = 0; i < target_count; ++i) {
-    if (!journal_device(targets[i])) return refuse(targets[0], Reason::kTooLong, kEinval);
+    if (!journal_device(targets[i])) return refuse_all(targets[0], Reason::kTooLong, kEinval);
   }
 
   update_window(tx);
@@ -290,8 +319,7 @@ uint32_t CheckerState::find_targets(const Transaction& tx, uint16_t* targets) co
   if (tx.addr == 0 && tx.ten_bit == 0) {
     for (uint32_t i = 0; i < alias_count_; ++i) {
       const AliasRecord& a = aliases_[i];
-      if (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.bus == tx.bus &&
-          count < kMaxDevices) {
+      if (a.kind == AliasKind::kGeneralCall && a.bus == tx.bus && count < kMaxDevices) {
         targets[count++] = a.device;
       }
     }
@@ -307,8 +335,7 @@ uint32_t CheckerState::find_targets(const Transaction& tx, uint16_t* targets) co
   if (tx.ten_bit != 0) return 0;
   for (uint32_t i = 0; i < alias_count_; ++i) {
     const AliasRecord& a = aliases_[i];
-    if (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.bus == tx.bus &&
-        a.addr == tx.addr) {
+    if (a.kind == AliasKind::kAddress && a.bus == tx.bus && a.addr == tx.addr) {
       targets[0] = a.device;
       return 1;
     }
@@ -347,8 +374,7 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
     }
   }
   if (all_allow) {
-    v.emit_count = 0;
-    v.emit_bytes_used = 0;
+    truncate_emits(0, 0);
     if (tx.kind == TxKind::kWrite && !emit(tx.bytes, tx.len)) tx_.overflow = true;
     return true;
   }
@@ -375,8 +401,7 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
       return n;
     }();
     __builtin_memcpy(bytes, v.emit_bytes + sub->emit_offset, sub->emit_len);
-    v.emit_count = 0;
-    v.emit_bytes_used = 0;
+    truncate_emits(0, 0);
     uint32_t at = 0;
     for (uint32_t e = 0; e < count; ++e) {
       emit(bytes + at, lens[e]);
@@ -395,24 +420,12 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
 }
 
 void CheckerState::check_device(const Transaction& tx, uint16_t dev) {
-  const bool may_read = (access_[tx.task].read_devices >> dev) & 1u;
   if (tx.kind == TxKind::kRead || tx.kind == TxKind::kQuick) {
-    Outcome* o = new_outcome(dev);
-    if (o == nullptr) return;
-    if (may_read) {
-      decide(*o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
-    } else {
-      decide(*o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
-    }
+    if (Outcome* o = new_outcome(dev)) decide_read(*o, tx, dev);
     return;
   }
-  if (tx.kind != TxKind::kWrite) {
-    Outcome* o = new_outcome(dev);
-    if (o != nullptr)
-      decide(*o, Decision::kReject, Reason::kMalformed, RuleKind::kNoRule, kNone, kEinval);
-    return;
-  }
-  if (devices_[dev].profile == static_cast<uint8_t>(Profile::kFrame)) {
+  if (tx.kind != TxKind::kWrite) return refuse(dev, Reason::kMalformed, kEinval);
+  if (devices_[dev].profile == Profile::kFrame) {
     check_frame(tx, dev);
   } else {
     check_register_map(tx, dev);
@@ -421,13 +434,13 @@ void CheckerState::check_device(const Transaction& tx, uint16_t dev) {
 
 // Applies a rule's static response to `o`: ignore, reject, or fail-safe with
 // the rule's template (ignore when it has none).
-void CheckerState::respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id,
+void CheckerState::respond(Outcome& o, Response response, uint8_t err, uint16_t template_id,
                            Reason reason, RuleKind kind, uint16_t rule) {
-  if (response == static_cast<uint8_t>(Response::kReject)) {
+  if (response == Response::kReject) {
     decide(o, Decision::kReject, reason, kind, rule, err);
     return;
   }
-  if (response == static_cast<uint8_t>(Response::kFailsafe) && template_id != kNone) {
+  if (response == Response::kFailsafe && template_id != kNone) {
     decide(o, Decision::kFailsafe, reason, kind, rule, 0);
     if (!emit_substitute(template_subst(templates_[template_id]), o)) {
       decide(o, Decision::kIgnore, Reason::kEncodeFailed, kind, rule, 0);
@@ -447,15 +460,8 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   o.field_count = d.field_count;
   copy_fields(o.fields, d.fields);
   const CommandRecord& cmd = commands_[d.command];
-  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kQuery)) {
-    if ((access_[tx.task].read_devices >> dev) & 1u) {
-      decide(o, Decision::kAllow, Reason::kReadAllowed, RuleKind::kNoRule, kNone, 0);
-    } else {
-      decide(o, Decision::kReject, Reason::kReadDenied, RuleKind::kAccess, tx.task, kEperm);
-    }
-    return;
-  }
-  if (cmd.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+  if (cmd.command_class == CommandClass::kQuery) return decide_read(o, tx, dev);
+  if (cmd.command_class == CommandClass::kForbidden) {
     decide(o, Decision::kReject, Reason::kForbiddenCommand, RuleKind::kNoRule, kNone, kEperm);
   } else if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0) {
     decide(o, Decision::kReject, Reason::kAccessDenied, RuleKind::kAccess, tx.task, kEperm);
@@ -516,8 +522,7 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
             // A fault is a violation: fail closed with the invariant's template.
             const Reason why =
                 exit == Exit::kUnavailable ? Reason::kSignalUnavailable : Reason::kProgramFault;
-            respond(o, static_cast<uint8_t>(Response::kFailsafe), 0, inv.template_id, why,
-                    RuleKind::kInvariant, rule);
+            respond(o, Response::kFailsafe, 0, inv.template_id, why, RuleKind::kInvariant, rule);
           }
           stop = true;  // the first invariant that does not pass decides
           break;
@@ -531,25 +536,20 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
   // device latching on unrepaired violations only also lets pass what left
   // it on the policy's line: an expected substitute, a refused command of a
   // task that may not drive it, a forbidden command.
-  const bool counts =
-      devices_[dev].latch_mode != static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
-      unrepaired;
+  const bool counts = devices_[dev].latch_mode != LatchMode::kHoldSafeUnrepaired || unrepaired;
   if (o.decision != Decision::kAllow && o.reason != Reason::kRateExceeded && counts &&
       record_violation(dev, tx.now_us)) {
     // The K-th violation in the window: drive the safe state once, hold it.
-    Verdict& v = *tx_.out;
-    v.emit_count = o.emit_index;
-    v.emit_bytes_used = o.emit_offset;
+    truncate_emits(o.emit_index, o.emit_offset);
     tx_.emit_failed = false;
     latch_event_ = true;
     latch_device_ = dev;
     if (emit_safe_state(dev)) {
       decide(o, Decision::kFailsafe, Reason::kLatched, RuleKind::kLatch, dev, 0);
-      o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
+      o.emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o.emit_offset);
       o.bus_command = kNone;
     } else {
-      v.emit_count = o.emit_index;
-      v.emit_bytes_used = o.emit_offset;
+      truncate_emits(o.emit_index, o.emit_offset);
       decide(o, Decision::kIgnore, Reason::kLatched, RuleKind::kLatch, dev, 0);
     }
   }
@@ -559,21 +559,16 @@ void CheckerState::evaluate(const Transaction& tx, Outcome& o) {
 bool CheckerState::emit_safe_state(uint16_t dev) {
   const DeviceRecord& d = devices_[dev];
   if (d.safe_count == 0) return false;
-  for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
-    const Subst s = template_subst(templates_[t]);
-    uint8_t bytes[kMaxRegisters];
-    uint32_t len = 0;
-    uint16_t command = kNone;
-    uint8_t index = 0;
-    int32_t fields[kMaxFieldsPerCommand];
-    if (!build_substitute(s, nullptr, dev, bytes, &len, &command, &index, fields)) return false;
-    if (!emit_encoded(dev, nullptr, bytes, len, command, index)) return false;
+  for (uint32_t t = d.safe_first; t < d.safe_first + d.safe_count; ++t) {
+    Encoded e;
+    if (!build_substitute(template_subst(templates_[t]), nullptr, dev, e)) return false;
+    if (!emit_encoded(dev, nullptr, e)) return false;
   }
   // The mechanism is where the safe state put it: a device-scope sequence
   // goes on from there (settled with the verdict, as a check's state words).
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     if (invariants_[i].device != dev || invariants_[i].after_safe == 0) continue;
-    internal::bit_set(tx_.pending_state, i);
+    bit_set(tx_.pending_state, i);
     tx_.any_pending = true;
     pending_state_[i] = invariants_[i].after_safe - 1;
   }
@@ -583,22 +578,17 @@ bool CheckerState::emit_safe_state(uint16_t dev) {
 bool CheckerState::safe_state(uint16_t device, Verdict* out) {
   init_verdict(out, nullptr);
   if (!loaded_ || device >= device_count_) return false;
-  tx_.out = out;
-  tx_.emit_failed = false;
-  tx_.undo_count = tx_.shadow_count = 0;
-  tx_.undo_device = tx_.shadow_device = kNone;
+  begin_tx(out);
   out->device = device;
   out->addr = devices_[device].addr;
   out->bus = devices_[device].bus;
-  __builtin_memset(tx_.pending_state, 0, sizeof(tx_.pending_state));
   if (!emit_safe_state(device)) {
     rollback();
-    out->emit_count = 0;
-    out->emit_bytes_used = 0;
+    truncate_emits(0, 0);
     return false;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {  // device scope: no task's word
-    if (internal::bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
+    if (bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
   }
   out->decision = Decision::kFailsafe;
   out->reason = state_[device].latched ? Reason::kLatched : Reason::kAllowed;
@@ -624,8 +614,7 @@ void CheckerState::finish(const Transaction& tx, Verdict* out) {
     decider = o;
   } else if (latch_event_) {
     // A device latched inside this transaction: its safe state is all that is written.
-    out->emit_count = 0;
-    out->emit_bytes_used = 0;
+    truncate_emits(0, 0);
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       Outcome& o = tx_.outcomes[i];
       if (o.rule_kind == RuleKind::kLatch && o.device == latch_device_) {
@@ -673,10 +662,7 @@ void CheckerState::finish(const Transaction& tx, Verdict* out) {
     out->bus = devices_[out->device].bus;
   }
 
-  if (!writes(decision)) {
-    out->emit_count = 0;
-    out->emit_bytes_used = 0;
-  }
+  if (!writes(decision)) truncate_emits(0, 0);
   settle_model(tx, decision);
 
   if (journal_.active && writes(decision)) ++journal_.acted;

@@ -197,7 +197,7 @@ TEST_F(RoverTest, RateLimitFallsBackToPeriodWindowsWithoutJobNumbers) {
 
 TEST_F(RoverTest, RateLimitFailsafeUsesTheTemplateOnTheCheckedCommand) {
   image::ImageModel m = rover::model();
-  m.rates[0].record.response = static_cast<uint8_t>(Response::kFailsafe);
+  m.rates[0].record.response = Response::kFailsafe;
   m.rates[0].record.template_id = rover::kTplSpeed80;
   load(m);
   send({70, 200, 0, 0}, rover::kFollower, 1, 1);
@@ -271,7 +271,7 @@ TEST_F(RoverTest, InvariantFailSubstEmitsTheComputedCommand) {
 
 TEST_F(RoverTest, InvariantFailWithRejectResponse) {
   image::ImageModel m = rover::model();
-  m.invariants[rover::kInv1].record.response = static_cast<uint8_t>(Response::kReject);
+  m.invariants[rover::kInv1].record.response = Response::kReject;
   m.invariants[rover::kInv1].record.reply_errno = 121;
   const Verdict v = forward_under(m, rover::kLineLeft);
   EXPECT_EQ(v.decision, Decision::kReject);
@@ -588,7 +588,7 @@ TEST_F(RoverTest, HasLastGuardsTheHistoryBeforeTheFirstCommand) {
 // `window_us` latch it in `mode`.
 image::ImageModel with_latch(LatchMode mode, uint8_t count, uint32_t window_us) {
   image::ImageModel m = rover::model();
-  m.devices[rover::kGopigo].record.latch_mode = static_cast<uint8_t>(mode);
+  m.devices[rover::kGopigo].record.latch_mode = mode;
   m.devices[rover::kGopigo].record.latch_count = count;
   m.devices[rover::kGopigo].record.latch_window_us = window_us;
   return m;

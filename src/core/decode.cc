@@ -5,21 +5,6 @@
 #include "core/state.h"
 
 namespace contego::core::internal {
-namespace {
-
-template <typename O>  // O = Outcome (private; deduced, not named)
-void refuse(O* o, Reason reason, uint8_t err, uint16_t command) {
-  if (o == nullptr) return;
-  o->command = command;
-  o->decision = Decision::kReject;
-  o->reason = reason;
-  o->rule_kind = RuleKind::kNoRule;
-  o->rule = kNone;
-  o->reply_errno = err;
-}
-
-}  // namespace
-
 void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   if (tx.len == 1 && dr.short_queries != 0 && tx.len != dr.frame_len) {
@@ -28,14 +13,14 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
   uint32_t prefix = 0;
   if (tx.len == dr.frame_len) {
     prefix = 0;
-  } else if (dr.prefix_len != 0 && tx.len == static_cast<uint32_t>(dr.frame_len) + dr.prefix_len) {
+  } else if (dr.prefix_len != 0 && tx.len == dr.frame_len + dr.prefix_len) {
     prefix = dr.prefix_len;
   } else {
-    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+    return refuse(dev, Reason::kMalformed, kEinval);
   }
   const uint8_t* frame = tx.bytes + prefix;
   const uint8_t k = state_[dev].lookup[frame[0]];
-  if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+  if (k == 0xFF) return refuse(dev, Reason::kUnknownCommand, kEinval);
   Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, dr.frame_len);
   d.prefix = static_cast<uint8_t>(prefix);
   d.prefix_byte = prefix ? tx.bytes[0] : 0;
@@ -52,9 +37,8 @@ void CheckerState::check_frame(const Transaction& tx, uint16_t dev) {
 void CheckerState::check_short_query(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   const uint8_t k = state_[dev].lookup[tx.bytes[0]];
-  if (k == 0xFF ||
-      commands_[dr.command_first + k].command_class != static_cast<uint8_t>(CommandClass::kQuery)) {
-    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  if (k == 0xFF || commands_[dr.command_first + k].command_class != CommandClass::kQuery) {
+    return refuse(dev, Reason::kMalformed, kEinval);
   }
   Decoded& d = decode_start(dev, static_cast<uint16_t>(dr.command_first + k), 0, 1);
   d.bytes[0] = tx.bytes[0];
@@ -92,7 +76,7 @@ void CheckerState::decode_fields(Decoded& d) {
   const CommandRecord& c = commands_[d.command];
   d.field_count = c.field_count;
   for (uint32_t f = 0; f < c.field_count; ++f) {
-    d.fields[f] = internal::field_get(fields_[c.field_first + f], d.bytes);
+    d.fields[f] = field_get(fields_[c.field_first + f], d.bytes);
   }
 }
 
@@ -115,7 +99,7 @@ void CheckerState::check_general_call_command(const Transaction& tx, uint16_t de
     }
     return;
   }
-  refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+  refuse(dev, Reason::kUnknownCommand, kEinval);
 }
 
 // Nothing staged on the device (most writes): no call, nothing to drop.
@@ -139,7 +123,7 @@ void CheckerState::drop_stale_staging(const Transaction& tx, uint16_t dev, uint1
       if (inside == (st.staged_task[r] == tx.task)) continue;
       if (inside) {
         undo_save(dev, static_cast<uint8_t>(r));
-        internal::bit_clear(st.staged_bits, r);
+        bit_clear(st.staged_bits, r);
       } else {
         drop_staged(dev, r);
         audit_staging_drop(tx, dev, r, st.staged_task[r], Reason::kStagedIncomplete, last_group);
@@ -171,7 +155,7 @@ bool CheckerState::never_acts(const Transaction& tx, uint16_t dev, uint16_t cid,
   if (((access_[tx.task].actuate_devices >> dev) & 1u) == 0 || state_[dev].latched) return true;
   for (uint64_t bits = rates_of_[tx.task][dev]; bits != 0; bits &= bits - 1) {
     const RateRecord& rr = rates_[__builtin_ctzll(bits)];
-    if (rr.max_per_job == 0 && internal::mask_has(rr.commands, cid) &&
+    if (rr.max_per_job == 0 && mask_has(rr.commands, cid) &&
         (rr.only_channel == 0 || index == rr.only_channel - 1u)) {
       return true;
     }
@@ -193,18 +177,18 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
     __builtin_memset(d.written, 0, sizeof(d.written));
     for (uint32_t q = 0; q < c.group_len; ++q) {
       const uint32_t r = base + q;
-      if (internal::bit_test(st.staged_bits, r)) {
+      if (bit_test(st.staged_bits, r)) {
         d.bytes[q] = st.staged[r];
-        internal::bit_set(d.written, q);
+        bit_set(d.written, q);
         undo_save(dev, static_cast<uint8_t>(r));
-        internal::bit_clear(st.staged_bits, r);
+        bit_clear(st.staged_bits, r);
       } else {
         d.bytes[q] = st.shadow[r];
       }
     }
   }
   d.bytes[j] = val;
-  internal::bit_set(d.written, j);
+  bit_set(d.written, j);
   decode_fields(d);
   Outcome* o = new_outcome(dev);
   if (o == nullptr) return;
@@ -217,9 +201,8 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
     // The device would drop it now (PCA9685 PRE_SCALE while the oscillator
     // runs): not sent, the shadow keeps what the device holds, no rule spent
     // (a rate rule that drops it anyway answers as it would: its errno).
-    refuse(o, Reason::kNotTaken, 0, cid);
-    o->decision = Decision::kIgnore;
-    return;
+    o->command = cid;
+    return decide(*o, Decision::kIgnore, Reason::kNotTaken, RuleKind::kNoRule, kNone, 0);
   }
   evaluate(tx, *o);
   if (o->decision != Decision::kAllow) return;
@@ -231,7 +214,7 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
   };
   if (c.group_len == 1) send(0);
   for (uint32_t q = 0; c.group_len > 1 && q < c.group_len; ++q) {
-    if (internal::bit_test(d.written, q)) send(q);
+    if (bit_test(d.written, q)) send(q);
   }
   o->emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o->emit_offset);
   o->bus_command = cid;
@@ -242,42 +225,36 @@ void CheckerState::commit_group(const Transaction& tx, uint16_t dev, uint16_t ci
 void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
   const DeviceRecord& dr = devices_[dev];
   DeviceState& st = state_[dev];
-  if (tx.len == 0) return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
+  if (tx.len == 0) return refuse(dev, Reason::kMalformed, kEinval);
   if (tx.len == 1 && general_call_) return check_general_call_command(tx, dev);
   if (tx.len == 1) {
     // Register pointer only (the first half of a register read): no register
     // changes, so it needs read access like the read that follows.
     Outcome* o = new_outcome(dev);
     if (o == nullptr) return;
-    if ((access_[tx.task].read_devices >> dev) & 1u) {
-      o->reason = Reason::kReadAllowed;
+    decide_read(*o, tx, dev);
+    if (o->decision == Decision::kAllow) {
       emit(tx.bytes, 1);
       o->emit_len = 1;
-    } else {
-      refuse(o, Reason::kReadDenied, kEperm, kNone);
-      o->rule_kind = RuleKind::kAccess;
-      o->rule = tx.task;
     }
     return;
   }
-  const bool ai = dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kAlways) ||
-                  (dr.auto_increment == static_cast<uint8_t>(AutoIncrement::kBit) &&
-                   ((st.shadow[dr.ai_reg] >> dr.ai_bit) & 1u));
+  const bool ai =
+      dr.auto_increment == AutoIncrement::kAlways ||
+      (dr.auto_increment == AutoIncrement::kBit && ((st.shadow[dr.ai_reg] >> dr.ai_bit) & 1u));
   const uint32_t first = tx.bytes[0];
   const uint32_t n = tx.len - 1;
-  if (ai && first + n > kMaxRegisters) {
-    return refuse(new_outcome(dev), Reason::kMalformed, kEinval, kNone);
-  }
+  if (ai && first + n > kMaxRegisters) return refuse(dev, Reason::kMalformed, kEinval);
   uint32_t dropped_cid = kNone;  // the group whose foreign staging this write already dropped
   uint32_t dropped_index = 0;
   for (uint32_t i = 0; i < n; ++i) {
     const uint8_t reg = static_cast<uint8_t>(ai ? first + i : first);
     const uint8_t val = tx.bytes[1 + i];
     const uint8_t k = st.lookup[reg];
-    if (k == 0xFF) return refuse(new_outcome(dev), Reason::kUnknownCommand, kEinval, kNone);
+    if (k == 0xFF) return refuse(dev, Reason::kUnknownCommand, kEinval);
     const uint16_t cid = static_cast<uint16_t>(dr.command_first + k);
     const CommandRecord& c = commands_[cid];
-    if (c.command_class == static_cast<uint8_t>(CommandClass::kForbidden)) {
+    if (c.command_class == CommandClass::kForbidden) {
       // Decoded far enough to know it is forbidden: evaluate() records the violation.
       decode_start(dev, cid, 0, 0);
       Outcome* o = new_outcome(dev);
@@ -301,7 +278,7 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
     undo_save(dev, reg);
     st.staged[reg] = val;
     st.staged_task[reg] = static_cast<uint8_t>(tx.task);
-    internal::bit_set(st.staged_bits, reg);
+    bit_set(st.staged_bits, reg);
     if (tx_.staged_command == kNone) {
       tx_.staged_command = cid;
       tx_.staged_index = static_cast<uint8_t>(index);
@@ -313,100 +290,89 @@ void CheckerState::check_register_map(const Transaction& tx, uint16_t dev) {
 // checked command, else the opcode and zeros; for register maps the shadow
 // group), with the selected fields replaced. False if a value does not fit.
 bool CheckerState::build_substitute(const Subst& subst, const Decoded* request, uint16_t dev,
-                                    uint8_t* bytes, uint32_t* len, uint16_t* command,
-                                    uint8_t* index, int32_t* fields) {
+                                    Encoded& e) {
   const uint16_t cid = subst.command != kNone ? subst.command
                        : request != nullptr   ? request->command
                                               : kNone;
   if (cid == kNone || cid >= command_count_ || commands_[cid].device != dev) return false;
   const CommandRecord& c = commands_[cid];
   const DeviceRecord& dr = devices_[dev];
-  uint8_t idx = 0;
-  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
-    *len = dr.frame_len;
+  e.command = cid;
+  e.index = 0;
+  if (dr.profile == Profile::kFrame) {
+    e.len = dr.frame_len;
     if (request != nullptr && request->command == cid) {
-      __builtin_memcpy(bytes, request->bytes, dr.frame_len);
+      __builtin_memcpy(e.bytes, request->bytes, dr.frame_len);
     } else {
-      __builtin_memset(bytes, 0, dr.frame_len);
-      bytes[0] = c.match;
+      __builtin_memset(e.bytes, 0, dr.frame_len);
+      e.bytes[0] = c.match;
     }
   } else {
     // The template's channel; else the checked command's when the substitute
     // has it; else channel 0. The verifier keeps a template's index < repeat.
     if (subst.index != kSameIndex) {
-      idx = subst.index;
+      e.index = subst.index;
     } else if (request != nullptr && request->index < c.repeat) {
-      idx = request->index;
+      e.index = request->index;
     }
-    const uint32_t base = c.match + static_cast<uint32_t>(idx) * c.stride;
-    *len = c.group_len;
-    __builtin_memcpy(bytes, state_[dev].shadow + base, c.group_len);
+    e.len = c.group_len;
+    __builtin_memcpy(e.bytes, state_[dev].shadow + c.match + e.index * c.stride, c.group_len);
   }
   for (uint32_t f = 0; f < c.field_count; ++f) {
     if (((subst.set_mask >> f) & 1u) == 0) continue;
-    if (!internal::field_put(fields_[c.field_first + f], subst.values[f], bytes)) return false;
+    if (!field_put(fields_[c.field_first + f], subst.values[f], e.bytes)) return false;
   }
   if ((subst.set_mask >> c.field_count) != 0) return false;  // a field the command lacks
   for (uint32_t f = 0; f < kMaxFieldsPerCommand; ++f) {
-    fields[f] = f < c.field_count ? internal::field_get(fields_[c.field_first + f], bytes) : 0;
+    e.fields[f] = f < c.field_count ? field_get(fields_[c.field_first + f], e.bytes) : 0;
   }
-  *command = cid;
-  *index = idx;
   return true;
 }
 
-bool CheckerState::emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes,
-                                uint32_t len, uint16_t command, uint8_t index) {
-  const DeviceRecord& dr = devices_[dev];
-  if (dr.profile == static_cast<uint8_t>(Profile::kFrame)) {
+bool CheckerState::emit_encoded(uint16_t dev, const Decoded* request, const Encoded& e) {
+  if (devices_[dev].profile == Profile::kFrame) {
     uint8_t framed[kMaxWriteBytes + 1];
     uint32_t n = 0;
     if (request != nullptr && request->prefix != 0) framed[n++] = request->prefix_byte;
-    __builtin_memcpy(framed + n, bytes, len);
-    return emit(framed, n + len);
+    __builtin_memcpy(framed + n, e.bytes, e.len);
+    return emit(framed, n + e.len);
   }
-  const CommandRecord& c = commands_[command];
-  const uint32_t base = c.match + static_cast<uint32_t>(index) * c.stride;
-  for (uint32_t q = 0; q < len; ++q) {
+  const CommandRecord& c = commands_[e.command];
+  const uint32_t base = c.match + e.index * c.stride;
+  for (uint32_t q = 0; q < e.len; ++q) {
     const uint8_t r = static_cast<uint8_t>(base + q);
-    const uint8_t pair[2] = {r, bytes[q]};
+    const uint8_t pair[2] = {r, e.bytes[q]};
     if (!emit(pair, 2)) return false;
-    store_shadow(dev, command, r, bytes[q]);
+    store_shadow(dev, e.command, r, e.bytes[q]);
   }
   return true;
 }
 
 bool CheckerState::emit_substitute(const Subst& subst, Outcome& o) {
-  uint8_t bytes[kMaxRegisters];
-  uint32_t len = 0;
-  uint16_t command = kNone;
-  uint8_t index = 0;
-  int32_t fields[kMaxFieldsPerCommand];
-  const Verdict& v = *tx_.out;
-  if (!subst.active ||
-      !build_substitute(subst, &decoded_, decoded_.device, bytes, &len, &command, &index, fields)) {
-    return false;
-  }
-  if (!emit_encoded(decoded_.device, &decoded_, bytes, len, command, index)) {
+  Encoded e;
+  if (!subst.active || !build_substitute(subst, &decoded_, decoded_.device, e)) return false;
+  if (!emit_encoded(decoded_.device, &decoded_, e)) {
     tx_.emit_failed = false;  // this command fails closed on its own; others are unaffected
     tx_.out->emit_count = o.emit_index;
     tx_.out->emit_bytes_used = o.emit_offset;
     return false;
   }
-  o.emit_len = static_cast<uint16_t>(v.emit_bytes_used - o.emit_offset);
-  o.bus_command = command;
-  o.bus_index = index;
-  copy_fields(o.bus_fields, fields);
+  o.emit_len = static_cast<uint16_t>(tx_.out->emit_bytes_used - o.emit_offset);
+  o.bus_command = e.command;
+  o.bus_index = e.index;
+  copy_fields(o.bus_fields, e.fields);
   return true;
+}
+
+// A loaded register-map device: one with registers to seed, list or read.
+bool CheckerState::register_map(uint16_t device) const {
+  return loaded_ && device < device_count_ && devices_[device].profile == Profile::kRegisterMap;
 }
 
 // The shadow of a register-map device, seeded by the host (read back from
 // the device after a load, before anything is checked).
 bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-    return false;
-  }
+  if (!register_map(device)) return false;
   state_[device].shadow[reg] = value;
   return true;
 }
@@ -414,10 +380,7 @@ bool CheckerState::seed_register(uint16_t device, uint8_t reg, uint8_t value) {
 // Every register a command group of `device` covers (match + i*stride + j),
 // ascending and once each: the registers whose shadow a check can read.
 uint32_t CheckerState::command_registers(uint16_t device, uint8_t* regs) const {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-    return 0;
-  }
+  if (!register_map(device)) return 0;
   uint64_t covered[kMaxRegisters / 64] = {};
   for (uint32_t c = 0; c < command_count_; ++c) {
     const CommandRecord& r = commands_[c];

@@ -110,11 +110,9 @@ static_assert(kMaxDevices <= 32, "signal_devices_ holds one bit per device");
 SignalStatus CheckerState::raw_signal(uint16_t id, uint64_t now_us, int64_t* value) {
   const SignalRecord& s = signals_[id];
   const SampleMemo& m = sample(s.device, now_us);
-  if (m.len == 0 || static_cast<uint32_t>(s.field.offset) + s.field.nbytes > m.len) {
-    return SignalStatus::kUnavailable;
-  }
+  if (m.len == 0 || s.field.offset + s.field.nbytes > m.len) return SignalStatus::kUnavailable;
   if (!m.fresh) return SignalStatus::kUnavailable;
-  const int32_t v = internal::field_get(s.field, m.bytes);
+  const int32_t v = field_get(s.field, m.bytes);
   if (v < s.valid_min || v > s.valid_max) return SignalStatus::kUnavailable;
   *value = v;
   return SignalStatus::kOk;
@@ -128,7 +126,7 @@ SignalStatus CheckerState::raw_signal(uint16_t id, uint64_t now_us, int64_t* val
 SignalStatus CheckerState::signal(uint16_t id, uint64_t now_us, int64_t* value) {
   SignalMemo& memo = signal_memo_[id];
   if (memo.epoch != epoch_) {
-    if (signals_[id].kind == static_cast<uint8_t>(SignalKind::kRaw)) {
+    if (signals_[id].kind == SignalKind::kRaw) {
       int64_t v = 0;
       memo.status = raw_signal(id, now_us, &v);
       memo.value = v;
@@ -176,7 +174,7 @@ inline SignalStatus CheckerState::signal_now(uint16_t id, int64_t* value) {
 // history (run() reads the command's own values itself). False: a fault (no
 // history yet, no such field).
 bool CheckerState::context_value(const Insn& in, const Env& env, int64_t* v) {
-  switch (static_cast<Op>(in.op)) {
+  switch (in.op) {
     case Op::kJobCount:
       *v = job_count_[env.tx->task][env.d->device];
       return true;
@@ -205,7 +203,7 @@ bool CheckerState::context_value(const Insn& in, const Env& env, int64_t* v) {
 // SUBST_BEGIN / SUBST_FIELD (`v` is the popped value). False: a fault.
 bool CheckerState::subst_op(const Insn& in, const Env& env, int64_t v) {
   Subst& s = *env.subst;
-  if (static_cast<Op>(in.op) == Op::kSubstBegin) {
+  if (in.op == Op::kSubstBegin) {
     s.active = true;
     s.command = in.b == kNone ? env.d->command : in.b;
     s.index = kSameIndex;
@@ -341,7 +339,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
   for (;;) {
     const Insn& in = *ip++;
     ++steps;
-    switch (static_cast<Op>(in.op)) {
+    switch (in.op) {
       case Op::kNop:
         break;
       case Op::kPush:
@@ -369,7 +367,7 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
         stack.push(env.d->index);
         break;
       case Op::kState:
-        stack.push(internal::bit_test(tx_.pending_state, env.invariant)
+        stack.push(bit_test(tx_.pending_state, env.invariant)
                        ? pending_state_[env.invariant]
                        : state_word(env.invariant, env.tx->task));
         break;
@@ -384,14 +382,14 @@ Exit CheckerState::run(uint16_t code_first, uint16_t code_len, const Env& env, i
       }
       case Op::kSetState:
         pending_state_[env.invariant] = stack.pop();
-        internal::bit_set(tx_.pending_state, env.invariant);
+        bit_set(tx_.pending_state, env.invariant);
         tx_.any_pending = true;
         break;
         CONTEGO_BINARY_CASES;
       case Op::kNeg:
       case Op::kAbs:
         if (tos == INT64_MIN) goto done;
-        if (static_cast<Op>(in.op) == Op::kNeg || tos < 0) tos = -tos;
+        if (in.op == Op::kNeg || tos < 0) tos = -tos;
         break;
       case Op::kNot:
         tos = tos == 0;
@@ -465,7 +463,7 @@ bool CheckerState::inside_every_program(uint32_t at, uint32_t len) const {
     if (!check(invariants_[i].code_first, invariants_[i].code_len)) return false;
   }
   for (uint32_t s = 0; s < signal_count_; ++s) {
-    if (signals_[s].kind == static_cast<uint8_t>(SignalKind::kRaw)) continue;
+    if (signals_[s].kind == SignalKind::kRaw) continue;
     if (!check(signals_[s].code_first, signals_[s].code_len)) return false;
   }
   return held;
@@ -482,20 +480,13 @@ void CheckerState::fuse_programs() {
     Insn& push = code_[i];
     const Insn& compare = code_[i + 1];
     const Insn& jump = code_[i + 2];
-    if (push.op != static_cast<uint8_t>(Op::kPush) ||
-        jump.op != static_cast<uint8_t>(Op::kJumpIfZero)) {
-      continue;
-    }
+    if (push.op != Op::kPush || jump.op != Op::kJumpIfZero) continue;
     // Eq..Ge are consecutive in Op, and their fused forms in Fused.
     static_assert(static_cast<int>(Op::kGe) - static_cast<int>(Op::kEq) ==
                   static_cast<int>(Fused::kGeJz) - static_cast<int>(Fused::kEqJz));
-    if (compare.op < static_cast<uint8_t>(Op::kEq) || compare.op > static_cast<uint8_t>(Op::kGe)) {
-      continue;
-    }
-    const auto fused = static_cast<uint8_t>(static_cast<uint8_t>(Fused::kEqJz) + compare.op -
-                                            static_cast<uint8_t>(Op::kEq));
-    if (!inside_every_program(i, 3)) continue;
-    push.op = fused;
+    if (compare.op < Op::kEq || compare.op > Op::kGe || !inside_every_program(i, 3)) continue;
+    push.op = static_cast<Op>(static_cast<int>(Fused::kEqJz) + static_cast<int>(compare.op) -
+                              static_cast<int>(Op::kEq));
     push.b = static_cast<uint16_t>(jump.imm);  // verified: 1 <= imm < the program's length
   }
   // A signal read, the command's id or one of its fields right before such a
@@ -505,16 +496,17 @@ void CheckerState::fuse_programs() {
     Insn& value = code_[i];
     const Insn& fused = code_[i + 1];
     int shift = 0;  // from the k*Jz to the joined form
-    if (value.op == static_cast<uint8_t>(Op::kSignal)) shift = 0x10;
-    if (value.op == static_cast<uint8_t>(Op::kCommand)) shift = -0x10;
-    if (value.op == static_cast<uint8_t>(Op::kField)) shift = -0x20;
-    if (shift == 0 || fused.op < static_cast<uint8_t>(Fused::kEqJz) ||
-        fused.op > static_cast<uint8_t>(Fused::kGeJz) || fused.b > 0xFF ||
+    if (value.op == Op::kSignal) shift = 0x10;
+    if (value.op == Op::kCommand) shift = -0x10;
+    if (value.op == Op::kField) shift = -0x20;
+    const auto fused_op = static_cast<uint8_t>(fused.op);
+    if (shift == 0 || fused_op < static_cast<uint8_t>(Fused::kEqJz) ||
+        fused_op > static_cast<uint8_t>(Fused::kGeJz) || fused.b > 0xFF ||
         !inside_every_program(i, 4)) {
       continue;
     }
     // The joined form of the same compare; b keeps the signal's id or the field.
-    value.op = static_cast<uint8_t>(fused.op + shift);
+    value.op = static_cast<Op>(fused_op + shift);
     value.a = static_cast<uint8_t>(fused.b);
     value.imm = fused.imm;
   }

@@ -45,8 +45,7 @@ void CheckerState::update_window(const Transaction& tx) {
 }
 
 bool CheckerState::selects(const RateRecord& rr, const Transaction& tx, const Decoded& d) const {
-  return rr.task == tx.task && rr.device == d.device &&
-         internal::mask_has(rr.commands, d.command) &&
+  return rr.task == tx.task && rr.device == d.device && mask_has(rr.commands, d.command) &&
          (rr.only_channel == 0 || d.index == rr.only_channel - 1);
 }
 
@@ -63,8 +62,7 @@ uint16_t CheckerState::refusing_rate(const Transaction& tx, const Decoded& d) co
   for (uint64_t bits = rates_of_[tx.task][d.device]; bits != 0; bits &= bits - 1) {
     const uint32_t r = static_cast<uint32_t>(__builtin_ctzll(bits));
     const RateRecord& rr = rates_[r];
-    if (selects(rr, tx, d) && rr.response == static_cast<uint8_t>(Response::kReject) &&
-        rate_used_[r] >= rr.max_per_job) {
+    if (selects(rr, tx, d) && rr.response == Response::kReject && rate_used_[r] >= rr.max_per_job) {
       return static_cast<uint16_t>(r);
     }
   }

@@ -230,7 +230,7 @@ TEST_F(ArmTest, ARegisterOfAGroupTheTaskCannotSendIsDecidedAtOnce) {
   none.record.device = arm::kArm;
   none.record.max_per_job = 0;
   none.record.commands = testing::mask_of({arm::kAllLed});
-  none.record.response = static_cast<uint8_t>(Response::kIgnore);
+  none.record.response = Response::kIgnore;
   none.record.template_id = kNone;
   m.rates.push_back(none);
   load(m);
@@ -274,7 +274,7 @@ TEST_F(ArmTest, APrescaleTheChipWouldDropIsNotSentAndNotShadowed) {
   none.record.device = arm::kArm;
   none.record.max_per_job = 0;
   none.record.commands = testing::mask_of({arm::kPrescale});
-  none.record.response = static_cast<uint8_t>(Response::kReject);
+  none.record.response = Response::kReject;
   none.record.reply_errno = 1;  // EPERM
   none.record.template_id = kNone;
   m.rates.push_back(none);

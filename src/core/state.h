@@ -147,6 +147,15 @@ struct Subst {
   uint8_t set_mask;
   int32_t values[kMaxFieldsPerCommand];
 };
+// A substitute command, encoded (build_substitute): its bytes (the frame, or
+// the register group), which command and channel, and its fields.
+struct Encoded {
+  uint8_t bytes[kMaxRegisters];
+  uint32_t len;
+  uint16_t command;
+  uint8_t index;
+  int32_t fields[kMaxFieldsPerCommand];
+};
 // A register's staging before a check changed it (its shadow is journaled
 // apart, in ShadowUndo: only stores that change a value pay for that).
 struct Undo {
@@ -218,12 +227,20 @@ struct Env {
   Subst* subst;
 };
 
+// What a program's SIGNAL operands can reach (verifier.cc, reach()).
+struct Reach {
+  uint64_t signals;  // derived signals, transitively
+  uint32_t sensors;  // devices whose samples they read
+};
+
 // What the verifier's steps read from the image itself (not copied).
 struct LoadInput {
   const uint8_t* image;
   SectionEntry init;  // the kRegisterInit section
 };
 
+// Decides `o` (an errno only for a reject).
+void decide(Outcome& o, Decision d, Reason r, RuleKind kind, uint16_t rule, uint8_t err);
 // An audit record of `tx` with no rule and no fields.
 AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t command,
                          Decision decision, Reason reason);
@@ -249,6 +266,7 @@ class CheckerState {
   bool operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const;
   bool verify_program(uint32_t code_first, uint32_t code_len, bool derived, uint16_t self,
                       uint16_t device, LoadResult* result);
+  Reach reach(uint32_t code_first, uint32_t code_len) const;
   void compute_costs();
   // interpreter.cc: after compute_costs, the superinstructions (Fused).
   void fuse_programs();
@@ -270,7 +288,11 @@ class CheckerState {
   bool rate_decides(const Transaction& tx, const Decoded& d) const;
   // A rate rule that refuses (reject) `d` now, or kNone.
   uint16_t refusing_rate(const Transaction& tx, const Decoded& d) const;
-  void respond(Outcome& o, uint8_t response, uint8_t err, uint16_t template_id, Reason reason,
+  void refuse(uint16_t dev, Reason reason, uint8_t err);
+  void decide_read(Outcome& o, const Transaction& tx, uint16_t dev) const;
+  void truncate_emits(uint32_t count, uint32_t bytes);
+  void begin_tx(Verdict* out);
+  void respond(Outcome& o, Response response, uint8_t err, uint16_t template_id, Reason reason,
                RuleKind kind, uint16_t rule);
   void finish(const Transaction& tx, Verdict* out);
   void settle_model(const Transaction& tx, Decision decision);
@@ -287,6 +309,7 @@ class CheckerState {
   bool record_violation(uint16_t dev, uint64_t now_us);
   void reset_latch(uint16_t device);
   bool latched(uint16_t device) const;
+  bool register_map(uint16_t device) const;
   bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
   uint32_t command_registers(uint16_t device, uint8_t* regs) const;
   bool safe_state(uint16_t device, Verdict* out);
@@ -310,10 +333,8 @@ class CheckerState {
                     uint32_t index, uint32_t j, uint8_t val);
   Decoded& decode_start(uint16_t dev, uint16_t cid, uint8_t index, uint32_t len);
   void decode_fields(Decoded& d);
-  bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, uint8_t* bytes,
-                        uint32_t* len, uint16_t* command, uint8_t* index, int32_t* fields);
-  bool emit_encoded(uint16_t dev, const Decoded* request, const uint8_t* bytes, uint32_t len,
-                    uint16_t command, uint8_t index);
+  bool build_substitute(const Subst& subst, const Decoded* request, uint16_t dev, Encoded& e);
+  bool emit_encoded(uint16_t dev, const Decoded* request, const Encoded& e);
   bool emit_substitute(const Subst& subst, Outcome& o);
 
   // interpreter.cc: how a program ended; *result holds a kReturn's value.

@@ -30,7 +30,7 @@ using image::Named;
 class Prog {
  public:
   Prog& op(Op o, uint16_t b = 0, int32_t imm = 0) {
-    code_.push_back(Insn{static_cast<uint8_t>(o), 0, b, imm});
+    code_.push_back(Insn{o, 0, b, imm});
     return *this;
   }
   Prog& push(int32_t v) { return op(Op::kPush, 0, v); }
@@ -38,7 +38,7 @@ class Prog {
   Prog& field(uint16_t f) { return op(Op::kField, f); }
   // Emits a jump (kJumpIfZero or kJump) to be patched by land(); returns its position.
   size_t jump(Op o) {
-    code_.push_back(Insn{static_cast<uint8_t>(o), 0, 0, 0});
+    code_.push_back(Insn{o, 0, 0, 0});
     return code_.size() - 1;
   }
   // Points the jump at `at` to the next instruction emitted.
@@ -83,7 +83,7 @@ inline void add_invariant(ImageModel& m, const char* name, uint16_t device, cons
   v.record.device = device;
   v.record.code_first = add_code(m, p);
   v.record.code_len = static_cast<uint16_t>(p.size());
-  v.record.response = static_cast<uint8_t>(response);
+  v.record.response = response;
   v.record.reply_errno = err;
   v.record.template_id = tpl;
   v.record.commands = commands;
@@ -184,7 +184,7 @@ inline ImageModel model() {
     Named<DeviceRecord> d;
     d.name = name;
     d.record.role = role;
-    d.record.profile = static_cast<uint8_t>(Profile::kFrame);
+    d.record.profile = Profile::kFrame;
     d.record.bus = 1;
     d.record.addr = addr;
     d.record.command_first = first;
@@ -214,7 +214,7 @@ inline ImageModel model() {
     Named<CommandRecord> c;
     c.name = name;
     c.record.device = dev;
-    c.record.command_class = static_cast<uint8_t>(cls);
+    c.record.command_class = cls;
     c.record.match = opcode;
     add_command(m, c, fields);
   };
@@ -231,7 +231,7 @@ inline ImageModel model() {
   for (uint16_t i = 0; i < 5; ++i) {
     Named<SignalRecord> s;
     s.name = "lf" + std::to_string(i);
-    s.record.kind = static_cast<uint8_t>(SignalKind::kRaw);
+    s.record.kind = SignalKind::kRaw;
     s.record.device = kLine;
     s.record.field = field_rec(static_cast<uint8_t>(2 * i), 2, 16, kFieldBigEndian);
     s.record.valid_min = 0;
@@ -241,7 +241,7 @@ inline ImageModel model() {
   const Prog pos = line_position();
   Named<SignalRecord> ps;
   ps.name = "pos";
-  ps.record.kind = static_cast<uint8_t>(SignalKind::kDerived);
+  ps.record.kind = SignalKind::kDerived;
   ps.record.device = kNone;
   ps.record.code_first = add_code(m, pos);
   ps.record.code_len = static_cast<uint16_t>(pos.size());
@@ -258,7 +258,7 @@ inline ImageModel model() {
   rate.record.device = kGopigo;
   rate.record.max_per_job = 2;
   rate.record.commands = mask_of({kSetLeftSpeed, kSetRightSpeed});
-  rate.record.response = static_cast<uint8_t>(Response::kIgnore);
+  rate.record.response = Response::kIgnore;
   rate.record.template_id = kNone;
   m.rates.push_back(rate);
 
@@ -324,26 +324,26 @@ inline ImageModel model(bool with_sequence = true) {
   arm.name = "arm";
   DeviceRecord& d = arm.record;
   d.role = kRoleActuator;
-  d.profile = static_cast<uint8_t>(Profile::kRegisterMap);
+  d.profile = Profile::kRegisterMap;
   d.bus = 1;
   d.addr = 0x40;
   d.command_first = 0;
   d.command_count = 6;
-  d.auto_increment = static_cast<uint8_t>(AutoIncrement::kBit);
+  d.auto_increment = AutoIncrement::kBit;
   d.ai_reg = 0x00;
   d.ai_bit = 5;
   d.safe_first = kTplSafe;
   d.safe_count = 1;
   m.devices.push_back(arm);
-  m.aliases.push_back(AliasRecord{1, static_cast<uint8_t>(AliasKind::kAddress), 0x70, kArm, 0});
-  m.aliases.push_back(AliasRecord{1, static_cast<uint8_t>(AliasKind::kGeneralCall), 0x00, kArm, 0});
+  m.aliases.push_back(AliasRecord{1, AliasKind::kAddress, 0x70, kArm, 0});
+  m.aliases.push_back(AliasRecord{1, AliasKind::kGeneralCall, 0x00, kArm, 0});
 
   auto command = [&](const char* name, uint8_t reg, uint8_t len, uint8_t repeat, uint8_t stride,
                      CommandClass cls, FieldList fields) {
     Named<CommandRecord> c;
     c.name = name;
     c.record.device = kArm;
-    c.record.command_class = static_cast<uint8_t>(cls);
+    c.record.command_class = cls;
     c.record.match = reg;
     c.record.group_len = len;
     c.record.repeat = repeat;

@@ -25,7 +25,7 @@ bool CheckerState::journal_device(uint16_t dev) {
   if (!journal_.active || ((journal_.saved_devices >> dev) & 1u) != 0) return true;
   // Only a register map has a model to put back; copying a frame device's
   // unused 800 bytes on every check of the rover cost cache lines for nothing.
-  if (devices_[dev].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
+  if (devices_[dev].profile != Profile::kRegisterMap) {
     journal_.saved_devices |= 1u << dev;
     return true;
   }
@@ -39,13 +39,13 @@ bool CheckerState::journal_device(uint16_t dev) {
 }
 
 void CheckerState::drop_staged(uint16_t dev, uint32_t reg) {
-  internal::bit_clear(state_[dev].staged_bits, reg);
+  bit_clear(state_[dev].staged_bits, reg);
   mark_dropped(dev, reg);
 }
 
 void CheckerState::mark_dropped(uint16_t dev, uint32_t reg) {
   for (uint32_t i = 0; journal_.active && i < journal_.device_count; ++i) {
-    if (journal_.devices[i].device == dev) internal::bit_set(journal_.devices[i].dropped_bits, reg);
+    if (journal_.devices[i].device == dev) bit_set(journal_.devices[i].dropped_bits, reg);
   }
 }
 
@@ -59,16 +59,14 @@ void CheckerState::journal_history(LastCommand& slot) {
 
 // A transfer is one task's: the task-scoped words it saves are that task's.
 void CheckerState::journal_state(uint32_t invariant, uint16_t task) {
-  if (!journal_.active || internal::bit_test(journal_.saved_state, invariant)) return;
-  internal::bit_set(journal_.saved_state, invariant);
+  if (!journal_.active || bit_test(journal_.saved_state, invariant)) return;
+  bit_set(journal_.saved_state, invariant);
   journal_.state_task = task;
   journal_.state_words[invariant] = state_word(invariant, task);
 }
 
 int64_t& CheckerState::state_word(uint32_t i, uint16_t task) {
-  if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kDevice) || task >= kMaxTasks) {
-    return state_words_[i];
-  }
+  if (invariants_[i].scope == StateScope::kDevice || task >= kMaxTasks) return state_words_[i];
   return task_state_words_[task][i];
 }
 
@@ -112,8 +110,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       l.time_us = tx.now_us;
       copy_fields(l.fields, o.bus_fields);
       const CommandRecord& c = commands_[o.bus_command];
-      if (c.group_len == 0 &&
-          devices_[o.device].profile == static_cast<uint8_t>(Profile::kRegisterMap)) {
+      if (c.group_len == 0 && devices_[o.device].profile == Profile::kRegisterMap) {
         // A general-call command (software reset) reached the device: its
         // registers are back at their power-on values, nothing is staged.
         DeviceState& s = state_[o.device];
@@ -127,7 +124,7 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
 uint32_t CheckerState::end_session(uint16_t task) {
   if (!loaded_ || task >= task_count_) return 0;
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (invariants_[i].scope == static_cast<uint8_t>(StateScope::kSession)) {
+    if (invariants_[i].scope == StateScope::kSession) {
       task_state_words_[task][i] = 0;
     }
   }
@@ -135,8 +132,8 @@ uint32_t CheckerState::end_session(uint16_t task) {
   for (uint32_t d = 0; d < device_count_; ++d) {
     DeviceState& s = state_[d];
     for (uint32_t reg = 0; reg < kMaxRegisters; ++reg) {
-      if (!internal::bit_test(s.staged_bits, reg) || s.staged_task[reg] != task) continue;
-      internal::bit_clear(s.staged_bits, reg);
+      if (!bit_test(s.staged_bits, reg) || s.staged_task[reg] != task) continue;
+      bit_clear(s.staged_bits, reg);
       ++dropped;
     }
   }
@@ -150,7 +147,7 @@ void CheckerState::abort_transfer(Decision decision) {
     last_[journal_.history[i].slot] = journal_.history[i].last;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    if (internal::bit_test(journal_.saved_state, i)) {
+    if (bit_test(journal_.saved_state, i)) {
       state_word(i, journal_.state_task) = journal_.state_words[i];
     }
   }
@@ -168,10 +165,7 @@ void CheckerState::abort_transfer(Decision decision) {
 }
 
 bool CheckerState::shadow(uint16_t device, uint8_t reg, uint8_t* value) const {
-  if (!loaded_ || device >= device_count_ ||
-      devices_[device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-    return false;
-  }
+  if (!register_map(device)) return false;
   *value = state_[device].shadow[reg];
   return true;
 }
@@ -186,7 +180,7 @@ uint32_t CheckerState::model_crc() const {
     buf[2] = static_cast<uint8_t>(crc >> 16);
     buf[3] = static_cast<uint8_t>(crc >> 24);
     __builtin_memcpy(buf + 4, p, len);
-    crc = internal::crc32(buf, 4 + len);
+    crc = crc32(buf, 4 + len);
   };
   for (uint32_t d = 0; d < device_count_; ++d) {
     const DeviceState& s = state_[d];

@@ -11,20 +11,29 @@ namespace {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "the image is little-endian and the core copies records as they are");
 
+using S = LoadStatus;
+using K = SectionKind;
+
 constexpr uint32_t kHeaderSize = sizeof(ImageHeader);
+constexpr uint32_t kEntrySize = sizeof(SectionEntry);
 constexpr uint32_t kMaxSections = 32;
 constexpr uint32_t kNoName = 0xFFFFFFFFu;
+constexpr LoadResult kVerified{S::kOk, 0, 0};
 
 LoadResult fail(LoadStatus status, uint32_t section, uint32_t index) {
   return LoadResult{status, section, index};
 }
 
+// Ranges of records are (first, count) pairs of 8- or 16-bit fields: their
+// sum, `first + count`, is an int and cannot wrap.
 constexpr uint32_t sec(SectionKind k) { return static_cast<uint32_t>(k); }
-constexpr uint32_t kDevSec = sec(SectionKind::kDevices);
-constexpr uint32_t kCmdSec = sec(SectionKind::kCommands);
-constexpr uint32_t kSigSec = sec(SectionKind::kSignals);
-constexpr uint32_t kRateSec = sec(SectionKind::kRates);
-constexpr uint32_t kInvSec = sec(SectionKind::kInvariants);
+constexpr uint32_t kDevSec = sec(K::kDevices);
+constexpr uint32_t kAliasSec = sec(K::kAliases);
+constexpr uint32_t kCmdSec = sec(K::kCommands);
+constexpr uint32_t kTplSec = sec(K::kTemplates);
+constexpr uint32_t kSigSec = sec(K::kSignals);
+constexpr uint32_t kRateSec = sec(K::kRates);
+constexpr uint32_t kInvSec = sec(K::kInvariants);
 
 bool name_ok(const uint8_t* names, uint32_t names_size, uint32_t offset) {
   if (offset >= names_size) return false;
@@ -41,16 +50,12 @@ LoadStatus check_field(const FieldRecord& f, uint32_t limit) {
   if (f.nbytes < 1 || f.nbytes > 4 || f.width < 1 || f.width > 32 || f.shift >= 32) {
     return LoadStatus::kBadField;
   }
-  if (static_cast<uint32_t>(f.shift) + f.width > 8u * f.nbytes) return LoadStatus::kBadField;
-  if (static_cast<uint32_t>(f.offset) + f.nbytes > limit) return LoadStatus::kBadField;
+  if (f.shift + f.width > 8u * f.nbytes) return LoadStatus::kBadField;
+  if (f.offset + f.nbytes > limit) return LoadStatus::kBadField;
   return LoadStatus::kOk;
 }
 
-bool response_ok(uint8_t r) {
-  return r == static_cast<uint8_t>(Response::kIgnore) ||
-         r == static_cast<uint8_t>(Response::kFailsafe) ||
-         r == static_cast<uint8_t>(Response::kReject);
-}
+bool response_ok(Response r) { return r >= Response::kIgnore && r <= Response::kReject; }
 
 }  // namespace
 
@@ -100,11 +105,17 @@ struct Section {
   SectionKind kind;
   uint32_t record_size;
   uint32_t max_count;
-  void* table;       // where the records are copied (null: read in place)
-  uint32_t* count;   // the number loaded (null: not kept)
-  uint32_t name_at;  // offset of the records' `name`, kNoName: none
-  int entry;         // its index in the image's section table, -1: not seen yet
+  void* table = nullptr;       // where the records are copied (null: read in place)
+  uint32_t* count = nullptr;   // the number loaded (null: not kept)
+  uint32_t name_at = kNoName;  // offset of the records' `name`, kNoName: none
+  int entry = -1;              // its index in the image's section table, -1: not seen yet
 };
+
+// A section copied into `table`: its record size and capacity are the table's.
+template <typename R, uint32_t N>
+Section table(SectionKind kind, R (&records)[N], uint32_t* count, uint32_t name_at = kNoName) {
+  return Section{kind, sizeof(R), N, records, count, name_at};
+}
 
 // The checks of the tables' contents, in order, after the section table.
 using Step = LoadResult (CheckerState::*)(const LoadInput&);
@@ -115,45 +126,35 @@ constexpr Step kSteps[] = {
 };
 
 LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
-  using S = LoadStatus;
-  using K = SectionKind;
   if (image == nullptr || size < kHeaderSize) return fail(S::kTooSmall, 0, 0);
   ImageHeader h;
   __builtin_memcpy(&h, image, sizeof(h));
   if (h.magic != kImageMagic) return fail(S::kBadMagic, 0, 0);
   if (h.version_major != kImageVersionMajor) return fail(S::kBadVersion, 0, 0);
   if (h.total_size != size || size > kMaxImageBytes) return fail(S::kSizeMismatch, 0, 0);
-  if (internal::crc32(image + 16, size - 16) != h.checksum) return fail(S::kBadChecksum, 0, 0);
+  constexpr uint32_t kSummed = offsetof(ImageHeader, section_count);  // the CRC's first byte
+  if (crc32(image + kSummed, size - kSummed) != h.checksum) return fail(S::kBadChecksum, 0, 0);
   if (h.flags != 0 || h.reserved[0] != 0 || h.reserved[1] != 0) return fail(S::kBadHeader, 0, 0);
   if (h.section_count > kMaxSections) return fail(S::kTooMany, 0, 0);
-  const uint32_t table_end = kHeaderSize + 16u * h.section_count;
+  const uint32_t table_end = kHeaderSize + kEntrySize * h.section_count;
   if (table_end > size) return fail(S::kSectionBounds, 0, 0);
 
   uint32_t access_count = 0;
   Section sections[] = {
-      {K::kTasks, sizeof(TaskRecord), kMaxTasks, tasks_, &task_count_, offsetof(TaskRecord, name),
-       -1},
-      {K::kDevices, sizeof(DeviceRecord), kMaxDevices, devices_, &device_count_,
-       offsetof(DeviceRecord, name), -1},
-      {K::kAliases, sizeof(AliasRecord), kMaxAliases, aliases_, &alias_count_, kNoName, -1},
-      {K::kCommands, sizeof(CommandRecord), kMaxCommandDefs, commands_, &command_count_,
-       offsetof(CommandRecord, name), -1},
-      {K::kFields, sizeof(FieldRecord), kMaxFieldDefs, fields_, &field_count_,
-       offsetof(FieldRecord, name), -1},
-      {K::kSignals, sizeof(SignalRecord), kMaxSignals, signals_, &signal_count_,
-       offsetof(SignalRecord, name), -1},
-      {K::kRates, sizeof(RateRecord), kMaxRateLimits, rates_, &rate_count_,
-       offsetof(RateRecord, name), -1},
-      {K::kInvariants, sizeof(InvariantRecord), kMaxInvariants, invariants_, &invariant_count_,
-       offsetof(InvariantRecord, name), -1},
-      {K::kTemplates, sizeof(TemplateRecord), kMaxTemplates, templates_, &template_count_, kNoName,
-       -1},
-      {K::kCode, sizeof(Insn), kMaxCodeWords, code_, &code_count_, kNoName, -1},
-      {K::kConstants, sizeof(int64_t), kMaxConstants, constants_, &constant_count_, kNoName, -1},
-      {K::kAccess, sizeof(AccessRecord), kMaxTasks, access_, &access_count, kNoName, -1},
-      {K::kRegisterInit, sizeof(RegisterInitRecord), kMaxDevices * kMaxRegisters, nullptr, nullptr,
-       kNoName, -1},
-      {K::kNames, 1, kMaxImageBytes, nullptr, nullptr, kNoName, -1},
+      table(K::kTasks, tasks_, &task_count_, offsetof(TaskRecord, name)),
+      table(K::kDevices, devices_, &device_count_, offsetof(DeviceRecord, name)),
+      table(K::kAliases, aliases_, &alias_count_),
+      table(K::kCommands, commands_, &command_count_, offsetof(CommandRecord, name)),
+      table(K::kFields, fields_, &field_count_, offsetof(FieldRecord, name)),
+      table(K::kSignals, signals_, &signal_count_, offsetof(SignalRecord, name)),
+      table(K::kRates, rates_, &rate_count_, offsetof(RateRecord, name)),
+      table(K::kInvariants, invariants_, &invariant_count_, offsetof(InvariantRecord, name)),
+      table(K::kTemplates, templates_, &template_count_),
+      table(K::kCode, code_, &code_count_),
+      table(K::kConstants, constants_, &constant_count_),
+      table(K::kAccess, access_, &access_count),
+      {K::kRegisterInit, sizeof(RegisterInitRecord), kMaxDevices * kMaxRegisters},
+      {K::kNames, 1, kMaxImageBytes},
   };
   constexpr uint32_t kKindCount = sizeof(sections) / sizeof(sections[0]);
   SectionEntry entries[kMaxSections];
@@ -166,7 +167,7 @@ LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
   for (uint32_t i = 0; i <= h.section_count; ++i) {
     const bool last = i == h.section_count;
     SectionEntry e{0, size, 0, 0};
-    if (!last) __builtin_memcpy(&e, image + kHeaderSize + 16u * i, sizeof(e));
+    if (!last) __builtin_memcpy(&e, image + kHeaderSize + sizeof(e) * i, sizeof(e));
     Section* sp = nullptr;
     for (Section& x : sections) sp = x.kind == static_cast<K>(e.kind) ? &x : sp;
     if (!last && sp == nullptr) return fail(S::kUnknownSection, e.kind, i);
@@ -184,7 +185,7 @@ LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
     cursor = static_cast<uint32_t>(end);
   }
   for (const Section& x : sections) {
-    if (x.entry < 0) return fail(S::kMissingSection, static_cast<uint32_t>(x.kind), 0);
+    if (x.entry < 0) return fail(S::kMissingSection, sec(x.kind), 0);
   }
   for (uint32_t i = 0; i < h.section_count; ++i) {
     const SectionEntry& e = entries[i];
@@ -204,9 +205,9 @@ LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
   for (const Section& x : sections) {
     for (uint32_t i = 0; x.name_at != kNoName && i < *x.count; ++i) {
       const uint32_t name =
-          internal::load_u32(static_cast<const uint8_t*>(x.table) + x.record_size * i + x.name_at);
+          load_u32(static_cast<const uint8_t*>(x.table) + x.record_size * i + x.name_at);
       if (!name_ok(image + names.offset, names.size, name)) {
-        return fail(S::kBadName, static_cast<uint32_t>(x.kind), i);
+        return fail(S::kBadName, sec(x.kind), i);
       }
     }
   }
@@ -215,46 +216,37 @@ LoadResult CheckerState::verify(const uint8_t* image, uint32_t size) {
     const LoadResult r = (this->*step)(in);
     if (r.status != S::kOk) return r;
   }
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_devices(const LoadInput&) {
-  using S = LoadStatus;
-  // --- devices ------------------------------------------------------------------
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
     if (d.role == 0 || (d.role & ~(kRoleActuator | kRoleSensor)) != 0 ||
-        (d.profile != static_cast<uint8_t>(Profile::kFrame) &&
-         d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) ||
-        d.ten_bit > 1 || d.auto_increment > static_cast<uint8_t>(AutoIncrement::kBit) ||
-        d.latch_mode > static_cast<uint8_t>(LatchMode::kHoldSafeUnrepaired) ||
+        (d.profile != Profile::kFrame && d.profile != Profile::kRegisterMap) || d.ten_bit > 1 ||
+        d.auto_increment > AutoIncrement::kBit || d.latch_mode > LatchMode::kHoldSafeUnrepaired ||
         d.short_queries > 1 || d.gate_bit > 7 ||
-        (d.gated != 0 &&
-         (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) || d.gated > d.command_count)) ||
-        (d.short_queries != 0 && d.profile != static_cast<uint8_t>(Profile::kFrame))) {
+        (d.gated != 0 && (d.profile != Profile::kRegisterMap || d.gated > d.command_count)) ||
+        (d.short_queries != 0 && d.profile != Profile::kFrame)) {
       return fail(S::kBadTag, kDevSec, i);
     }
     if (d.addr > (d.ten_bit ? 0x3FFu : 0x7Fu) || d.ai_bit > 7 ||
         d.sample_request_len > sizeof(d.sample_request) || d.sample_len > kMaxSampleBytes ||
-        (d.profile == static_cast<uint8_t>(Profile::kFrame) &&
-         (d.frame_len < 1 || d.prefix_len > 1 ||
-          static_cast<uint32_t>(d.frame_len) + d.prefix_len > kMaxWriteBytes)) ||
-        (d.latch_mode != static_cast<uint8_t>(LatchMode::kOff) &&
+        (d.profile == Profile::kFrame &&
+         (d.frame_len < 1 || d.prefix_len > 1 || d.frame_len + d.prefix_len > kMaxWriteBytes)) ||
+        (d.latch_mode != LatchMode::kOff &&
          (d.latch_count < 1 || d.latch_count > kMaxLatchCount))) {
       return fail(S::kBadField, kDevSec, i);
     }
-    if (static_cast<uint32_t>(d.command_first) + d.command_count > command_count_) {
+    if (d.command_first + d.command_count > command_count_) {
       return fail(S::kBadReference, kDevSec, i);
     }
-    for (uint32_t c = d.command_first; c < static_cast<uint32_t>(d.command_first) + d.command_count;
-         ++c) {
+    for (uint32_t c = d.command_first; c < d.command_first + d.command_count; ++c) {
       if (commands_[c].device != i) return fail(S::kBadReference, kDevSec, i);
     }
     if (d.safe_count > kMaxSafeStateCommands) return fail(S::kTooMany, kDevSec, i);
-    if (static_cast<uint32_t>(d.safe_first) + d.safe_count > template_count_) {
-      return fail(S::kBadReference, kDevSec, i);
-    }
-    for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
+    if (d.safe_first + d.safe_count > template_count_) return fail(S::kBadReference, kDevSec, i);
+    for (uint32_t t = d.safe_first; t < d.safe_first + d.safe_count; ++t) {
       const uint16_t c = templates_[t].command;
       if (c >= command_count_ || commands_[c].device != i) {
         return fail(S::kBadReference, kDevSec, i);
@@ -267,48 +259,37 @@ LoadResult CheckerState::verify_devices(const LoadInput&) {
       }
     }
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_aliases(const LoadInput&) {
-  using S = LoadStatus;
-  // --- aliases --------------------------------------------------------------------
   for (uint32_t i = 0; i < alias_count_; ++i) {
     const AliasRecord& a = aliases_[i];
-    if (a.kind > static_cast<uint8_t>(AliasKind::kGeneralCall) || a.pad != 0) {
-      return fail(S::kBadTag, sec(SectionKind::kAliases), i);
-    }
-    if (a.device >= device_count_) return fail(S::kBadReference, sec(SectionKind::kAliases), i);
-    if (a.addr > 0x7F || (a.kind == static_cast<uint8_t>(AliasKind::kGeneralCall) && a.addr != 0) ||
-        (a.kind == static_cast<uint8_t>(AliasKind::kAddress) && a.addr == 0)) {
-      return fail(S::kBadField, sec(SectionKind::kAliases), i);
+    if (a.kind > AliasKind::kGeneralCall || a.pad != 0) return fail(S::kBadTag, kAliasSec, i);
+    if (a.device >= device_count_) return fail(S::kBadReference, kAliasSec, i);
+    if (a.addr > 0x7F || (a.kind == AliasKind::kGeneralCall && a.addr != 0) ||
+        (a.kind == AliasKind::kAddress && a.addr == 0)) {
+      return fail(S::kBadField, kAliasSec, i);
     }
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_commands(const LoadInput&) {
-  using S = LoadStatus;
-  // --- commands and fields ----------------------------------------------------------
   for (uint32_t i = 0; i < command_count_; ++i) {
     const CommandRecord& c = commands_[i];
     if (c.device >= device_count_) return fail(S::kBadReference, kCmdSec, i);
     const DeviceRecord& d = devices_[c.device];
-    if (i < d.command_first || i >= static_cast<uint32_t>(d.command_first) + d.command_count) {
+    if (i < d.command_first || i >= d.command_first + d.command_count) {
       return fail(S::kBadReference, kCmdSec, i);  // not inside its device's range
     }
-    if (c.command_class < static_cast<uint8_t>(CommandClass::kActuate) ||
-        c.command_class > static_cast<uint8_t>(CommandClass::kForbidden)) {
+    if (c.command_class < CommandClass::kActuate || c.command_class > CommandClass::kForbidden) {
       return fail(S::kBadTag, kCmdSec, i);
     }
     if (c.field_count > kMaxFieldsPerCommand) return fail(S::kTooMany, kCmdSec, i);
-    if (static_cast<uint32_t>(c.field_first) + c.field_count > field_count_) {
-      return fail(S::kBadReference, kCmdSec, i);
-    }
+    if (c.field_first + c.field_count > field_count_) return fail(S::kBadReference, kCmdSec, i);
     uint32_t limit = 0;
-    if (d.profile == static_cast<uint8_t>(Profile::kFrame)) {
+    if (d.profile == Profile::kFrame) {
       if (c.group_len != 0 || c.repeat != 0 || c.stride != 0) return fail(S::kBadField, kCmdSec, i);
       limit = d.frame_len;
     } else if (c.group_len == 0) {
@@ -318,8 +299,8 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
       }
       bool listens = false;
       for (uint32_t a = 0; a < alias_count_; ++a) {
-        listens = listens || (aliases_[a].device == c.device &&
-                              aliases_[a].kind == static_cast<uint8_t>(AliasKind::kGeneralCall));
+        listens = listens ||
+                  (aliases_[a].device == c.device && aliases_[a].kind == AliasKind::kGeneralCall);
       }
       if (!listens) return fail(S::kBadReference, kCmdSec, i);
       for (uint32_t k = d.command_first; k < i; ++k) {
@@ -334,17 +315,15 @@ LoadResult CheckerState::verify_commands(const LoadInput&) {
       }
       limit = c.group_len;
     }
-    for (uint32_t f = c.field_first; f < static_cast<uint32_t>(c.field_first) + c.field_count;
-         ++f) {
+    for (uint32_t f = c.field_first; f < c.field_first + c.field_count; ++f) {
       const LoadStatus st = check_field(fields_[f], limit);
-      if (st != S::kOk) return fail(st, sec(SectionKind::kFields), f);
+      if (st != S::kOk) return fail(st, sec(K::kFields), f);
     }
   }
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_decoding(const LoadInput&) {
-  using S = LoadStatus;
   // Per-device lookup tables: opcode (frame) or register (map) -> command. Two
   // commands claiming one opcode or register make decoding ambiguous.
   for (uint32_t dv = 0; dv < device_count_; ++dv) {
@@ -354,7 +333,7 @@ LoadResult CheckerState::verify_decoding(const LoadInput&) {
     for (uint32_t k = 0; k < d.command_count; ++k) {
       const uint32_t ci = d.command_first + k;
       const CommandRecord& c = commands_[ci];
-      if (d.profile == static_cast<uint8_t>(Profile::kFrame)) {
+      if (d.profile == Profile::kFrame) {
         if (lookup[c.match] != 0xFF) return fail(S::kBadField, kCmdSec, ci);
         lookup[c.match] = static_cast<uint8_t>(k);
       } else {
@@ -374,9 +353,8 @@ LoadResult CheckerState::verify_decoding(const LoadInput&) {
   for (uint32_t dv = 0; dv < device_count_; ++dv) {
     const DeviceRecord& d = devices_[dv];
     if (d.broadcast == 0 && d.broadcast_target == 0) continue;
-    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap) ||
-        d.broadcast >= d.command_count || d.broadcast_target >= d.command_count ||
-        d.broadcast == d.broadcast_target) {
+    if (d.profile != Profile::kRegisterMap || d.broadcast >= d.command_count ||
+        d.broadcast_target >= d.command_count || d.broadcast == d.broadcast_target) {
       return fail(S::kBadReference, kDevSec, dv);
     }
     const CommandRecord& from = commands_[d.command_first + d.broadcast];
@@ -392,77 +370,64 @@ LoadResult CheckerState::verify_decoding(const LoadInput&) {
     slots += commands_[i].repeat > 1 ? commands_[i].repeat : 1;
     if (slots > kMaxHistorySlots) return fail(S::kTooMany, kCmdSec, i);
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_templates(const LoadInput&) {
-  using S = LoadStatus;
-  // --- templates ----------------------------------------------------------------------
   for (uint32_t i = 0; i < template_count_; ++i) {
     const TemplateRecord& t = templates_[i];
     if (t.command != kNone) {
       const CommandRecord& c = commands_[t.command < command_count_ ? t.command : 0];
       // A command of the image, addressable (not a general call), with the fields it sets.
       if (t.command >= command_count_ ||
-          (devices_[c.device].profile == static_cast<uint8_t>(Profile::kRegisterMap) &&
-           c.group_len == 0) ||
+          (devices_[c.device].profile == Profile::kRegisterMap && c.group_len == 0) ||
           (t.set_mask >> c.field_count) != 0) {
-        return fail(S::kBadReference, sec(SectionKind::kTemplates), i);
+        return fail(S::kBadReference, kTplSec, i);
       }
       // A channel must exist; frame commands have none.
-      const bool frame = devices_[c.device].profile == static_cast<uint8_t>(Profile::kFrame);
+      const bool frame = devices_[c.device].profile == Profile::kFrame;
       if (t.index != kSameIndex && (frame || t.index >= c.repeat)) {
-        return fail(S::kBadField, sec(SectionKind::kTemplates), i);
+        return fail(S::kBadField, kTplSec, i);
       }
     } else if (t.index != kSameIndex) {
-      return fail(S::kBadField, sec(SectionKind::kTemplates), i);  // "the checked one" has its own
+      return fail(S::kBadField, kTplSec, i);  // "the checked one" has its own
     }
   }
   // A safe state is written with no command being checked: on a register map
   // each of its templates names its channel.
   for (uint32_t i = 0; i < device_count_; ++i) {
     const DeviceRecord& d = devices_[i];
-    if (d.profile != static_cast<uint8_t>(Profile::kRegisterMap)) continue;
-    for (uint32_t t = d.safe_first; t < static_cast<uint32_t>(d.safe_first) + d.safe_count; ++t) {
+    if (d.profile != Profile::kRegisterMap) continue;
+    for (uint32_t t = d.safe_first; t < d.safe_first + d.safe_count; ++t) {
       if (templates_[t].index == kSameIndex) return fail(S::kBadField, kDevSec, i);
     }
   }
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_signals(const LoadInput&) {
-  using S = LoadStatus;
-  // --- signals (programs checked below) -------------------------------------------------
   for (uint32_t i = 0; i < signal_count_; ++i) {
     const SignalRecord& s = signals_[i];
     if (s.pad0 != 0) return fail(S::kBadTag, kSigSec, i);
-    if (s.kind == static_cast<uint8_t>(SignalKind::kRaw)) {
+    if (s.kind == SignalKind::kRaw) {
       if (s.device >= device_count_ || (devices_[s.device].role & kRoleSensor) == 0) {
         return fail(S::kBadReference, kSigSec, i);
       }
-      FieldRecord f = s.field;
-      if ((f.flags & ~(kFieldBigEndian | kFieldSigned)) != 0 || f.pad[0] || f.pad[1] || f.pad[2]) {
-        return fail(S::kBadTag, kSigSec, i);
-      }
-      if (check_field(f, devices_[s.device].sample_len) != S::kOk || s.valid_min > s.valid_max) {
-        return fail(S::kBadField, kSigSec, i);
-      }
-    } else if (s.kind == static_cast<uint8_t>(SignalKind::kDerived)) {
-      if (static_cast<uint32_t>(s.code_first) + s.code_len > code_count_) {
-        return fail(S::kBadReference, kSigSec, i);
-      }
+      const LoadStatus st = check_field(s.field, devices_[s.device].sample_len);
+      if (st != S::kOk) return fail(st, kSigSec, i);
+      if (s.valid_min > s.valid_max) return fail(S::kBadField, kSigSec, i);
+      signal_devices_[i] = uint32_t{1} << s.device;
+    } else if (s.kind == SignalKind::kDerived) {
+      if (s.code_first + s.code_len > code_count_) return fail(S::kBadReference, kSigSec, i);
       derived_mask_ |= uint64_t{1} << i;
     } else {
       return fail(S::kBadTag, kSigSec, i);
     }
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_rules(const LoadInput&) {
-  using S = LoadStatus;
   // A rule's template must encode a command of the rule's own device.
   auto template_ok = [&](uint16_t tid, uint16_t device) {
     if (tid == kNone) return true;
@@ -472,9 +437,7 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
   };
   auto mask_ok = [&](const CommandMask& m, uint16_t device) {
     for (uint32_t c = 0; c < 128; ++c) {
-      if (internal::mask_has(m, c) && (c >= command_count_ || commands_[c].device != device)) {
-        return false;
-      }
+      if (mask_has(m, c) && (c >= command_count_ || commands_[c].device != device)) return false;
     }
     return true;
   };
@@ -482,7 +445,6 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
     return device < device_count_ && (devices_[device].role & kRoleActuator) != 0;
   };
 
-  // --- rates ----------------------------------------------------------------------------
   for (uint32_t i = 0; i < rate_count_; ++i) {
     const RateRecord& r = rates_[i];
     if (!response_ok(r.response) || r.reserved != 0) return fail(S::kBadTag, kRateSec, i);
@@ -492,60 +454,54 @@ LoadResult CheckerState::verify_rules(const LoadInput&) {
     }
   }
 
-  // --- invariants -----------------------------------------------------------------------
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
-    if (!response_ok(v.response) || v.scope > static_cast<uint8_t>(StateScope::kSession) ||
-        (v.after_safe != 0 && v.scope != static_cast<uint8_t>(StateScope::kDevice))) {
+    if (!response_ok(v.response) || v.scope > StateScope::kSession ||
+        (v.after_safe != 0 && v.scope != StateScope::kDevice)) {
       return fail(S::kBadTag, kInvSec, i);
     }
     if (!is_actuator(v.device) || !mask_ok(v.commands, v.device) ||
-        !template_ok(v.template_id, v.device) ||
-        static_cast<uint32_t>(v.code_first) + v.code_len > code_count_) {
+        !template_ok(v.template_id, v.device) || v.code_first + v.code_len > code_count_) {
       return fail(S::kBadReference, kInvSec, i);
     }
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_access(const LoadInput& in) {
-  using S = LoadStatus;
-  // --- access, register init ----------------------------------------------------------------
   const uint32_t device_bits =
       device_count_ >= 32 ? 0xFFFFFFFFu : ((uint32_t{1} << device_count_) - 1);
   for (uint32_t i = 0; i < task_count_; ++i) {
     if ((access_[i].actuate_devices & ~device_bits) != 0 ||
         (access_[i].read_devices & ~device_bits) != 0) {
-      return fail(S::kBadReference, sec(SectionKind::kAccess), i);
+      return fail(S::kBadReference, sec(K::kAccess), i);
     }
   }
   for (uint32_t i = 0; i < in.init.count; ++i) {
     RegisterInitRecord r;
-    __builtin_memcpy(&r, in.image + in.init.offset + 4u * i, sizeof(r));
-    if (r.device >= device_count_ ||
-        devices_[r.device].profile != static_cast<uint8_t>(Profile::kRegisterMap)) {
-      return fail(S::kBadReference, sec(SectionKind::kRegisterInit), i);
+    __builtin_memcpy(&r, in.image + in.init.offset + sizeof(r) * i, sizeof(r));
+    if (r.device >= device_count_ || devices_[r.device].profile != Profile::kRegisterMap) {
+      return fail(S::kBadReference, sec(K::kRegisterInit), i);
     }
     state_[r.device].shadow[r.reg] = r.value;
   }
   for (uint32_t dv = 0; dv < device_count_; ++dv) {
     __builtin_memcpy(state_[dv].power_on, state_[dv].shadow, kMaxRegisters);
   }
-
-  return LoadResult{S::kOk, 0, 0};
+  return kVerified;
 }
 
 LoadResult CheckerState::verify_programs(const LoadInput&) {
-  using S = LoadStatus;
-  // --- programs -------------------------------------------------------------------------------
-  LoadResult result{S::kOk, 0, 0};
+  LoadResult result = kVerified;
   for (uint32_t i = 0; i < signal_count_; ++i) {
     const SignalRecord& s = signals_[i];
-    if (s.kind != static_cast<uint8_t>(SignalKind::kDerived)) continue;
+    if (s.kind != SignalKind::kDerived) continue;
     if (!verify_program(s.code_first, s.code_len, true, static_cast<uint16_t>(i), kNone, &result)) {
       return result;
     }
+    const Reach r = reach(s.code_first, s.code_len);
+    signal_deps_[i] = r.signals;
+    signal_devices_[i] = r.sensors;
   }
   for (uint32_t i = 0; i < invariant_count_; ++i) {
     const InvariantRecord& v = invariants_[i];
@@ -617,7 +573,7 @@ constexpr OpTable kOps = make_op_table();
 
 // The operand b of one instruction names something that exists.
 bool CheckerState::operand_ok(const Insn& in, bool derived, uint16_t self, uint16_t device) const {
-  switch (static_cast<Op>(in.op)) {
+  switch (in.op) {
     case Op::kPushConst:
       return in.b < constant_count_;
     case Op::kSignal:
@@ -638,9 +594,8 @@ bool CheckerState::operand_ok(const Insn& in, bool derived, uint16_t self, uint1
 // sees every predecessor of an instruction before the instruction itself).
 bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool derived,
                                   uint16_t self, uint16_t device, LoadResult* result) {
-  using S = LoadStatus;
   auto fail_at = [&](S status, uint32_t pc) {
-    *result = LoadResult{status, sec(SectionKind::kCode), code_first + pc};
+    *result = LoadResult{status, sec(K::kCode), code_first + pc};
     return false;
   };
   if (code_len > kMaxProgramLength) return fail_at(S::kProgramTooLong, 0);
@@ -648,19 +603,14 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
   int16_t depth_at[kMaxProgramLength];
   for (uint32_t i = 0; i < code_len; ++i) depth_at[i] = -1;
   depth_at[0] = 0;
-  uint64_t deps = 0;
   for (uint32_t pc = 0; pc < code_len; ++pc) {
     const Insn& in = code_[code_first + pc];
-    const OpInfo op = in.op <= static_cast<uint8_t>(Op::kReturn) ? kOps.at[in.op] : OpInfo{};
+    const OpInfo op = in.op <= Op::kReturn ? kOps.at[static_cast<uint8_t>(in.op)] : OpInfo{};
     const uint32_t wrong_kind = derived ? kInvariantOnly : kDerivedOnly;
     if (in.a != 0 || (op.flags & kValid) == 0 || (op.flags & wrong_kind) != 0 ||
         ((op.flags & kUsesB) == 0 && in.b != 0) || ((op.flags & kUsesImm) == 0 && in.imm != 0) ||
         !operand_ok(in, derived, self, device)) {
       return fail_at(S::kBadProgram, pc);
-    }
-    if (derived && in.op == static_cast<uint8_t>(Op::kSignal)) {
-      deps |= signal_deps_[in.b];
-      if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
     }
     const uint32_t target = pc + static_cast<uint32_t>(in.imm);
     if ((op.flags & kJumps) != 0) {
@@ -674,9 +624,7 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
     if (depth < op.pops) return fail_at(S::kStackUnderflow, pc);
     const int32_t after = depth - op.pops + op.pushes;
     if (after > static_cast<int32_t>(kMaxStackDepth)) return fail_at(S::kStackOverflow, pc);
-    if (in.op == static_cast<uint8_t>(Op::kReturn) && depth != 1) {
-      return fail_at(S::kStackMismatch, pc);
-    }
+    if (in.op == Op::kReturn && depth != 1) return fail_at(S::kStackMismatch, pc);
     auto flow_to = [&](uint32_t to) {
       if (depth_at[to] < 0) depth_at[to] = static_cast<int16_t>(after);
       return depth_at[to] == after;
@@ -687,47 +635,36 @@ bool CheckerState::verify_program(uint32_t code_first, uint32_t code_len, bool d
       if (!flow_to(pc + 1)) return fail_at(S::kStackMismatch, pc + 1);
     }
   }
-  if (derived) signal_deps_[self] = deps;
   return true;
+}
+
+// What a verified program's SIGNAL operands reach: the derived signals (and
+// those they need, transitively) and the sensors. Its signals are of lower
+// id than any derived signal it computes, so theirs are already known.
+Reach CheckerState::reach(uint32_t code_first, uint32_t code_len) const {
+  Reach r{0, 0};
+  for (uint32_t pc = 0; pc < code_len; ++pc) {
+    const Insn& in = code_[code_first + pc];
+    if (in.op != Op::kSignal) continue;
+    r.signals |= signal_deps_[in.b] | (derived_mask_ & (uint64_t{1} << in.b));
+    r.sensors |= signal_devices_[in.b];
+  }
+  return r;
 }
 
 // Worst case of one command: the invariants whose mask holds it, plus the
 // derived signals those programs can reach (transitively), each counted once.
 void CheckerState::compute_costs() {
-  // The sensors each signal can read: a derived program's own SIGNAL operands
-  // (all of lower id, so already known) and theirs.
-  for (uint32_t s = 0; s < signal_count_; ++s) {
-    const SignalRecord& rec = signals_[s];
-    if (rec.kind == static_cast<uint8_t>(SignalKind::kRaw)) {
-      signal_devices_[s] = uint32_t{1} << rec.device;
-      continue;
-    }
-    uint32_t devs = 0;
-    for (uint32_t pc = 0; pc < rec.code_len; ++pc) {
-      const Insn& in = code_[rec.code_first + pc];
-      if (in.op == static_cast<uint8_t>(Op::kSignal)) devs |= signal_devices_[in.b];
-    }
-    signal_devices_[s] = devs;
-  }
   uint32_t worst = 0;
   uint64_t inv_deps[kMaxInvariants];
   for (uint32_t i = 0; i < invariant_count_; ++i) {
-    const InvariantRecord& v = invariants_[i];
-    uint64_t deps = 0;
-    for (uint32_t pc = 0; pc < v.code_len; ++pc) {
-      const Insn& in = code_[v.code_first + pc];
-      if (in.op == static_cast<uint8_t>(Op::kSignal)) {
-        deps |= signal_deps_[in.b];
-        if ((derived_mask_ >> in.b) & 1u) deps |= uint64_t{1} << in.b;
-      }
-    }
-    inv_deps[i] = deps;
+    inv_deps[i] = reach(invariants_[i].code_first, invariants_[i].code_len).signals;
   }
   for (uint32_t c = 0; c < command_count_; ++c) {
     uint32_t cost = 0;
     uint64_t deps = 0;
     for (uint32_t i = 0; i < invariant_count_; ++i) {
-      if (!internal::mask_has(invariants_[i].commands, c)) continue;
+      if (!mask_has(invariants_[i].commands, c)) continue;
       cost += invariants_[i].code_len;
       deps |= inv_deps[i];
     }

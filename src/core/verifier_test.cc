@@ -215,7 +215,9 @@ TEST_F(VerifierTest, TooManyTasks) {
 }
 
 TEST_F(VerifierTest, BadTagInDeviceProfileAndPadding) {
-  EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.profile = 7; }),
+  EXPECT_EQ(load_rover_with([](image::ImageModel& m) {
+              m.devices[0].record.profile = static_cast<Profile>(7);
+            }),
             LoadStatus::kBadTag);
   EXPECT_EQ(load_rover_with([](image::ImageModel& m) { m.devices[0].record.gate_bit = 8; }),
             LoadStatus::kBadTag);
@@ -228,7 +230,7 @@ TEST_F(VerifierTest, BadTagInDeviceProfileAndPadding) {
   gated.devices[0].record.gated = testing::arm::kPrescale + 1;
   EXPECT_EQ(load_model(gated), LoadStatus::kOk);
   image::ImageModel m = rover::model();
-  m.invariants[1].record.response = 9;
+  m.invariants[1].record.response = static_cast<Response>(9);
   const LoadResult r = h.load(m);
   EXPECT_EQ(r.status, LoadStatus::kBadTag);
   EXPECT_EQ(r.section, static_cast<uint32_t>(SectionKind::kInvariants));
@@ -294,12 +296,10 @@ TEST_F(VerifierTest, BroadcastAndGeneralCallCommandsAreCrossChecked) {
   m.commands[testing::arm::kTestMode].record.field_count = 0;
   EXPECT_EQ(load_model(m), LoadStatus::kOk);
   image::ImageModel no_alias = m;
-  no_alias.aliases.erase(std::remove_if(no_alias.aliases.begin(), no_alias.aliases.end(),
-                                        [](const AliasRecord& a) {
-                                          return a.kind ==
-                                                 static_cast<uint8_t>(AliasKind::kGeneralCall);
-                                        }),
-                         no_alias.aliases.end());
+  no_alias.aliases.erase(
+      std::remove_if(no_alias.aliases.begin(), no_alias.aliases.end(),
+                     [](const AliasRecord& a) { return a.kind == AliasKind::kGeneralCall; }),
+      no_alias.aliases.end());
   EXPECT_EQ(load_model(no_alias), LoadStatus::kBadReference);
   m.commands[testing::arm::kTestMode].record.stride = 4;  // a general-call command has no group
   EXPECT_EQ(load_model(m), LoadStatus::kBadField);

@@ -234,7 +234,7 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
   core::DeviceRecord& r = d.record;
   r = core::DeviceRecord{};
   r.role = profile.role;
-  r.profile = static_cast<uint8_t>(profile.kind);
+  r.profile = profile.kind;
   r.bus = binding.bus;
   r.ten_bit = binding.ten_bit ? 1 : 0;
   r.addr = binding.addr;
@@ -244,11 +244,11 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
   r.prefix_len = profile.prefix_len;
   r.short_queries = profile.short_queries ? 1 : 0;
   if (profile.kind == core::Profile::kRegisterMap) {
-    r.auto_increment = static_cast<uint8_t>(profile.auto_increment);
+    r.auto_increment = profile.auto_increment;
     r.ai_reg = profile.ai_reg;
     r.ai_bit = profile.ai_bit;
   }
-  r.latch_mode = static_cast<uint8_t>(binding.latch_mode);
+  r.latch_mode = binding.latch_mode;
   if (binding.latch_mode != core::LatchMode::kOff) {
     r.latch_count = binding.latch_count;
     r.latch_window_us = binding.latch_window_us;
@@ -283,7 +283,7 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
     image::Named<core::CommandRecord> cr;
     cr.name = c.name;
     cr.record.device = id;
-    cr.record.command_class = static_cast<uint8_t>(c.command_class);
+    cr.record.command_class = c.command_class;
     cr.record.field_count = static_cast<uint8_t>(c.fields.size());
     cr.record.field_first = static_cast<uint16_t>(model.fields.size());
     // Substitution groups are numbered per image: the first command of the
@@ -315,7 +315,7 @@ Result<uint16_t> append_device(image::ImageModel& model, const ProfileSpec& prof
   for (const AliasSpec& a : profile.aliases) {
     core::AliasRecord ar{};
     ar.bus = binding.bus;
-    ar.kind = static_cast<uint8_t>(a.kind);
+    ar.kind = a.kind;
     ar.addr = a.kind == core::AliasKind::kGeneralCall ? 0 : a.addr;
     ar.device = id;
     model.aliases.push_back(ar);
@@ -354,7 +354,7 @@ std::optional<core::SignalRecord> make_raw_signal(const ProfileSpec& profile, ui
   for (const FieldSpec& f : profile.sample_fields) {
     if (f.name != field) continue;
     core::SignalRecord s{};
-    s.kind = static_cast<uint8_t>(core::SignalKind::kRaw);
+    s.kind = core::SignalKind::kRaw;
     s.device = device;
     s.field = f.geometry;
     s.field.name = 0;

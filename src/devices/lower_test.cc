@@ -61,7 +61,7 @@ TEST(AppendDevice, DeviceRecordCarriesProfileAndBinding) {
   uint16_t ids[3];
   image::ImageModel m = rover_and_arm(ids);
   const core::DeviceRecord& g = m.devices[ids[0]].record;
-  EXPECT_EQ(g.profile, static_cast<uint8_t>(core::Profile::kFrame));
+  EXPECT_EQ(g.profile, core::Profile::kFrame);
   EXPECT_EQ(g.addr, 0x08);
   EXPECT_EQ(g.frame_len, 4);
   EXPECT_EQ(g.prefix_len, 1);
@@ -73,8 +73,8 @@ TEST(AppendDevice, DeviceRecordCarriesProfileAndBinding) {
   EXPECT_EQ(l.sample_len, 10);
   EXPECT_EQ(l.sample_period_us, 10000u);
   const core::DeviceRecord& a = m.devices[ids[2]].record;
-  EXPECT_EQ(a.profile, static_cast<uint8_t>(core::Profile::kRegisterMap));
-  EXPECT_EQ(a.auto_increment, static_cast<uint8_t>(core::AutoIncrement::kBit));
+  EXPECT_EQ(a.profile, core::Profile::kRegisterMap);
+  EXPECT_EQ(a.auto_increment, core::AutoIncrement::kBit);
   EXPECT_EQ(a.ai_bit, 5);
 }
 
@@ -91,7 +91,7 @@ TEST(AppendDevice, RegisterInitAndAliasesPointAtTheDevice) {
   EXPECT_EQ(m.aliases[0].addr, 0x70);
   EXPECT_EQ(m.aliases[0].device, ids[2]);
   EXPECT_EQ(m.aliases[0].bus, 1);
-  EXPECT_EQ(m.aliases[1].kind, static_cast<uint8_t>(core::AliasKind::kGeneralCall));
+  EXPECT_EQ(m.aliases[1].kind, core::AliasKind::kGeneralCall);
   EXPECT_EQ(m.aliases[1].addr, 0);
 }
 

@@ -15,9 +15,8 @@ bool same_geometry(const core::FieldRecord& a, const core::FieldRecord& b) {
 
 // True if `p` lowered with any binding gives exactly the device's records.
 bool matches(const ProfileSpec& p, const image::ImageModel& m, const core::DeviceRecord& d) {
-  if (static_cast<uint8_t>(p.kind) != d.profile || p.role != d.role ||
-      p.commands.size() != d.command_count || p.frame_len != d.frame_len ||
-      p.prefix_len != d.prefix_len) {
+  if (p.kind != d.profile || p.role != d.role || p.commands.size() != d.command_count ||
+      p.frame_len != d.frame_len || p.prefix_len != d.prefix_len) {
     return false;
   }
   if (p.broadcast.has_value() != (d.broadcast != d.broadcast_target)) return false;
@@ -34,8 +33,7 @@ bool matches(const ProfileSpec& p, const image::ImageModel& m, const core::Devic
     const CommandSpec& c = p.commands[k];
     if (rec.name != c.name || rec.record.match != c.match || rec.record.group_len != c.group_len ||
         rec.record.repeat != c.repeat || rec.record.stride != c.stride ||
-        rec.record.field_count != c.fields.size() ||
-        rec.record.command_class != static_cast<uint8_t>(c.command_class)) {
+        rec.record.field_count != c.fields.size() || rec.record.command_class != c.command_class) {
       return false;
     }
     for (size_t f = 0; f < c.fields.size(); ++f) {
@@ -78,18 +76,18 @@ Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t devi
   }
   ProfileSpec p;
   p.name = m.devices[device].name;
-  p.kind = static_cast<core::Profile>(d.profile);
+  p.kind = d.profile;
   p.role = d.role;
   p.frame_len = d.frame_len;
   p.prefix_len = d.prefix_len;
-  p.auto_increment = static_cast<core::AutoIncrement>(d.auto_increment);
+  p.auto_increment = d.auto_increment;
   p.ai_reg = d.ai_reg;
   p.ai_bit = d.ai_bit;
   for (const core::RegisterInitRecord& r : m.register_init) {
     if (r.device == device) p.power_on.push_back({r.reg, r.value});
   }
   for (const core::AliasRecord& a : m.aliases) {
-    if (a.device == device) p.aliases.push_back({static_cast<core::AliasKind>(a.kind), a.addr});
+    if (a.device == device) p.aliases.push_back({a.kind, a.addr});
   }
   for (uint32_t k = d.command_first; k < uint32_t{d.command_first} + d.command_count; ++k) {
     if (k >= m.commands.size()) return make_error("device command range outside the image");
@@ -97,7 +95,7 @@ Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t devi
     CommandSpec c;
     c.name = rec.name;
     c.group = std::to_string(rec.record.group);
-    c.command_class = static_cast<core::CommandClass>(rec.record.command_class);
+    c.command_class = rec.record.command_class;
     c.match = rec.record.match;
     c.group_len = rec.record.group_len;
     c.repeat = rec.record.repeat;
@@ -121,8 +119,7 @@ Result<ProfileSpec> profile_from_model(const image::ImageModel& m, uint16_t devi
   p.sample_len = d.sample_len;
   const std::string prefix = m.devices[device].name + ".";
   for (const auto& s : m.signals) {
-    if (s.record.kind != static_cast<uint8_t>(core::SignalKind::kRaw) ||
-        s.record.device != device) {
+    if (s.record.kind != core::SignalKind::kRaw || s.record.device != device) {
       continue;
     }
     std::string name = s.name.rfind(prefix, 0) == 0 ? s.name.substr(prefix.size()) : s.name;

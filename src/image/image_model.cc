@@ -156,9 +156,9 @@ Result<ImageModel> deserialize(std::span<const uint8_t> bytes) {
 
 namespace {
 
-const char* op_name(uint8_t op) {
+const char* op_name(core::Op op) {
   using core::Op;
-  switch (static_cast<Op>(op)) {
+  switch (op) {
     case Op::kNop:
       return "nop";
     case Op::kPush:
@@ -246,7 +246,8 @@ const char* op_name(uint8_t op) {
 }
 
 // A rule's response (ignore, failsafe, reject: a core::Decision), by the core's name.
-const char* response_name(uint8_t r) {
+const char* response_name(core::Response response) {
+  const auto r = static_cast<uint8_t>(response);
   if (r == 0 || r > static_cast<uint8_t>(core::Decision::kReject)) return "?";
   return core::decision_name(static_cast<core::Decision>(r));
 }
@@ -268,9 +269,9 @@ void disassemble(std::string& out, const ImageModel& m, uint32_t first, uint32_t
     }
     const core::Insn& in = m.code[at];
     const char* name = op_name(in.op);
-    std::string text = name ? name : fmt::format("op{}", in.op);
+    std::string text = name ? name : fmt::format("op{}", static_cast<unsigned>(in.op));
     using core::Op;
-    switch (static_cast<Op>(in.op)) {
+    switch (in.op) {
       case Op::kPush:
         text += fmt::format(" {}", in.imm);
         break;
@@ -320,21 +321,23 @@ std::string dump(const ImageModel& m) {
     out += fmt::format("  d{} {}: role {}{} profile {} i2c-{} 0x{:02x}{} commands {}+{} safe {}+{}",
                        i, m.devices[i].name, (d.role & core::kRoleActuator) ? "A" : "",
                        (d.role & core::kRoleSensor) ? "S" : "",
-                       d.profile == 1   ? "frame"
-                       : d.profile == 2 ? "regmap"
-                                        : "?",
+                       d.profile == core::Profile::kFrame         ? "frame"
+                       : d.profile == core::Profile::kRegisterMap ? "regmap"
+                                                                  : "?",
                        d.bus, d.addr, d.ten_bit ? " (10-bit)" : "", d.command_first,
                        d.command_count, d.safe_first, d.safe_count);
-    if (d.profile == 1) out += fmt::format(" frame {}+{}", d.prefix_len, d.frame_len);
-    if (d.profile == 2) {
-      out += fmt::format(" ai {}", d.auto_increment == 0 ? "never"
-                                   : d.auto_increment == 1
+    if (d.profile == core::Profile::kFrame)
+      out += fmt::format(" frame {}+{}", d.prefix_len, d.frame_len);
+    if (d.profile == core::Profile::kRegisterMap) {
+      out += fmt::format(" ai {}", d.auto_increment == core::AutoIncrement::kNever ? "never"
+                                   : d.auto_increment == core::AutoIncrement::kAlways
                                        ? "always"
                                        : fmt::format("bit {} of 0x{:02x}", d.ai_bit, d.ai_reg));
     }
-    if (d.latch_mode != 0) {
+    if (d.latch_mode != core::LatchMode::kOff) {
       out += fmt::format(" latch after {}{} in {}us", d.latch_count,
-                         d.latch_mode == 2 ? " unrepaired" : "", d.latch_window_us);
+                         d.latch_mode == core::LatchMode::kHoldSafeUnrepaired ? " unrepaired" : "",
+                         d.latch_window_us);
     }
     if (d.broadcast != d.broadcast_target) {
       out += fmt::format(" broadcast cmd{} -> cmd{}", d.command_first + d.broadcast,
@@ -353,14 +356,15 @@ std::string dump(const ImageModel& m) {
   out += fmt::format("aliases ({}):\n", m.aliases.size());
   for (const auto& a : m.aliases) {
     out += fmt::format("  i2c-{} 0x{:02x} {} -> d{}\n", a.bus, a.addr,
-                       a.kind == 0 ? "address" : "general-call", a.device);
+                       a.kind == core::AliasKind::kAddress ? "address" : "general-call", a.device);
   }
   out += fmt::format("commands ({}):\n", m.commands.size());
   for (size_t i = 0; i < m.commands.size(); ++i) {
     const auto& c = m.commands[i].record;
     static const char* kClass[] = {"?", "actuate", "query", "forbidden"};
+    const auto cls = static_cast<uint8_t>(c.command_class);
     out += fmt::format("  cmd{} {} (d{}, {}): match 0x{:02x}", i, m.commands[i].name, c.device,
-                       kClass[c.command_class < 4 ? c.command_class : 0], c.match);
+                       kClass[cls < 4 ? cls : 0], c.match);
     if (c.group_len != 0) {
       out += fmt::format(" group {} x{} stride {}", c.group_len, c.repeat, c.stride);
     }
@@ -380,7 +384,7 @@ std::string dump(const ImageModel& m) {
   out += fmt::format("signals ({}):\n", m.signals.size());
   for (size_t i = 0; i < m.signals.size(); ++i) {
     const auto& s = m.signals[i].record;
-    if (s.kind == 1) {
+    if (s.kind == core::SignalKind::kRaw) {
       out += fmt::format("  s{} {}: raw d{} byte {} ({}B) valid [{}, {}]\n", i, m.signals[i].name,
                          s.device, s.field.offset, s.field.nbytes, s.valid_min, s.valid_max);
     } else {
@@ -397,7 +401,7 @@ std::string dump(const ImageModel& m) {
                        response_name(r.response));
     if (r.only_channel != 0) out += fmt::format(" channel {}", r.only_channel - 1);
     if (r.template_id != core::kNone) out += fmt::format(" tpl{}", r.template_id);
-    if (r.response == 3) out += fmt::format(" errno {}", r.reply_errno);
+    if (r.response == core::Response::kReject) out += fmt::format(" errno {}", r.reply_errno);
     out += "\n";
   }
   out += fmt::format("invariants ({}):\n", m.invariants.size());
@@ -406,8 +410,8 @@ std::string dump(const ImageModel& m) {
     out += fmt::format("  i{} {}: d{} over [{}] on fail {}", i, m.invariants[i].name, v.device,
                        mask_list(v.commands), response_name(v.response));
     if (v.template_id != core::kNone) out += fmt::format(" tpl{}", v.template_id);
-    if (v.scope == static_cast<uint8_t>(core::StateScope::kTask)) out += ", state per task";
-    if (v.scope == static_cast<uint8_t>(core::StateScope::kSession)) out += ", state per session";
+    if (v.scope == core::StateScope::kTask) out += ", state per task";
+    if (v.scope == core::StateScope::kSession) out += ", state per session";
     if (v.after_safe != 0) out += fmt::format(", state {} after the safe state", v.after_safe - 1);
     out += fmt::format(", code {}+{}\n", v.code_first, v.code_len);
     disassemble(out, m, v.code_first, v.code_len);

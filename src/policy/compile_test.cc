@@ -364,8 +364,7 @@ allow t -> gopigo
   const CompileOutput out = compile_source("l.policy", text);
   ASSERT_TRUE(out.ok);
   ASSERT_EQ(out.model.devices.size(), 1u);
-  EXPECT_EQ(out.model.devices[0].record.latch_mode,
-            static_cast<uint8_t>(core::LatchMode::kHoldSafeUnrepaired));
+  EXPECT_EQ(out.model.devices[0].record.latch_mode, core::LatchMode::kHoldSafeUnrepaired);
   EXPECT_EQ(out.model.devices[0].record.latch_count, 5);
   EXPECT_EQ(out.model.devices[0].record.latch_window_us, 2000000u);
   EXPECT_EQ(out.summary.devices[0].latch, "after 5 unrepaired violations within 2s");

@@ -8,7 +8,9 @@
 // payload starts on a 4-byte boundary. Ids are indexes into their section
 // (task 3 is the fourth TaskRecord). 0xFFFF in a 16-bit reference means
 // "none". Names (for humans) live in the NAMES section, which the core checks
-// for bounds but never reads.
+// for bounds but never reads. A field typed by an enum (Profile, Op, ...) is
+// its fixed underlying type in the layout and can hold any byte of the image:
+// the verifier refuses a value the enum does not name.
 #ifndef CONTEGO_CORE_IMAGE_H_
 #define CONTEGO_CORE_IMAGE_H_
 
@@ -105,8 +107,8 @@ enum class LatchMode : uint8_t {
 };
 
 struct DeviceRecord {
-  uint8_t role;     // DeviceRole bits
-  uint8_t profile;  // Profile
+  uint8_t role;  // DeviceRole bits
+  Profile profile;
   uint8_t bus;      // i2c-N
   uint8_t ten_bit;  // 1 if `addr` is a 10-bit address
   uint16_t addr;
@@ -118,10 +120,10 @@ struct DeviceRecord {
   uint8_t frame_len;
   uint8_t prefix_len;  // 0 or 1
   // kRegisterMap:
-  uint8_t auto_increment;  // AutoIncrement
+  AutoIncrement auto_increment;
   uint8_t ai_reg;
   uint8_t ai_bit;
-  uint8_t latch_mode;          // LatchMode
+  LatchMode latch_mode;
   uint8_t latch_count;         // K, 1..kMaxLatchCount when latch_mode != kOff
   uint8_t sample_request_len;  // sensors: bytes the host writes before reading a sample
   uint8_t sample_request[8];
@@ -159,7 +161,7 @@ enum class AliasKind : uint8_t {
 
 struct AliasRecord {
   uint8_t bus;
-  uint8_t kind;  // AliasKind
+  AliasKind kind;
   uint16_t addr;
   uint16_t device;
   uint16_t pad;
@@ -175,10 +177,10 @@ enum class CommandClass : uint8_t {
 
 struct CommandRecord {
   uint16_t device;
-  uint8_t command_class;  // CommandClass
-  uint8_t field_count;    // <= kMaxFieldsPerCommand
-  uint16_t field_first;   // range in kFields
-  uint16_t group;         // substitution group; commands of one group can replace each other
+  CommandClass command_class;
+  uint8_t field_count;   // <= kMaxFieldsPerCommand
+  uint16_t field_first;  // range in kFields
+  uint16_t group;        // substitution group; commands of one group can replace each other
   // kFrame: `match` is the opcode (frame byte 0). group_len/repeat/stride are 0.
   // kRegisterMap: the command covers registers
   //   match + i*stride + j  for i in [0, repeat), j in [0, group_len)
@@ -222,7 +224,7 @@ enum class SignalKind : uint8_t {
 };
 
 struct SignalRecord {
-  uint8_t kind;  // SignalKind
+  SignalKind kind;
   uint8_t pad0;
   uint16_t device;    // kRaw: sensor device
   FieldRecord field;  // kRaw: where the value sits in the sample (field.name unused)
@@ -263,7 +265,7 @@ struct RateRecord {
   uint8_t only_channel;
   uint8_t reserved;      // 0
   CommandMask commands;  // which commands count
-  uint8_t response;      // Response
+  Response response;
   uint8_t reply_errno;
   uint16_t template_id;  // kFailsafe: substitute (kNone = ignore)
   uint32_t name;
@@ -274,10 +276,10 @@ struct InvariantRecord {
   uint16_t device;      // the actuator it guards
   uint16_t code_first;  // program in kCode: ends in PASS, FAIL or FAIL_SUBST
   uint16_t code_len;
-  uint8_t response;  // Response on FAIL (FAIL_SUBST always means kFailsafe)
+  Response response;  // on FAIL (FAIL_SUBST always means kFailsafe)
   uint8_t reply_errno;
   uint16_t template_id;  // kFailsafe on FAIL: substitute (kNone = ignore)
-  uint8_t scope;         // StateScope of its state word (since version 2.3; 0 before)
+  StateScope scope;      // of its state word (since version 2.3; 0 before)
   // kDevice scope only (since 2.5; 0 before): when the device's safe state is
   // driven, the state word becomes after_safe - 1 (the position after the
   // value it writes); 0: unchanged.
@@ -369,7 +371,7 @@ enum class Op : uint8_t {
 };
 
 struct Insn {
-  uint8_t op;   // Op
+  Op op;
   uint8_t a;    // reserved, 0
   uint16_t b;   // small operand (index)
   int32_t imm;  // immediate or jump offset in instructions

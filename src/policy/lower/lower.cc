@@ -18,9 +18,7 @@ using core::Op;
 class Program {
  public:
   size_t size() const { return code_.size(); }
-  void emit(Op op, uint16_t b = 0, int32_t imm = 0) {
-    code_.push_back(Insn{static_cast<uint8_t>(op), 0, b, imm});
-  }
+  void emit(Op op, uint16_t b = 0, int32_t imm = 0) { code_.push_back(Insn{op, 0, b, imm}); }
   int new_label() {
     labels_.push_back(-1);
     return static_cast<int>(labels_.size() - 1);
@@ -350,7 +348,7 @@ class Lowerer {
     if (s.raw) {
       const Device& d = p_.devices[s.device];
       const devices::FieldSpec& f = d.profile.sample_fields[s.sample_field];
-      rec.record.kind = static_cast<uint8_t>(core::SignalKind::kRaw);
+      rec.record.kind = core::SignalKind::kRaw;
       rec.record.device = s.device;
       rec.record.field = f.geometry;
       rec.record.field.name = 0;
@@ -362,7 +360,7 @@ class Lowerer {
       Program p;
       expr(p, *s.value);
       p.emit(Op::kReturn);
-      rec.record.kind = static_cast<uint8_t>(core::SignalKind::kDerived);
+      rec.record.kind = core::SignalKind::kDerived;
       rec.record.device = core::kNone;
       place(p, rec.record.code_first, rec.record.code_len, s.span);
     }
@@ -382,7 +380,7 @@ class Lowerer {
   }
 
   // Static part of a response: (response, errno, template).
-  void static_response(size_t device, const Response& r, uint8_t& response, uint8_t& err,
+  void static_response(size_t device, const Response& r, core::Response& response, uint8_t& err,
                        uint16_t& tmpl) {
     tmpl = core::kNone;
     err = 0;
@@ -390,14 +388,14 @@ class Lowerer {
       case ResponseKind::kIgnore:
       case ResponseKind::kFailsafeExpected:
       case ResponseKind::kFailsafeComputed:
-        response = static_cast<uint8_t>(core::Response::kIgnore);
+        response = core::Response::kIgnore;
         return;
       case ResponseKind::kReject:
-        response = static_cast<uint8_t>(core::Response::kReject);
+        response = core::Response::kReject;
         err = r.reply_errno;
         return;
       case ResponseKind::kFailsafeTemplate:
-        response = static_cast<uint8_t>(core::Response::kFailsafe);
+        response = core::Response::kFailsafe;
         tmpl = add_template(make_template(device, *r.command, false));
         return;
     }
@@ -617,8 +615,7 @@ class Lowerer {
     rec.name = inv.name;
     rec.record.device = inv.device;
     rec.record.commands = mask_of(globals(inv.device, inv.commands));
-    rec.record.scope = static_cast<uint8_t>(
-        inv.form == InvariantForm::kSequence ? inv.scope : core::StateScope::kDevice);
+    rec.record.scope = inv.form == InvariantForm::kSequence ? inv.scope : core::StateScope::kDevice;
     rec.record.after_safe = after_safe_state(inv);
     static_response(inv.device, inv.response, rec.record.response, rec.record.reply_errno,
                     rec.record.template_id);
@@ -631,7 +628,7 @@ class Lowerer {
   uint32_t estimate_cost() const {
     uint32_t derived = 0;
     for (const auto& s : m_.signals) {
-      if (s.record.kind == static_cast<uint8_t>(core::SignalKind::kDerived)) {
+      if (s.record.kind == core::SignalKind::kDerived) {
         derived += s.record.code_len;
       }
     }
