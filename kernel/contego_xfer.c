@@ -36,6 +36,26 @@ static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
 	return true;
 }
 
+/* Whether every write of the call goes out exactly as sent (its verdict is
+ * one emit of its own bytes at its address), as the monitor asks before it
+ * sends a call whole. Under ct.lock.
+ */
+static bool ct_acts_as_sent(u32 ntx)
+{
+	u32 i;
+
+	lockdep_assert_held(&ct.lock);
+	for (i = 0; i < ntx; i++) {
+		const struct contego_i2c_tx *tx = &ct.txs[i];
+
+		if (tx->kind == CONTEGO_TX_QUICK ||
+		    (tx->kind == CONTEGO_TX_WRITE &&
+		     !ct_emits_are(&ct.verdicts[i], tx->bytes, tx->len, tx->addr)))
+			return false;
+	}
+	return true;
+}
+
 static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 			  u8 __user **user_bufs)
 {
@@ -66,6 +86,10 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	action = ct_decide(cf, task, ntx, &decider, &hold_until);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
+	} else if ((action == CT_PERFORM || action == CT_SUBSTITUTE) && ntx > 1 &&
+		   ct_acts_as_sent(ntx) && ct_xfer(cf->adap, cf, msgs, nmsgs, 0, true) == 0) {
+		/* Every write exactly as sent: the program's one combined transfer. */
+		ret = ct_xfer(cf->adap, cf, msgs, nmsgs, 0, false);
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
 		/* In message order, only what the core allowed or substituted. */
 		for (i = 0; i < ntx && ret == 0; i++) {

@@ -1,5 +1,7 @@
 #include "monitor/expressible.h"
 
+#include <algorithm>
+
 namespace contego::monitor {
 
 // Allocation-free: this runs on every transfer. The buses only read the
@@ -30,6 +32,21 @@ Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus
   if (bus::Msg emit; emit_goes_with_read(bus, v, read, &emit)) return {};
   if (Status s = emits_inexpressible(bus, v, (read.flags & gate::kMsgTen) != 0); !s.ok()) return s;
   return bus.expressible({&read, 1});
+}
+
+bool acts_as_sent(const std::vector<gate::PlannedTx>& planned,
+                  const std::vector<core::Verdict>& verdicts) {
+  for (size_t i = 0; i < planned.size(); ++i) {
+    const gate::PlannedTx& p = planned[i];
+    if (p.kind == core::TxKind::kQuick) return false;
+    if (p.kind != core::TxKind::kWrite) continue;
+    const core::Verdict& v = verdicts[i];
+    if (v.emit_count != 1 || v.addr != p.addr || v.emit_len[0] != p.bytes.size() ||
+        !std::equal(p.bytes.begin(), p.bytes.end(), v.emit_bytes)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p) {

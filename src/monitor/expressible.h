@@ -39,6 +39,12 @@ bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus:
 // out together, or each apart.
 Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read);
 
+// Whether every write of a call goes out exactly as the program sent it
+// (its verdict: one emit of the write's own bytes at its address): then the
+// call can go out as the program's one combined transfer.
+bool acts_as_sent(const std::vector<gate::PlannedTx>& planned,
+                  const std::vector<core::Verdict>& verdicts);
+
 // The read message of transaction `p` of `t`, its buffer left out (to plan it).
 bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p);
 

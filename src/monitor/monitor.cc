@@ -485,6 +485,10 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
                                               const std::vector<gate::PlannedTx>& planned) {
   gate::TransferReply reply;
   bus::Bus& bus = *buses_.at(t.bus);
+  if (planned.size() > 1 && acts_as_sent(planned, verdicts_) &&
+      perform_as_sent(task, t, planned, reply)) {
+    return reply;
+  }
   for (size_t i = 0; i < planned.size(); ++i) {
     const gate::PlannedTx& p = planned[i];
     const core::Verdict& v = verdicts_[i];
@@ -511,6 +515,42 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
     }
   }
   return reply;
+}
+
+// A call whose every write goes out as sent (acts_as_sent), as the program's
+// one combined transfer: its messages in order, no stop between them. False,
+// nothing sent, when the adapter has no form for it whole (then each
+// transaction goes in its own form).
+bool Monitor::perform_as_sent(uint16_t task, const gate::Transfer& t,
+                              const std::vector<gate::PlannedTx>& planned,
+                              gate::TransferReply& reply) {
+  bus::Bus& bus = *buses_.at(t.bus);
+  const size_t n = t.messages.size();
+  std::vector<std::vector<uint8_t>> bufs(n);  // our copies: writes' bytes, reads' answers
+  std::vector<bus::Msg> msgs(n);
+  for (size_t k = 0; k < n; ++k) {
+    const gate::Message& m = t.messages[k];
+    bufs[k] = m.is_read() ? std::vector<uint8_t>(m.len, 0) : m.data;
+    msgs[k] = {m.addr, m.flags, m.len, bufs[k].data()};
+  }
+  if (!bus.expressible(msgs).ok()) return false;
+  reply.err = bus.transfer(msgs);
+  if (reply.err != 0) {
+    audit_.event("bus-error", fmt::format("bus {} addr 0x{:02x}: errno {}", t.bus,
+                                          t.messages[0].addr, reply.err));
+    return true;
+  }
+  for (const gate::PlannedTx& p : planned) {
+    const size_t last = p.first_message + p.message_count - 1;
+    if (p.kind == core::TxKind::kWrite) {
+      readings_.on_write(t.bus, p.addr, p.bytes);
+      continue;
+    }
+    bufs[last].resize(msgs[last].len);
+    readings_.on_read(task, t.bus, t.messages[last].addr, p.bytes, bufs[last], clock_.now_us());
+    reply.reads.push_back(std::move(bufs[last]));
+  }
+  return true;
 }
 
 // One read of `t`, after its register pointer (our copy) when it has one,

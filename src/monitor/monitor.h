@@ -229,6 +229,9 @@ class Monitor final : public gate::Endpoint {
                      const std::vector<gate::PlannedTx>& planned, size_t* checked) REQUIRES(mu_);
   gate::TransferReply perform_transfer(uint16_t task, const gate::Transfer& t,
                                        const std::vector<gate::PlannedTx>& planned) REQUIRES(mu_);
+  bool perform_as_sent(uint16_t task, const gate::Transfer& t,
+                       const std::vector<gate::PlannedTx>& planned, gate::TransferReply& reply)
+      REQUIRES(mu_);
   int perform_read(uint16_t task, const gate::Transfer& t, const gate::PlannedTx& p,
                    const bus::Msg* write, gate::TransferReply& reply) REQUIRES(mu_);
   void drive_transfer_safe_states(uint16_t task, size_t checked) REQUIRES(mu_);

@@ -206,6 +206,25 @@ TEST_F(MonitorSmbus, AProcessCallGoesOutAsOneTransfer) {
   EXPECT_EQ(decider.checks, checks);
 }
 
+TEST_F(MonitorSmbus, ACallActingAsSentGoesOutAsTheProgramsOneTransfer) {
+  // A register read and a write in one call, both allowed as they are: on
+  // plain I2C the call goes out whole, no stop between its messages; on an
+  // SMBus-only adapter, which has no form for it whole, each transaction in
+  // its own.
+  for (const uint64_t funcs : {bus::kFuncI2c, bus::kI2cStubFuncs}) {
+    bus.set_funcs(funcs);
+    dev->regs[0x03] = 0x5A;
+    const uint64_t ops = bus.operations();
+    const auto r = send({wmsg(0x40, {0x03}), rmsg(0x40, 1), wmsg(0x40, {0x04, 0x66})});
+    ASSERT_EQ(r.err, 0) << funcs;
+    EXPECT_EQ(bus.operations(), ops + (funcs == bus::kFuncI2c ? 1 : 2)) << funcs;
+    ASSERT_EQ(r.reads.size(), 1u);
+    EXPECT_EQ(r.reads[0], std::vector<uint8_t>{0x5A});
+    EXPECT_EQ(dev->regs[0x04], 0x66);
+    dev->regs[0x04] = 0;
+  }
+}
+
 TEST_F(MonitorSmbus, QuickWithoutTheQuickBitIsRefusedBeforeTheCoreDecides) {
   gate::Transfer t;
   t.bus = 1;
