@@ -255,7 +255,8 @@ void CheckerState::check(const Transaction& tx, Verdict* out) {
   }
 
   auto refuse_all = [&](uint16_t dev, Reason reason, uint8_t err) {
-    refuse(dev, reason, err);
+    Outcome* o = new_outcome(dev);
+    if (o != nullptr) decide(*o, Decision::kReject, reason, RuleKind::kNoRule, kNone, err);
     finish(tx, out);
   };
   if (!loaded_) return refuse_all(kNone, Reason::kNotLoaded, kEperm);
