@@ -358,7 +358,7 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
   uint32_t substituting = 0;
   Outcome* sub = nullptr;
   bool all_allow = true;
-  bool others_written = false;
+  bool written = false;  // an allowed command has writes
   for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
     Outcome& o = tx_.outcomes[i];
     if (o.decision == Decision::kFailsafe) {
@@ -366,19 +366,14 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
       sub = &o;
     }
     all_allow = all_allow && o.decision == Decision::kAllow;
-  }
-  for (uint32_t i = 0; i < tx_.outcome_count && sub != nullptr; ++i) {
-    const Outcome& o = tx_.outcomes[i];
-    if (&o != sub && o.decision == Decision::kAllow && o.emit_len != 0) {
-      others_written = true;
-    }
+    written = written || (o.decision == Decision::kAllow && o.emit_len != 0);
   }
   if (all_allow) {
     truncate_emits(0, 0);
     if (tx.kind == TxKind::kWrite && !emit(tx.bytes, tx.len)) tx_.overflow = true;
     return true;
   }
-  if (substituting > 1 || others_written) {
+  if (substituting > 1 || (sub != nullptr && written)) {
     for (uint32_t i = 0; i < tx_.outcome_count; ++i) {
       Outcome& o = tx_.outcomes[i];
       if (o.decision == Decision::kFailsafe) {
@@ -388,25 +383,15 @@ bool CheckerState::resolve_general_call(const Transaction& tx, Verdict* out) {
     return false;
   }
   if (sub != nullptr && !latch_event_) {
-    // Keep only the substitute's writes, addressed to its device.
-    uint8_t bytes[kMaxEmitBytes];
-    uint16_t lens[kMaxEmits];
-    const uint32_t count = [&] {
-      uint32_t n = 0;
-      uint32_t used = 0;
-      for (uint32_t e = sub->emit_index; e < v.emit_count && used < sub->emit_len; ++e) {
-        lens[n++] = v.emit_len[e];
-        used += v.emit_len[e];
-      }
-      return n;
-    }();
-    __builtin_memcpy(bytes, v.emit_bytes + sub->emit_offset, sub->emit_len);
-    truncate_emits(0, 0);
-    uint32_t at = 0;
-    for (uint32_t e = 0; e < count; ++e) {
-      emit(bytes + at, lens[e]);
-      at += lens[e];
+    // Keep only the substitute's writes, moved to the front, addressed to its device.
+    uint32_t count = 0;
+    uint32_t used = 0;
+    for (; sub->emit_index + count < v.emit_count && used < sub->emit_len; ++count) {
+      used += v.emit_len[sub->emit_index + count];
     }
+    __builtin_memmove(v.emit_len, v.emit_len + sub->emit_index, sizeof(v.emit_len[0]) * count);
+    __builtin_memmove(v.emit_bytes, v.emit_bytes + sub->emit_offset, used);
+    truncate_emits(count, used);
     sub->emit_offset = 0;
     sub->emit_index = 0;
     // Commands allowed without writes (staged) do not reach the bus either.

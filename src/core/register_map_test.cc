@@ -161,6 +161,35 @@ TEST_F(ArmTest, GeneralCallChecksEveryListener) {
   EXPECT_EQ(mode2.emit_count, 0);
 }
 
+TEST_F(ArmTest, AGeneralCallsFailSafeIsWrittenToTheListenersOwnAddress) {
+  // A software reset (general-call command 0x06) the controller may not send:
+  // the rate rule's template (MODE1 = 0x11) goes to the arm's address, and
+  // nothing to the general call.
+  image::ImageModel m = arm::model();
+  image::Named<CommandRecord> swrst;
+  swrst.name = "swrst";
+  swrst.record.device = arm::kArm;
+  swrst.record.command_class = CommandClass::kActuate;
+  swrst.record.match = 0x06;
+  testing::add_command(m, swrst, {});
+  m.devices[arm::kArm].record.command_count = 7;
+  image::Named<RateRecord> rate;
+  rate.name = "no_reset";
+  rate.record.task = arm::kController;
+  rate.record.device = arm::kArm;
+  rate.record.max_per_job = 0;
+  rate.record.commands = testing::mask_of({6});
+  rate.record.response = Response::kFailsafe;
+  rate.record.template_id = arm::kTplSafe;
+  m.rates.push_back(rate);
+  load(m);
+  const Verdict v = send({0x06}, arm::kController, 0x00);
+  EXPECT_EQ(v.decision, Decision::kFailsafe);
+  EXPECT_EQ(v.reason, Reason::kRateExceeded);
+  EXPECT_EQ(v.addr, kAddr);
+  EXPECT_EQ(emits(v), (Writes{{0x00, 0x11}}));
+}
+
 TEST_F(ArmTest, StagingConflictDropsTheOtherTasksBytes) {
   image::ImageModel m = arm::model();
   m.access[arm::kOther].actuate_devices = 1u << arm::kArm;

@@ -247,7 +247,52 @@ AuditRecord audit_record(const Transaction& tx, uint16_t device, uint16_t comman
 // The substitute a template describes.
 Subst template_subst(const TemplateRecord& t);
 
-class CheckerState {
+// Everything a load resets (clear_tables(): one memset of this base of
+// CheckerState): the tables' record counts, what the load derives from them,
+// and the runtime state the checks accumulate. Plain data without member
+// initializers (so no derived member lives in its tail padding); a Checker
+// value-initialises it.
+struct ResetOnLoad {
+  bool loaded_;
+  uint32_t worst_case_cost_;
+  // clang-format off
+  uint32_t task_count_, device_count_, alias_count_, command_count_, field_count_, signal_count_,
+           rate_count_, invariant_count_, template_count_, code_count_, constant_count_;
+  // clang-format on
+  uint64_t signal_deps_[kMaxSignals];  // derived signals each signal needs (transitively)
+  uint64_t derived_mask_;
+  uint32_t signal_devices_[kMaxSignals];  // sensors each signal can read (transitively)
+  // The rule index (rates.cc, index_rules), built at load: which rate limits
+  // and invariants can apply to a command, so that a check costs the rules
+  // of its task and command, not every rule of the policy. Bit r of
+  // rates_of_[task][device]: rates_[r] counts that task's commands to that
+  // device; bit r of task_rates_[task]: rates_[r] is the task's; bit i of
+  // invariants_of_[command]: invariants_[i] guards that command (on its
+  // device). Iterated in bit order, which is the table's: the first rule
+  // still decides.
+  static_assert(kMaxRateLimits <= 64 && kMaxInvariants % 64 == 0);
+  static constexpr uint32_t kInvariantWords = kMaxInvariants / 64;
+  uint64_t rates_of_[kMaxTasks][kMaxDevices];
+  uint64_t task_rates_[kMaxTasks];
+  uint64_t invariants_of_[kMaxCommandDefs][kInvariantWords];
+  // Runtime state.
+  uint32_t epoch_;
+  uint64_t executed_;
+  DeviceState state_[kMaxDevices];
+  // LAST_FIELD / SINCE_LAST history, kept per (command, channel): command c's
+  // channel i lives in last_[last_first_[c] + i] (frame commands have one).
+  uint16_t last_first_[kMaxCommandDefs];
+  LastCommand last_[kMaxHistorySlots];
+  SignalMemo signal_memo_[kMaxSignals];
+  SampleMemo sample_memo_[kMaxDevices];
+  TaskWindow windows_[kMaxTasks];
+  uint32_t job_count_[kMaxTasks][kMaxDevices];
+  uint32_t rate_used_[kMaxRateLimits];
+  int64_t state_words_[kMaxInvariants];                  // kDevice scope
+  int64_t task_state_words_[kMaxTasks][kMaxInvariants];  // kTask and kSession scope
+};
+
+class CheckerState : public ResetOnLoad {
  public:
   // verifier.cc: load() verifies the image completely, then derives costs.
   LoadResult load(const uint8_t* image, uint32_t size);
@@ -363,15 +408,8 @@ class CheckerState {
   bool shadow(uint16_t device, uint8_t reg, uint8_t* value) const;
   uint32_t model_crc() const;
 
-  bool loaded_ = false;
   Host host_{};
-  uint32_t worst_case_cost_ = 0;
-  // The tables copied from the image, and how many records each holds.
-  // clang-format off
-  uint32_t task_count_ = 0, device_count_ = 0, alias_count_ = 0, command_count_ = 0,
-           field_count_ = 0, signal_count_ = 0, rate_count_ = 0, invariant_count_ = 0,
-           template_count_ = 0, code_count_ = 0, constant_count_ = 0;
-  // clang-format on
+  // The tables copied from the image (their record counts are ResetOnLoad's).
   // clang-format off
   TaskRecord tasks_[kMaxTasks]{};                 DeviceRecord devices_[kMaxDevices]{};
   AliasRecord aliases_[kMaxAliases]{};            CommandRecord commands_[kMaxCommandDefs]{};
@@ -380,41 +418,11 @@ class CheckerState {
   TemplateRecord templates_[kMaxTemplates]{};     Insn code_[kMaxCodeWords]{};
   int64_t constants_[kMaxConstants]{};            AccessRecord access_[kMaxTasks]{};
   // clang-format on
-  uint64_t signal_deps_[kMaxSignals]{};  // derived signals each signal needs (transitively)
-  uint64_t derived_mask_ = 0;
-  uint32_t signal_devices_[kMaxSignals]{};  // sensors each signal can read (transitively)
-  // The rule index (rates.cc, index_rules), built at load: which rate limits
-  // and invariants can apply to a command, so that a check costs the rules
-  // of its task and command, not every rule of the policy. Bit r of
-  // rates_of_[task][device]: rates_[r] counts that task's commands to that
-  // device; bit r of task_rates_[task]: rates_[r] is the task's; bit i of
-  // invariants_of_[command]: invariants_[i] guards that command (on its
-  // device). Iterated in bit order, which is the table's: the first rule
-  // still decides.
-  static_assert(kMaxRateLimits <= 64 && kMaxInvariants % 64 == 0);
-  static constexpr uint32_t kInvariantWords = kMaxInvariants / 64;
-  uint64_t rates_of_[kMaxTasks][kMaxDevices]{};
-  uint64_t task_rates_[kMaxTasks]{};
-  uint64_t invariants_of_[kMaxCommandDefs][kInvariantWords]{};
-  // Runtime state.
-  uint32_t epoch_ = 0;
-  uint64_t executed_ = 0;
+  // The scratch of one check().
   uint64_t now_us_ = 0;
   bool general_call_ = false;  // this check() is a general call (no pointer-write reads)
   bool latch_event_ = false;   // a device latched during this check()
   uint16_t latch_device_ = kNone;
-  DeviceState state_[kMaxDevices]{};
-  // LAST_FIELD / SINCE_LAST history, kept per (command, channel): command c's
-  // channel i lives in last_[last_first_[c] + i] (frame commands have one).
-  uint16_t last_first_[kMaxCommandDefs]{};
-  LastCommand last_[kMaxHistorySlots]{};
-  SignalMemo signal_memo_[kMaxSignals]{};
-  SampleMemo sample_memo_[kMaxDevices]{};
-  TaskWindow windows_[kMaxTasks]{};
-  uint32_t job_count_[kMaxTasks][kMaxDevices]{};
-  uint32_t rate_used_[kMaxRateLimits]{};
-  int64_t state_words_[kMaxInvariants]{};                  // kDevice scope
-  int64_t task_state_words_[kMaxTasks][kMaxInvariants]{};  // kTask and kSession scope
   int64_t pending_state_[kMaxInvariants]{};
   Decoded decoded_{};  // scratch of check(): kept out of the caller's stack
   TxContext tx_{};

@@ -175,10 +175,7 @@ uint32_t CheckerState::model_crc() const {
   uint8_t buf[4 + kMaxRegisters];
   uint32_t crc = 0;
   auto mix = [&](const void* p, uint32_t len) {
-    buf[0] = static_cast<uint8_t>(crc);
-    buf[1] = static_cast<uint8_t>(crc >> 8);
-    buf[2] = static_cast<uint8_t>(crc >> 16);
-    buf[3] = static_cast<uint8_t>(crc >> 24);
+    __builtin_memcpy(buf, &crc, 4);  // little-endian (verifier.cc asserts it), as the image
     __builtin_memcpy(buf + 4, p, len);
     crc = crc32(buf, 4 + len);
   };

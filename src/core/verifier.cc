@@ -60,30 +60,8 @@ bool response_ok(Response r) { return r >= Response::kIgnore && r <= Response::k
 }  // namespace
 
 void CheckerState::clear_tables() {
-  loaded_ = false;
+  __builtin_memset(static_cast<ResetOnLoad*>(this), 0, sizeof(ResetOnLoad));
   journal_.active = false;  // a transfer open across a load is forgotten, not undone
-  worst_case_cost_ = 0;
-  task_count_ = device_count_ = alias_count_ = command_count_ = field_count_ = 0;
-  signal_count_ = rate_count_ = invariant_count_ = template_count_ = code_count_ = 0;
-  constant_count_ = 0;
-  derived_mask_ = 0;
-  __builtin_memset(signal_deps_, 0, sizeof(signal_deps_));
-  __builtin_memset(signal_devices_, 0, sizeof(signal_devices_));
-  __builtin_memset(rates_of_, 0, sizeof(rates_of_));
-  __builtin_memset(task_rates_, 0, sizeof(task_rates_));
-  __builtin_memset(invariants_of_, 0, sizeof(invariants_of_));
-  __builtin_memset(state_, 0, sizeof(state_));
-  __builtin_memset(last_, 0, sizeof(last_));
-  __builtin_memset(last_first_, 0, sizeof(last_first_));
-  __builtin_memset(signal_memo_, 0, sizeof(signal_memo_));
-  __builtin_memset(sample_memo_, 0, sizeof(sample_memo_));
-  __builtin_memset(windows_, 0, sizeof(windows_));
-  __builtin_memset(job_count_, 0, sizeof(job_count_));
-  __builtin_memset(rate_used_, 0, sizeof(rate_used_));
-  __builtin_memset(state_words_, 0, sizeof(state_words_));
-  __builtin_memset(task_state_words_, 0, sizeof(task_state_words_));
-  epoch_ = 0;
-  executed_ = 0;
 }
 
 LoadResult CheckerState::load(const uint8_t* image, uint32_t size) {
