@@ -486,6 +486,7 @@ Status AuditLog::open_file_locked() {
 }
 
 void AuditLog::close_file_locked() {
+  checked_pos_ = 0;
   if (fd_ < 0) return;
   {
     base::MutexLock g(grow_mu_);
@@ -546,7 +547,16 @@ void AuditLog::check_file_locked(bool force) {
         "the log file was cut from {} to {} bytes by another process "
         "(copytruncate?); lines written meanwhile are only in the copy",
         pos_, st.st_size);
+  } else if (char c = 1;
+             pos_ > 0 && pread(fd_, &c, 1, std::max<off_t>(checked_pos_ - 1, 0)) == 1 && c == 0) {
+    // Cut, then its room allocated again by the grower: the size is back,
+    // but a byte written before the last check reads as zero now (no line
+    // holds one).
+    why =
+        "the log file was cut by another process (copytruncate?) and its room allocated "
+        "again; lines written meanwhile are only in the copy";
   } else {
+    checked_pos_ = pos_;
     return;
   }
   const std::string follows = fd_path(fd_);

@@ -213,6 +213,7 @@ class AuditLog {
   off_t map_base_ = 0;   // file offset of map_[0]
   size_t map_len_ = 0;
   off_t pos_ GUARDED_BY(mu_) = 0;  // file offset of the next record (the end of the records)
+  off_t checked_pos_ GUARDED_BY(mu_) = 0;  // pos_ at the last file check that found it whole
   uint64_t lines_ GUARDED_BY(mu_) = 0;
   uint64_t failures_ GUARDED_BY(mu_) = 0;
   uint64_t rotations_ GUARDED_BY(mu_) = 0;
