@@ -239,7 +239,6 @@ int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
 		     const contego_verdict *v, u16 flags);
 bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 		       const contego_verdict *v, struct i2c_msg *read, int *ret);
-bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr);
 int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s);
 bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why);
 u32 ct_drive_safe_states(struct ct_policy *p, u8 why);

@@ -147,13 +147,6 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 	return true;
 }
 
-/* Whether the verdict writes exactly the requested bytes, once. */
-bool ct_emits_are(const contego_verdict *v, const u8 *b, u32 len, u16 addr)
-{
-	return v->emit_count == 1 && v->emit_len[0] == len && v->addr == addr &&
-	       (len == 0 || memcmp(v->emit_bytes, b, len) == 0);
-}
-
 /* Device d's declared safe state, written and recorded (best effort: the
  * record may be lost, then counted in the gap). `s`: the session whose end
  * drives it (its task and process go into the record), or NULL. Under

@@ -51,7 +51,10 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
 	action = ct_decide(cf, task, 1, &decider, &hold_until);
-	if (action == CT_PERFORM || action == CT_SUBSTITUTE)
+	if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
+	    contego_i2c_emits_as_sent(&ct.verdicts[0], cf->addr, tmp, count))
+		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false); /* as sent: one message */
+	else if (action == CT_PERFORM || action == CT_SUBSTITUTE)
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	else if (action == CT_REFUSE)
 		ret = ct_refusal(decider);

@@ -36,9 +36,9 @@ static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
 	return true;
 }
 
-/* Whether every write of the call goes out exactly as sent (its verdict is
- * one emit of its own bytes at its address), as the monitor asks before it
- * sends a call whole. Under ct.lock.
+/* Whether every write of the call goes out exactly as sent (its verdict's
+ * emits are its own bytes at its address: contego_i2c_emits_as_sent), as
+ * the monitor asks before it sends a call whole. Under ct.lock.
  */
 static bool ct_acts_as_sent(u32 ntx)
 {
@@ -50,7 +50,7 @@ static bool ct_acts_as_sent(u32 ntx)
 
 		if (tx->kind == CONTEGO_TX_QUICK ||
 		    (tx->kind == CONTEGO_TX_WRITE &&
-		     !ct_emits_are(&ct.verdicts[i], tx->bytes, tx->len, tx->addr)))
+		     !contego_i2c_emits_as_sent(&ct.verdicts[i], tx->addr, tx->bytes, tx->len)))
 			return false;
 	}
 	return true;
@@ -86,7 +86,8 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	action = ct_decide(cf, task, ntx, &decider, &hold_until);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
-	} else if ((action == CT_PERFORM || action == CT_SUBSTITUTE) && ntx > 1 &&
+	} else if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
+		   (ntx > 1 || ct.txs[0].kind == CONTEGO_TX_WRITE) &&
 		   ct_acts_as_sent(ntx) && ct_xfer(cf->adap, cf, msgs, nmsgs, 0, true) == 0) {
 		/* Every write exactly as sent: the program's one combined transfer. */
 		ret = ct_xfer(cf->adap, cf, msgs, nmsgs, 0, false);
@@ -195,24 +196,34 @@ long ct_rdwr(struct ct_file *cf, unsigned long arg)
 
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
-/* A process call whose write the core changed (its emits are not the
- * request), as the monitor performs one: the one emit and the answer
- * together when they have a form (ct_emit_with_read), else the write's
- * emits, then the answer read on its own (ct_xfer's form), into `data`.
- * Nothing is written when the read has no form on this adapter. 0 or -errno.
+/* A process call the core allowed or substituted, into `data`: as the
+ * program's call when its write goes out as sent (`w`: the call's write,
+ * else NULL) and the pair has a form; else the one emit and the answer
+ * together (ct_emit_with_read); else, as the monitor performs one, the
+ * write's emits, then the answer read on its own (ct_xfer's form). Nothing
+ * is written when the read has no form on this adapter. 0 or -errno.
  */
-static int ct_proc_split(struct ct_file *cf, int size, union i2c_smbus_data *data)
+static int ct_proc_call(struct ct_file *cf, int size, union i2c_smbus_data *data,
+			const struct i2c_msg *w)
 {
 	u8 buf[1 + I2C_SMBUS_BLOCK_MAX] = { 1 }; /* RECV_LEN's preset */
 	struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
 			     .len = 2, .buf = buf };
+	struct i2c_msg pair[2];
 	int ret;
 
 	if (size == I2C_SMBUS_BLOCK_PROC_CALL) {
 		m.flags |= I2C_M_RECV_LEN;
 		m.len = sizeof(buf);
 	}
-	if (!ct_emit_with_read(cf->adap, cf, &ct.verdicts[0], &m, &ret)) {
+	if (w) {
+		pair[0] = *w;
+		pair[1] = m;
+	}
+	if (w && ct_xfer(cf->adap, cf, pair, 2, cf->flags, true) == 0) {
+		ret = ct_xfer(cf->adap, cf, pair, 2, cf->flags, false);
+		m.len = pair[1].len;
+	} else if (!ct_emit_with_read(cf->adap, cf, &ct.verdicts[0], &m, &ret)) {
 		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, true);
 		if (ret == 0)
 			ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
@@ -240,7 +251,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	struct i2c_msg m[2];
 	u32 datasize = 0, n, nm, decider;
 	u64 hold_until;
-	bool read, proc;
+	bool read, proc, as_sent;
 	int r;
 	u8 action;
 	u16 task;
@@ -314,19 +325,25 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	if (ret > 0 && a.size != I2C_SMBUS_QUICK) /* held: ct.txs served other calls */
 		n = ct_plan_msgs(m, nm);
 	action = ct_decide(cf, task, n, &decider, &hold_until);
+	as_sent = !read && contego_i2c_emits_as_sent(&ct.verdicts[0], cf->addr, wire, ct.txs[0].len);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if (action == CT_IGNORE || action == CT_SAFE_STATE) {
 		ret = 0;
 		memset(&data, 0, sizeof(data));
 	} else if (a.size == I2C_SMBUS_QUICK || read ||
-		   ct_emits_are(&ct.verdicts[0], wire, ct.txs[0].len, cf->addr)) {
+		   (ct.verdicts[0].emit_count == 1 && as_sent)) {
 		/* Exactly what was asked: the call itself, from our copy. */
 		ret = ct_bus_smbus(cf->adap, cf, cf->addr, cf->flags, a.read_write, a.command,
 				   a.size, (a.size == I2C_SMBUS_QUICK ||
 					    (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
+	} else if (as_sent && !proc) {
+		/* The write's bytes, checked register by register, as one
+		 * message in the planner's form (as the monitor sends it).
+		 */
+		ret = ct_xfer(cf->adap, cf, m, 1, cf->flags, false);
 	} else if (proc) {
-		ret = ct_proc_split(cf, a.size, &data);
+		ret = ct_proc_call(cf, a.size, &data, as_sent ? &m[0] : NULL);
 	} else {
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	}

@@ -160,6 +160,17 @@ uint32_t contego_i2c_transactions(const struct contego_i2c_msg *msgs, uint32_t n
  * at the general call address, which is write-only. */
 int contego_i2c_write_then_read(const struct contego_i2c_tx *a, const struct contego_i2c_tx *b);
 
+/* Whether a write's verdict puts exactly the write's bytes on the wire, at
+ * `addr`: one emit of them, or emits that are the write cut where the
+ * core's commands end, each [register, data...] at the register after the
+ * previous one's data (a register map's auto-increment write checked
+ * register by register). Then the write goes out as the program's one
+ * message, not as one message per command. `v` is a contego_verdict
+ * (contego/core_c.h). */
+struct contego_verdict;
+int contego_i2c_emits_as_sent(const struct contego_verdict *v, uint16_t addr, const uint8_t *bytes,
+                              uint32_t len);
+
 /* The messages an I2C_SMBUS call puts on the wire, i2c-core's SMBus
  * emulation's table (the rows of the planner's, backwards): `data` is the
  * call's union i2c_smbus_data as bytes (word as [lo, hi]), copied in, with

@@ -44,3 +44,27 @@ extern "C" int contego_i2c_write_then_read(const contego_i2c_tx* a, const conteg
          a->len > 0 && a->addr == b->addr && a->ten == b->ten && a->addr != 0 &&
          b->first_msg == a->first_msg + a->msg_count;
 }
+
+extern "C" int contego_i2c_emits_as_sent(const contego_verdict* v, uint16_t addr,
+                                         const uint8_t* bytes, uint32_t len) {
+  if (v->addr != addr || v->emit_count == 0 || v->emit_count > CONTEGO_MAX_EMITS || len == 0) {
+    return 0;
+  }
+  uint32_t at = 0;    // in emit_bytes
+  uint32_t data = 1;  // in bytes: the next data byte (bytes[0] is the first register)
+  uint32_t reg = bytes[0];
+  for (uint32_t i = 0; i < v->emit_count; ++i) {
+    const uint32_t n = v->emit_len[i];
+    if (n == 0 || at + n > CONTEGO_MAX_EMIT_BYTES || v->emit_bytes[at] != reg ||
+        data + (n - 1) > len || (n == 1 && v->emit_count > 1)) {
+      return 0;
+    }
+    for (uint32_t k = 1; k < n; ++k) {
+      if (v->emit_bytes[at + k] != bytes[data + k - 1]) return 0;
+    }
+    reg += n - 1;
+    data += n - 1;
+    at += n;
+  }
+  return data == len;
+}

@@ -1,6 +1,7 @@
 // The shared normalisation through its C ABI (gate/transfer_test.cc tests it
 // through the gate's Transfer).
 #include <gtest/gtest.h>
+#include <initializer_list>
 #include <linux/i2c.h>
 
 #include "contego/core_c.h"
@@ -72,6 +73,38 @@ TEST(I2cTransactions, AWriteAndTheReadAnsweringItAreOneCombinedTransfer) {
   contego_i2c_msg general[2] = {{0x00, 0, 3, w}, {0x00, I2C_M_RD, 2, r}};
   ASSERT_EQ(contego_i2c_transactions(general, 2, tx), 2u);
   EXPECT_FALSE(contego_i2c_write_then_read(&tx[0], &tx[1]));
+}
+
+contego_verdict emits(uint16_t addr, std::initializer_list<std::initializer_list<uint8_t>> writes) {
+  contego_verdict v{};
+  v.addr = addr;
+  for (const auto& w : writes) {
+    v.emit_len[v.emit_count++] = static_cast<uint16_t>(w.size());
+    for (const uint8_t b : w) v.emit_bytes[v.emit_bytes_used++] = b;
+  }
+  return v;
+}
+
+TEST(I2cTransactions, AWriteGoesOutAsSentWhenItsEmitsAreItsBytes) {
+  const uint8_t led[5] = {0x1A, 0x00, 0x00, 0x41, 0x02};  // LED5: on 0, off 577
+  auto as_sent = [&](const contego_verdict& v, uint32_t len = 5) {
+    return contego_i2c_emits_as_sent(&v, 0x40, led, len) != 0;
+  };
+  EXPECT_TRUE(as_sent(emits(0x40, {{0x1A, 0x00, 0x00, 0x41, 0x02}})));  // one command: exact
+  // Checked register by register (auto-increment): the same bytes on the wire.
+  EXPECT_TRUE(as_sent(emits(0x40, {{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0x41}, {0x1D, 0x02}})));
+  EXPECT_TRUE(as_sent(emits(0x40, {{0x1A, 0x00, 0x00}, {0x1C, 0x41, 0x02}})));
+  // Anything else is not what was sent.
+  EXPECT_FALSE(as_sent(emits(0x40, {{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0x41}})));  // one short
+  EXPECT_FALSE(as_sent(emits(0x40, {{0x1A, 0x00}, {0x1B, 0x00}, {0x1C, 0xA4}, {0x1D, 0x01}})));
+  EXPECT_FALSE(as_sent(emits(0x40, {{0x1A, 0x00}, {0x1A, 0x00}, {0x1C, 0x41}, {0x1D, 0x02}})));
+  EXPECT_FALSE(as_sent(emits(0x40, {{0x1A, 0x00, 0x00, 0x41, 0x02}, {0x1A}})));
+  EXPECT_FALSE(as_sent(emits(0x41, {{0x1A, 0x00, 0x00, 0x41, 0x02}})));  // another address
+  EXPECT_FALSE(as_sent(emits(0x40, {})));                                // nothing written
+  EXPECT_FALSE(as_sent(emits(0x40, {{0x1A, 0x00, 0x00, 0x41, 0x02}}), 4));
+  const uint8_t reg[1] = {0x1A};
+  const contego_verdict pointer = emits(0x40, {{0x1A}});
+  EXPECT_TRUE(contego_i2c_emits_as_sent(&pointer, 0x40, reg, 1));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "monitor/expressible.h"
 
-#include <algorithm>
+#include "contego/core_c.h"
+#include "contego/i2c_plan.h"
 
 namespace contego::monitor {
 
@@ -40,13 +41,14 @@ bool acts_as_sent(const std::vector<gate::PlannedTx>& planned,
     const gate::PlannedTx& p = planned[i];
     if (p.kind == core::TxKind::kQuick) return false;
     if (p.kind != core::TxKind::kWrite) continue;
-    const core::Verdict& v = verdicts[i];
-    if (v.emit_count != 1 || v.addr != p.addr || v.emit_len[0] != p.bytes.size() ||
-        !std::equal(p.bytes.begin(), p.bytes.end(), v.emit_bytes)) {
-      return false;
-    }
+    if (!write_as_sent(verdicts[i], p)) return false;
   }
   return true;
+}
+
+bool write_as_sent(const core::Verdict& v, const gate::PlannedTx& p) {
+  return contego_i2c_emits_as_sent(reinterpret_cast<const contego_verdict*>(&v), p.addr,
+                                   p.bytes.data(), static_cast<uint32_t>(p.bytes.size())) != 0;
 }
 
 bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p) {

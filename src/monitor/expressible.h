@@ -39,9 +39,13 @@ bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus:
 // out together, or each apart.
 Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read);
 
-// Whether every write of a call goes out exactly as the program sent it
-// (its verdict: one emit of the write's own bytes at its address): then the
-// call can go out as the program's one combined transfer.
+// Whether write `p` goes out exactly as the program sent it: its verdict's
+// emits are its own bytes at its address (contego_i2c_emits_as_sent), so it
+// goes out as the program's one message.
+bool write_as_sent(const core::Verdict& v, const gate::PlannedTx& p);
+
+// Whether every write of a call goes out as sent: then the call can go out
+// as the program's one combined transfer.
 bool acts_as_sent(const std::vector<gate::PlannedTx>& planned,
                   const std::vector<core::Verdict>& verdicts);
 

@@ -485,8 +485,8 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
                                               const std::vector<gate::PlannedTx>& planned) {
   gate::TransferReply reply;
   bus::Bus& bus = *buses_.at(t.bus);
-  if (planned.size() > 1 && acts_as_sent(planned, verdicts_) &&
-      perform_as_sent(task, t, planned, reply)) {
+  if ((planned.size() > 1 || planned[0].kind == core::TxKind::kWrite) &&
+      acts_as_sent(planned, verdicts_) && perform_as_sent(task, t, planned, reply)) {
     return reply;
   }
   for (size_t i = 0; i < planned.size(); ++i) {

@@ -68,6 +68,10 @@ class CountingDecider final : public testing::FakeDecider {
         v->decision = core::Decision::kFailsafe;
         std::vector<uint8_t> frame(40, 0x11);
         emit(v, frame);
+      } else if (split_registers && tx.len > 2) {  // a register map's check, register by register
+        for (uint32_t i = 1; i < tx.len; ++i) {
+          emit(v, {static_cast<uint8_t>(tx.bytes[0] + i - 1), tx.bytes[i]});
+        }
       } else {
         emit(v, std::vector<uint8_t>(tx.bytes, tx.bytes + tx.len));
       }
@@ -85,6 +89,7 @@ class CountingDecider final : public testing::FakeDecider {
   uint32_t task_period_us(uint16_t) const override { return 20000; }
 
   int checks = 0;
+  bool split_registers = false;
   std::vector<uint8_t> safe{0x06, 0x00};
 };
 
@@ -222,6 +227,20 @@ TEST_F(MonitorSmbus, ACallActingAsSentGoesOutAsTheProgramsOneTransfer) {
     EXPECT_EQ(r.reads[0], std::vector<uint8_t>{0x5A});
     EXPECT_EQ(dev->regs[0x04], 0x66);
     dev->regs[0x04] = 0;
+  }
+}
+
+TEST_F(MonitorSmbus, ABlockWriteCheckedRegisterByRegisterGoesOutAsSent) {
+  // The core emits one write per register; put back together they are the
+  // program's auto-increment write, which goes out as its one message.
+  decider.split_registers = true;
+  for (const uint64_t funcs : {bus::kFuncI2c, bus::kI2cStubFuncs}) {
+    bus.set_funcs(funcs);
+    const uint64_t ops = bus.operations();
+    ASSERT_EQ(send({wmsg(0x40, {0x1A, 0x00, 0x00, 0x41, 0x02})}).err, 0) << funcs;
+    EXPECT_EQ(bus.operations(), ops + 1) << funcs;
+    EXPECT_EQ(dev->regs[0x1C], 0x41);
+    EXPECT_EQ(dev->regs[0x1D], 0x02);
   }
 }
 

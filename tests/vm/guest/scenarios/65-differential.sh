@@ -112,13 +112,15 @@ for adapter in smbus plain; do
   if [ $adapter = plain ]; then
     n=$(grep -c . $k.wire)
     start=$(($(grep -c . $m.wire) - n))
-    if [ "$n" -gt 40 ] && [ "$start" -ge 0 ] && tail -n "$n" $m.wire | cmp -s - $k.wire &&
+    tail -n "$n" $m.wire >$m.wire-program
+    if [ "$n" -ge 30 ] && [ "$start" -ge 0 ] && cmp -s $m.wire-program $k.wire &&
         ! head -n "$start" $m.wire | grep -qvE '^40:(w0|w1\+r1)$'; then
       ok "plain: the same $n transfers went on the wire in the same order under both clients" \
         "(before them, the monitor's start: $start probes and register reads)"
     else
-      bad "plain: the wire differs (monitor's start: $start transfers):"
-      tail -n "$n" $m.wire | diff - $k.wire
+      bad "plain: the wire differs ($n transfers under contego.ko; the monitor's start: $start transfers):"
+      diff $m.wire-program $k.wire
+      head -n "$start" $m.wire | sort | uniq -c
     fi
     # A write and the read answering it, sent by the program as one combined
     # transfer, went out as one (a repeated start), not a write, a stop and
