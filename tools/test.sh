@@ -144,7 +144,7 @@ export CONTEGO_ARM64_TESTS="${CONTEGO_ARM64_TESTS:-seccomp_filter_test core_test
 # channel's and the in-process ones' code on another wire, nothing of the
 # architecture's: they run on amd64 only (a quarter of the guest's time).
 export CONTEGO_ARM64_GTEST_FILTER="${CONTEGO_ARM64_GTEST_FILTER-"-*/seccomp_socket"}"
-export CONTEGO_ARM64_SCENARIOS="${CONTEGO_ARM64_SCENARIOS:-00-adapter,01-kernel-facilities,02-test-suite,10-arm-embedded,11-arm-monitor,21-rover-smbus2-monitor,40-start-failures,60-kernel-module,61-plain-i2c}"
+export CONTEGO_ARM64_SCENARIOS="${CONTEGO_ARM64_SCENARIOS:-00-adapter,01-kernel-facilities,02-test-suite,10-arm-embedded,11-arm-monitor,21-rover-smbus2-monitor,40-start-failures,60-kernel-module,61-plain-i2c,66-kunit}"
 # The guest's console goes to the test's log; its summary comes here. Here a
 # skip is a failure: the step above installed everything the bed needs.
 arm64_log=build/dev/tests/vm/arm64-ctest.log
