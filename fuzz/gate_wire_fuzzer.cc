@@ -43,6 +43,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       __builtin_trap();
     }
   }
+  if (int32_t status = 0; wire::decode_goodbye(in, &status).ok() &&
+                          wire::encode_goodbye(status).size() != in.size()) {
+    __builtin_trap();
+  }
   wire::HelloOk ok;
   if (wire::decode_hello_ok(in, &ok).ok() && wire::encode_hello_ok(ok).size() != in.size()) {
     __builtin_trap();

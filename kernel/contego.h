@@ -45,7 +45,7 @@
 #include "contego/i2c_plan.h"
 #include "contego/job_budget.h"
 #include "contego_compat.h"
-#include "contego_room.h"
+#include "contego/session_room.h"
 #include <linux/contego_kmod.h>
 
 #define CT_MAX_ADAPTERS 8
@@ -182,7 +182,7 @@ struct ct_state {
 	contego_verdict verdicts[CT_MAX_MSGS];
 	contego_verdict safe_verdict;
 	char cgroup_buf[PATH_MAX];
-	struct ct_room room; /* a session room count (contego_room.h) */
+	struct contego_session_room room; /* a session room count (contego/session_room.h) */
 	/* Sessions (contego_session.c). */
 	struct list_head sessions;
 	u32 session_count;

@@ -2,7 +2,7 @@
 /* contego.ko: sessions (docs/kernel-client.md "Sessions"). */
 #include "contego.h"
 
-static_assert(CT_ROOM_UNITS == CONTEGO_KMOD_MAX_TASK_SESSIONS);
+static_assert(CONTEGO_ROOM_UNITS == CONTEGO_KMOD_MAX_TASK_SESSIONS);
 
 /* A session of task T is a process (thread group) that made a call the core
  * checked as T. It ends when the process exits -- not when it closes the
@@ -68,7 +68,8 @@ static int ct_session_wake(struct wait_queue_entry *wq, unsigned int mode, int s
 			s->status = (t->signal->flags & SIGNAL_GROUP_EXIT) ?
 					    t->signal->group_exit_code : t->exit_code;
 			pg = task_pgrp(t);
-			if (s->status == 0 && pg && pg != s->watch && !ct_thread_group_exited(pg))
+			if (contego_session_hands_to_leader(s->status, (uintptr_t)s->watch, (uintptr_t)pg,
+							    pg && !ct_thread_group_exited(pg)))
 				s->leader = get_pid(pg);
 		}
 		rcu_read_unlock();
@@ -213,7 +214,8 @@ static struct pid *ct_unit_of(struct task_struct *t)
 {
 	struct pid *pg = task_pgrp(t), *me = task_tgid(t);
 
-	return pg && pg != me && !ct_thread_group_exited(pg) ? pg : me;
+	return (struct pid *)contego_session_unit((uintptr_t)me, (uintptr_t)pg,
+						  pg && !ct_thread_group_exited(pg));
 }
 
 /* The unit of s while it lives; NULL once it has ended or is ending (its
@@ -254,15 +256,15 @@ bool ct_session_room(struct ct_policy *p, u16 task)
 
 	lockdep_assert_held(&ct.lock);
 	rcu_read_lock();
-	ct_room_start(&ct.room, ct_unit_of(current), allowed);
+	contego_room_start(&ct.room, (uintptr_t)ct_unit_of(current), allowed);
 	list_for_each_entry(s, &ct.sessions, node) {
 		if (s->task != task || s->gen != p->gen)
 			continue;
 		u = ct_session_unit(s);
-		if (u && !ct_room_count(&ct.room, u))
+		if (u && !contego_room_count(&ct.room, (uintptr_t)u))
 			break;
 	}
-	room = ct_room_left(&ct.room);
+	room = contego_room_left(&ct.room);
 	rcu_read_unlock();
 	return room;
 }

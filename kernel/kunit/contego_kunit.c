@@ -4,7 +4,8 @@
  * "KUnit"): the i2c-dev model it shares with the monitor (planning, the
  * SMBus call table, the job grid and the hold's counts, the message flag
  * allow-list), compiled from the same sources with the same kernel flags as
- * in contego.ko, and the session room rule. The monitor's GoogleTest suites
+ * in contego.ko, and its session rules (counting by unit, the hand-off to a
+ * group's leader). The monitor's GoogleTest suites
  * test the same sources in user space; these show the kernel's build of them
  * agrees.
  *
@@ -19,7 +20,7 @@
 #include "contego/i2c_msg_flags.h"
 #include "contego/i2c_plan.h"
 #include "contego/job_budget.h"
-#include "contego_room.h"
+#include "contego/session_room.h"
 
 /* i2c-stub's functionality: SMBus only, no block or process calls. */
 #define CT_STUB_FUNCS (I2C_FUNC_SMBUS_QUICK | I2C_FUNC_SMBUS_BYTE | I2C_FUNC_SMBUS_BYTE_DATA | \
@@ -172,27 +173,50 @@ static void ct_kunit_session_room(struct kunit *test)
 {
 	/* Units are opaque keys: the module's are struct pid pointers. */
 	static const int units[4];
-	const void *mine = &units[0], *a = &units[1], *b = &units[2], *c = &units[3];
-	struct ct_room r;
+	uintptr_t mine = (uintptr_t)&units[0], a = (uintptr_t)&units[1];
+	uintptr_t b = (uintptr_t)&units[2], c = (uintptr_t)&units[3];
+	struct contego_session_room *r = kunit_kzalloc(test, sizeof(*r), GFP_KERNEL);
 
+	KUNIT_ASSERT_NOT_NULL(test, r);
 	/* sessions = 2: two other units live, none the caller's: no room. */
-	ct_room_start(&r, mine, 2);
-	KUNIT_EXPECT_TRUE(test, ct_room_count(&r, a));
-	KUNIT_EXPECT_TRUE(test, ct_room_count(&r, a)); /* a unit's sessions count once */
-	KUNIT_EXPECT_TRUE(test, ct_room_left(&r));
-	KUNIT_EXPECT_TRUE(test, ct_room_count(&r, b));
-	KUNIT_EXPECT_FALSE(test, ct_room_left(&r));
+	contego_room_start(r, mine, 2);
+	KUNIT_EXPECT_TRUE(test, contego_room_count(r, a));
+	KUNIT_EXPECT_TRUE(test, contego_room_count(r, a)); /* a unit's sessions count once */
+	KUNIT_EXPECT_TRUE(test, contego_room_left(r));
+	KUNIT_EXPECT_TRUE(test, contego_room_count(r, b));
+	KUNIT_EXPECT_FALSE(test, contego_room_left(r));
 	/* The caller's own unit has a session: it joins it, whatever the count. */
-	KUNIT_EXPECT_FALSE(test, ct_room_count(&r, mine));
-	KUNIT_EXPECT_TRUE(test, ct_room_left(&r));
+	KUNIT_EXPECT_FALSE(test, contego_room_count(r, mine));
+	KUNIT_EXPECT_TRUE(test, contego_room_left(r));
 	/* sessions = 1 (the default): one other unit fills it. */
-	ct_room_start(&r, mine, 1);
-	KUNIT_EXPECT_TRUE(test, ct_room_left(&r));
-	ct_room_count(&r, c);
-	KUNIT_EXPECT_FALSE(test, ct_room_left(&r));
+	contego_room_start(r, mine, 1);
+	KUNIT_EXPECT_TRUE(test, contego_room_left(r));
+	contego_room_count(r, c);
+	KUNIT_EXPECT_FALSE(test, contego_room_left(r));
 	/* More than the cap asked for is the cap. */
-	ct_room_start(&r, mine, 1000);
-	KUNIT_EXPECT_EQ(test, r.allowed, (u32)CT_ROOM_UNITS);
+	contego_room_start(r, mine, 1000);
+	KUNIT_EXPECT_EQ(test, r->allowed, (u32)CONTEGO_ROOM_UNITS);
+}
+
+static void ct_kunit_session_unit(struct kunit *test)
+{
+	const uintptr_t me = 0x1000, group = 0x2000;
+
+	/* A script's i2cset: the script's group is its unit, and its clean
+	 * exit hands the session to the script.
+	 */
+	KUNIT_EXPECT_EQ(test, contego_session_unit(me, group, 1), group);
+	KUNIT_EXPECT_TRUE(test, contego_session_hands_to_leader(0, me, group, 1));
+	/* Killed (wait status 9), failing (exit 1), the leader itself, the
+	 * leader gone, or no group: its own unit, and it ends at once.
+	 */
+	KUNIT_EXPECT_FALSE(test, contego_session_hands_to_leader(9, me, group, 1));
+	KUNIT_EXPECT_FALSE(test, contego_session_hands_to_leader(1 << 8, me, group, 1));
+	KUNIT_EXPECT_EQ(test, contego_session_unit(me, me, 1), me);
+	KUNIT_EXPECT_FALSE(test, contego_session_hands_to_leader(0, me, me, 1));
+	KUNIT_EXPECT_EQ(test, contego_session_unit(me, group, 0), me);
+	KUNIT_EXPECT_FALSE(test, contego_session_hands_to_leader(0, me, group, 0));
+	KUNIT_EXPECT_EQ(test, contego_session_unit(me, 0, 1), me);
 }
 
 static struct kunit_case ct_model_cases[] = {
@@ -209,6 +233,7 @@ static struct kunit_case ct_budget_cases[] = {
 	KUNIT_CASE(ct_kunit_job_grid),
 	KUNIT_CASE(ct_kunit_charging),
 	KUNIT_CASE(ct_kunit_session_room),
+	KUNIT_CASE(ct_kunit_session_unit),
 	{}
 };
 
@@ -236,5 +261,5 @@ static void __exit ct_kunit_exit(void)
 }
 module_exit(ct_kunit_exit);
 
-MODULE_DESCRIPTION("KUnit tests of contego.ko's shared i2c-dev model and session room");
+MODULE_DESCRIPTION("KUnit tests of contego.ko's shared i2c-dev model and session rules");
 MODULE_LICENSE("GPL");

@@ -43,6 +43,11 @@ class SocketClient final : public Endpoint {
   TransferReply transfer(uint16_t task, const Transfer& transfer) override;
   void job_boundary(uint16_t task) override;
   void task_exited(uint16_t task) override;
+  // As the process exits (the preload client's on_exit hook): the wait
+  // status it will have. Not awaited; the connection stays usable for what
+  // later exit handlers send. The monitor hands the session of a process
+  // that exits cleanly in a script to the script (contego/session_room.h).
+  void goodbye(int32_t wait_status);
   bool has_bus(uint8_t bus) override;
   // After a supervised process (pid) called execve: asks the monitor to
   // check the task's binding against what it now executes: ok when it may

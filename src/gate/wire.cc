@@ -109,6 +109,7 @@ Status decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kStatusOk:
     case Type::kReload:
     case Type::kReloadOk:
+    case Type::kGoodbye:
     case Type::kError:
       return {};
   }
@@ -186,6 +187,20 @@ Status decode_hello_ok(std::span<const uint8_t> p, HelloOk* h) {
   Reader r(p);
   if (!r.u16(&h->task) || !r.u16(&h->priority) || !r.done())
     return make_error("malformed hello answer");
+  return {};
+}
+
+std::vector<uint8_t> encode_goodbye(int32_t wait_status) {
+  Writer w;
+  w.u32(static_cast<uint32_t>(wait_status));
+  return std::move(w.out);
+}
+
+Status decode_goodbye(std::span<const uint8_t> p, int32_t* wait_status) {
+  Reader r(p);
+  uint32_t v = 0;
+  if (!r.u32(&v) || !r.done()) return make_error("malformed goodbye (a u32 wait status expected)");
+  *wait_status = static_cast<int32_t>(v);
   return {};
 }
 

@@ -44,6 +44,7 @@ enum class Type : uint8_t {
   kStatusOk = 16,   // server: JSON text (docs/deployment.md, "contego status")
   kReload = 17,     // operator: a policy bundle and its signature -> kReloadOk | kError
   kReloadOk = 18,   // server: what the reload kept and started afresh (text)
+  kGoodbye = 19,    // client: its exit's wait status, as the process exits (no answer)
   kError = 0x7F,    // server: errno and reason text
 };
 
@@ -99,6 +100,9 @@ std::vector<uint8_t> encode_bus_info(const BusInfo& b);
 Status decode_bus_info(std::span<const uint8_t> payload, BusInfo* b);
 std::vector<uint8_t> encode_error(const ErrorMsg& e);
 Status decode_error(std::span<const uint8_t> payload, ErrorMsg* e);
+// goodbye: the wait status the exiting process will have (0: exit(0)).
+std::vector<uint8_t> encode_goodbye(int32_t wait_status);
+Status decode_goodbye(std::span<const uint8_t> payload, int32_t* wait_status);
 
 // `contego reload`: a policy bundle (contego check --emit-bundle) and its
 // minisign signature (empty: none), as u32 length + bytes each.

@@ -110,5 +110,21 @@ TEST(Wire, ReloadCarriesABundleAndItsSignature) {
   EXPECT_FALSE(decode_reload(huge, &r).ok());
 }
 
+TEST(Wire, GoodbyeCarriesTheWaitStatusAndNothingElse) {
+  for (const int32_t status : {0, 1 << 8, 9, -1}) {
+    int32_t got = 12345;
+    ASSERT_TRUE(decode_goodbye(encode_goodbye(status), &got).ok());
+    EXPECT_EQ(got, status);
+  }
+  auto f = frame(Type::kGoodbye, 1, encode_goodbye(0));
+  Header h;
+  EXPECT_TRUE(decode_header({f.data(), kHeaderSize}, &h).ok());
+  int32_t got = 0;
+  const std::vector<uint8_t> short_payload = {0, 0, 0};
+  EXPECT_FALSE(decode_goodbye(short_payload, &got).ok());
+  const std::vector<uint8_t> long_payload = {0, 0, 0, 0, 0};
+  EXPECT_FALSE(decode_goodbye(long_payload, &got).ok());
+}
+
 }  // namespace
 }  // namespace contego::gate::wire

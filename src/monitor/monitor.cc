@@ -619,13 +619,15 @@ uint32_t Monitor::job(uint16_t task) const {
   return contego_grid_job(it->second, period, clock_.now_us());
 }
 
-void Monitor::task_exited(uint16_t task) {
+void Monitor::task_exited(uint16_t task) { task_ended(task, "exited"); }
+
+void Monitor::task_ended(uint16_t task, const std::string& how) {
   base::MutexLock lock(mu_);
   // Only the actuators this task may command: the end of one task's session
   // must not override what the others are doing.
   const uint32_t devices = task < task_devices_.size() ? task_devices_[task] : UINT32_MAX;
   const char* name = task < names_.tasks.size() ? names_.tasks[task].c_str() : "?";
-  drive_safe_state_locked(fmt::format("task {} ({}) exited", task, name), devices);
+  drive_safe_state_locked(fmt::format("task {} ({}) {}", task, name, how), devices);
   // Its session-scoped state (a sequence's position) ends with it: the next
   // run of the task starts its sequences at their first value.
   if (const uint32_t dropped = decider_->end_session(task); dropped != 0) {

@@ -184,6 +184,8 @@ class Monitor final : public gate::Endpoint {
   // grant the task an extra budget.
   void job_boundary(uint16_t task) override;
   void task_exited(uint16_t task) override;
+  // The same end, said how (the audit's words after "task N (name) ").
+  void task_ended(uint16_t task, const std::string& how);
   bool has_bus(uint8_t bus) override;
   uint64_t funcs(uint8_t bus) override;
 

@@ -215,6 +215,9 @@ int Server::housekeeping() {
                              limits_.hello_timeout_ms));
   }
   flush_suppressed(false);
+  // A handed session's leader is looked at as often as a connection's
+  // thread looks for its peer's hang-up.
+  if (end_handed_sessions()) next_us = std::min(next_us, now_us() + 20'000);
   {
     base::MutexLock lock(events_mu_);
     for (const auto& [uid, b] : budgets_) next_us = std::min(next_us, b.window_us + 1000000);
@@ -413,6 +416,20 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       if (!channel) return std::nullopt;
       s.out.clear();  // the channel's slot needs an answer to be free again
       return wire::Type::kJobEndOk;
+    case wire::Type::kGoodbye: {
+      // Not answered over the socket (the client does not wait): a
+      // malformed one is noted, and the session ends as if none came.
+      int32_t status = 0;
+      if (Status st = wire::decode_goodbye(payload, &status); !st.ok()) {
+        if (channel) return refuse(EPROTO, st.error());
+        client_event(s.conn->uid, "malformed", fmt::format("uid {}: {}", s.conn->uid, st.error()));
+        return std::nullopt;
+      }
+      if (s.bound) s.goodbye = status;
+      if (!channel) return std::nullopt;
+      s.out.clear();
+      return wire::Type::kJobEndOk;
+    }
     case wire::Type::kBusInfo: {
       if (payload.size() != 1) return refuse(EPROTO, "malformed bus info request");
       if (Status st = message_refusal(s, wire::Type::kBusInfo); !st.ok()) {

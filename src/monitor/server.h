@@ -112,6 +112,10 @@ class Server {
     uint16_t task = 0;
     pid_t vouched = 0;        // the supervised program's pid (a supervisor's session)
     std::string task_name;    // as the hello named it
+    pid_t group = 0;          // the peer's process group at its hello
+    // The wait status its process said it exits with (the preload client's
+    // goodbye); none: killed, crashed, or a client that does not say.
+    std::optional<int32_t> goodbye;
     gate::Transfer transfer;  // reused: no allocation per exchange once grown
     std::vector<uint8_t> out;
   };
@@ -247,7 +251,18 @@ class Server {
   // New connections per uid in the current second (the accept loop's only).
   std::map<uid_t, std::pair<uint64_t, uint32_t>> connects_;
   std::map<std::string, TaskBinding> bindings_ GUARDED_BY(mu_);  // a reload replaces it
-  std::map<uint16_t, uint32_t> live_sessions_ GUARDED_BY(mu_);   // per task
+  std::map<uint16_t, uint32_t> live_sessions_ GUARDED_BY(mu_);   // per task, handed ones too
+  // Sessions whose process exited cleanly inside a process group whose
+  // leader lives (a script's i2cset): they end when that leader exits
+  // (contego/session_room.h), as under contego.ko.
+  struct HandedSession {
+    uint16_t task = 0;
+    pid_t leader = 0;
+    base::UniqueFd leader_fd;  // a pidfd: readable once the leader has exited
+  };
+  std::vector<HandedSession> handed_ GUARDED_BY(mu_);
+  // Ends the handed sessions whose leader exited; true while any is left.
+  bool end_handed_sessions();
   std::condition_variable session_ended_;                        // a session ended; with mu_
   std::multiset<pid_t> supervised_ GUARDED_BY(mu_);  // live supervisors and their programs
   // The executables whose word on a program's `exe` is taken: this one, and

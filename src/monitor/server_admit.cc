@@ -11,6 +11,8 @@
 
 #include "base/errorf.h"
 #include "base/unique_fd.h"
+#include "contego/session_room.h"
+#include "monitor/process_group.h"
 #include "monitor/server.h"
 
 namespace contego::monitor {
@@ -140,24 +142,47 @@ Status Server::admit(Session& s, const std::string& name, uint16_t task, const w
   if (Status st = identity_refusal(c, name, vouch); !st.ok()) return st;
   const std::optional<TaskBinding> binding = binding_of(name);
   const uint32_t allowed = binding ? binding->sessions : 1;
+  const pid_t mine = session_unit(c.pid);
   base::MutexLock lock(mu_);
-  auto live = [&]() REQUIRES(mu_) {
-    const auto it = live_sessions_.find(task);
-    return it == live_sessions_.end() ? 0u : it->second;
+  // The task's live sessions counted by unit, as contego.ko counts them
+  // (contego/session_room.h): the processes of a script, or a controller and
+  // its forked worker, are one. A process keeps one connection per task: its
+  // own second one is counted apart, as another session.
+  struct Room {
+    bool left;
+    uint32_t live;
+  };
+  auto room = [&]() REQUIRES(mu_) {
+    contego_session_room r;
+    contego_room_start(&r, static_cast<uintptr_t>(mine), allowed);
+    bool own = false, more = true;
+    for (const auto& o : conns_) {
+      if (!more || o->task != task || o.get() == &c) continue;
+      own = own || o->pid == c.pid;
+      const pid_t unit = o->pid == c.pid ? 0 : session_unit(o->pid);
+      if (unit > 0) more = contego_room_count(&r, static_cast<uintptr_t>(unit)) != 0;
+    }
+    for (const HandedSession& h : handed_) {
+      if (more && h.task == task && group_leader_lives(h.leader)) {
+        more = contego_room_count(&r, static_cast<uintptr_t>(h.leader)) != 0;
+      }
+    }
+    return Room{!own && contego_room_left(&r) != 0, r.n + (own ? 1u : 0u)};
   };
   // A program that just exited (one i2cset after another, each under the
   // preload client) still holds its session until its connection's thread
   // notices the hang-up (within the channel's poll interval): wait for that
   // rather than refuse its successor. A live peer is refused at once.
-  if (live() >= allowed && session_ending(task, 0)) {
+  if (!room().left && session_ending(task, 0)) {
     lock.wait_for(session_ended_, std::chrono::seconds(2),
-                  [&]() REQUIRES(mu_) { return live() < allowed || stopping_; });
+                  [&]() REQUIRES(mu_) { return room().left || stopping_; });
   }
-  if (live() >= allowed) {
-    return errorf("task '{}' already has {} live session(s) (the policy allows {})", name, live(),
-                  allowed);
+  if (const Room now = room(); !now.left) {
+    return errorf("task '{}' already has {} live session(s) (the policy allows {})", name,
+                  now.live, allowed);
   }
   ++live_sessions_[task];
+  s.group = group_of(c.pid);
   s.conn->task = task;
   s.bound = true;
   s.task = task;
@@ -239,7 +264,26 @@ bool Server::session_ending(int task, pid_t pid) const {
 
 void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
-  monitor_.task_exited(s.task);
+  // A clean exit inside a script hands the session to the script's leader
+  // (contego/session_room.h): no safe state between a script's commands.
+  bool handed = false;
+  if (s.goodbye && contego_session_hands_to_leader(*s.goodbye, static_cast<uintptr_t>(s.conn->pid),
+                                                   static_cast<uintptr_t>(s.group),
+                                                   group_leader_lives(s.group) ? 1 : 0)) {
+    base::UniqueFd leader(static_cast<int>(syscall(SYS_pidfd_open, s.group, 0)));
+    handed = leader.valid() && group_leader_lives(s.group);
+    base::MutexLock lock(mu_);
+    const bool joined = std::any_of(handed_.begin(), handed_.end(), [&](const HandedSession& h) {
+      return h.task == s.task && h.leader == s.group;
+    });
+    if (handed && !joined) {
+      // The session goes on, with the leader: it stays counted as live.
+      handed_.push_back({s.task, s.group, std::move(leader)});
+      ++live_sessions_[s.task];
+      wake();  // the accept loop watches the leader from now on
+    }
+  }
+  if (!handed) monitor_.task_exited(s.task);
   base::MutexLock lock(mu_);
   if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
     live_sessions_.erase(it);
@@ -250,6 +294,39 @@ void Server::end_session(Session& s) {
     supervised_.erase(supervised_.find(s.conn->pid));
     supervised_.erase(supervised_.find(s.vouched));
   }
+}
+
+}  // namespace contego::monitor
+
+namespace contego::monitor {
+
+bool Server::end_handed_sessions() {
+  std::vector<HandedSession> ended;
+  {
+    base::MutexLock lock(mu_);
+    for (auto it = handed_.begin(); it != handed_.end();) {
+      pollfd p{it->leader_fd.get(), POLLIN, 0};
+      if (poll(&p, 1, 0) == 0) {
+        ++it;
+        continue;
+      }
+      ended.push_back(std::move(*it));
+      it = handed_.erase(it);
+    }
+  }
+  for (const HandedSession& h : ended) {
+    monitor_.task_ended(h.task, fmt::format("ended with its process group's leader (pid {}), "
+                                            "to which its process handed its session",
+                                            h.leader));
+  }
+  base::MutexLock lock(mu_);
+  for (const HandedSession& h : ended) {
+    if (auto it = live_sessions_.find(h.task); it != live_sessions_.end() && --it->second == 0) {
+      live_sessions_.erase(it);
+    }
+  }
+  if (!ended.empty()) session_ended_.notify_all();
+  return !handed_.empty();
 }
 
 }  // namespace contego::monitor

@@ -142,6 +142,9 @@ class Identity : public ::testing::Test {
   static int direct(std::vector<std::string> argv, uid_t uid) {
     const pid_t pid = fork();
     if (pid == 0) {
+      // Another program, started apart from this one (its own process
+      // group, as a shell's job): not a worker of this test's session.
+      setpgid(0, 0);
       if (uid != 0 && (setgroups(0, nullptr) != 0 || setgid(uid) != 0 || setuid(uid) != 0)) {
         _exit(125);
       }

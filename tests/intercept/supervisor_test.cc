@@ -234,6 +234,9 @@ class Supervised : public ::testing::TestWithParam<Client> {
     args.push_back(nullptr);
     const pid_t pid = fork();
     if (pid == 0) {
+      // A program of its own, as a shell starts a command (its own process
+      // group): its exit ends its session (contego/session_room.h).
+      setpgid(0, 0);
       setenv("LD_PRELOAD", CONTEGO_PRELOAD_LIB, 1);
       setenv("CONTEGO_SOCKET", socket_path.c_str(), 1);
       setenv("CONTEGO_TASK", "t0", 1);

@@ -128,6 +128,14 @@ void remember(int fd, std::shared_ptr<Handle> h) {
   s.count.store(s.fds.size(), std::memory_order_release);
 }
 
+gate::SocketClient* connected();
+
+// exit(status) or a return from main: the wait status the process will
+// have. Killed, crashed or _exit()ed, it says nothing: its session ends at once.
+void say_goodbye(int status, void* /*unused*/) {
+  if (gate::SocketClient* c = connected(); c != nullptr) c->goodbye((status & 0xFF) << 8);
+}
+
 // The connection, made on first use. Null if it cannot be made.
 gate::SocketClient* client() {
   State& s = state();
@@ -165,6 +173,12 @@ gate::SocketClient* client() {
     return nullptr;
   }
   s.client = std::move(*c);
+  // The exit's status for the monitor (contego/session_room.h): the i2cset
+  // runs of a script that exit cleanly stay one session with the script.
+  // Registered once per process image; a fork's child inherits the hook and
+  // says goodbye only on a connection of its own.
+  static bool hooked = false;
+  if (!hooked) hooked = on_exit(say_goodbye, nullptr) == 0;
   return s.client.get();
 }
 
