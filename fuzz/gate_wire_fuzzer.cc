@@ -43,8 +43,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       __builtin_trap();
     }
   }
-  if (int32_t status = 0; wire::decode_goodbye(in, &status).ok() &&
-                          wire::encode_goodbye(status).size() != in.size()) {
+  if (int32_t status = 0;
+      wire::decode_goodbye(in, &status).ok() && wire::encode_goodbye(status).size() != in.size()) {
     __builtin_trap();
   }
   wire::HelloOk ok;

@@ -2,13 +2,14 @@
 #include "monitor/process_group.h"
 
 #include <poll.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <cstdint>
+#include <sys/syscall.h>
+
+#include "contego/session_room.h"
 
 #include "base/unique_fd.h"
-#include "contego/session_room.h"
 
 namespace contego::monitor {
 

@@ -425,7 +425,7 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
         client_event(s.conn->uid, "malformed", fmt::format("uid {}: {}", s.conn->uid, st.error()));
         return std::nullopt;
       }
-      if (s.bound) s.goodbye = status;
+      if (s.bound) goodbye(s, status);
       if (!channel) return std::nullopt;
       s.out.clear();
       return wire::Type::kJobEndOk;

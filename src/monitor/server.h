@@ -110,12 +110,14 @@ class Server {
     Conn* conn = nullptr;
     bool bound = false;
     uint16_t task = 0;
-    pid_t vouched = 0;        // the supervised program's pid (a supervisor's session)
-    std::string task_name;    // as the hello named it
-    pid_t group = 0;          // the peer's process group at its hello
-    // The wait status its process said it exits with (the preload client's
-    // goodbye); none: killed, crashed, or a client that does not say.
-    std::optional<int32_t> goodbye;
+    pid_t vouched = 0;      // the supervised program's pid (a supervisor's session)
+    std::string task_name;  // as the hello named it
+    pid_t group = 0;        // the peer's process group at its hello
+    // Its process said it exits cleanly (the preload client's goodbye)
+    // inside a group whose leader lived then: a pidfd of that leader, to
+    // which the session goes on. Unset: killed, crashed, failing, the
+    // group's leader itself, or a client that does not say.
+    base::UniqueFd leader;
     gate::Transfer transfer;  // reused: no allocation per exchange once grown
     std::vector<uint8_t> out;
   };
@@ -263,7 +265,9 @@ class Server {
   std::vector<HandedSession> handed_ GUARDED_BY(mu_);
   // Ends the handed sessions whose leader exited; true while any is left.
   bool end_handed_sessions();
-  std::condition_variable session_ended_;                        // a session ended; with mu_
+  // The goodbye of the session's process (its exit's wait status).
+  void goodbye(Session& s, int32_t wait_status);
+  std::condition_variable session_ended_;            // a session ended; with mu_
   std::multiset<pid_t> supervised_ GUARDED_BY(mu_);  // live supervisors and their programs
   // The executables whose word on a program's `exe` is taken: this one, and
   // the supervisor trusted with trust_supervisor() (device, inode).

@@ -9,9 +9,10 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 
+#include "contego/session_room.h"
+
 #include "base/errorf.h"
 #include "base/unique_fd.h"
-#include "contego/session_room.h"
 #include "monitor/process_group.h"
 #include "monitor/server.h"
 
@@ -178,8 +179,8 @@ Status Server::admit(Session& s, const std::string& name, uint16_t task, const w
                   [&]() REQUIRES(mu_) { return room().left || stopping_; });
   }
   if (const Room now = room(); !now.left) {
-    return errorf("task '{}' already has {} live session(s) (the policy allows {})", name,
-                  now.live, allowed);
+    return errorf("task '{}' already has {} live session(s) (the policy allows {})", name, now.live,
+                  allowed);
   }
   ++live_sessions_[task];
   s.group = group_of(c.pid);
@@ -266,19 +267,19 @@ void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
   // A clean exit inside a script hands the session to the script's leader
   // (contego/session_room.h): no safe state between a script's commands.
+  // Whether it does was settled at the goodbye, as the process exited; the
+  // leader may have exited since (a script's last command): then its end
+  // is seen at once.
   bool handed = false;
-  if (s.goodbye && contego_session_hands_to_leader(*s.goodbye, static_cast<uintptr_t>(s.conn->pid),
-                                                   static_cast<uintptr_t>(s.group),
-                                                   group_leader_lives(s.group) ? 1 : 0)) {
-    base::UniqueFd leader(static_cast<int>(syscall(SYS_pidfd_open, s.group, 0)));
-    handed = leader.valid() && group_leader_lives(s.group);
+  if (s.leader.valid()) {
     base::MutexLock lock(mu_);
+    handed = true;
     const bool joined = std::any_of(handed_.begin(), handed_.end(), [&](const HandedSession& h) {
       return h.task == s.task && h.leader == s.group;
     });
-    if (handed && !joined) {
+    if (!joined) {
       // The session goes on, with the leader: it stays counted as live.
-      handed_.push_back({s.task, s.group, std::move(leader)});
+      handed_.push_back({s.task, s.group, std::move(s.leader)});
       ++live_sessions_[s.task];
       wake();  // the accept loop watches the leader from now on
     }
@@ -296,9 +297,17 @@ void Server::end_session(Session& s) {
   }
 }
 
-}  // namespace contego::monitor
-
-namespace contego::monitor {
+void Server::goodbye(Session& s, int32_t wait_status) {
+  s.leader.reset();
+  if (!contego_session_hands_to_leader(wait_status, static_cast<uintptr_t>(s.conn->pid),
+                                       static_cast<uintptr_t>(s.group),
+                                       group_leader_lives(s.group) ? 1 : 0)) {
+    return;
+  }
+  // Pinned now, while it leads the group: a pid freed later is not it.
+  s.leader = base::UniqueFd(static_cast<int>(syscall(SYS_pidfd_open, s.group, 0)));
+  if (s.leader.valid() && !group_leader_lives(s.group)) s.leader.reset();
+}
 
 bool Server::end_handed_sessions() {
   std::vector<HandedSession> ended;

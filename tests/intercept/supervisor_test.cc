@@ -486,6 +486,72 @@ TEST_P(Supervised, TaskExitDrivesTheSafeState) {
   EXPECT_NE(audit_text().find("safe-state"), std::string::npos);
 }
 
+// A script's commands under the preload client, as under contego.ko
+// (contego/session_room.h): each that exits cleanly hands its session to the
+// script, so the rover is not stopped between them, only when the script ends.
+TEST_P(Supervised, AScriptsCleanCommandsAreOneSessionEndedWithTheScript) {
+  if (!preload()) GTEST_SKIP() << "the preload client's sessions (a supervisor's is its run)";
+  const std::string fwd = "/usr/sbin/i2cset -y 1 0x08 0x01 0x77 0 0 0 i";
+  // (`; exit`: the shell runs the last one as a child too, not by exec.)
+  auto r = run({"/bin/sh", "-c", fwd + " && " + fwd + " && " + fwd + "; exit $?"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(gpg->motion(), 0x78);  // stopped once the script ended
+  EXPECT_EQ(gpg->frames(), 4u);    // three fwd, one stop: none between them
+  const std::string log = audit_text();
+  size_t stops = 0;
+  for (size_t at = log.find("\"safe-state\""); at != std::string::npos;
+       at = log.find("\"safe-state\"", at + 1)) {
+    ++stops;
+  }
+  EXPECT_EQ(stops, 1u) << log;
+  EXPECT_NE(log.find("ended with its process group's leader"), std::string::npos) << log;
+}
+
+// Killed, or exiting with an error, a command of a script ends its session
+// at once, wherever the script stands.
+TEST_P(Supervised, AFailingCommandOfAScriptEndsItsSessionAtOnce) {
+  if (!preload()) GTEST_SKIP() << "the preload client's sessions (a supervisor's is its run)";
+  const std::string cue = "/tmp/contego-failed-" + std::to_string(getpid());
+  unlink(cue.c_str());
+  const std::string python =
+      "/usr/bin/python3 -c 'import smbus2, sys; "
+      "smbus2.SMBus(1).write_i2c_block_data(8, 1, [0x77, 0, 0, 0]); sys.exit(3)'";
+  // The script goes on after the failure, for 10 s at most, until the stop
+  // is in the log: the session ended before the script did.
+  auto r = run({"/bin/sh", "-c",
+                python + "; for i in $(seq 200); do grep -q safe-state " + audit_path +
+                    " && touch " + cue + " && break; sleep 0.05; done"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(access(cue.c_str(), F_OK), 0) << "no safe state while the script ran";
+  unlink(cue.c_str());
+  EXPECT_EQ(gpg->motion(), 0x78);
+  EXPECT_NE(audit_text().find(") exited\""), std::string::npos) << audit_text();
+}
+
+// The task's `sessions` (1 here) counts a script as one: a command started
+// beside another of the same script acts; one started apart (its own
+// process group: another program) is refused while the first lives.
+TEST_P(Supervised, AScriptsConcurrentCommandsShareOneSessionAnotherProgramDoesNot) {
+  if (!preload()) GTEST_SKIP() << "the preload client's sessions (a supervisor's is its run)";
+  const std::string cue = "/tmp/contego-holding-" + std::to_string(getpid());
+  unlink(cue.c_str());
+  const std::string hold =
+      "/usr/bin/python3 -c 'import smbus2, time; b = smbus2.SMBus(1); "
+      "b.write_i2c_block_data(8, 1, [0x77, 0, 0, 0]); open(\"" +
+      cue + "\", \"w\"); time.sleep(1)'";
+  const std::string wait_cue =
+      "for i in $(seq 200); do [ -e " + cue + " ] && break; sleep 0.05; done; ";
+  const std::string fwd = "/usr/sbin/i2cset -y 1 0x08 0x01 0x77 0 0 0 i";
+  auto beside = run({"/bin/sh", "-c", hold + " & " + wait_cue + fwd + " || exit 7; wait"});
+  EXPECT_EQ(beside.exit_code, 0) << "the script's second command was refused";
+  unlink(cue.c_str());
+  auto apart =
+      run({"/bin/sh", "-c", "setsid " + hold + " & " + wait_cue + fwd + " && exit 8; wait"});
+  EXPECT_EQ(apart.exit_code, 0) << "another program's command was let in";
+  unlink(cue.c_str());
+  EXPECT_NE(audit_text().find("already has 1 live session(s)"), std::string::npos);
+}
+
 // The supervisor blocks in the notification receive; the direct child's
 // exit must not end supervision while a grandchild still uses the bus.
 TEST_P(Supervised, GrandchildThatOutlivesTheProgramIsStillServed) {
