@@ -519,7 +519,7 @@ TEST_P(Supervised, AFailingCommandOfAScriptEndsItsSessionAtOnce) {
   // The script goes on after the failure, for 10 s at most, until the stop
   // is in the log: the session ended before the script did.
   auto r = run({"/bin/sh", "-c",
-                python + "; for i in $(seq 200); do grep -q safe-state " + audit_path +
+                python + "; for i in $(seq 200); do grep -q -F ') exited' " + audit_path +
                     " && touch " + cue + " && break; sleep 0.05; done"});
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_EQ(access(cue.c_str(), F_OK), 0) << "no safe state while the script ran";
@@ -538,7 +538,7 @@ TEST_P(Supervised, AScriptsConcurrentCommandsShareOneSessionAnotherProgramDoesNo
   const std::string hold =
       "/usr/bin/python3 -c 'import smbus2, time; b = smbus2.SMBus(1); "
       "b.write_i2c_block_data(8, 1, [0x77, 0, 0, 0]); open(\"" +
-      cue + "\", \"w\"); time.sleep(1)'";
+      cue + "\", \"w\"); time.sleep(2)'";
   const std::string wait_cue =
       "for i in $(seq 200); do [ -e " + cue + " ] && break; sleep 0.05; done; ";
   const std::string fwd = "/usr/sbin/i2cset -y 1 0x08 0x01 0x77 0 0 0 i";
