@@ -132,13 +132,9 @@ void SocketClient::job_boundary(uint16_t /*task*/) {
 
 void SocketClient::goodbye(int32_t wait_status) {
   base::MutexLock lock(mu_);
-  if (broken_) return;
-  const std::vector<uint8_t> payload = wire::encode_goodbye(wait_status);
-  uint32_t seq = 0;
-  // As a job-end: posted through the channel, not awaited.
-  const bool sent = channel_ ? channel_->post(wire::Type::kGoodbye, payload, &seq)
-                             : send_frame(fd_, wire::Type::kGoodbye, ++seq_, payload);
-  if (!sent) broken_ = true;
+  wire::Header h;
+  std::span<const uint8_t> answer;
+  (void)exchange(wire::Type::kGoodbye, wire::encode_goodbye(wait_status), &h, &answer);
 }
 
 void SocketClient::task_exited(uint16_t /*task*/) {

@@ -44,9 +44,11 @@ class SocketClient final : public Endpoint {
   void job_boundary(uint16_t task) override;
   void task_exited(uint16_t task) override;
   // As the process exits (the preload client's on_exit hook): the wait
-  // status it will have. Not awaited; the connection stays usable for what
-  // later exit handlers send. The monitor hands the session of a process
-  // that exits cleanly in a script to the script (contego/session_room.h).
+  // status it will have. Awaited, so that the monitor settles the session's
+  // end while the process's parent still waits for it; the connection stays
+  // usable for what later exit handlers send. The monitor hands the session
+  // of a process that exits cleanly in a script to the script
+  // (contego/session_room.h).
   void goodbye(int32_t wait_status);
   bool has_bus(uint8_t bus) override;
   // After a supervised process (pid) called execve: asks the monitor to

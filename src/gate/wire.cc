@@ -110,6 +110,7 @@ Status decode_header(std::span<const uint8_t> bytes, Header* h) {
     case Type::kReload:
     case Type::kReloadOk:
     case Type::kGoodbye:
+    case Type::kGoodbyeOk:
     case Type::kError:
       return {};
   }

@@ -44,7 +44,8 @@ enum class Type : uint8_t {
   kStatusOk = 16,   // server: JSON text (docs/deployment.md, "contego status")
   kReload = 17,     // operator: a policy bundle and its signature -> kReloadOk | kError
   kReloadOk = 18,   // server: what the reload kept and started afresh (text)
-  kGoodbye = 19,    // client: its exit's wait status, as the process exits (no answer)
+  kGoodbye = 19,    // client: its exit's wait status, as the process exits -> kGoodbyeOk
+  kGoodbyeOk = 20,  // server: empty; the session's end is settled
   kError = 0x7F,    // server: errno and reason text
 };
 

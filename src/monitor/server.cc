@@ -417,18 +417,14 @@ std::optional<wire::Type> Server::dispatch(Session& s, uint8_t type,
       s.out.clear();  // the channel's slot needs an answer to be free again
       return wire::Type::kJobEndOk;
     case wire::Type::kGoodbye: {
-      // Not answered over the socket (the client does not wait): a
-      // malformed one is noted, and the session ends as if none came.
+      // A malformed one is refused; the session then ends as if none came.
       int32_t status = 0;
       if (Status st = wire::decode_goodbye(payload, &status); !st.ok()) {
-        if (channel) return refuse(EPROTO, st.error());
-        client_event(s.conn->uid, "malformed", fmt::format("uid {}: {}", s.conn->uid, st.error()));
-        return std::nullopt;
+        return refuse(EPROTO, st.error());
       }
       if (s.bound) goodbye(s, status);
-      if (!channel) return std::nullopt;
       s.out.clear();
-      return wire::Type::kJobEndOk;
+      return wire::Type::kGoodbyeOk;
     }
     case wire::Type::kBusInfo: {
       if (payload.size() != 1) return refuse(EPROTO, "malformed bus info request");

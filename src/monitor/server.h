@@ -114,10 +114,11 @@ class Server {
     std::string task_name;  // as the hello named it
     pid_t group = 0;        // the peer's process group at its hello
     // Its process said it exits cleanly (the preload client's goodbye)
-    // inside a group whose leader lived then: a pidfd of that leader, to
-    // which the session goes on. Unset: killed, crashed, failing, the
-    // group's leader itself, or a client that does not say.
-    base::UniqueFd leader;
+    // inside a group whose leader lived then: the session goes on with that
+    // leader (handed_), and its connection's end ends nothing. Unset:
+    // killed, crashed, failing, the group's leader itself, or a client
+    // that does not say.
+    bool handed = false;
     gate::Transfer transfer;  // reused: no allocation per exchange once grown
     std::vector<uint8_t> out;
   };

@@ -265,26 +265,9 @@ bool Server::session_ending(int task, pid_t pid) const {
 
 void Server::end_session(Session& s) {
   if (!s.bound) return;  // a refused or missing hello drives nothing
-  // A clean exit inside a script hands the session to the script's leader
-  // (contego/session_room.h): no safe state between a script's commands.
-  // Whether it does was settled at the goodbye, as the process exited; the
-  // leader may have exited since (a script's last command): then its end
-  // is seen at once.
-  bool handed = false;
-  if (s.leader.valid()) {
-    base::MutexLock lock(mu_);
-    handed = true;
-    const bool joined = std::any_of(handed_.begin(), handed_.end(), [&](const HandedSession& h) {
-      return h.task == s.task && h.leader == s.group;
-    });
-    if (!joined) {
-      // The session goes on, with the leader: it stays counted as live.
-      handed_.push_back({s.task, s.group, std::move(s.leader)});
-      ++live_sessions_[s.task];
-      wake();  // the accept loop watches the leader from now on
-    }
-  }
-  if (!handed) monitor_.task_exited(s.task);
+  // A session handed to its script's leader at the goodbye ends with the
+  // leader (end_handed_sessions), not here.
+  if (!s.handed) monitor_.task_exited(s.task);
   base::MutexLock lock(mu_);
   if (auto it = live_sessions_.find(s.task); it != live_sessions_.end() && --it->second == 0) {
     live_sessions_.erase(it);
@@ -298,15 +281,27 @@ void Server::end_session(Session& s) {
 }
 
 void Server::goodbye(Session& s, int32_t wait_status) {
-  s.leader.reset();
-  if (!contego_session_hands_to_leader(wait_status, static_cast<uintptr_t>(s.conn->pid),
-                                       static_cast<uintptr_t>(s.group),
-                                       group_leader_lives(s.group) ? 1 : 0)) {
+  // Settled now, as the process exits and while its parent waits for it: a
+  // script's leader is still alive for each of its commands, however fast
+  // they follow one another.
+  if (s.handed || !contego_session_hands_to_leader(wait_status, static_cast<uintptr_t>(s.conn->pid),
+                                                   static_cast<uintptr_t>(s.group),
+                                                   group_leader_lives(s.group) ? 1 : 0)) {
     return;
   }
   // Pinned now, while it leads the group: a pid freed later is not it.
-  s.leader = base::UniqueFd(static_cast<int>(syscall(SYS_pidfd_open, s.group, 0)));
-  if (s.leader.valid() && !group_leader_lives(s.group)) s.leader.reset();
+  base::UniqueFd leader(static_cast<int>(syscall(SYS_pidfd_open, s.group, 0)));
+  if (!leader.valid() || !group_leader_lives(s.group)) return;
+  base::MutexLock lock(mu_);
+  s.handed = true;
+  // One session per task and leader: the commands of a script end once.
+  if (std::none_of(handed_.begin(), handed_.end(), [&](const HandedSession& h) {
+        return h.task == s.task && h.leader == s.group;
+      })) {
+    handed_.push_back({s.task, s.group, std::move(leader)});
+    ++live_sessions_[s.task];
+    wake();  // the accept loop watches the leader from now on
+  }
 }
 
 bool Server::end_handed_sessions() {
