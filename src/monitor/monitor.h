@@ -215,7 +215,9 @@ class Monitor final : public gate::Endpoint {
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
-  int perform_emits(const core::Verdict& v, bool ten_bit) REQUIRES(mu_);
+  // `timing`: the call's (gate::Timing), none for a safe state.
+  int perform_emits(const core::Verdict& v, bool ten_bit, const gate::Timing& timing = {})
+      REQUIRES(mu_);
   bool complains_locked(uint16_t task, const gate::Transfer& t) const REQUIRES(mu_);
   bool complains_task_locked(uint16_t task) const REQUIRES(mu_);
   // Complain mode: every write of `planned` emits the bytes the program sent.
