@@ -157,9 +157,10 @@ static long ct_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 	case I2C_TIMEOUT:
 		/* This descriptor's own (ct_bus_transfer), not the adapter's:
 		 * an unprivileged caller cannot change another's transfers.
-		 * The limits are i2c-dev's: arg * 10 must not wrap.
+		 * The limits are i2c-dev's (arg * 10 must not wrap), in the
+		 * model contego run shares.
 		 */
-		if (arg > (cmd == I2C_RETRIES ? INT_MAX : INT_MAX / 10))
+		if (!contego_i2c_timing_arg_ok(cmd == I2C_TIMEOUT, arg))
 			return -EINVAL;
 		if (mutex_lock_killable(&ct.lock))
 			return -EINTR;

@@ -136,7 +136,7 @@ if [[ -n $dkms_deb ]]; then
   [[ -n $src ]] || bad "$dkms_deb has no /usr/src/contego-VERSION"
   for f in dkms.conf Kbuild contego_main.c contego_xfer.c contego.h include/uapi/linux/contego_kmod.h shim/stdint.h include/contego/core_c.h \
     src/core/checker.cc src/core/interpreter.cc src/core/verifier.cc src/core/state.h \
-    src/i2cdev/job_budget.cc src/i2cdev/plan.cc src/i2cdev/session_room.cc src/i2cdev/smbus_call.cc src/i2cdev/transactions.cc \
+    src/i2cdev/job_budget.cc src/i2cdev/plan.cc src/i2cdev/session_room.cc src/i2cdev/smbus_call.cc src/i2cdev/timing.cc src/i2cdev/transactions.cc \
     include/contego/i2c_plan.h include/contego/job_budget.h include/contego/session_room.h; do
     [[ -n $src && -e $src/$f ]] || bad "$dkms_deb has no /usr/src/contego-VERSION/$f"
   done

@@ -184,6 +184,30 @@ int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read, uint8_t co
                            struct contego_i2c_msg m[2], uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES],
                            uint8_t rbuf[CONTEGO_SMBUS_DATA_BYTES - 1]);
 
+/* I2C_RETRIES and I2C_TIMEOUT: i2c-core's rule for one transfer
+ * (__i2c_transfer and __i2c_smbus_xfer), which both clients apply with a
+ * descriptor's own values, never adapter-wide as i2c-dev does (issue 37).
+ * After try number `tries` (1: the first) ended with `err` (a positive
+ * errno, 0 for success: the kernel's result negated), `elapsed` after the
+ * first try began, the transfer is tried again only if the driver lost
+ * arbitration (EAGAIN), tries <= retries, and elapsed has not passed
+ * `timeout` (in elapsed's unit: i2c-core compares jiffies with time_after,
+ * so a try ending exactly at the timeout may be followed by one more).
+ * contego.ko has i2c-core apply it, lending the descriptor's values to the
+ * adapter under its bus lock; the monitor, which must not change its
+ * adapter's, tries a call's acting transfers again by this function. Pure:
+ * the caller reads its clock. */
+#define CONTEGO_EAGAIN 11u                   /* Linux's: arbitration lost */
+#define CONTEGO_I2C_TIMEOUT_UNIT_MS 10u      /* I2C_TIMEOUT's argument: tens of ms */
+#define CONTEGO_I2C_ADAPTER_TIMEOUT_MS 1000u /* i2c-core's for an adapter that sets none */
+int contego_i2c_try_again(uint32_t err, uint32_t tries, uint32_t retries, uint64_t elapsed,
+                          uint64_t timeout);
+
+/* Whether i2c-dev takes `arg` for I2C_RETRIES (`timeout` 0: up to INT_MAX)
+ * or for I2C_TIMEOUT (1: up to INT_MAX / 10, so that arg * 10 ms does not
+ * wrap); the ioctl answers EINVAL otherwise. */
+int contego_i2c_timing_arg_ok(int timeout, uint64_t arg);
+
 #ifdef __cplusplus
 }
 #endif

@@ -2,12 +2,12 @@
 /*
  * contego.ko's pure parts as the kernel runs them (docs/kernel-client.md,
  * "KUnit"): the i2c-dev model it shares with the monitor (planning, the
- * SMBus call table, the job grid and the hold's counts, the message flag
- * allow-list), compiled from the same sources with the same kernel flags as
- * in contego.ko, and its session rules (counting by unit, the hand-off to a
- * group's leader). The monitor's GoogleTest suites
- * test the same sources in user space; these show the kernel's build of them
- * agrees.
+ * SMBus call table, the retry rule of I2C_RETRIES/I2C_TIMEOUT, the job grid
+ * and the hold's counts, the message flag allow-list), compiled from the
+ * same sources with the same kernel flags as in contego.ko, and its session
+ * rules (counting by unit, the hand-off to a group's leader). The monitor's
+ * GoogleTest suites test the same sources in user space; these show the
+ * kernel's build of them agrees.
  *
  * Debian's kernels are built without KUnit: the test bed loads kunit.ko
  * built from Debian's linux-source (kernel/build.sh --kunit), which has no
@@ -138,6 +138,22 @@ static void ct_kunit_smbus_call_table(struct kunit *test)
 	KUNIT_EXPECT_LT(test, contego_i2c_smbus_msgs(0x40, 0, 0, 0x10, 6, data, m, wire, rbuf), 0);
 }
 
+static void ct_kunit_timing(struct kunit *test)
+{
+	/* The retry rule the monitor applies reads the kernel's own EAGAIN,
+	 * and stops where __i2c_transfer's loop does: after retries + 1
+	 * tries, or once time_after(jiffies, first + timeout).
+	 */
+	KUNIT_EXPECT_EQ(test, CONTEGO_EAGAIN, EAGAIN);
+	KUNIT_EXPECT_EQ(test, contego_i2c_try_again(EAGAIN, 3, 3, HZ, HZ), 1);
+	KUNIT_EXPECT_EQ(test, contego_i2c_try_again(EAGAIN, 4, 3, 0, HZ), 0);
+	KUNIT_EXPECT_EQ(test, contego_i2c_try_again(EAGAIN, 1, 3, HZ + 1, HZ), 0);
+	KUNIT_EXPECT_EQ(test, contego_i2c_try_again(ENXIO, 1, 3, 0, HZ), 0);
+	/* i2c-dev's limits, as contego.ko's I2C_RETRIES and I2C_TIMEOUT take them. */
+	KUNIT_EXPECT_EQ(test, contego_i2c_timing_arg_ok(0, INT_MAX), 1);
+	KUNIT_EXPECT_EQ(test, contego_i2c_timing_arg_ok(1, INT_MAX / 10 + 1), 0);
+}
+
 static void ct_kunit_job_grid(struct kunit *test)
 {
 	KUNIT_EXPECT_EQ(test, contego_grid_job(1000, 10000, 500), 1u);
@@ -226,6 +242,7 @@ static struct kunit_case ct_model_cases[] = {
 	KUNIT_CASE(ct_kunit_refusals),
 	KUNIT_CASE(ct_kunit_flag_allow_list),
 	KUNIT_CASE(ct_kunit_smbus_call_table),
+	KUNIT_CASE(ct_kunit_timing),
 	{}
 };
 

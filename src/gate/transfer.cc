@@ -77,6 +77,10 @@ std::vector<PlannedTx> to_transactions(const Transfer& transfer) {
 }
 
 Status validate(const Transfer& transfer) {
+  if (!contego_i2c_timing_arg_ok(0, transfer.timing.retries) ||
+      !contego_i2c_timing_arg_ok(1, transfer.timing.timeout_10ms)) {
+    return make_error("I2C_RETRIES or I2C_TIMEOUT beyond i2c-dev's limits");
+  }
   if (transfer.quick) {
     if (!transfer.messages.empty()) return make_error("quick transfer carries messages");
     if (transfer.quick_addr > (transfer.quick_ten_bit ? 0x3FF : 0x7F))

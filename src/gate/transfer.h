@@ -38,6 +38,18 @@ struct Message {
   bool is_read() const { return (flags & kMsgRead) != 0; }
 };
 
+// The descriptor's own I2C_RETRIES and I2C_TIMEOUT, once it set either
+// (i2c-dev sets them adapter-wide; contego keeps them per descriptor). The
+// trusted side tries each acting transfer of the call again on a lost
+// arbitration by i2c-core's rule with them (contego_i2c_try_again); without
+// them, once. A descriptor that set only one has the other's default: no
+// retries, or i2c-core's timeout of an adapter that sets none.
+struct Timing {
+  bool own = false;
+  uint32_t retries = 0;       // I2C_RETRIES: at most INT_MAX
+  uint32_t timeout_10ms = 0;  // I2C_TIMEOUT, tens of milliseconds: at most INT_MAX / 10
+};
+
 struct Transfer {
   uint8_t bus = 0;
   bool quick = false;  // SMBus quick: no messages, only the address and the R/W bit
@@ -45,6 +57,7 @@ struct Transfer {
   uint16_t quick_addr = 0;
   bool quick_ten_bit = false;
   std::vector<Message> messages;  // performed as one combined transfer
+  Timing timing;
 };
 
 // A transfer that can actuate nothing: an SMBus quick, reads, and one-byte

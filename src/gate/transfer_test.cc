@@ -1,5 +1,6 @@
 #include "gate/transfer.h"
 
+#include <climits>
 #include <gtest/gtest.h>
 
 namespace contego::gate {
@@ -112,6 +113,14 @@ TEST(Validate, RefusesKernelLimits) {
   Message bad = w(0x40, {1, 2});
   bad.len = 5;
   t.messages = {bad};
+  EXPECT_FALSE(validate(t).ok());
+  // I2C_RETRIES and I2C_TIMEOUT within i2c-dev's limits only.
+  t.messages = {r(0x40, 1)};
+  t.timing = {true, INT_MAX, INT_MAX / 10};
+  EXPECT_TRUE(validate(t).ok());
+  t.timing.timeout_10ms = INT_MAX / 10 + 1;
+  EXPECT_FALSE(validate(t).ok());
+  t.timing = {true, uint32_t{INT_MAX} + 1, 0};
   EXPECT_FALSE(validate(t).ok());
 }
 

@@ -210,8 +210,8 @@ std::vector<uint8_t> encode_transfer(const Transfer& t) { return encoded(encode_
 void encode_transfer(const Transfer& t, std::vector<uint8_t>* out) {
   Writer w(*out);
   w.u8(t.bus);
-  w.u8(
-      static_cast<uint8_t>((t.quick ? 1 : 0) | (t.quick_read ? 2 : 0) | (t.quick_ten_bit ? 4 : 0)));
+  w.u8(static_cast<uint8_t>((t.quick ? 1 : 0) | (t.quick_read ? 2 : 0) | (t.quick_ten_bit ? 4 : 0) |
+                            (t.timing.own ? kTransferOwnTiming : 0)));
   w.u16(t.quick_addr);
   w.u16(static_cast<uint16_t>(t.messages.size()));
   for (const Message& m : t.messages) {
@@ -219,6 +219,10 @@ void encode_transfer(const Transfer& t, std::vector<uint8_t>* out) {
     w.u16(m.flags);
     w.u16(m.len);
     if (!m.is_read()) w.bytes(m.data);
+  }
+  if (t.timing.own) {
+    w.u32(t.timing.retries);
+    w.u32(t.timing.timeout_10ms);
   }
 }
 
@@ -229,7 +233,7 @@ Status decode_transfer(std::span<const uint8_t> p, Transfer* t) {
   if (!r.u8(&t->bus) || !r.u8(&flags) || !r.u16(&t->quick_addr) || !r.u16(&count)) {
     return make_error("truncated transfer header");
   }
-  if (flags & ~7u) return make_error("unknown transfer flags");
+  if (flags & ~(7u | kTransferOwnTiming)) return make_error("unknown transfer flags");
   t->quick = flags & 1;
   t->quick_read = flags & 2;
   t->quick_ten_bit = flags & 4;
@@ -243,6 +247,9 @@ Status decode_transfer(std::span<const uint8_t> p, Transfer* t) {
     if (m.len > kMaxMessageLen) return make_error("message longer than 8192 bytes");
     if (!m.is_read() && !r.bytes(m.len, &m.data)) return make_error("truncated message data");
   }
+  t->timing = {(flags & kTransferOwnTiming) != 0, 0, 0};
+  if (t->timing.own && (!r.u32(&t->timing.retries) || !r.u32(&t->timing.timeout_10ms)))
+    return make_error("truncated I2C_RETRIES and I2C_TIMEOUT");
   if (!r.done()) return make_error("trailing bytes after the transfer");
   return validate(*t);
 }

@@ -49,6 +49,11 @@ enum class Type : uint8_t {
   kError = 0x7F,    // server: errno and reason text
 };
 
+// Transfer flags, bit 3: the descriptor's own I2C_RETRIES and I2C_TIMEOUT
+// follow the messages (gate::Timing). A monitor that predates it refuses
+// such a transfer (unknown flags) rather than drop them unseen.
+inline constexpr uint8_t kTransferOwnTiming = 8;
+
 struct Header {
   uint16_t magic = kMagic;
   uint8_t version = kVersion;

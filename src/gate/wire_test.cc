@@ -42,6 +42,45 @@ TEST(Wire, TruncatedAndTrailingTransfersAreRefused) {
   EXPECT_EQ(decode_transfer(extra, &back).error(), "trailing bytes after the transfer");
 }
 
+// The descriptor's own I2C_RETRIES/I2C_TIMEOUT ride as flag bit 3 and two
+// u32 after the messages; a transfer without them is encoded as before.
+TEST(Wire, ADescriptorsOwnTimingRidesAfterTheMessages) {
+  Transfer t;
+  t.bus = 1;
+  Message w;
+  w.addr = 0x40;
+  w.len = 2;
+  w.data = {0x06, 0x01};
+  t.messages = {w};
+  const auto plain = encode_transfer(t);
+  EXPECT_EQ(plain[1], 0);  // no flag: what a monitor before the flag reads
+  t.timing = {true, 3, 7};
+  const auto timed = encode_transfer(t);
+  ASSERT_EQ(timed.size(), plain.size() + 8);
+  EXPECT_EQ(timed[1], kTransferOwnTiming);
+  EXPECT_EQ(std::vector<uint8_t>(timed.end() - 8, timed.end()),
+            std::vector<uint8_t>({3, 0, 0, 0, 7, 0, 0, 0}));
+  Transfer back;
+  ASSERT_TRUE(decode_transfer(timed, &back).ok());
+  EXPECT_TRUE(back.timing.own);
+  EXPECT_EQ(back.timing.retries, 3u);
+  EXPECT_EQ(back.timing.timeout_10ms, 7u);
+  EXPECT_EQ(back.messages[0].data, w.data);
+  // The same Transfer decoded again from a frame without them: none kept.
+  ASSERT_TRUE(decode_transfer(plain, &back).ok());
+  EXPECT_FALSE(back.timing.own);
+  EXPECT_EQ(back.timing.retries, 0u);
+  auto cut = timed;
+  cut.pop_back();
+  EXPECT_EQ(decode_transfer(cut, &back).error(), "truncated I2C_RETRIES and I2C_TIMEOUT");
+  auto beyond = timed;
+  beyond[beyond.size() - 1] = 0x10;  // a timeout above INT_MAX / 10
+  EXPECT_FALSE(decode_transfer(beyond, &back).ok());
+  auto unknown = plain;
+  unknown[1] = 0x10;
+  EXPECT_EQ(decode_transfer(unknown, &back).error(), "unknown transfer flags");
+}
+
 TEST(Wire, HeaderRefusesOversizeBadMagicAndUnknownTypes) {
   auto f = frame(Type::kTransfer, 7, {});
   Header h;

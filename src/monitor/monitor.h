@@ -183,7 +183,7 @@ class Monitor final : public gate::Endpoint {
   // hint); the hint never starts a job itself, so no sleeping thread can
   // grant the task an extra budget.
   void job_boundary(uint16_t task) override;
-  void task_exited(uint16_t task) override;
+  void task_exited(uint16_t task) override { task_ended(task, "exited"); }
   // The same end, said how (the audit's words after "task N (name) ").
   void task_ended(uint16_t task, const std::string& how);
   bool has_bus(uint8_t bus) override;
@@ -217,7 +217,9 @@ class Monitor final : public gate::Endpoint {
   static uint32_t host_read_sample(void* ctx, uint16_t device, uint8_t* buf, uint32_t capacity,
                                    uint64_t* taken_at_us);
   static void host_audit(void* ctx, const core::AuditRecord* record);
-  int perform_emits(const core::Verdict& v, bool ten_bit) REQUIRES(mu_);
+  // `timing`: the call's (gate::Timing), none for a safe state.
+  int perform_emits(const core::Verdict& v, bool ten_bit, const gate::Timing& timing = {})
+      REQUIRES(mu_);
   bool complains_locked(uint16_t task, const gate::Transfer& t) const REQUIRES(mu_);
   bool complains_task_locked(uint16_t task) const REQUIRES(mu_);
   // Complain mode: every write of `planned` emits the bytes the program sent.

@@ -2,7 +2,6 @@
 
 #include <errno.h>
 
-#include <climits>
 #include <cstring>
 
 #include "contego/i2c_msg_flags.h"
@@ -49,6 +48,16 @@ Decoded fail(int err) {
   return d;
 }
 
+// A call the trusted side performs: on the descriptor's bus, with its own
+// I2C_RETRIES/I2C_TIMEOUT once it set them.
+Decoded transfer_on(const FdState& s) {
+  Decoded d;
+  d.action = Decoded::Action::kTransfer;
+  d.transfer.bus = s.bus;
+  d.transfer.timing = {s.own_timing, s.retries, s.timeout_10ms};
+  return d;
+}
+
 gate::Message write_msg(const FdState& s, std::vector<uint8_t> bytes) {
   gate::Message m;
   m.addr = s.addr;
@@ -73,9 +82,7 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
   if (size > kSmbusI2cBlockData) return fail(EINVAL);
   if (a.read_write != kSmbusRead && a.read_write != kSmbusWrite) return fail(EINVAL);
 
-  Decoded d;
-  d.action = Decoded::Action::kTransfer;
-  d.transfer.bus = s.bus;
+  Decoded d = transfer_on(s);
   Completion& c = d.completion;
   c.form = Completion::Form::kSmbus;
   c.smbus_read_write = a.read_write;
@@ -137,9 +144,7 @@ Decoded decode_rdwr(const FdState& s, uint64_t arg, Memory& memory) {
   RawMsg raw[gate::kMaxMessages];
   if (!memory.read(a.msgs, raw, a.nmsgs * sizeof(RawMsg))) return fail(EFAULT);
 
-  Decoded d;
-  d.action = Decoded::Action::kTransfer;
-  d.transfer.bus = s.bus;
+  Decoded d = transfer_on(s);
   d.completion.form = Completion::Form::kRdwr;
   d.completion.count = a.nmsgs;
   for (uint32_t i = 0; i < a.nmsgs; ++i) {
@@ -200,12 +205,10 @@ Decoded decode_ioctl(FdState& state, unsigned long request, uint64_t arg, Memory
       return ret(0);
     }
     case kI2cRetries:
-      if (arg > INT_MAX) return fail(EINVAL);
-      state.retries = static_cast<uint32_t>(arg);
-      return ret(0);
-    case kI2cTimeout:  // tens of milliseconds: arg * 10 must not wrap (as contego.ko)
-      if (arg > INT_MAX / 10) return fail(EINVAL);
-      state.timeout_10ms = static_cast<uint32_t>(arg);
+    case kI2cTimeout:  // the descriptor's own, as under contego.ko (gate::Timing)
+      if (!contego_i2c_timing_arg_ok(request == kI2cTimeout, arg)) return fail(EINVAL);
+      (request == kI2cRetries ? state.retries : state.timeout_10ms) = static_cast<uint32_t>(arg);
+      state.own_timing = true;
       return ret(0);
     case kI2cRdwr:
       return decode_rdwr(state, arg, memory);
@@ -220,9 +223,7 @@ Decoded decode_write(const FdState& state, uint64_t buf, uint64_t count, Memory&
   if (count > gate::kMaxMessageLen) count = gate::kMaxMessageLen;
   std::vector<uint8_t> bytes(count);
   if (count != 0 && !memory.read(buf, bytes.data(), count)) return fail(EFAULT);
-  Decoded d;
-  d.action = Decoded::Action::kTransfer;
-  d.transfer.bus = state.bus;
+  Decoded d = transfer_on(state);
   d.transfer.messages.push_back(write_msg(state, std::move(bytes)));
   d.completion.form = Completion::Form::kWrite;
   d.completion.count = static_cast<uint32_t>(count);
@@ -231,9 +232,7 @@ Decoded decode_write(const FdState& state, uint64_t buf, uint64_t count, Memory&
 
 Decoded decode_read(const FdState& state, uint64_t buf, uint64_t count) {
   if (count > gate::kMaxMessageLen) count = gate::kMaxMessageLen;
-  Decoded d;
-  d.action = Decoded::Action::kTransfer;
-  d.transfer.bus = state.bus;
+  Decoded d = transfer_on(state);
   d.transfer.messages.push_back(read_msg(state, static_cast<uint16_t>(count)));
   d.completion.form = Completion::Form::kRead;
   d.completion.count = static_cast<uint32_t>(count);

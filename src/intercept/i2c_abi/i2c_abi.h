@@ -18,6 +18,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "contego/i2c_plan.h"
+
 #include "gate/transfer.h"
 
 namespace contego::intercept::i2c_abi {
@@ -63,8 +65,13 @@ struct FdState {
   uint16_t addr = 0;  // 0 until I2C_SLAVE: a bare write() goes to the general call address
   bool ten_bit = false;
   bool pec = false;
+  // I2C_RETRIES and I2C_TIMEOUT, this descriptor's own once it set either
+  // (own_timing; i2c-dev's are the adapter's): sent with each transfer.
+  // Until then, i2c-core's defaults: no retries, and the timeout of an
+  // adapter that sets none (the adapter's own cannot be read).
   uint32_t retries = 0;
-  uint32_t timeout_10ms = 0;
+  uint32_t timeout_10ms = CONTEGO_I2C_ADAPTER_TIMEOUT_MS / CONTEGO_I2C_TIMEOUT_UNIT_MS;
+  bool own_timing = false;
 };
 
 // How to hand a transfer's results back to the task.

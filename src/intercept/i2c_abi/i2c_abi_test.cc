@@ -96,6 +96,36 @@ TEST_F(I2cAbi, TimeoutWhoseMillisecondsWouldWrapIsEinval) {
   EXPECT_EQ(state.timeout_10ms, static_cast<uint32_t>(INT_MAX / 10));
 }
 
+// The descriptor's own I2C_RETRIES/I2C_TIMEOUT go with every transfer once
+// it set either (the monitor applies them per call); before, none do.
+TEST_F(I2cAbi, EveryTransferCarriesTheDescriptorsOwnRetriesAndTimeout) {
+  state.addr = 0x40;
+  uint8_t byte = 0x06;
+  EXPECT_FALSE(decode_write(state, addr_of(&byte), 1, mem).transfer.timing.own);
+  EXPECT_EQ(decode_ioctl(state, I2C_RETRIES, 0x80000000ul, mem, 0).err, EINVAL);
+  EXPECT_FALSE(state.own_timing);  // a refused value sets nothing
+  EXPECT_EQ(decode_ioctl(state, I2C_RETRIES, 3, mem, 0).err, 0);
+  const gate::Timing only_retries = decode_read(state, addr_of(&byte), 1).transfer.timing;
+  EXPECT_TRUE(only_retries.own);
+  EXPECT_EQ(only_retries.retries, 3u);
+  EXPECT_EQ(only_retries.timeout_10ms, 100u);  // i2c-core's default: 1 s
+  EXPECT_EQ(decode_ioctl(state, I2C_TIMEOUT, 7, mem, 0).err, 0);
+  i2c_smbus_data data{};
+  for (const Decoded& d : {decode_write(state, addr_of(&byte), 1, mem),
+                           smbus(I2C_SMBUS_WRITE, 0x06, I2C_SMBUS_BYTE_DATA, &data),
+                           smbus(I2C_SMBUS_WRITE, 0, I2C_SMBUS_QUICK, nullptr)}) {
+    ASSERT_EQ(d.action, Decoded::Action::kTransfer);
+    EXPECT_TRUE(d.transfer.timing.own);
+    EXPECT_EQ(d.transfer.timing.retries, 3u);
+    EXPECT_EQ(d.transfer.timing.timeout_10ms, 7u);
+  }
+  i2c_msg m{0x40, 0, 1, &byte};
+  i2c_rdwr_ioctl_data rdwr{&m, 1};
+  EXPECT_EQ(decode_ioctl(state, I2C_RDWR, addr_of(&rdwr), mem, 0).transfer.timing.retries, 3u);
+  FdState fresh;  // another open(): none
+  EXPECT_FALSE(decode_read(fresh, addr_of(&byte), 1).transfer.timing.own);
+}
+
 TEST_F(I2cAbi, SmbusByteDataWriteIsCommandThenByte) {
   state.addr = 0x40;
   i2c_smbus_data data{};

@@ -38,7 +38,15 @@
  * read from the parameter `wire` and cleared by writing it: each transfer
  * as its address and messages, "40:w3+r2" for a write of three bytes and a
  * read of two with a repeated start between them (rL: a RECV_LEN read), so
- * a test sees whether a client kept a program's combined transfer whole.
+ * a test sees whether a client kept a program's combined transfer whole;
+ * "/EAGAIN" after a transfer that lost arbitration.
+ *
+ * Another master on the bus: writing N to the parameter `lose_arbitration`
+ * makes the next N transfers lose arbitration, -EAGAIN before any of their
+ * messages acts (what a multi-master controller reports); reading it gives
+ * how many are still to lose. The I2C core tries a transfer again on
+ * -EAGAIN up to the adapter's retries within its timeout, so a test sees
+ * whose retries a transfer ran with by how often it went on the wire.
  *
  * The I2C core serialises master_xfer calls on the adapter (its bus lock),
  * so the register files and the wire log need no lock of their own.
@@ -65,6 +73,9 @@ struct plain_chip {
 };
 
 static struct plain_chip *chips;
+static int lose_arbitration;
+module_param(lose_arbitration, int, 0644);
+MODULE_PARM_DESC(lose_arbitration, "the next N transfers lose arbitration (-EAGAIN)");
 static int seen_retries;
 static unsigned int seen_timeout_ms;
 static struct i2c_adapter plain_adapter;
@@ -101,9 +112,9 @@ static const struct kernel_param_ops wire_ops = { .get = wire_get, .set = wire_s
 module_param_cb(wire, &wire_ops, NULL, 0644);
 MODULE_PARM_DESC(wire, "the transfers since the last write to it, e.g. 40:w3+r2 (write: clear)");
 
-static void wire_note(const struct i2c_msg *msgs, int num)
+static void wire_note(const struct i2c_msg *msgs, int num, bool lost)
 {
-	char one[16 * 8 + 16];
+	char one[16 * 8 + 24];
 	size_t n;
 	int i;
 
@@ -115,6 +126,8 @@ static void wire_note(const struct i2c_msg *msgs, int num)
 			n += scnprintf(one + n, sizeof(one) - n, "%s%c%u", i ? "+" : "",
 				       (msgs[i].flags & I2C_M_RD) ? 'r' : 'w', msgs[i].len);
 	}
+	if (lost)
+		n += scnprintf(one + n, sizeof(one) - n, "/EAGAIN");
 	if (wire_len + n + 4 >= sizeof(wire_log)) {
 		if (wire_len + 4 < sizeof(wire_log))
 			wire_len += scnprintf(wire_log + wire_len, sizeof(wire_log) - wire_len, " ...");
@@ -143,7 +156,11 @@ static int plain_xfer(struct i2c_adapter *adap, struct i2c_msg *msgs, int num)
 	seen_retries = adap->retries;
 	seen_timeout_ms = jiffies_to_msecs(adap->timeout);
 	if (num > 0)
-		wire_note(msgs, num);
+		wire_note(msgs, num, lose_arbitration > 0);
+	if (lose_arbitration > 0) {
+		lose_arbitration--;
+		return -EAGAIN;
+	}
 	/* An address nobody answers fails the whole transfer before anything acts. */
 	for (i = 0; i < num; i++)
 		if (!plain_find(&msgs[i]))

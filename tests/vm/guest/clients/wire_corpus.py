@@ -5,10 +5,16 @@
 # zero-length messages, ten-bit addresses), as every I2C_SMBUS size and as
 # plain read()/write() after I2C_SLAVE, to a register-file chip at 0x40,
 # after giving the descriptor its own I2C_RETRIES and I2C_TIMEOUT.
+# With LOSE (i2c-plain-stub's lose_arbitration parameter, writable by the
+# program), steps on a bus with another master: the adapter's next transfers
+# lose arbitration (EAGAIN), and the descriptor's own I2C_RETRIES decide
+# whether the call gets through: 3 retries ride out 3 losses, not 4; a
+# descriptor with I2C_RETRIES 0, or one that never set it, is told EAGAIN
+# at the first.
 # Prints one line per step: what the program was told (ok and the bytes
 # read, or the errno's name). Under contego.ko and under the monitor, on the
 # same adapter, the two outputs must be the same.
-# Usage: wire_corpus.py BUS
+# Usage: wire_corpus.py BUS [LOSE]
 import errno
 import fcntl
 import os
@@ -23,6 +29,7 @@ I2C_M_TEN = 0x0010
 I2C_M_RECV_LEN = 0x0400
 A = 0x40
 bus = SMBus(int(sys.argv[1]))
+LOSE = sys.argv[2] if len(sys.argv) > 2 else None
 
 
 def rdwr(*msgs):
@@ -63,6 +70,19 @@ def raw_read(n):
 def own_timing():  # this descriptor's own: 3 retries, 70 ms (units of 10 ms)
     fcntl.ioctl(bus.fd, I2C_RETRIES, 3)
     fcntl.ioctl(bus.fd, I2C_TIMEOUT, 7)
+
+
+def losing(n, call):  # call() while the adapter's next n transfers lose arbitration
+    with open(LOSE, "w") as f:
+        f.write(str(n))
+    return call()
+
+
+def descriptor(retries=None):  # another open() of the bus, with I2C_RETRIES or without
+    other = SMBus(int(sys.argv[1]))
+    if retries is not None:
+        fcntl.ioctl(other.fd, I2C_RETRIES, retries)
+    return other
 
 
 steps = [
@@ -118,8 +138,23 @@ steps = [
     ("read() 1", lambda: raw_read(1)),
     ("read() 4", lambda: raw_read(4)),
     ("read() 0", lambda: raw_read(0)),
-    ("final [w1][r32]", lambda: rdwr(w(0x00), r(32))),
 ]
+if LOSE:
+    steps += [
+        ("3 lost, I2C_RETRIES 3: rdwr write", lambda: losing(3, lambda: rdwr(w(0x20, 0x5A)))),
+        ("2 lost, I2C_RETRIES 3: rdwr [w1][r2]", lambda: losing(2, lambda: rdwr(w(0x20), r(2)))),
+        ("2 lost, I2C_RETRIES 3: smbus read byte data",
+         lambda: losing(2, lambda: bus.read_byte_data(A, 0x20))),
+        ("4 lost, I2C_RETRIES 3: smbus write byte data",
+         lambda: losing(4, lambda: bus.write_byte_data(A, 0x21, 0x5B))),
+        ("1 lost, I2C_RETRIES 0: smbus write byte data",
+         lambda: losing(1, lambda: descriptor(0).write_byte_data(A, 0x22, 0x5C))),
+        ("1 lost, no I2C_RETRIES: smbus write byte data",
+         lambda: losing(1, lambda: descriptor().write_byte_data(A, 0x23, 0x5D))),
+        ("1 lost, I2C_RETRIES 3 still (another descriptor set 0): rdwr write",
+         lambda: losing(1, lambda: rdwr(w(0x24, 0x5E)))),
+    ]
+steps += [("final [w1][r32]", lambda: rdwr(w(0x00), r(32)))]
 
 for name, step in steps:
     try:

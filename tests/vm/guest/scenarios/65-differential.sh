@@ -7,7 +7,11 @@
 # controllers) and i2c-plain-stub (plain I2C, as the Raspberry Pi's), each
 # run on a freshly loaded chip. Compared per adapter: what the program was
 # told at every step, the decisions of the two audit logs, and the chip's
-# registers afterwards (read through the plain i2c-dev).
+# registers afterwards (read through the plain i2c-dev). On the plain
+# adapter the corpus also runs with another master on the bus
+# (i2c-plain-stub's lose_arbitration): each client must try a call again as
+# often as the descriptor's own I2C_RETRIES allow, and leave the adapter's
+# own retries and timeout as they were.
 . /vm/lib.sh
 . /vm/inc/kmod.sh
 kmod_built_or_skip
@@ -19,6 +23,9 @@ A=0x40
 TIMING=/sys/module/i2c_plain_stub/parameters/timing
 # What went on the plain adapter's wire, transfer by transfer (write: clear).
 WIRE=/sys/module/i2c_plain_stub/parameters/wire
+# How many of the plain adapter's next transfers lose arbitration (EAGAIN);
+# the corpus writes it, as the task's user.
+LOSE=/sys/module/i2c_plain_stub/parameters/lose_arbitration
 
 # A register file at 0x40 whose 48 first registers the task may write
 # (auto-increment) and read (a query register makes the chip readable);
@@ -47,6 +54,7 @@ fresh() {
     insmod $PLAIN chip_addr=$A || return 1
     NR=1
     wait_for /dev/i2c-1 10 || return 1
+    chmod 0666 $LOSE || return 1
   fi
 }
 
@@ -55,12 +63,15 @@ fresh() {
 one() {
   key=$1-$2
   fresh $1 || { bad "$1: the chip could not be reloaded"; return 1; }
+  lose=""
+  [ $1 = plain ] && lose=$LOSE
   if [ $2 = monitor ]; then
-    [ $1 = plain ] && echo >$WIRE
+    [ $1 = plain ] && monitor_timing_before=$(cat $TIMING) && echo >$WIRE
     run_logged $key contego run --policy $POLICY --bus 1=/dev/i2c-$NR --user 1000 --task wire \
-      --budget-factor 0 --audit $LOGDIR/$key.jsonl -- python3 $CLIENTS/wire_corpus.py 1
+      --budget-factor 0 --audit $LOGDIR/$key.jsonl -- python3 $CLIENTS/wire_corpus.py 1 $lose
     grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
     [ $1 = plain ] && tr ' ' '\n' <$WIRE >$LOGDIR/$key.wire
+    [ $1 = plain ] && monitor_timing_after=$(cat $TIMING)
   else
     rmmod i2c_dev
     run_logged $key-insmod insmod $KO adapters=$NR buses=1
@@ -69,7 +80,7 @@ one() {
     start_reader $POLICY || return 1
     run_logged $key-load contego kmod load --policy $POLICY --bind wire=task --budget-factor 0
     [ $1 = plain ] && timing_before=$(cat $TIMING) && echo >$WIRE
-    run_logged $key as_task python3 $CLIENTS/wire_corpus.py $NR
+    run_logged $key as_task python3 $CLIENTS/wire_corpus.py $NR $lose
     grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
     [ $1 = plain ] && tr ' ' '\n' <$WIRE >$LOGDIR/$key.wire
     [ $1 = plain ] && timing_after=$(cat $TIMING)
@@ -128,20 +139,53 @@ for adapter in smbus plain; do
     grep -qx '40:w2+r1' $k.wire && grep -qx '40:w2+r1' $m.wire &&
       ok "plain: [w2][r1] kept whole, a repeated start, under both clients" ||
       bad "plain: [w2][r1] did not go out as one transfer ($(grep -c '+r' $k.wire) combined under contego.ko)"
+    # Another master on the bus: what each descriptor's own I2C_RETRIES got
+    # the program, under each client (the steps are compared above too).
+    for c in monitor kmod; do
+      f=$LOGDIR/plain-$c
+      # (a step that read nothing prints "ok " and no bytes)
+      grep -qE '^3 lost, I2C_RETRIES 3: rdwr write ok ?$' $f.steps &&
+        grep -q '^2 lost, I2C_RETRIES 3: rdwr \[w1\]\[r2\] ok 5a [0-9a-f][0-9a-f]$' $f.steps &&
+        grep -qx '2 lost, I2C_RETRIES 3: smbus read byte data ok 5a' $f.steps &&
+        grep -qE '^1 lost, I2C_RETRIES 3 still \(another descriptor set 0\): rdwr write ok ?$' $f.steps &&
+        ok "plain, $c: I2C_RETRIES 3 got the calls through 3 and 2 lost arbitrations" ||
+        bad "plain, $c: a call with I2C_RETRIES 3 did not get through its lost arbitrations"
+      grep -qx '4 lost, I2C_RETRIES 3: smbus write byte data err EAGAIN' $f.steps &&
+        grep -qx '1 lost, I2C_RETRIES 0: smbus write byte data err EAGAIN' $f.steps &&
+        grep -qx '1 lost, no I2C_RETRIES: smbus write byte data err EAGAIN' $f.steps &&
+        ok "plain, $c: told EAGAIN after 4 losses with I2C_RETRIES 3, and at the first with 0 or none" ||
+        bad "plain, $c: a call past its retries was not told EAGAIN"
+      # Every try of those 7 calls on the wire, then the corpus's last step:
+      # 4 + 3 + 3 + 4 + 1 + 1 + 2 tries, 14 of them lost.
+      l=/EAGAIN
+      want="40:w2$l 40:w2$l 40:w2$l 40:w2 40:w1+r2$l 40:w1+r2$l 40:w1+r2 40:w1+r1$l 40:w1+r1$l 40:w1+r1"
+      want="$want 40:w2$l 40:w2$l 40:w2$l 40:w2$l 40:w2$l 40:w2$l 40:w2$l 40:w2 40:w1+r32 "
+      got=$(grep . $f.wire | tail -n 19 | tr '\n' ' ')
+      [ "$got" = "$want" ] &&
+        ok "plain, $c: on the wire, 18 tries of those 7 calls, 14 lost, each tried again while its descriptor's retries allowed" ||
+        bad "plain, $c: the tries on the wire are not the rule's: $got"
+    done
   fi
   show $k.steps
 done
 # I2C_RETRIES/I2C_TIMEOUT under contego.ko: the corpus's descriptor set 3
-# and 70 ms; its last transfer ran with them, the adapter kept its own. (The
-# monitor's bus has its own descriptor: there the program's values are
-# accepted and kept per descriptor, as the ABI asks, and act on nothing.)
+# and 70 ms; its last transfer ran with them (lent to the adapter under its
+# bus lock), the adapter kept its own.
 now_before=${timing_before#*now } now_after=${timing_after#*now }
 case "$timing_after" in
-  "seen 3 7"[0-9]" now "*)  # 70 ms in whole jiffies [ "$now_after" = "$now_before" ] &&
-    ok "contego.ko: I2C_RETRIES 3 and I2C_TIMEOUT 7 held for the descriptor's transfers only (adapter: $timing_after; before: $timing_before)" ||
-    bad "contego.ko: the adapter's own timing changed ($timing_before -> $timing_after)" ;;
+  "seen 3 7"[0-9]" now "*)  # 70 ms in whole jiffies
+    [ "$now_after" = "$now_before" ] &&
+      ok "contego.ko: I2C_RETRIES 3 and I2C_TIMEOUT 7 held for the descriptor's transfers only (adapter: $timing_after; before: $timing_before)" ||
+      bad "contego.ko: the adapter's own timing changed ($timing_before -> $timing_after)" ;;
   *) bad "contego.ko: the descriptor's transfers did not run with its I2C_RETRIES/I2C_TIMEOUT ($timing_after)" ;;
 esac
+# Under the monitor the descriptor's values never reach the adapter (setting
+# them there is adapter-wide): the monitor tries again itself, so every
+# transfer ran with the adapter's own, which stayed as they were.
+m_before=${monitor_timing_before#*now } m_after=${monitor_timing_after#*now }
+[ -n "$m_after" ] && [ "$m_after" = "$m_before" ] && [ "$monitor_timing_after" = "seen $m_before now $m_before" ] &&
+  ok "monitor: the adapter's own retries and timeout untouched (adapter: $monitor_timing_after)" ||
+  bad "monitor: the adapter's timing changed or was lent ($monitor_timing_before -> $monitor_timing_after)"
 rmmod i2c_plain_stub 2>/dev/null
 stub_reload
 finish
