@@ -228,6 +228,7 @@ u16 ct_task_of_current(const struct ct_policy *p);
 bool ct_push(struct contego_kmod_record *r, bool acting);
 void ct_record_start(struct contego_kmod_record *r, u8 type, bool caller);
 void ct_audit(void *context, const contego_audit_record *a);
+void ct_record_formless(u16 task, u8 bus, u32 funcs, const struct contego_i2c_formless *why);
 
 /* contego_bus.c */
 int ct_bus_transfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, int n);
@@ -260,7 +261,8 @@ void ct_record_sessions_full(struct ct_policy *p, u16 task, u64 now);
 
 /* contego_decide.c */
 bool ct_call_writes(u32 checked);
-u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider, u64 *hold_until);
+u8 ct_decide(struct ct_file *cf, u16 task, const struct i2c_msg *msgs, u32 nmsgs, u32 n,
+	     u32 *decider, u64 *hold_until);
 int ct_refusal(u32 decider);
 
 /* contego_policy.c */

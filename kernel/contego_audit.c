@@ -101,6 +101,34 @@ void ct_audit(void *context, const contego_audit_record *a)
 		ct.audit_lost |= a->decision == CONTEGO_ALLOW || a->decision == CONTEGO_FAILSAFE;
 }
 
+/* A call refused before anything of it acted: `why`, a part of what its
+ * verdicts would send, has no form on the adapter (I2C_FUNCS `funcs`).
+ * The reader words it as the monitor does (`inexpressible`). Under ct.lock.
+ */
+void ct_record_formless(u16 task, u8 bus, u32 funcs, const struct contego_i2c_formless *why)
+{
+	const struct contego_i2c_plan *p = &why->plan;
+	struct contego_kmod_record r;
+	u32 i, n = min_t(u32, why->n, 2);
+
+	lockdep_assert_held(&ct.lock);
+	ct_record_start(&r, CONTEGO_KMOD_REC_INEXPRESSIBLE, true);
+	r.task = task;
+	r.bus = bus;
+	r.addr = why->msgs[0].addr;
+	r.reason = p->refusal;
+	r.index = n;
+	for (i = 0; i < n; i++)
+		r.fields[i] = (s32)((u32)why->msgs[i].len << 16 | why->msgs[i].flags);
+	r.fields[2] = (s32)funcs;
+	r.fields[3] = p->flags;
+	r.fields[4] = (s32)(p->candidates_read | (u32)p->candidate_count << 8 |
+			    (u32)p->candidates[0] << 16 | (u32)p->candidates[1] << 24);
+	r.fields[5] = p->candidates[2];
+	r.field_count = 6;
+	/* Nothing acted: taken or counted in the gap, refused all the same. */
+	ct_push(&r, false);
+}
 
 struct ct_reader_file {
 	u64 next; /* the next seq this reader is handed */

@@ -135,13 +135,11 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 {
 	struct i2c_msg m[2];
 
-	if (v->emit_count != 1 || v->addr != read->addr || v->emit_len[0] > CONTEGO_MAX_EMIT_BYTES)
+	/* The shared model's rule, the monitor's too. */
+	if (!contego_i2c_emit_with_read(v, (const struct contego_i2c_msg *)read,
+					i2c_get_functionality(adap), (struct contego_i2c_msg *)&m[0]))
 		return false;
-	m[0] = (struct i2c_msg){ .addr = v->addr, .flags = read->flags & I2C_M_TEN,
-				 .len = v->emit_len[0], .buf = (u8 *)v->emit_bytes };
 	m[1] = *read;
-	if (ct_xfer(adap, cf, m, 2, 0, true) < 0)
-		return false;
 	*ret = ct_xfer(adap, cf, m, 2, 0, false);
 	read->len = m[1].len;
 	return true;

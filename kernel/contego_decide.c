@@ -60,17 +60,38 @@ static void ct_act_as_sent(u32 n)
 	}
 }
 
-/* Decides the call of `task` (ct_enter's) in ct.txs[0..n). Under ct.lock.
- * *hold_until: when the caller waits after its answer (ct_hold_after), 0:
- * not at all.
+/* Whether everything the verdicts of the call send has a form on its
+ * adapter, by the shared model's rule (contego_i2c_call_has_forms, the
+ * monitor's too): else an earlier part of the call would act before a later
+ * one failed at the bus. A refusal is recorded. Under ct.lock.
  */
-u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider, u64 *hold_until)
+static bool ct_sendable(struct ct_file *cf, u16 task, const struct i2c_msg *msgs, u32 nmsgs,
+			u32 n)
+{
+	struct contego_i2c_formless why;
+	u32 funcs = i2c_get_functionality(cf->adap);
+
+	lockdep_assert_held(&ct.lock);
+	if (contego_i2c_call_has_forms((const struct contego_i2c_msg *)msgs, nmsgs, ct.txs,
+				       ct.verdicts, n, funcs, &why))
+		return true;
+	ct_record_formless(task, cf->bus, funcs, &why);
+	return false;
+}
+
+/* Decides the call of `task` (ct_enter's) in ct.txs[0..n), made of `msgs`.
+ * Under ct.lock. *hold_until: when the caller waits after its answer
+ * (ct_hold_after), 0: not at all.
+ */
+u8 ct_decide(struct ct_file *cf, u16 task, const struct i2c_msg *msgs, u32 nmsgs, u32 n,
+	     u32 *decider, u64 *hold_until)
 {
 	struct ct_policy *p = ct.policy;
 	struct ct_session *fresh = NULL;
 	u8 result;
 	contego_transaction tx;
 	u32 checked = 0, i, job;
+	bool formless;
 	u8 action;
 	u64 now = div_u64(ktime_get_ns(), 1000);
 
@@ -147,14 +168,25 @@ u8 ct_decide(struct ct_file *cf, u16 task, u32 n, u32 *decider, u64 *hold_until)
 	}
 	ct.failing_closed = false; /* every record of this call was taken */
 	action = contego_combine_transfer(ct.verdicts, checked, decider);
-	if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
+	/* What the verdicts send, before anything of the call acts (a
+	 * substitute in complain mode is not sent: the call acts as sent).
+	 */
+	formless = (action == CT_PERFORM || (action == CT_SUBSTITUTE && !ct.complain_now)) &&
+		   !ct_sendable(cf, task, msgs, nmsgs, n);
+	if (formless) {
+		/* Refused whole, as the monitor refuses it: nothing acts. */
+		contego_abort_transfer(p->checker, CONTEGO_REJECT);
+		ct.verdicts[0].reply_errno = EOPNOTSUPP;
+		*decider = 0;
+		action = CT_REFUSE;
+	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
 		contego_commit_transfer(p->checker);
 	} else {
 		contego_abort_transfer(p->checker, action == CT_IGNORE ? CONTEGO_IGNORE :
 						   action == CT_REFUSE ? CONTEGO_REJECT :
 									 CONTEGO_FAILSAFE);
 	}
-	if (ct.complain_now && action != CT_PERFORM) {
+	if (ct.complain_now && action != CT_PERFORM && !formless) {
 		/* Complain mode: recorded as the policy decides, acted as sent. The
 		 * model was undone as for a drop (the monitor's act_as_sent_locked).
 		 */

@@ -50,7 +50,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	}
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_WRITE, .addr = cf->addr,
 				   .ten = !!(cf->flags & I2C_M_TEN), .len = count, .bytes = tmp };
-	action = ct_decide(cf, task, 1, &decider, &hold_until);
+	action = ct_decide(cf, task, &m, 1, 1, &decider, &hold_until);
 	if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
 	    contego_i2c_emits_as_sent(&ct.verdicts[0], cf->addr, tmp, count))
 		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false); /* as sent: one message */
@@ -92,7 +92,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	ct_enter(false, &task); /* a read is never held */
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,
 					     .ten = !!(cf->flags & I2C_M_TEN) };
-	action = ct_decide(cf, task, 1, &decider, &hold_until);
+	action = ct_decide(cf, task, &m, 1, 1, &decider, &hold_until);
 	if (action == CT_PERFORM)
 		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
 	else if (action == CT_REFUSE)

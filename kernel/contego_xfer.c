@@ -14,46 +14,17 @@ static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
 	return contego_i2c_transactions((const struct contego_i2c_msg *)m, n, ct.txs);
 }
 
-/* Every transaction of the call has a form on this adapter (ct_xfer), as the
- * monitor asks before anything acts; a write and the read answering it
- * (contego_i2c_write_then_read) together, or else each apart.
+/* Every transaction of the call has a form on this adapter, as the monitor
+ * asks before the core decides: the shared model's rule
+ * (contego_i2c_call_has_forms) on the program's bytes.
  */
-static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 ntx)
+static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 nmsgs, u32 ntx)
 {
-	const struct contego_i2c_tx *tx = ct.txs;
-	u32 i;
+	struct contego_i2c_formless why;
 
 	lockdep_assert_held(&ct.lock);
-	for (i = 0; i < ntx; i++) {
-		if (i + 1 < ntx && contego_i2c_write_then_read(&tx[i], &tx[i + 1]) &&
-		    ct_xfer(adap, NULL, &m[tx[i].first_msg], 2, 0, true) == 0) {
-			i++;
-			continue;
-		}
-		if (ct_xfer(adap, NULL, &m[tx[i].first_msg], tx[i].msg_count, 0, true) < 0)
-			return false;
-	}
-	return true;
-}
-
-/* Whether every write of the call goes out exactly as sent (its verdict's
- * emits are its own bytes at its address: contego_i2c_emits_as_sent), as
- * the monitor asks before it sends a call whole. Under ct.lock.
- */
-static bool ct_acts_as_sent(u32 ntx)
-{
-	u32 i;
-
-	lockdep_assert_held(&ct.lock);
-	for (i = 0; i < ntx; i++) {
-		const struct contego_i2c_tx *tx = &ct.txs[i];
-
-		if (tx->kind == CONTEGO_TX_QUICK ||
-		    (tx->kind == CONTEGO_TX_WRITE &&
-		     !contego_i2c_emits_as_sent(&ct.verdicts[i], tx->addr, tx->bytes, tx->len)))
-			return false;
-	}
-	return true;
+	return contego_i2c_call_has_forms((struct contego_i2c_msg *)m, nmsgs, ct.txs, NULL, ntx,
+					  i2c_get_functionality(adap), &why);
 }
 
 static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
@@ -69,7 +40,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	if (mutex_lock_killable(&ct.lock))
 		return -EINTR;
 	ntx = ct_plan_msgs(msgs, nmsgs);
-	if (!ct_expressible(cf->adap, msgs, ntx)) {
+	if (!ct_expressible(cf->adap, msgs, nmsgs, ntx)) {
 		/* No form on this adapter: refused before the core decides, as
 		 * i2c_transfer refuses it on an SMBus-only adapter.
 		 */
@@ -83,12 +54,13 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	}
 	if (r > 0) /* held: ct.txs served other calls meanwhile */
 		ntx = ct_plan_msgs(msgs, nmsgs);
-	action = ct_decide(cf, task, ntx, &decider, &hold_until);
+	action = ct_decide(cf, task, msgs, nmsgs, ntx, &decider, &hold_until);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);
 	} else if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
 		   (ntx > 1 || ct.txs[0].kind == CONTEGO_TX_WRITE) &&
-		   ct_acts_as_sent(ntx) && ct_xfer(cf->adap, cf, msgs, nmsgs, 0, true) == 0) {
+		   contego_i2c_acts_as_sent(ct.txs, ct.verdicts, ntx) &&
+		   ct_xfer(cf->adap, cf, msgs, nmsgs, 0, true) == 0) {
 		/* Every write exactly as sent: the program's one combined transfer. */
 		ret = ct_xfer(cf->adap, cf, msgs, nmsgs, 0, false);
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
@@ -310,7 +282,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	if (a.size == I2C_SMBUS_QUICK)
 		ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr,
 						     .ten = !!(cf->flags & I2C_M_TEN), .msg_count = 1 };
-	if (!ct_expressible(cf->adap, m, n)) {
+	if (!ct_expressible(cf->adap, m, nm, n)) {
 		mutex_unlock(&ct.lock);
 		return -EOPNOTSUPP; /* no form on this adapter: nothing decided */
 	}
@@ -324,7 +296,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	}
 	if (ret > 0 && a.size != I2C_SMBUS_QUICK) /* held: ct.txs served other calls */
 		n = ct_plan_msgs(m, nm);
-	action = ct_decide(cf, task, n, &decider, &hold_until);
+	action = ct_decide(cf, task, m, nm, n, &decider, &hold_until);
 	as_sent = !read && contego_i2c_emits_as_sent(&ct.verdicts[0], cf->addr, wire, ct.txs[0].len);
 	if (action == CT_REFUSE) {
 		ret = ct_refusal(decider);

@@ -171,6 +171,58 @@ struct contego_verdict;
 int contego_i2c_emits_as_sent(const struct contego_verdict *v, uint16_t addr, const uint8_t *bytes,
                               uint32_t len);
 
+/* Whether every write of a decided call goes out exactly as sent
+ * (contego_i2c_emits_as_sent), and it has no quick command: then a client
+ * may send the call as the program's one combined transfer. */
+int contego_i2c_acts_as_sent(const struct contego_i2c_tx *txs, const struct contego_verdict *v,
+                             uint32_t n);
+
+/* What a decided call would send that has no form on the adapter: the part
+ * (one emit, or an emit with the read answering it) as messages -- a write's
+ * `buf` points into the verdict, a read's is the caller's -- the planner's
+ * refusal of it, and the transaction it belongs to. */
+struct contego_i2c_formless {
+  uint32_t tx;
+  uint32_t n; /* messages: 1 or 2 */
+  struct contego_i2c_msg msgs[2];
+  struct contego_i2c_plan plan; /* form CONTEGO_I2C_FORM_REFUSED and why */
+};
+
+/* Whether a write's verdict `v` with one emit and `read`, the read of the
+ * same call that answers the write (contego_i2c_write_then_read), go out as
+ * one transfer with a repeated start, as the program sent them: the emit is
+ * at the read's address and the two have a form together on an adapter
+ * with I2C_FUNCS `funcs`. Then *emit is the emit as a message. */
+int contego_i2c_emit_with_read(const struct contego_verdict *v, const struct contego_i2c_msg *read,
+                               uint64_t funcs, struct contego_i2c_msg *emit);
+
+/* Whether each emit of `v`, a message of its own at v's address (`ten`:
+ * CONTEGO_I2C_M_TEN or 0), has a form. 0: *why names the first that has
+ * none (why->tx left 0). A verdict whose emits overrun its bytes is left
+ * to the sender, which fails it closed before its first byte. */
+int contego_i2c_emits_have_forms(const struct contego_verdict *v, uint16_t ten, uint64_t funcs,
+                                 struct contego_i2c_formless *why);
+
+/* Whether every part of a call has a form on an adapter with I2C_FUNCS
+ * `funcs`, as both clients send it: `msgs` (nmsgs), `txs` (its n
+ * transactions, contego_i2c_transactions's) and, once the core has decided,
+ * `v` (their verdicts). Both clients ask before the core decides (`v` NULL:
+ * the program's bytes) and again, when the call acts, before the core's
+ * transfer is committed: what the verdicts send (a substitute, the core's
+ * register-by-register writes) may have no form where the program's bytes
+ * had one. Either way a part without one refuses the call whole
+ * (EOPNOTSUPP), so that no part of it acts before a later part fails at
+ * the bus. The parts: the program's call whole when it acts as sent
+ * (contego_i2c_acts_as_sent) and has a form whole; otherwise transaction by
+ * transaction: reads and quick commands as sent; a write as sent, or each
+ * emit of its verdict as a message of its own, except that a write of one
+ * message (one emit) and the read answering it go together when they have
+ * a form together (contego_i2c_emit_with_read). 1: every part has a form;
+ * 0: *why names the first that has none. */
+int contego_i2c_call_has_forms(const struct contego_i2c_msg *msgs, uint32_t nmsgs,
+                               const struct contego_i2c_tx *txs, const struct contego_verdict *v,
+                               uint32_t n, uint64_t funcs, struct contego_i2c_formless *why);
+
 /* The messages an I2C_SMBUS call puts on the wire, i2c-core's SMBus
  * emulation's table (the rows of the planner's, backwards): `data` is the
  * call's union i2c_smbus_data as bytes (word as [lo, hi]), copied in, with

@@ -17,6 +17,7 @@
 #include <linux/i2c.h>
 #include <linux/module.h>
 
+#include "contego/core_c.h"
 #include "contego/i2c_msg_flags.h"
 #include "contego/i2c_plan.h"
 #include "contego/job_budget.h"
@@ -154,6 +155,57 @@ static void ct_kunit_timing(struct kunit *test)
 	KUNIT_EXPECT_EQ(test, contego_i2c_timing_arg_ok(1, INT_MAX / 10 + 1), 0);
 }
 
+/* A verdict at 0x40 with the emits `bytes` cut at `lens` (kept off the stack). */
+static contego_verdict *ct_verdict(struct kunit *test, const u8 *bytes, const u16 *lens, u32 n)
+{
+	contego_verdict *v = kunit_kzalloc(test, sizeof(*v), GFP_KERNEL);
+	u32 i;
+
+	KUNIT_ASSERT_NOT_NULL(test, v);
+	v->addr = 0x40;
+	for (i = 0; i < n; i++) {
+		memcpy(v->emit_bytes + v->emit_bytes_used, bytes + v->emit_bytes_used, lens[i]);
+		v->emit_len[v->emit_count++] = lens[i];
+		v->emit_bytes_used += lens[i];
+	}
+	return v;
+}
+
+static void ct_kunit_verdict_forms(struct kunit *test)
+{
+	/* Word writes but no byte data or I2C block writes. */
+	const u64 words = CT_STUB_FUNCS & ~(u64)(I2C_FUNC_SMBUS_WRITE_BYTE_DATA |
+						 I2C_FUNC_SMBUS_WRITE_I2C_BLOCK);
+	static const u8 sent[] = { 0x10, 0x34, 0x11, 0x12 }, sub[] = { 0x10, 0x64, 0x11, 0x12 };
+	static const u8 zeros[40];
+	static const u16 pairs[] = { 2, 2 }, forty[] = { 40 };
+	u8 w[3] = { 0x10, 0x34, 0x12 };
+	struct contego_i2c_msg m[1] = { { 0x40, 0, 3, w } };
+	struct contego_i2c_formless why;
+	struct contego_i2c_tx tx[1];
+	contego_verdict *v;
+
+	KUNIT_ASSERT_EQ(test, contego_i2c_transactions(m, 1, tx), 1u);
+	/* The program's bytes, before the core decides: a word write. */
+	KUNIT_EXPECT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, NULL, 1, words, &why), 1);
+	/* Checked register by register and allowed: the program's word write. */
+	v = ct_verdict(test, sent, pairs, 2);
+	KUNIT_EXPECT_EQ(test, contego_i2c_acts_as_sent(tx, v, 1), 1);
+	KUNIT_EXPECT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, v, 1, words, &why), 1);
+	/* A register substituted: byte by byte, which this adapter cannot. */
+	v = ct_verdict(test, sub, pairs, 2);
+	KUNIT_ASSERT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, v, 1, words, &why), 0);
+	KUNIT_EXPECT_EQ(test, why.tx, 0u);
+	KUNIT_EXPECT_EQ(test, why.msgs[0].len, 2);
+	KUNIT_EXPECT_EQ(test, why.plan.refusal, CONTEGO_I2C_NO_FORM);
+	KUNIT_EXPECT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, v, 1, CT_STUB_FUNCS, &why), 1);
+	/* 40 bytes: no SMBus write carries them, plain I2C does. */
+	v = ct_verdict(test, zeros, forty, 1);
+	KUNIT_ASSERT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, v, 1, CT_STUB_FUNCS, &why), 0);
+	KUNIT_EXPECT_EQ(test, why.plan.refusal, CONTEGO_I2C_WRITE_TOO_LONG);
+	KUNIT_EXPECT_EQ(test, contego_i2c_call_has_forms(m, 1, tx, v, 1, I2C_FUNC_I2C, &why), 1);
+}
+
 static void ct_kunit_job_grid(struct kunit *test)
 {
 	KUNIT_EXPECT_EQ(test, contego_grid_job(1000, 10000, 500), 1u);
@@ -243,6 +295,7 @@ static struct kunit_case ct_model_cases[] = {
 	KUNIT_CASE(ct_kunit_flag_allow_list),
 	KUNIT_CASE(ct_kunit_smbus_call_table),
 	KUNIT_CASE(ct_kunit_timing),
+	KUNIT_CASE(ct_kunit_verdict_forms),
 	{}
 };
 

@@ -29,9 +29,9 @@ std::string describe(std::span<const Msg> msgs) {
          hex(msgs.empty() ? 0 : msgs[0].addr);
 }
 
-// The reason of a refusal: the transfer, then why, with the details the
-// shared planner leaves to its host (the forms it lacks, the flags, funcs).
-std::string reason(std::span<const Msg> msgs, uint64_t funcs, const contego_i2c_plan& p) {
+}  // namespace
+
+std::string refusal_reason(std::span<const Msg> msgs, uint64_t funcs, const contego_i2c_plan& p) {
   switch (p.refusal) {
     case CONTEGO_I2C_NO_MESSAGES:
       return contego_i2c_refusal_text(p.refusal);
@@ -56,8 +56,6 @@ std::string reason(std::span<const Msg> msgs, uint64_t funcs, const contego_i2c_
       return describe(msgs) + ": " + contego_i2c_refusal_text(p.refusal);
   }
 }
-
-}  // namespace
 
 const char* smbus_name(SmbusSize size, bool read) {
   return contego_smbus_name(static_cast<uint32_t>(size), read ? 1 : 0);
@@ -89,7 +87,7 @@ Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs) {
     plan.op.reply = p.op.reply;
     std::copy_n(p.op.data, plan.op.data.size(), plan.op.data.begin());
   } else {
-    plan.reason = reason(msgs, funcs, p);
+    plan.reason = refusal_reason(msgs, funcs, p);
   }
   return plan;
 }

@@ -59,6 +59,13 @@ struct Plan {
 
 Plan plan_transfer(std::span<const Msg> msgs, uint64_t funcs);
 
+// The reason of the shared planner's refusal `p` of `msgs` on an adapter
+// with `funcs`: the transfer, then why, with the details the planner leaves
+// to its host (the forms it lacks, the flags, the funcs). Only the messages'
+// addresses, flags and lengths are read (a record of contego.ko's has no
+// more: `contego kmod audit` words its refusals with this too).
+std::string refusal_reason(std::span<const Msg> msgs, uint64_t funcs, const contego_i2c_plan& p);
+
 // Copies the result of a read op (`data` as I2C_SMBUS returned it, word as
 // [lo, hi]) into the read message op.reply names, setting its len (RECV_LEN:
 // 1 + count). 0, or EPROTO for a block count of 0, above 32 or beyond the

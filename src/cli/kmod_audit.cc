@@ -25,8 +25,10 @@
 #include <sys/signalfd.h>
 
 #include "contego/core_c.h"
+#include "contego/i2c_plan.h"
 
 #include "base/unique_fd.h"
+#include "bus/smbus_plan.h"
 #include "cli/policy_load.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
@@ -254,6 +256,33 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
               : fmt::format("contego.ko: adapter i2c-{} (the policy's bus {}) back: its "
                             "node again, its devices to their safe state",
                             r.count, r.bus));
+    case CONTEGO_KMOD_REC_INEXPRESSIBLE: {
+      // As the monitor's inexpressible event, worded by the same function
+      // from the planner's refusal the module recorded.
+      contego_i2c_plan plan{};
+      plan.form = CONTEGO_I2C_FORM_REFUSED;
+      plan.refusal = r.reason;
+      plan.flags = static_cast<uint16_t>(r.fields[3]);
+      const auto lacks = static_cast<uint32_t>(r.fields[4]);
+      plan.candidates_read = static_cast<uint8_t>(lacks & 0xff);
+      plan.candidate_count = static_cast<uint8_t>(std::min<uint32_t>((lacks >> 8) & 0xff, 3));
+      plan.candidates[0] = static_cast<uint8_t>(lacks >> 16);
+      plan.candidates[1] = static_cast<uint8_t>(lacks >> 24);
+      plan.candidates[2] = static_cast<uint8_t>(r.fields[5]);
+      bus::Msg part[2];
+      const size_t n = r.index == 2 ? 2 : 1;
+      for (size_t k = 0; k < n; ++k) {
+        const auto f = static_cast<uint32_t>(r.fields[k]);
+        part[k] = {r.addr, static_cast<uint16_t>(f & 0xffff), static_cast<uint16_t>(f >> 16),
+                   nullptr};
+      }
+      const std::string why =
+          bus::refusal_reason({part, n}, static_cast<uint32_t>(r.fields[2]), plan);
+      return event("inexpressible",
+                   fmt::format("contego.ko: task {} ({}): bus {}: {}; the call refused "
+                               "(EOPNOTSUPP) before any part of it acted; pid {} uid {}",
+                               r.task, task_name(names, r), r.bus, why, r.pid, r.uid));
+    }
     case CONTEGO_KMOD_REC_GAP:
       return event("audit-gap",
                    fmt::format("contego.ko: {} record(s) could not be taken (no reader or "

@@ -1,38 +1,48 @@
 #include "monitor/expressible.h"
 
+#include <algorithm>
+
 #include "contego/core_c.h"
 #include "contego/i2c_plan.h"
 
+#include "bus/smbus_plan.h"
+
 namespace contego::monitor {
 
-// Allocation-free: this runs on every transfer. The buses only read the
-// bytes (Bus::expressible takes them as const), hence the const_casts.
-Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit) {
-  uint32_t offset = 0;
-  for (uint32_t i = 0; i < v.emit_count && i < core::kMaxEmits; ++i) {
-    const uint16_t len = v.emit_len[i];
-    if (offset + len > core::kMaxEmitBytes) return {};  // perform_emits fails it closed (EIO)
-    const bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len,
-                     const_cast<uint8_t*>(v.emit_bytes + offset)};
-    offset += len;
-    if (Status s = bus.expressible({&m, 1}); !s.ok()) return s;
+namespace {
+
+const contego_verdict* c_verdict(const core::Verdict& v) {
+  return reinterpret_cast<const contego_verdict*>(&v);
+}
+
+// Why the part the shared model names has no form, in the planner's words.
+Status formless(const bus::Bus& bus, const contego_i2c_formless& why) {
+  bus::Msg part[2];
+  const uint32_t n = why.n < 2 ? why.n : 2;
+  for (uint32_t k = 0; k < n; ++k) {
+    part[k] = {why.msgs[k].addr, why.msgs[k].flags, why.msgs[k].len, why.msgs[k].buf};
   }
-  return {};
+  return make_error(bus::refusal_reason({part, n}, bus.funcs(), why.plan));
+}
+
+}  // namespace
+
+// Allocation-free but for a refusal's reason: this runs on every transfer.
+Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit) {
+  contego_i2c_formless why;
+  if (contego_i2c_emits_have_forms(c_verdict(v), ten_bit ? gate::kMsgTen : 0, bus.funcs(), &why)) {
+    return {};
+  }
+  return formless(bus, why);
 }
 
 bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read,
                          bus::Msg* emit) {
-  if (v.emit_count != 1 || v.addr != read.addr || v.emit_len[0] > core::kMaxEmitBytes) return false;
-  *emit = {v.addr, static_cast<uint16_t>(read.flags & gate::kMsgTen), v.emit_len[0],
-           const_cast<uint8_t*>(v.emit_bytes)};
-  const bus::Msg pair[2] = {*emit, read};
-  return bus.expressible(pair).ok();
-}
-
-Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read) {
-  if (bus::Msg emit; emit_goes_with_read(bus, v, read, &emit)) return {};
-  if (Status s = emits_inexpressible(bus, v, (read.flags & gate::kMsgTen) != 0); !s.ok()) return s;
-  return bus.expressible({&read, 1});
+  const contego_i2c_msg r{read.addr, read.flags, read.len, read.buf};
+  contego_i2c_msg e;
+  if (!contego_i2c_emit_with_read(c_verdict(v), &r, bus.funcs(), &e)) return false;
+  *emit = {e.addr, e.flags, e.len, e.buf};
+  return true;
 }
 
 bool acts_as_sent(const std::vector<gate::PlannedTx>& planned,
@@ -57,32 +67,44 @@ bus::Msg read_message(const gate::Transfer& t, const gate::PlannedTx& p) {
 }
 
 Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
-                     const std::vector<gate::PlannedTx>& planned) {
-  for (size_t i = 0; i < planned.size(); ++i) {
-    const gate::PlannedTx& p = planned[i];
-    const uint16_t ten = p.ten_bit ? gate::kMsgTen : 0;
-    if (i + 1 < planned.size() && planned[i + 1].answers_write) {
-      const bus::Msg pair[2] = {{p.addr, ten, static_cast<uint16_t>(p.bytes.size()),
-                                 const_cast<uint8_t*>(p.bytes.data())},
-                                read_message(t, planned[i + 1])};
-      if (bus.expressible(pair).ok()) {
-        ++i;  // together, as sent
-        continue;
-      }
-    }
-    bus::Msg msgs[2];
-    size_t n = 0;
-    if (p.kind == core::TxKind::kQuick) {
-      msgs[n++] = {p.addr, static_cast<uint16_t>(ten | (t.quick_read ? gate::kMsgRead : 0)), 0,
-                   nullptr};
-    } else if (p.kind == core::TxKind::kWrite || !p.bytes.empty()) {
-      msgs[n++] = {p.addr, ten, static_cast<uint16_t>(p.bytes.size()),
-                   const_cast<uint8_t*>(p.bytes.data())};
-    }
-    if (p.kind == core::TxKind::kRead) msgs[n++] = read_message(t, p);
-    if (Status s = bus.expressible({msgs, n}); !s.ok()) return s;
+                     const std::vector<gate::PlannedTx>& planned,
+                     const std::vector<core::Verdict>* verdicts) {
+  // The call as the shared model takes it (struct i2c_msg's layout, the
+  // transactions contego_i2c_transactions made); validate() has bounded it
+  // to 42 messages. A quick command is its zero-length message.
+  contego_i2c_msg msgs[gate::kMaxMessages];
+  contego_i2c_tx txs[gate::kMaxMessages];
+  uint32_t nmsgs = 0;
+  if (t.quick) {
+    msgs[nmsgs++] = {t.quick_addr,
+                     static_cast<uint16_t>((t.quick_ten_bit ? gate::kMsgTen : 0) |
+                                           (t.quick_read ? gate::kMsgRead : 0)),
+                     0, nullptr};
   }
-  return {};
+  for (const gate::Message& m : t.messages) {
+    if (nmsgs == gate::kMaxMessages) break;
+    msgs[nmsgs++] = {m.addr, m.flags, m.len,
+                     m.is_read() ? nullptr : const_cast<uint8_t*>(m.data.data())};
+  }
+  size_t n = std::min<size_t>(planned.size(), gate::kMaxMessages);
+  if (verdicts != nullptr) n = std::min(n, verdicts->size());
+  for (size_t i = 0; i < n; ++i) {
+    const gate::PlannedTx& p = planned[i];
+    txs[i] = {static_cast<uint8_t>(p.kind),
+              static_cast<uint8_t>(p.ten_bit ? 1 : 0),
+              p.addr,
+              static_cast<uint32_t>(p.bytes.size()),
+              p.bytes.data(),
+              p.first_message,
+              p.kind == core::TxKind::kQuick ? 1 : p.message_count};
+  }
+  contego_i2c_formless why;
+  const contego_verdict* v = verdicts != nullptr && n > 0 ? c_verdict((*verdicts)[0]) : nullptr;
+  if (contego_i2c_call_has_forms(msgs, nmsgs, txs, v, static_cast<uint32_t>(n), bus.funcs(),
+                                 &why)) {
+    return {};
+  }
+  return formless(bus, why);
 }
 
 }  // namespace contego::monitor

@@ -1,6 +1,7 @@
 // Whether a bus can put a transfer on the wire in the form the monitor sends
 // it (bus::Bus::expressible over each transaction), asked before the core
-// decides and again for a verdict's substitute bytes before anything acts:
+// decides and again for what the verdicts send before anything acts (the
+// i2c-dev model's rule, contego/i2c_plan.h, which contego.ko applies too):
 // on an SMBus-only adapter a transfer with no SMBus form is refused whole,
 // with the reason for the audit log, and no part of it acts.
 #ifndef CONTEGO_MONITOR_EXPRESSIBLE_H_
@@ -16,28 +17,27 @@
 
 namespace contego::monitor {
 
-// Ok when `bus` can perform every transaction of `planned` (from
-// gate::to_transactions(t)) as Monitor::transfer sends it: a quick command,
-// one write message, [register byte] + the read message, or a write and the
-// read answering it together (apart when they have no form together). Else
-// why not.
+// Ok when `bus` can perform every part of the call `t` (its transactions
+// `planned`, from gate::to_transactions(t)) as Monitor::transfer sends it:
+// before the core decides, the program's bytes (`verdicts` null); once the
+// call acts, what `verdicts` send, before the core's transfer is committed.
+// The shared model's rule (contego_i2c_call_has_forms), contego.ko's too.
+// Else why not.
 Status inexpressible(const bus::Bus& bus, const gate::Transfer& t,
-                     const std::vector<gate::PlannedTx>& planned);
+                     const std::vector<gate::PlannedTx>& planned,
+                     const std::vector<core::Verdict>* verdicts = nullptr);
 
-// Ok when `bus` can send each of the verdict's emits as one write message.
+// Ok when `bus` can send each of the verdict's emits as one write message
+// (the shared model's contego_i2c_emits_have_forms). Else why not.
 Status emits_inexpressible(const bus::Bus& bus, const core::Verdict& v, bool ten_bit);
 
 // The verdict's one emit, as a message to `read`'s address, when a write
 // whose verdict it is goes out together with the read answering it (a
 // process call: gate::PlannedTx::answers_write), with a repeated start: the
-// write is one message and the pair has a form on `bus`. Else false, and
-// the two go out apart.
+// write is one message and the pair has a form on `bus`
+// (contego_i2c_emit_with_read). Else false, and the two go out apart.
 bool emit_goes_with_read(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read,
                          bus::Msg* emit);
-
-// emits_inexpressible for a write whose read answers it: ok when the two go
-// out together, or each apart.
-Status pair_inexpressible(const bus::Bus& bus, const core::Verdict& v, const bus::Msg& read);
 
 // Whether write `p` goes out exactly as the program sent it: its verdict's
 // emits are its own bytes at its address (contego_i2c_emits_as_sent), so it

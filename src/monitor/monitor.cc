@@ -367,18 +367,15 @@ gate::TransferReply Monitor::decide_and_act_locked(uint16_t task, const gate::Tr
       core::combine_transfer(verdicts_.data(), static_cast<uint32_t>(checked));
   if (tv.action == core::TransferAction::kPerform ||
       tv.action == core::TransferAction::kSubstitute) {
-    // A substitute is checked the same way before any part of the call acts.
-    for (size_t i = 0; i < planned.size(); ++i) {
-      if (planned[i].kind != core::TxKind::kWrite) continue;
-      const bool pair = i + 1 < planned.size() && planned[i + 1].answers_write;
-      if (Status st = pair ? pair_inexpressible(bus, verdicts_[i], read_message(t, planned[i + 1]))
-                           : emits_inexpressible(bus, verdicts_[i], planned[i].ten_bit);
-          !st.ok()) {
-        decider_->abort_transfer(core::Decision::kReject);
-        audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, st.error()));
-        reply.err = EOPNOTSUPP;
-        return reply;
-      }
+    // What the verdicts send (a substitute, the core's register-by-register
+    // writes) is checked the same way before any part of the call acts:
+    // otherwise an earlier part could act before a later one fails at the
+    // bus. The shared model's rule, contego.ko's too.
+    if (Status st = inexpressible(bus, t, planned, &verdicts_); !st.ok()) {
+      decider_->abort_transfer(core::Decision::kReject);
+      audit_.event("inexpressible", fmt::format("task {}: bus {}: {}", task, t.bus, st.error()));
+      reply.err = EOPNOTSUPP;
+      return reply;
     }
     decider_->commit_transfer();
     // It acted if a write of it reached a device (not only staged).

@@ -47,7 +47,8 @@ class Registers final : public bus::DeviceModel {
 };
 
 // Allows everything, emitting the bytes as sent; writes to 0x41 are replaced
-// by a 40-byte frame (a substitute no SMBus transaction carries).
+// by a 40-byte frame (a substitute no SMBus transaction carries; or, with
+// long_allowed, allowed writes of it).
 class CountingDecider final : public testing::FakeDecider {
  public:
   CountingDecider() {
@@ -65,7 +66,7 @@ class CountingDecider final : public testing::FakeDecider {
     v->decision = core::Decision::kAllow;
     if (tx.kind == core::TxKind::kWrite) {
       if (tx.addr == 0x41) {
-        v->decision = core::Decision::kFailsafe;
+        v->decision = long_allowed ? core::Decision::kAllow : core::Decision::kFailsafe;
         std::vector<uint8_t> frame(40, 0x11);
         emit(v, frame);
       } else if (split_registers && tx.len > 2) {  // a register map's check, register by register
@@ -90,6 +91,7 @@ class CountingDecider final : public testing::FakeDecider {
 
   int checks = 0;
   bool split_registers = false;
+  bool long_allowed = false;  // the 40 bytes at 0x41 are the core's writes, not a substitute
   std::vector<uint8_t> safe{0x06, 0x00};
 };
 
@@ -265,6 +267,41 @@ TEST_F(MonitorSmbus, SubstituteThatCannotBeExpressedActsNothing) {
   EXPECT_EQ(bus.operations(), ops);
   EXPECT_EQ(other->writes, 0);
   EXPECT_NE(audit_text().find("write 40 at 0x41"), std::string::npos) << audit_text();
+}
+
+TEST_F(MonitorSmbus, AnEarlierPartDoesNotActWhenALaterPartsWritesHaveNoForm) {
+  // Both writes allowed; the core writes 40 bytes for the second, which no
+  // SMBus transaction carries: refused before the first acts.
+  decider.long_allowed = true;
+  dev->regs[0x06] = 0x00;
+  const uint64_t ops = bus.operations();
+  auto r = send({wmsg(0x40, {0x06, 0x21}), wmsg(0x41, {0x06, 0x22})});
+  EXPECT_EQ(r.err, EOPNOTSUPP);
+  EXPECT_EQ(decider.checks, 2);
+  EXPECT_EQ(bus.operations(), ops);
+  EXPECT_EQ(dev->regs[0x06], 0x00);
+  EXPECT_EQ(other->writes, 0);
+  const std::string text = audit_text();
+  EXPECT_NE(text.find("\"inexpressible\""), std::string::npos) << text;
+  EXPECT_NE(text.find("task 0: bus 1: write 40 at 0x41"), std::string::npos) << text;
+  // On plain I2C it goes.
+  bus.set_funcs(bus::kFuncI2c);
+  EXPECT_EQ(send({wmsg(0x40, {0x06, 0x21}), wmsg(0x41, {0x06, 0x22})}).err, 0);
+  EXPECT_EQ(dev->regs[0x06], 0x21);
+}
+
+TEST_F(MonitorSmbus, AWriteCheckedRegisterByRegisterGoesWholeWhereItsRegistersAloneCannot) {
+  // An adapter that writes words but no byte data or I2C block: the core's
+  // writes of a word write, one per register, have no form there; put back
+  // together they are the program's word write, which goes out whole.
+  decider.split_registers = true;
+  bus.set_funcs(bus::kI2cStubFuncs & ~bus::kFuncSmbusWriteByteData & ~bus::kFuncSmbusWriteI2cBlock);
+  const uint64_t ops = bus.operations();
+  ASSERT_EQ(send({wmsg(0x40, {0x10, 0x34, 0x12})}).err, 0);
+  EXPECT_EQ(bus.operations(), ops + 1);
+  EXPECT_EQ(dev->regs[0x10], 0x34);
+  EXPECT_EQ(dev->regs[0x11], 0x12);
+  EXPECT_EQ(audit_text().find("inexpressible"), std::string::npos) << audit_text();
 }
 
 TEST_F(MonitorSmbus, AFailsafeMessageInACombinedTransferDrivesOnlyTheSafeState) {

@@ -15,8 +15,10 @@
 #include <vector>
 
 #include "contego/core_c.h"
+#include "contego/i2c_plan.h"
 
 #include "base/test_temp.h"
+#include "bus/smbus_plan.h"
 #include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
 
@@ -312,6 +314,53 @@ TEST_F(KmodAudit, AdapterRemovedAndBackAreNamedWithTheirBus) {
   EXPECT_NE(b.find("adapter i2c-0 (the policy's bus 1) back"), std::string::npos) << b;
   EXPECT_EQ(l[2]["kind"], "safe-state");
   EXPECT_NE(c.find("its adapter came back"), std::string::npos) << c;
+}
+
+// A call refused because a part of what its verdicts would send has no form
+// on the adapter: an `inexpressible` line in the monitor's words (the same
+// function words both from the planner's refusal).
+TEST_F(KmodAudit, AnInexpressibleCallIsWordedAsTheMonitorWordsIt) {
+  constexpr uint64_t kFuncs =
+      bus::kI2cStubFuncs & ~bus::kFuncSmbusWriteByteData & ~bus::kFuncSmbusWriteI2cBlock;
+  uint8_t pair[2] = {0x08, 0x64};
+  const bus::Msg emit[1] = {{0x40, 0, 2, pair}};
+  const bus::Plan monitor_plan = bus::plan_transfer(emit, kFuncs);
+  ASSERT_EQ(monitor_plan.form, bus::Plan::Form::kRefused);
+  contego_kmod_record r = record(CONTEGO_KMOD_REC_INEXPRESSIBLE);
+  r.task = 1;
+  r.pid = 77;
+  r.uid = 990;
+  r.bus = 1;
+  r.addr = 0x40;
+  r.reason = CONTEGO_I2C_NO_FORM;
+  r.index = 1;
+  r.fields[0] = 2 << 16;
+  r.fields[2] = static_cast<int32_t>(kFuncs);
+  r.fields[4] = 0 | 2 << 8 | CONTEGO_SMBUS_BYTE_DATA << 16 | CONTEGO_SMBUS_I2C_BLOCK_DATA << 24;
+  r.field_count = 6;
+  // A write and the read answering it, the read alone without a form.
+  contego_kmod_record read = r;
+  read.reason = CONTEGO_I2C_LONG_READ_ALONE;
+  read.fields[0] = 2 << 16 | bus::kMsgRead;
+  read.fields[4] = 0;
+  ASSERT_TRUE(write_kmod_record(log_, names_, r));
+  ASSERT_TRUE(write_kmod_record(log_, names_, read));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 2u);
+  const std::string a = l[0]["detail"], b = l[1]["detail"];
+  EXPECT_EQ(l[0]["kind"], "inexpressible");
+  EXPECT_NE(a.find("contego.ko: task 1 (" + names_.tasks[1] + "): bus 1: " + monitor_plan.reason +
+                   "; the call refused (EOPNOTSUPP) before any part of it acted; pid 77 uid 990"),
+            std::string::npos)
+      << a;
+  EXPECT_NE(a.find("write 2 at 0x40: the adapter has no plain I2C and no one of write byte data, "
+                   "I2C block write (I2C_FUNCS 0x046f0000)"),
+            std::string::npos)
+      << a;
+  EXPECT_EQ(l[1]["kind"], "inexpressible");
+  EXPECT_NE(b.find("bus 1: read 2 at 0x40: a read of more than one byte needs a register byte"),
+            std::string::npos)
+      << b;
 }
 
 // The names follow the image in force: a policy-load record's CRC-32 picks

@@ -192,6 +192,21 @@ enum contego_kmod_record_type {
 	 * `fault` line
 	 */
 	CONTEGO_KMOD_REC_ADAPTER = 9,
+	/*
+	 * a call refused with EOPNOTSUPP before anything of it acted: a
+	 * part of what its verdicts would send (a substitute, or the core's
+	 * register-by-register writes) has no form on the adapter, as the
+	 * monitor's `inexpressible`. task, pid, uid: the caller; bus: the
+	 * policy's; addr: the part's; reason: the planner's refusal (enum
+	 * contego_i2c_refusal, contego/i2c_plan.h); index: the part's
+	 * messages (1, or 2: a write and the read answering it); fields[0]
+	 * and [1]: each message's len << 16 | flags; [2]: the adapter's
+	 * I2C_FUNCS; [3]: the refused message flags; [4]: the forms it
+	 * lacks, candidates_read | count << 8 | size0 << 16 | size1 << 24;
+	 * [5]: size2. A reader that predates this type writes it as a
+	 * `fault` line
+	 */
+	CONTEGO_KMOD_REC_INEXPRESSIBLE = 10,
 };
 
 enum contego_kmod_adapter_why {

@@ -14,7 +14,13 @@
 # Prints one line per step: what the program was told (ok and the bytes
 # read, or the errno's name). Under contego.ko and under the monitor, on the
 # same adapter, the two outputs must be the same.
-# Usage: wire_corpus.py BUS [LOSE]
+#
+# `formless`: instead, the steps whose verdicts send what the adapter has no
+# form for (scenario 65 cuts i2c-stub's functionality to word and SMBus
+# block writes: no byte data, no I2C block), under the policy with a register
+# file at 0x40 (r08 capped: `failsafe value = 100`) and a GoPiGo at 0x08:
+# each client refuses such a call before any part of it acts.
+# Usage: wire_corpus.py BUS [LOSE | formless]
 import errno
 import fcntl
 import os
@@ -29,7 +35,7 @@ I2C_M_TEN = 0x0010
 I2C_M_RECV_LEN = 0x0400
 A = 0x40
 bus = SMBus(int(sys.argv[1]))
-LOSE = sys.argv[2] if len(sys.argv) > 2 else None
+LOSE = sys.argv[2] if len(sys.argv) > 2 and sys.argv[2] != "formless" else None
 
 
 def rdwr(*msgs):
@@ -155,6 +161,22 @@ if LOSE:
          lambda: losing(1, lambda: rdwr(w(0x24, 0x5E)))),
     ]
 steps += [("final [w1][r32]", lambda: rdwr(w(0x00), r(32)))]
+
+formless_steps = [
+    # Both writes allowed: the frame has its form (a count-prefixed SMBus
+    # block write), the core's writes of the word, one per register, none.
+    ("formless rdwr [frame 0x08][w3 r04] (allowed)",
+     lambda: rdwr(w(0x47, 0x02, 0x00, 0x00, addr=0x08), w(0x04, 0x11, 0x22))),
+    # r08 = 200 substituted by 100: the core writes r08 and r09 apart.
+    ("formless smbus write word data r08 (substituted)", lambda: bus.write_word_data(A, 0x08, 200)),
+    ("formless rdwr [w3 r08] (substituted)", lambda: rdwr(w(0x08, 200, 0x00))),
+    ("formless write() 3 r08 (substituted)", lambda: raw_write([0x08, 200, 0x00])),
+    # Controls: each goes out, in the form the program's call has.
+    ("formless rdwr [frame 0x08] alone", lambda: rdwr(w(0x46, 0x02, 0x00, 0x00, addr=0x08))),
+    ("formless smbus write word data r00 (allowed, as sent)", lambda: bus.write_word_data(A, 0x00, 0x2211)),
+]
+if len(sys.argv) > 2 and sys.argv[2] == "formless":
+    steps = formless_steps
 
 for name, step in steps:
     try:

@@ -186,6 +186,115 @@ m_before=${monitor_timing_before#*now } m_after=${monitor_timing_after#*now }
 [ -n "$m_after" ] && [ "$m_after" = "$m_before" ] && [ "$monitor_timing_after" = "seen $m_before now $m_before" ] &&
   ok "monitor: the adapter's own retries and timeout untouched (adapter: $monitor_timing_after)" ||
   bad "monitor: the adapter's timing changed or was lent ($monitor_timing_before -> $monitor_timing_after)"
+
+# ---- What the verdicts send, without a form --------------------------------
+# i2c-stub cut to word and count-prefixed block writes (no byte data, no I2C
+# block): the core's writes of a register map, one [register, value]
+# message per register, have no form there, while the program's word write
+# has, and so has a GoPiGo frame whose second byte counts the rest. A call
+# whose verdicts would send such a part (a substitute, or an allowed word
+# written register by register beside another write) is refused by both
+# clients before any part of it acts (EOPNOTSUPP), and both audit an
+# `inexpressible` line. The first step's frame would otherwise have landed
+# before the word failed at the bus.
+NF_FUNCS=0x066f0000 # quick, byte, read byte data, word data, SMBus block write, I2C block read
+NF_POLICY=/tmp/noform.policy
+{
+  echo "device chip : regmap at i2c-1 0x40 {"
+  echo "  auto_increment"
+  r=0
+  while [ $r -lt 16 ]; do printf '  register 0x%02x r%02x : u8\n' $r $r; r=$((r + 1)); done
+  echo "}"
+  echo "device motors : gopigo2 at i2c-1 0x08"
+  echo "task wire { period 1s; deadline 1s; wcet 10ms; priority 1 }"
+  echo "allow wire -> chip"
+  echo "allow wire -> motors"
+  echo "invariant CAP on chip.r08: require value <= 100 else failsafe value = 100"
+} >$NF_POLICY
+
+# nf_one CLIENT: the corpus's formless steps through CLIENT on the cut stub;
+# leaves LOGDIR/noform-CLIENT.{steps,chip,decisions,formless}.
+nf_one() {
+  key=noform-$1
+  rmmod i2c_stub && insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS functionality=$NF_FUNCS &&
+    own_adapter || { bad "i2c-stub could not be loaded with functionality $NF_FUNCS"; return 1; }
+  if [ $1 = monitor ]; then
+    run_logged $key contego run --policy $NF_POLICY $BUS_ARGS --user 1000 --task wire \
+      --budget-factor 0 --audit $LOGDIR/$key.jsonl -- python3 $CLIENTS/wire_corpus.py 1 formless
+    grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+  else
+    rmmod i2c_dev
+    run_logged $key-insmod insmod $KO adapters=0 buses=1
+    wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+    AUDIT_LOG=$LOGDIR/$key.jsonl
+    start_reader $NF_POLICY || return 1
+    run_logged $key-load contego kmod load --policy $NF_POLICY --bind wire=task --budget-factor 0
+    run_logged $key as_task python3 $CLIENTS/wire_corpus.py 0 formless
+    grep -v "^contego" "$OUT" >$LOGDIR/$key.steps
+    wait_sessions_closed
+    stop_reader
+    back_to_i2c_dev
+  fi
+  { i2cdump -y 0 0x40 b; i2cdump -y 0 0x08 b; } >$LOGDIR/$key.chip 2>&1
+  decisions $LOGDIR/$key.jsonl wire >$LOGDIR/$key.decisions
+  # The reason of each inexpressible line, without the writer's own words
+  # around it (contego.ko's names the task and the caller).
+  python3 - $LOGDIR/$key.jsonl $LOGDIR/$key.formless-lines >$LOGDIR/$key.formless <<'PY'
+import json, re, sys
+lines = open(sys.argv[2], "w")
+for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
+    line = line.strip("\0\n")
+    if line.startswith("{") and json.loads(line).get("kind") == "inexpressible":
+        d = json.loads(line)["detail"]
+        print(d, file=lines)
+        m = re.match(r"(?:contego\.ko: )?task \d+(?: \([^)]*\))?: (bus \d+: .*?)(?:; the call refused .*)?$", d)
+        print(m.group(1) if m else d)
+PY
+}
+
+if nf_one monitor && nf_one kmod; then
+  m=$LOGDIR/noform-monitor k=$LOGDIR/noform-kmod
+  grep -q "^done" $m.steps && grep -q "^done" $k.steps &&
+    ok "formless: the steps ran to their end under both clients" || bad "formless: the steps did not finish under both"
+  refused=$(grep -c "^formless .* err ENOTSUP$" $k.steps)
+  if cmp -s $m.steps $k.steps && [ "$refused" = 4 ] && [ "$(grep -c ' ok' $k.steps)" = 2 ]; then
+    ok "formless: both clients told the program the same at each step: the 4 calls whose verdicts' writes have no form EOPNOTSUPP, the 2 controls ok"
+  else
+    bad "formless: the program was told (monitor <, contego.ko >):"; diff $m.steps $k.steps; show $k.steps
+  fi
+  if cmp -s $m.chip $k.chip; then ok "formless: the chips are the same after both runs"; else bad "formless: the chips differ:"; diff $m.chip $k.chip; fi
+  # Nothing of a refused call reached the chip: the frame before the word
+  # (0x08's register 0x47), the word (0x40's 0x04), the substitutes (0x08).
+  # The controls did: 0x08's 0x46 (the frame's count, as i2c-stub keeps an
+  # SMBus block write) and 0x40's 0x00.
+  reg() { awk -v row="$(printf '%02x:' $(($2 & 0xf0)))" -v col=$(($2 % 16 + 2)) \
+    '$1 == row { print $col }' "$1"; }
+  for c in monitor kmod; do
+    f=$LOGDIR/noform-$c.chip
+    sed -n '/^     0  1/,/^f0:/p' $f | head -17 >$f.40
+    sed -n '/^     0  1/,/^f0:/p' $f | tail -17 >$f.08
+    got="$(reg $f.08 0x47) $(reg $f.40 0x04) $(reg $f.40 0x08) $(reg $f.08 0x46) $(reg $f.40 0x00)"
+    [ "$got" = "00 00 00 02 11" ] &&
+      ok "formless ($c): nothing of the refused calls reached the chip (0x08:47 0x40:04 0x40:08 = 00 00 00), the controls did (0x08:46 = 02, 0x40:00 = 11)" ||
+      bad "formless ($c): the chip holds $got (0x08:47 0x40:04 0x40:08 0x08:46 0x40:00; expected 00 00 00 02 11)"
+  done
+  n=$(wc -l <$k.formless)
+  if [ "$n" = 4 ] && cmp -s $m.formless $k.formless; then
+    ok "formless: both logs hold the same 4 inexpressible lines: $(head -n 1 $k.formless)"
+    show $k.formless-lines
+  else
+    bad "formless: the inexpressible lines differ ($n under contego.ko; monitor <, contego.ko >):"
+    diff $m.formless $k.formless
+  fi
+  if cmp -s $m.decisions $k.decisions; then
+    ok "formless: both logs hold the same $(wc -l <$k.decisions) decisions (the refused calls' transfer-dropped among them)"
+  else
+    bad "formless: the decisions differ:"; diff $m.decisions $k.decisions
+  fi
+else
+  bad "formless: a run did not complete"
+fi
+
 rmmod i2c_plain_stub 2>/dev/null
 stub_reload
 finish
