@@ -19,7 +19,9 @@ src=$(cd "$here/../.." && pwd)
 build=$src/build/arm64-test workdir="" extra=()
 while (($#)); do
   case "$1" in
-    --build-dir) build=$2; shift 2 ;;
+    # Absolute: the test binaries name their data (the preload client, the
+    # attack programs) by absolute paths, which the guest mirrors.
+    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
     --workdir) workdir=$2; shift 2 ;;
     *) extra+=("$1"); shift ;;
   esac
