@@ -7,32 +7,10 @@
 #include <cstring>
 #include <fmt/core.h>
 
-#include "contego/i2c_plan.h"
-
 #include "monitor/expressible.h"
+#include "monitor/retry.h"
 
 namespace contego::monitor {
-namespace {
-
-// One acting bus operation of a call (`attempt`: 0 or an errno), tried again
-// on a lost arbitration by i2c-core's rule with the descriptor's own
-// I2C_RETRIES and I2C_TIMEOUT (contego_i2c_try_again), timed by the
-// monitor's clock; once if it set none. The adapter's own values are left
-// alone (setting them is adapter-wide), and apply inside each try.
-template <typename Attempt>
-int try_by(const gate::Timing& timing, const Clock& clock, Attempt attempt) {
-  const uint64_t start = timing.own ? clock.now_us() : 0;
-  const uint64_t timeout_us = uint64_t{timing.timeout_10ms} * CONTEGO_I2C_TIMEOUT_UNIT_MS * 1000;
-  int err = attempt();
-  for (uint32_t tries = 1; timing.own && contego_i2c_try_again(err, tries, timing.retries,
-                                                               clock.now_us() - start, timeout_us);
-       ++tries) {
-    err = attempt();
-  }
-  return err;
-}
-
-}  // namespace
 
 Monitor::Monitor(Decider& decider, AuditLog& audit, Clock& clock)
     : decider_(&decider), audit_(audit), clock_(clock) {
@@ -197,7 +175,11 @@ int Monitor::perform_emits(const core::Verdict& v, bool ten_bit, const gate::Tim
     std::copy_n(v.emit_bytes + offset, len, bytes);
     offset += len;
     bus::Msg m{v.addr, static_cast<uint16_t>(ten_bit ? gate::kMsgTen : 0), len, bytes};
-    if (int err = try_by(timing, clock_, [&] { return it->second->transfer({&m, 1}); }); err != 0)
+    if (int err = try_by(timing, retry_cap_us_, clock_,
+                         [&] {
+                           return it->second->transfer({&m, 1});
+                         });
+        err != 0)
       return err;
     readings_.on_write(v.bus, v.addr, {v.emit_bytes + offset - len, len});
   }
@@ -506,6 +488,7 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
                                               const std::vector<gate::PlannedTx>& planned) {
   gate::TransferReply reply;
   bus::Bus& bus = *buses_.at(t.bus);
+  retry_cap_us_ = decider_->task_period_us(task);
   // One transaction with one emit goes out the same either way: the loop
   // below sends it without copying the call (the common write).
   if ((planned.size() > 1 || verdicts_[0].emit_count > 1) && acts_as_sent(planned, verdicts_) &&
@@ -517,7 +500,8 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
     const core::Verdict& v = verdicts_[i];
     bus::Msg emit;
     if (p.kind == core::TxKind::kQuick) {
-      reply.err = try_by(t.timing, clock_, [&] { return bus.quick(p.addr, t.quick_read); });
+      reply.err =
+          try_by(t.timing, retry_cap_us_, clock_, [&] { return bus.quick(p.addr, t.quick_read); });
     } else if (p.kind == core::TxKind::kWrite && i + 1 < planned.size() &&
                planned[i + 1].answers_write &&
                emit_goes_with_read(bus, v, read_message(t, planned[i + 1]), &emit)) {
@@ -557,7 +541,7 @@ bool Monitor::perform_as_sent(uint16_t task, const gate::Transfer& t,
     msgs[k] = {m.addr, m.flags, m.len, bufs[k].data()};
   }
   if (!bus.expressible(msgs).ok()) return false;
-  reply.err = try_by(t.timing, clock_, [&] { return bus.transfer(msgs); });
+  reply.err = try_by(t.timing, retry_cap_us_, clock_, [&] { return bus.transfer(msgs); });
   if (reply.err != 0) {
     audit_.event("bus-error", fmt::format("bus {} addr 0x{:02x}: errno {}", t.bus,
                                           t.messages[0].addr, reply.err));
@@ -595,7 +579,7 @@ int Monitor::perform_read(uint16_t task, const gate::Transfer& t, const gate::Pl
                  static_cast<uint16_t>(pointer.size()), pointer.data()};
   }
   msgs[n++] = {rm.addr, rm.flags, rm.len, out.data()};
-  const int err = try_by(t.timing, clock_, [&] { return bus.transfer({msgs, n}); });
+  const int err = try_by(t.timing, retry_cap_us_, clock_, [&] { return bus.transfer({msgs, n}); });
   out.resize(msgs[n - 1].len);
   if (err == 0) readings_.on_read(task, t.bus, rm.addr, p.bytes, out, clock_.now_us());
   reply.reads.push_back(std::move(out));

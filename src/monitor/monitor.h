@@ -266,6 +266,7 @@ class Monitor final : public gate::Endpoint {
   std::vector<core::Verdict> verdicts_
       GUARDED_BY(mu_);  // transfer()'s: reused, not allocated per call
   std::vector<gate::PlannedTx> planned_ GUARDED_BY(mu_);  // transfer()'s plan: reused the same way
+  uint64_t retry_cap_us_ GUARDED_BY(mu_) = 0;  // the acting task's period (monitor.cc, try_by)
   readings::SensorReadings readings_ GUARDED_BY(mu_);
   uint16_t checking_task_ GUARDED_BY(mu_) = core::kNoTask;  // whose command the core is judging
   uint64_t checking_now_us_ GUARDED_BY(mu_) = 0;

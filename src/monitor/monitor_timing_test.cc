@@ -60,7 +60,8 @@ class AllowAll final : public testing::FakeDecider {
     if (tx.kind == core::TxKind::kWrite) emit(v, {tx.bytes, tx.bytes + tx.len});
   }
   bool safe_state(uint16_t, core::Verdict*) override { return false; }
-  uint32_t task_period_us(uint16_t) const override { return 0; }
+  uint32_t task_period_us(uint16_t) const override { return period_us; }
+  uint32_t period_us = 0;
 };
 
 gate::Transfer write(gate::Timing timing) {
@@ -114,6 +115,21 @@ TEST_F(MonitorTiming, TheTimeoutStopsTheRetries) {
   // Within it, the same losses are ridden out.
   EXPECT_EQ(send(write({true, 10, 100}), 10).err, 0);
   EXPECT_EQ(bus.tries, 11u);
+}
+
+// A task's call is not retried past one period of the task: the monitor's
+// lock, held meanwhile, holds every other task's checks.
+TEST_F(MonitorTiming, NoCallIsRetriedPastOnePeriodOfItsTask) {
+  decider.period_us = 100'000;
+  bus.per_try_us = 30'000;
+  // I2C_TIMEOUT 214748364 (i2c-dev's most: about 248 days), retries INT_MAX: four tries
+  // (90 ms after the first began, the fourth is within the period; a fifth
+  // would start 120 ms after it).
+  EXPECT_EQ(send(write({true, 2'147'483'647u, 214'748'364u}), 1'000'000).err, EAGAIN);
+  EXPECT_EQ(bus.tries, 4u);
+  // A timeout shorter than the period is the descriptor's, as before.
+  EXPECT_EQ(send(write({true, 10, 7}), 10).err, EAGAIN);
+  EXPECT_EQ(bus.tries, 3u);
 }
 
 TEST_F(MonitorTiming, EveryActingTransferOfTheCallIsTriedAgain) {
