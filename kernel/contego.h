@@ -223,6 +223,7 @@ void ct_hold_after(u64 until);
 
 /* contego_bind.c */
 u16 ct_task_of_current(const struct ct_policy *p);
+bool ct_msg_expressible(struct ct_file *cf, struct i2c_msg *m);
 
 /* contego_audit.c */
 bool ct_push(struct contego_kmod_record *r, bool acting);

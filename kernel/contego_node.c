@@ -29,18 +29,19 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	tmp = memdup_user(buf, count);
 	if (IS_ERR(tmp))
 		return PTR_ERR(tmp);
-	/* No form on this adapter: refused before the core decides, as the
-	 * monitor does (read() and I2C_RDWR alike).
-	 */
 	m.len = count;
 	m.buf = tmp;
-	if (ct_xfer(cf->adap, cf, &m, 1, 0, true) < 0) {
-		kfree(tmp);
-		return -EOPNOTSUPP;
-	}
 	if (mutex_lock_killable(&ct.lock)) {
 		kfree(tmp);
 		return -EINTR;
+	}
+	/* No form on this adapter: refused before the core decides, and
+	 * recorded, as the monitor does (read() and I2C_RDWR alike).
+	 */
+	if (!ct_msg_expressible(cf, &m)) {
+		mutex_unlock(&ct.lock);
+		kfree(tmp);
+		return -EOPNOTSUPP;
 	}
 	ret = ct_enter(true, &task);
 	if (ret < 0) {
@@ -79,8 +80,6 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	if (count > CT_MAX_LEN)
 		count = CT_MAX_LEN;
 	m.len = count;
-	if (ct_xfer(cf->adap, cf, &m, 1, 0, true) < 0) /* no form on this adapter */
-		return -EOPNOTSUPP;
 	tmp = kzalloc(count ? count : 1, GFP_KERNEL);
 	if (!tmp)
 		return -ENOMEM;
@@ -88,6 +87,11 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 	if (mutex_lock_killable(&ct.lock)) {
 		kfree(tmp);
 		return -EINTR;
+	}
+	if (!ct_msg_expressible(cf, &m)) { /* no form on this adapter: recorded */
+		mutex_unlock(&ct.lock);
+		kfree(tmp);
+		return -EOPNOTSUPP;
 	}
 	ct_enter(false, &task); /* a read is never held */
 	ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_READ, .addr = cf->addr,

@@ -16,15 +16,30 @@ static u32 ct_plan_msgs(const struct i2c_msg *m, u32 n)
 
 /* Every transaction of the call has a form on this adapter, as the monitor
  * asks before the core decides: the shared model's rule
- * (contego_i2c_call_has_forms) on the program's bytes.
+ * (contego_i2c_call_has_forms) on the program's bytes. A refusal is
+ * recorded, naming the caller's task, as the monitor audits it.
  */
-static bool ct_expressible(struct i2c_adapter *adap, struct i2c_msg *m, u32 nmsgs, u32 ntx)
+static bool ct_expressible(struct ct_file *cf, struct i2c_msg *m, u32 nmsgs, u32 ntx)
 {
 	struct contego_i2c_formless why;
+	u32 funcs = i2c_get_functionality(cf->adap);
 
 	lockdep_assert_held(&ct.lock);
-	return contego_i2c_call_has_forms((struct contego_i2c_msg *)m, nmsgs, ct.txs, NULL, ntx,
-					  i2c_get_functionality(adap), &why);
+	if (contego_i2c_call_has_forms((struct contego_i2c_msg *)m, nmsgs, ct.txs, NULL, ntx, funcs,
+				       &why))
+		return true;
+	if (ct.policy)
+		ct_record_formless(ct_task_of_current(ct.policy), cf->bus, funcs, &why);
+	return false;
+}
+
+/* The one message of a read() or write(), planned and checked as an
+ * I2C_RDWR of it is. Under ct.lock.
+ */
+bool ct_msg_expressible(struct ct_file *cf, struct i2c_msg *m)
+{
+	lockdep_assert_held(&ct.lock);
+	return ct_expressible(cf, m, 1, ct_plan_msgs(m, 1));
 }
 
 static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
@@ -40,7 +55,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	if (mutex_lock_killable(&ct.lock))
 		return -EINTR;
 	ntx = ct_plan_msgs(msgs, nmsgs);
-	if (!ct_expressible(cf->adap, msgs, nmsgs, ntx)) {
+	if (!ct_expressible(cf, msgs, nmsgs, ntx)) {
 		/* No form on this adapter: refused before the core decides, as
 		 * i2c_transfer refuses it on an SMBus-only adapter.
 		 */
@@ -282,7 +297,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	if (a.size == I2C_SMBUS_QUICK)
 		ct.txs[0] = (struct contego_i2c_tx){ .kind = CONTEGO_TX_QUICK, .addr = cf->addr,
 						     .ten = !!(cf->flags & I2C_M_TEN), .msg_count = 1 };
-	if (!ct_expressible(cf->adap, m, nm, n)) {
+	if (!ct_expressible(cf, m, nm, n)) {
 		mutex_unlock(&ct.lock);
 		return -EOPNOTSUPP; /* no form on this adapter: nothing decided */
 	}

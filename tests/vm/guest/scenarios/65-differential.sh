@@ -58,6 +58,23 @@ fresh() {
   fi
 }
 
+# formless_reasons KEY: the reason of each inexpressible line of KEY.jsonl,
+# without the writer's own words around it (contego.ko's names the task and
+# the caller), into KEY.formless; the lines whole into KEY.formless-lines.
+formless_reasons() {
+  python3 - $1.jsonl $1.formless-lines >$1.formless <<'PY'
+import json, re, sys
+lines = open(sys.argv[2], "w")
+for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
+    line = line.strip("\0\n")
+    if line.startswith("{") and json.loads(line).get("kind") == "inexpressible":
+        d = json.loads(line)["detail"]
+        print(d, file=lines)
+        m = re.match(r"(?:contego\.ko: )?task \d+(?: \([^)]*\))?: (bus \d+: .*?)(?:; the call refused .*)?$", d)
+        print(m.group(1) if m else d)
+PY
+}
+
 # one ADAPTER CLIENT: the corpus through CLIENT (monitor or kmod) on ADAPTER
 # (smbus or plain); leaves LOGDIR/ADAPTER-CLIENT.{steps,chip,decisions}.
 one() {
@@ -90,6 +107,7 @@ one() {
   fi
   i2cdump -y $NR $A b >$LOGDIR/$key.chip 2>&1
   decisions $LOGDIR/$key.jsonl wire >$LOGDIR/$key.decisions
+  formless_reasons $LOGDIR/$key
 }
 
 for adapter in smbus plain; do
@@ -110,6 +128,16 @@ for adapter in smbus plain; do
     ok "$adapter: both logs hold the same $n decisions: 0 mismatches"
   else
     bad "$adapter: the decisions differ ($n under contego.ko):"; diff $m.decisions $k.decisions
+  fi
+  # A call with no form on the adapter, refused before the core decides:
+  # audited alike by both (an inexpressible line each, the same reason).
+  n=$(wc -l <$k.formless)
+  formless=$(grep -c ' err ENOTSUP' $k.steps)
+  if [ "$n" = "$formless" ] && cmp -s $m.formless $k.formless; then
+    ok "$adapter: both logs hold the same $n inexpressible lines, one per call without a form"
+  else
+    bad "$adapter: the inexpressible lines differ ($n under contego.ko for $formless calls; monitor <, contego.ko >):"
+    diff $m.formless $k.formless
   fi
   if cmp -s $m.chip $k.chip; then
     ok "$adapter: the chip's registers are the same after both runs"
@@ -237,19 +265,7 @@ nf_one() {
   fi
   { i2cdump -y 0 0x40 b; i2cdump -y 0 0x08 b; } >$LOGDIR/$key.chip 2>&1
   decisions $LOGDIR/$key.jsonl wire >$LOGDIR/$key.decisions
-  # The reason of each inexpressible line, without the writer's own words
-  # around it (contego.ko's names the task and the caller).
-  python3 - $LOGDIR/$key.jsonl $LOGDIR/$key.formless-lines >$LOGDIR/$key.formless <<'PY'
-import json, re, sys
-lines = open(sys.argv[2], "w")
-for line in open(sys.argv[1], encoding="utf-8", errors="replace"):
-    line = line.strip("\0\n")
-    if line.startswith("{") and json.loads(line).get("kind") == "inexpressible":
-        d = json.loads(line)["detail"]
-        print(d, file=lines)
-        m = re.match(r"(?:contego\.ko: )?task \d+(?: \([^)]*\))?: (bus \d+: .*?)(?:; the call refused .*)?$", d)
-        print(m.group(1) if m else d)
-PY
+  formless_reasons $LOGDIR/$key
 }
 
 if nf_one monitor && nf_one kmod; then
