@@ -488,7 +488,7 @@ gate::TransferReply Monitor::perform_transfer(uint16_t task, const gate::Transfe
                                               const std::vector<gate::PlannedTx>& planned) {
   gate::TransferReply reply;
   bus::Bus& bus = *buses_.at(t.bus);
-  retry_cap_us_ = decider_->task_period_us(task);
+  retry_cap_us_ = t.timing.own ? decider_->task_period_us(task) : 0;  // used only then
   // One transaction with one emit goes out the same either way: the loop
   // below sends it without copying the call (the common write).
   if ((planned.size() > 1 || verdicts_[0].emit_count > 1) && acts_as_sent(planned, verdicts_) &&
