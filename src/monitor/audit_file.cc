@@ -211,6 +211,11 @@ bool AuditLog::extend_locked(size_t upto) {
   struct stat st {};
   if (fstat(fd_, &st) != 0) return false;
   off_t end = st.st_size;  // where the next append lands
+  // Shorter than what was allocated: cut under the writer (copytruncate).
+  // Appending here would hide the cut behind zeros the writer then fills
+  // without noticing; left short, its next record faults (SIGBUS caught)
+  // and continues the chain in the cut file at once.
+  if (end < map_base_ + static_cast<off_t>(file_room_)) return false;
   const off_t want = map_base_ + static_cast<off_t>(upto);
   static const char kZeros[kGrowStep] = {};
   while (end < want) {
@@ -549,9 +554,10 @@ void AuditLog::check_file_locked(bool force) {
         pos_, st.st_size);
   } else if (char c = 1;
              pos_ > 0 && pread(fd_, &c, 1, std::max<off_t>(checked_pos_ - 1, 0)) == 1 && c == 0) {
-    // Cut, then its room allocated again by the grower: the size is back,
-    // but a byte written before the last check reads as zero now (no line
-    // holds one).
+    // Cut, then its room allocated again by another process's append
+    // (the grower no longer does: extend_locked): the size is back, but a
+    // byte written before the last check reads as zero now (no line holds
+    // one).
     why =
         "the log file was cut by another process (copytruncate?) and its room allocated "
         "again; lines written meanwhile are only in the copy";
