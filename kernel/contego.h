@@ -243,7 +243,7 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 		       const contego_verdict *v, struct i2c_msg *read, int *ret);
 int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s);
 bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why);
-u32 ct_drive_safe_states(struct ct_policy *p, u8 why);
+u32 ct_drive_safe_states(struct ct_policy *p, u8 why, u32 *failed);
 u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why);
 
 /* contego_sample.c */

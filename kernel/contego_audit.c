@@ -112,6 +112,7 @@ void ct_record_formless(u16 task, u8 bus, u32 funcs, const struct contego_i2c_fo
 	u32 i, n = min_t(u32, why->n, 2);
 
 	lockdep_assert_held(&ct.lock);
+	ct.stats.inexpressible++;
 	ct_record_start(&r, CONTEGO_KMOD_REC_INEXPRESSIBLE, true);
 	r.task = task;
 	r.bus = bus;

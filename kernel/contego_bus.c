@@ -204,14 +204,22 @@ u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why)
 	return n;
 }
 
-/* Every device's safe state. Under ct.lock. Returns how many were written. */
-u32 ct_drive_safe_states(struct ct_policy *p, u8 why)
+/* Every device's safe state. Under ct.lock. Returns how many were written;
+ * `failed` (or NULL) gets bit d for a device d whose safe state was not.
+ */
+u32 ct_drive_safe_states(struct ct_policy *p, u8 why, u32 *failed)
 {
 	u32 n = 0;
 	u16 d;
+	int done;
 
 	lockdep_assert_held(&ct.lock);
-	for (d = 0; d < CONTEGO_MAX_DEVICES; d++)
-		n += ct_drive_safe_state(p, d, why);
+	for (d = 0; d < CONTEGO_MAX_DEVICES; d++) {
+		done = ct_drive_safe_state_of(p, d, why, NULL);
+		if (done > 0)
+			n++;
+		else if (done == 0 && failed)
+			*failed |= 1u << d;
+	}
 	return n;
 }

@@ -20,7 +20,7 @@ static u8 ct_fail_unrecorded(struct ct_policy *p, u32 *decider)
 		ct.failing_closed = true;
 		pr_warn_ratelimited("contego: an audit record could not be taken (%s): failing closed, devices to their safe state\n",
 				    ct.ring.reader ? "the ring is full" : "no audit reader");
-		ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_UNRECORDED);
+		ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_UNRECORDED, NULL);
 	}
 	return CT_REFUSE;
 }

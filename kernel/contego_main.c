@@ -230,8 +230,8 @@ static int __init ct_init(void)
 	}
 	/* The record layout `contego kmod audit` reads (kmod_audit.cc asserts it too). */
 	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
-	/* CONTEGO_KMOD_LOAD_VERSION 3's layout (kmod_command.cc asserts it too). */
-	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 344);
+	/* CONTEGO_KMOD_LOAD_VERSION 4's layout (kmod_command.cc asserts it too). */
+	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 352);
 	if (ct_max_sessions < 1 || ct_max_sessions > 65536) {
 		pr_err("contego: max_sessions=%u: give 1 .. 65536\n", ct_max_sessions);
 		return -EINVAL;
@@ -301,7 +301,7 @@ static void __exit ct_exit(void)
 	mutex_lock(&ct.lock);
 	if (ct.policy)
 		pr_info("contego: unloading: %u devices driven to their safe state\n",
-			ct_drive_safe_states(ct.policy, CONTEGO_KMOD_SAFE_UNLOAD));
+			ct_drive_safe_states(ct.policy, CONTEGO_KMOD_SAFE_UNLOAD, NULL));
 	mutex_unlock(&ct.lock);
 	ct_remove_nodes();
 	class_destroy(ct.i2c_class);

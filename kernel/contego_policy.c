@@ -144,6 +144,47 @@ static int ct_carry_locked(struct ct_policy *p, const struct ct_policy *old, str
 	return 0;
 }
 
+/* The record of an image taken into force: its header's CRC-32, so that a
+ * reader names the records that follow from this image alone; in place
+ * (`replaced`), the one it replaced too. Under ct.lock.
+ */
+static void ct_record_load(struct ct_policy *p, struct ct_policy *replaced)
+{
+	struct contego_kmod_record rec;
+
+	ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
+	rec.count = p->size;
+	rec.fields[0] = (s32)ct_image_crc(p);
+	rec.field_count = 1;
+	if (replaced) {
+		rec.fields[1] = (s32)ct_image_crc(replaced);
+		rec.field_count = 2;
+	}
+	ct_push(&rec, true);
+}
+
+/* p withdrawn after its load record, for the devices in `unsafe` whose safe
+ * state it could not drive; the image in force again (`kept`, if any) in
+ * fields[1], so that a reader names what follows from it. Under ct.lock.
+ */
+static void ct_record_unsafe_load(struct ct_policy *p, struct ct_policy *kept, u32 unsafe)
+{
+	struct contego_kmod_record rec;
+
+	lockdep_assert_held(&ct.lock);
+	ct.stats.refused_loads++;
+	ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD_REFUSED, true);
+	rec.reason = CONTEGO_KMOD_REFUSED_UNSAFE;
+	rec.count = p->size;
+	rec.fields[0] = (s32)unsafe;
+	rec.field_count = 1;
+	if (kept) {
+		rec.fields[1] = (s32)ct_image_crc(kept);
+		rec.field_count = 2;
+	}
+	ct_push(&rec, true);
+}
+
 static long ct_load(unsigned long arg, struct ct_carry *carry)
 {
 	struct contego_kmod_load req;
@@ -164,8 +205,9 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		return -EPROTO;
 	}
 	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS ||
-	    req.ntasks > CONTEGO_KMOD_MAX_TASKS)
+	    req.ntasks > CONTEGO_KMOD_MAX_TASKS || (req.flags & ~CONTEGO_KMOD_LOAD_DEGRADED))
 		return -EINVAL;
+	req.unsafe = 0;
 	for (i = 0; i < req.ntasks; i++)
 		if (req.sessions[i] < 1 || req.sessions[i] > CONTEGO_KMOD_MAX_TASK_SESSIONS)
 			return -EINVAL;
@@ -275,6 +317,25 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		goto fail;
 	}
 	old = ct.policy;
+	/* Every actuator in the new policy's safe state before it takes over
+	 * (in place, the actuators keep what the running policy let them do).
+	 * One that cannot be driven (absent, or no form on its adapter) would
+	 * leave the policy unable to make it safe: refused, as the monitor
+	 * refuses to start, unless the caller asked for a degraded load. The
+	 * load record goes first: the safe-state records carry its names.
+	 */
+	if (!carry) {
+		ct_record_load(p, NULL);
+		req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD, &req.unsafe);
+		if (req.unsafe && !(req.flags & CONTEGO_KMOD_LOAD_DEGRADED)) {
+			ct_record_unsafe_load(p, old, req.unsafe);
+			mutex_unlock(&ct.lock);
+			pr_warn("contego: policy refused: the safe state of device(s) 0x%x could not be driven; the policy in force stays\n",
+				req.unsafe);
+			ret = -EIO;
+			goto fail;
+		}
+	}
 	p->gen = ++ct.gen;
 	if (carry) {
 		ret = ct_carry_locked(p, old, carry);
@@ -282,43 +343,26 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 			mutex_unlock(&ct.lock);
 			goto fail;
 		}
+		ct_record_load(p, old);
 	}
 	ct.policy = p;
 	ct.stats.loads++;
 	ct.stats.loaded = 1;
-	{
-		struct contego_kmod_record rec;
-
-		ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD, true);
-		rec.count = req.size;
-		/* Which image: its header's CRC-32, so that a reader names the
-		 * records that follow from this image alone; in place, the one
-		 * it replaced too.
-		 */
-		rec.fields[0] = (s32)ct_image_crc(p);
-		rec.field_count = 1;
-		if (carry) {
-			rec.fields[1] = (s32)ct_image_crc(old);
-			rec.field_count = 2;
-		}
-		ct_push(&rec, true);
-	}
-	/* In place, the actuators keep what the running policy let them do. */
-	req.devices = carry ? 0 : ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD);
 	mutex_unlock(&ct.lock);
 	ct_policy_free(old);
 	if (carry)
 		pr_info("contego: policy loaded in place (%u bytes, %u bindings, state carried over, %u staged writes dropped, no safe state driven, budget factor %u)\n",
 			req.size, req.nbinds, carry->staged_dropped, req.budget_factor);
 	else
-		pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)\n",
-			req.size, req.nbinds, req.devices, req.budget_factor);
+		pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)%s\n",
+			req.size, req.nbinds, req.devices, req.budget_factor,
+			req.unsafe ? ", degraded: a safe state was not driven" : "");
 	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return 0;
 fail:
 	ct_policy_free(p);
-	if (req.status != 0 && copy_to_user((void __user *)arg, &req, sizeof(req)))
+	if ((req.status != 0 || req.unsafe) && copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return ret;
 }

@@ -115,14 +115,33 @@ KmodNames::KmodNames(std::vector<Image> images)
     : images_(std::move(images)), current_(images_.empty() ? &none_ : &images_.front().names) {}
 
 std::string KmodNames::follow(const contego_kmod_record& r) {
+  if (r.type == CONTEGO_KMOD_REC_LOAD_REFUSED && r.reason == CONTEGO_KMOD_REFUSED_UNSAFE) {
+    // An image withdrawn after its load record: its devices named, then
+    // the names of the image in force again (fields[1]; none: no policy).
+    std::string devices;
+    for (uint32_t d = 0; d < 32; ++d) {
+      if ((static_cast<uint32_t>(r.fields[0]) & (1u << d)) == 0) continue;
+      devices += fmt::format("{}{} ({})", devices.empty() ? "" : ", ", d,
+                             d < current_->devices.size() ? current_->devices[d] : "unknown");
+    }
+    if (r.field_count < 2) {
+      current_ = &none_;
+      return fmt::format("device(s) {}; no policy is in force", devices);
+    }
+    return fmt::format("device(s) {}; the policy in force stays{}", devices,
+                       switch_to(static_cast<uint32_t>(r.fields[1]), " again"));
+  }
   if (r.type != CONTEGO_KMOD_REC_LOAD) return {};
   if (r.field_count < 1) return "; a module without image checksums: names assumed unchanged";
-  const auto crc = static_cast<uint32_t>(r.fields[0]);
+  return switch_to(static_cast<uint32_t>(r.fields[0]), "");
+}
+
+std::string KmodNames::switch_to(uint32_t crc, const char* again) {
   for (const Image& i : images_) {
     if (i.crc != crc) continue;
     current_ = &i.names;
-    return fmt::format("; image CRC-32 {:08x}: {}, whose names the records now carry", crc,
-                       i.source);
+    return fmt::format("; image CRC-32 {:08x}: {}, whose names the records now carry{}", crc,
+                       i.source, again);
   }
   current_ = &none_;
   return fmt::format(
@@ -209,6 +228,13 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
                           : "",
                       caller(r), load_note));
     case CONTEGO_KMOD_REC_LOAD_REFUSED:
+      if (r.reason == CONTEGO_KMOD_REFUSED_UNSAFE) {
+        return event("policy-load-refused",
+                     fmt::format("contego.ko: the image of {} bytes withdrawn after its load, "
+                                 "a safe state not driven (the device absent, or no form on its "
+                                 "adapter): {}; {}",
+                                 r.count, load_note, caller(r)));
+      }
       return event("policy-load-refused",
                    fmt::format("contego.ko: the verifier refused an image of {} bytes "
                                "(status {}); the policy in force stays; {}",

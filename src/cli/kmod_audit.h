@@ -41,12 +41,14 @@ class KmodNames {
     monitor::NameTable names;
   };
   explicit KmodNames(std::vector<Image> images);
-  // Follows a policy-load record (others change nothing); returns what its
-  // line says about the names ("" for other records).
+  // Follows a policy-load record, and a load refused after it for a safe
+  // state not driven (others change nothing); returns what its line says
+  // about the names ("" for other records).
   std::string follow(const contego_kmod_record& record);
   const monitor::NameTable& current() const { return *current_; }
 
  private:
+  std::string switch_to(uint32_t crc, const char* again);
   std::vector<Image> images_;
   monitor::NameTable none_;
   const monitor::NameTable* current_;

@@ -51,8 +51,8 @@
 namespace contego::cli {
 namespace {
 
-// CONTEGO_KMOD_LOAD_VERSION 3's layout (the module's BUILD_BUG_ON says the same).
-static_assert(sizeof(contego_kmod_load) == 344);
+// CONTEGO_KMOD_LOAD_VERSION 4's layout (the module's BUILD_BUG_ON says the same).
+static_assert(sizeof(contego_kmod_load) == 352);
 
 Result<uint32_t> uid_of(const std::string& user) {
   char* end = nullptr;
@@ -220,16 +220,48 @@ int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, 
   return 0;
 }
 
-int load(const std::string& device, const monitor::SetupOptions& source,
-         const std::string& raw_image, const std::vector<std::string>& binds,
-         uint32_t budget_factor, bool budget_factor_given, bool complain,
-         const std::vector<std::string>& complain_for, bool in_place) {
+// `contego kmod load` and `reload`'s options.
+struct LoadArgs {
+  std::string device = "/dev/contego", policy, raw_image, bundle, signature;
+  std::string keys_dir = "/etc/contego/keys";
+  bool require_signed = false;
+  std::vector<std::string> binds;
+  uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
+  bool budget_factor_given = false;
+  bool complain = false;
+  std::vector<std::string> complain_for;
+  bool allow_degraded = false;
+};
+
+// The devices of `mask` (bit d: device d), named from the image.
+std::string devices_named(const image::ImageModel& model, uint32_t mask) {
+  std::string out;
+  for (uint32_t d = 0; d < 32; ++d) {
+    if ((mask & (1u << d)) == 0) continue;
+    out += out.empty() ? "" : ", ";
+    if (d < model.devices.size()) {
+      const auto& dev = model.devices[d];
+      out += fmt::format("{} (i2c-{} 0x{:02x})", dev.name, dev.record.bus, dev.record.addr);
+    } else {
+      out += fmt::format("device {}", d);
+    }
+  }
+  return out;
+}
+
+int load(const LoadArgs& a, const monitor::SetupOptions& source, bool in_place) {
+  const std::string& device = a.device;
+  const std::string& raw_image = a.raw_image;
+  const std::vector<std::string>& binds = a.binds;
+  const uint32_t budget_factor = a.budget_factor;
+  const bool budget_factor_given = a.budget_factor_given;
   image::ImageModel model;  // the new image's (names: what a load in place pairs)
   std::vector<uint8_t> image;
   std::vector<contego_kmod_bind> table;
   contego_kmod_load req{};
   req.version = CONTEGO_KMOD_LOAD_VERSION;
   req.budget_factor = budget_factor;
+  req.flags = a.allow_degraded ? CONTEGO_KMOD_LOAD_DEGRADED : 0;
   if (!raw_image.empty()) {
     // The bytes as they are: the module's verifier is the judge (tests).
     auto bytes = read_input_file(raw_image);
@@ -271,7 +303,7 @@ int load(const std::string& device, const monitor::SetupOptions& source,
                  "takes its buses from its own parameters (adapters=, buses=)\n");
     }
     if (!fill_task_limits(&req, loaded->model, loaded->bindings)) return 2;
-    if (!fill_complain(&req, loaded->model, complain, complain_for)) return 2;
+    if (!fill_complain(&req, loaded->model, a.complain, a.complain_for)) return 2;
     std::map<std::string, uint16_t> ids;
     for (size_t i = 0; i < loaded->model.tasks.size(); ++i) {
       ids[loaded->model.tasks[i].name] = static_cast<uint16_t>(i);
@@ -344,9 +376,23 @@ int load(const std::string& device, const monitor::SetupOptions& source,
   if (in_place) return load_in_place(fd.get(), &req, model, table.size());
   const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_LOAD, &req);
   const int err = errno;
+  if (rc != 0 && err == EIO && req.unsafe != 0) {
+    fmt::print(stderr,
+               "contego kmod: load refused: the safe state of {} could not be driven (the device "
+               "absent, or its adapter has no form for the write; the kernel log and `contego kmod "
+               "audit` say which); the policy in force stays (--allow-degraded loads anyway)\n",
+               devices_named(model, req.unsafe));
+    return 1;
+  }
   if (rc != 0) {
     fmt::print(stderr, "{}\n", kmod_load_error(err, req));
     return 1;
+  }
+  if (req.unsafe != 0) {
+    fmt::print(stderr,
+               "contego kmod: --allow-degraded: loaded although the safe state of {} could not "
+               "be driven\n",
+               devices_named(model, req.unsafe));
   }
   fmt::print(
       "contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state, budget "
@@ -402,6 +448,7 @@ int status(const std::string& device, bool json) {
                    {"ignored", s.ignored},
                    {"failsafe", s.failsafe},
                    {"holds", s.holds},
+                   {"inexpressible", s.inexpressible},
                    {"records", s.records},
                    {"unrecorded", s.unrecorded},
                    {"audit_refused", s.audit_refused},
@@ -438,9 +485,12 @@ int status(const std::string& device, bool json) {
                                           "audit` runs");
   fmt::print("sessions: {} open, {} ended, {} refused for room, {} over their task's `sessions`\n",
              s.sessions, s.session_ends, s.sessions_refused, s.sessions_limited);
-  fmt::print("checks:   {} ({} performed, {} refused, {} ignored, {} fail-safe; {} holds)\n",
-             s.checks, s.performed, s.refused, s.ignored, s.failsafe, s.holds);
-  fmt::print("loads:    {} ({} refused by the verifier)\n", s.loads, s.refused_loads);
+  fmt::print(
+      "checks:   {} ({} performed, {} refused, {} ignored, {} fail-safe; {} holds; {} refused "
+      "without a form on their adapter)\n",
+      s.checks, s.performed, s.refused, s.ignored, s.failsafe, s.holds, s.inexpressible);
+  fmt::print("loads:    {} ({} refused: by the verifier, or a safe state not driven)\n", s.loads,
+             s.refused_loads);
   return 0;
 }
 
@@ -460,31 +510,21 @@ int stats(const std::string& device) {
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
       "failsafe={} reader={} records={} unrecorded={} audit_refused={} sessions={} "
       "session_ends={} sessions_refused={} sessions_limited={} holds={} samples={} "
-      "sample_errors={}\n",
+      "sample_errors={} inexpressible={}\n",
       s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
       s.reader, s.records, s.unrecorded, s.audit_refused, s.sessions, s.session_ends,
-      s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors);
+      s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors, s.inexpressible);
   return 0;
 }
 
 }  // namespace
 
 void register_kmod(CLI::App& app) {
-  struct Args {
-    std::string device = "/dev/contego", policy, raw_image, bundle, signature;
-    std::string keys_dir = "/etc/contego/keys";
-    bool require_signed = false;
-    std::vector<std::string> binds;
-    uint32_t budget_factor = monitor::Monitor::kDefaultBudgetFactor;
-    bool budget_factor_given = false;
-    bool complain = false;
-    std::vector<std::string> complain_for;
-  };
   auto* cmd = app.add_subcommand("kmod", "Drive contego.ko, the in-kernel checked i2c-dev");
   cmd->require_subcommand(1);
   // `load` and `reload` take the same options; reload keeps the state.
   auto add_load = [cmd](const char* name, const char* what, bool in_place) {
-    auto args = std::make_shared<Args>();
+    auto args = std::make_shared<LoadArgs>();
     auto* ld = cmd->add_subcommand(name, what);
     ld->add_option("--policy", args->policy, "policy file");
     ld->add_option(
@@ -505,6 +545,11 @@ void register_kmod(CLI::App& app) {
       args->budget_factor_given = true;
     });
     add_complain_options(ld, &args->complain, &args->complain_for);
+    if (!in_place) {
+      ld->add_flag("--allow-degraded", args->allow_degraded,
+                   "load even when an actuator's safe state cannot be driven (refused otherwise, "
+                   "the policy in force kept)");
+    }
     ld->callback([args, name, in_place] {
       const int sources = !args->policy.empty() + !args->bundle.empty() + !args->raw_image.empty();
       if (sources != 1) {
@@ -525,8 +570,7 @@ void register_kmod(CLI::App& app) {
       source.require_signed = args->require_signed;
       source.signature = args->signature;
       source.keys_dir = args->keys_dir;
-      set_exit_code(load(args->device, source, args->raw_image, args->binds, args->budget_factor,
-                         args->budget_factor_given, args->complain, args->complain_for, in_place));
+      set_exit_code(load(*args, source, in_place));
     });
   };
   add_load("load",

@@ -407,5 +407,55 @@ TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
   EXPECT_EQ(l[4]["task"], 1);
 }
 
+// A load withdrawn for a safe state not driven: its devices named by the
+// withdrawn image, then the names of the image in force again (or none).
+TEST_F(KmodAudit, AWithdrawnLoadNamesItsDevicesAndGivesTheNamesBack) {
+  monitor::NameTable other = names_;
+  other.tasks = {"pilot", "observer"};
+  other.devices = {"wheels"};
+  KmodNames names({{"arm.policy", 0x1111, names_}, {"other.policy", 0x2222, other}});
+  contego_kmod_record d = record(CONTEGO_KMOD_REC_DECISION);
+  d.task = 1;
+  d.device = 0;
+  d.command = 0;
+  auto write = [&](const contego_kmod_record& r) {
+    const std::string note = names.follow(r);
+    ASSERT_TRUE(write_kmod_record(log_, names.current(), r, note));
+  };
+  contego_kmod_record ld = record(CONTEGO_KMOD_REC_LOAD);
+  ld.field_count = 1;
+  ld.fields[0] = 0x2222;
+  write(ld);
+  contego_kmod_record refused = record(CONTEGO_KMOD_REC_LOAD_REFUSED);
+  refused.reason = CONTEGO_KMOD_REFUSED_UNSAFE;
+  refused.count = 644;
+  refused.fields[0] = 0x1;
+  refused.fields[1] = 0x1111;  // arm.policy's image stays in force
+  refused.field_count = 2;
+  write(refused);
+  write(d);
+  write(ld);
+  refused.field_count = 1;  // nothing was in force before it
+  write(refused);
+  write(d);
+  auto l = lines();
+  ASSERT_EQ(l.size(), 6u);
+  const std::string first = l[1]["detail"].get<std::string>();
+  EXPECT_EQ(l[1]["kind"], "policy-load-refused");
+  EXPECT_NE(first.find("the image of 644 bytes withdrawn after its load, a safe state not "
+                       "driven"),
+            std::string::npos)
+      << first;
+  EXPECT_NE(first.find("device(s) 0 (wheels); the policy in force stays; image CRC-32 00001111: "
+                       "arm.policy, whose names the records now carry again"),
+            std::string::npos)
+      << first;
+  EXPECT_EQ(l[2]["task_name"], names_.tasks[1]);
+  EXPECT_NE(l[4]["detail"].get<std::string>().find("device(s) 0 (wheels); no policy is in force"),
+            std::string::npos)
+      << l[4]["detail"];
+  EXPECT_FALSE(l[5].contains("task_name")) << l[5];
+}
+
 }  // namespace
 }  // namespace contego::cli

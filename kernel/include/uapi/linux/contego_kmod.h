@@ -49,7 +49,12 @@ struct contego_kmod_bind {
  * too: a module refuses a CONTEGO_KMOD_LOAD of another size or version with
  * EPROTO (and says so in the kernel log); an older module answers ENOTTY.
  */
-#define CONTEGO_KMOD_LOAD_VERSION 3
+#define CONTEGO_KMOD_LOAD_VERSION 4
+
+/* contego_kmod_load.flags */
+#define CONTEGO_KMOD_LOAD_DEGRADED 1 /* in force although a safe state was not driven */
+/* CONTEGO_KMOD_REC_LOAD_REFUSED's reason when a safe state was not driven */
+#define CONTEGO_KMOD_REFUSED_UNSAFE 0xff
 
 struct contego_kmod_load {
 	__u32 version; /* in: CONTEGO_KMOD_LOAD_VERSION; out on EPROTO: the module's */
@@ -77,6 +82,14 @@ struct contego_kmod_load {
 	 * it; 0: it succeeds (the paper's IGNORE)
 	 */
 	__u8 ignore_errno[CONTEGO_KMOD_MAX_TASKS];
+	__u32 flags; /* in: (version 4) CONTEGO_KMOD_LOAD_* */
+	/*
+	 * out: (version 4) bit d: device d's declared safe state could not be
+	 * driven at load. Unless CONTEGO_KMOD_LOAD_DEGRADED, such a load is
+	 * refused (EIO) and the policy in force stays, as the monitor refuses
+	 * to start
+	 */
+	__u32 unsafe;
 };
 
 /* A load in place (CONTEGO_KMOD_RELOAD): the new image takes over the
@@ -115,7 +128,7 @@ struct contego_kmod_image {
 
 struct contego_kmod_stats {
 	__u64 loads; /* images accepted */
-	__u64 refused_loads; /* images the verifier refused (the previous one stayed) */
+	__u64 refused_loads; /* images refused: by the verifier, or a safe state not driven */
 	__u64 checks; /* transactions checked */
 	__u64 performed; /* calls that acted on a bus */
 	__u64 refused; /* calls refused (errno to the program) */
@@ -134,6 +147,8 @@ struct contego_kmod_stats {
 	/* Added with CONTEGO_KMOD_LOAD_VERSION 2 (a shorter STATS gets the fields before): */
 	__u64 sessions_limited; /* calls refused (EACCES): their task had its `sessions` live */
 	__u64 holds; /* transfers held to a later release (over-budget hold) */
+	/* Added with CONTEGO_KMOD_LOAD_VERSION 4: */
+	__u64 inexpressible; /* calls refused (EOPNOTSUPP): a part had no form on the adapter */
 };
 
 /* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one
@@ -157,7 +172,12 @@ enum contego_kmod_record_type {
 	 * CRC-32 of the image it replaced (no safe state driven)
 	 */
 	CONTEGO_KMOD_REC_LOAD = 3,
-	CONTEGO_KMOD_REC_LOAD_REFUSED = 4, /* the verifier refused an image; reason = its status */
+	/*
+	 * an image refused; reason = the verifier's status, or
+	 * CONTEGO_KMOD_REFUSED_UNSAFE with fields[0] = the devices
+	 * whose safe state could not be driven (bit d: device d)
+	 */
+	CONTEGO_KMOD_REC_LOAD_REFUSED = 4,
 	CONTEGO_KMOD_REC_GAP = 5, /* count = records lost before this one */
 	/*
 	 * a process of `task` (pid, uid) would have opened a

@@ -550,8 +550,8 @@ acting_ms=$(sed -n 's/.*mean_us=\([0-9.]*\).*/\1/p' "$OUT" | awk '{ printf "%d",
   bad "dropped-call budget: 40 ignored writes took '$flood_ms' ms (expected 400 to 1500), the acting write '$acting_ms' ms"
 
 # Another contego's load request (the size before the per-task limits, 48
-# bytes; or this size with version 2, before ignore_errno) is refused with
-# EPROTO, not misread;
+# bytes; version 3's 344, before the degraded flag; or this size with version
+# 3) is refused with EPROTO, not misread;
 # a version mismatch gets the module's version back.
 cat >/tmp/kmod_oldload.py <<'PY'
 import errno, fcntl, os
@@ -565,11 +565,12 @@ def load(size, version):
     except OSError as e:
         return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
 print("size48", load(48, 0))
-print("version2", load(344, 2))
+print("size344", load(344, 3))
+print("version3", load(352, 3))
 PY
 run_logged oldload python3 /tmp/kmod_oldload.py
-grep -q "^size48 EPROTO" "$OUT" && grep -q "^version2 EPROTO version 3" "$OUT" &&
-  ok "a load request of another size or version is refused (EPROTO; the module's version 3 is sent back)" ||
+grep -q "^size48 EPROTO" "$OUT" && grep -q "^size344 EPROTO" "$OUT" && grep -q "^version3 EPROTO version 4" "$OUT" &&
+  ok "a load request of another size or version is refused (EPROTO; the module's version 4 is sent back)" ||
   bad "another contego's load request: $(cat "$OUT")"
 
 stop_reader
@@ -817,7 +818,31 @@ grep -q "loads=2 refused_loads=0" "$OUT" && ok "module counters: the load and th
 kill "$HOLDER"
 led5_becomes 420 && ok "the session opened before the reload ended after it: its end drove LED5 off = 420" ||
   bad "after the holder's end LED5 off reads $(led5), expected the safe state 420"
+# A load whose actuator cannot be driven to its safe state (arm at 0x41,
+# where no chip answers) is refused, as the monitor refuses to start: the
+# policy in force stays and still decides; --allow-degraded loads it anyway.
+run_logged unsafe_load contego kmod load --policy /tmp/arm-moved.policy --bind arm_init=task --budget-factor 0
+[ $RC = 1 ] && grep -q "load refused: the safe state of arm (i2c-1 0x41) could not be driven" "$OUT" &&
+  grep -q "the policy in force stays (--allow-degraded loads anyway)" "$OUT" &&
+  ok "a load whose safe state cannot be driven is refused: $(cat "$OUT")" || bad "a load with an undrivable safe state: exit $RC"
+run_logged unsafe_status contego kmod status
+grep -q "image SHA-256 $want" "$OUT" && ok "the image in force before it stays in force (SHA-256 ${want:0:12}...)" ||
+  bad "after the refused load: $(cat "$OUT")"
+# The refused policy has no device at 0x40: under it this call would be
+# refused (exit 1); the one in force decides it (allowed or ignored: exit 0).
+run_logged unsafe_set as_task i2cset -y 0 $A 0x01 0x04
+[ $RC = 0 ] && ok "the policy in force still decides: arm_init's i2cset MODE2 at 0x40 exits 0" ||
+  bad "after the refused load arm_init's i2cset at 0x40 exits $RC"
+dmesg | grep -q "contego: policy refused: the safe state of device(s) 0x1 could not be driven; the policy in force stays" &&
+  ok "the kernel log: $(dmesg | grep -o 'contego: policy refused: the safe state.*' | tail -n1)" ||
+  bad "no refused load in the kernel log"
+run_logged degraded_load contego kmod load --policy /tmp/arm-moved.policy --bind arm_init=task --budget-factor 0 \
+  --allow-degraded
+[ $RC = 0 ] && grep -q "allow-degraded: loaded although the safe state of arm (i2c-1 0x41) could not be driven" "$OUT" &&
+  ok "kmod load --allow-degraded: in force, and loud about it" || bad "kmod load --allow-degraded: exit $RC"
 stop_reader
+grep -q 'withdrawn after its load, a safe state not driven.*device(s) 0 (.*"kind":"policy-load-refused"' $AUDIT_LOG &&
+  ok "the log records the withdrawn load and names the device" || bad "no withdrawn load in the module's log"
 grep -q 'in place (state carried over from image CRC-32 [0-9a-f]*, no safe state driven)' $AUDIT_LOG &&
   ok "the log names the load in place and the image it replaced" || bad "no load in place in the module's log"
 run_logged reload_verify contego audit $AUDIT_LOG

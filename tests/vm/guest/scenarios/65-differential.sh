@@ -102,6 +102,7 @@ one() {
     [ $1 = plain ] && tr ' ' '\n' <$WIRE >$LOGDIR/$key.wire
     [ $1 = plain ] && timing_after=$(cat $TIMING)
     wait_sessions_closed
+    contego kmod stats >$LOGDIR/$key.stats 2>&1
     stop_reader
     back_to_i2c_dev
   fi
@@ -139,6 +140,8 @@ for adapter in smbus plain; do
     bad "$adapter: the inexpressible lines differ ($n under contego.ko for $formless calls; monitor <, contego.ko >):"
     diff $m.formless $k.formless
   fi
+  grep -q " inexpressible=$formless\$" $k.stats &&
+    ok "$adapter: contego.ko's counters: inexpressible=$formless" || bad "$adapter: contego.ko's counters: $(cat $k.stats)"
   if cmp -s $m.chip $k.chip; then
     ok "$adapter: the chip's registers are the same after both runs"
   else
