@@ -248,6 +248,7 @@ u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why);
 
 /* contego_sample.c */
 u32 ct_read_sample(void *context, u16 device, u8 *buf, u32 capacity, u64 *taken_at_us);
+u32 ct_sample_all(struct ct_policy *p);
 
 /* contego_session.c */
 void ct_session_record(struct contego_kmod_record *r, const struct ct_session *s);

@@ -231,7 +231,7 @@ static int __init ct_init(void)
 	/* The record layout `contego kmod audit` reads (kmod_audit.cc asserts it too). */
 	BUILD_BUG_ON(sizeof(struct contego_kmod_record) != 136);
 	/* CONTEGO_KMOD_LOAD_VERSION 4's layout (kmod_command.cc asserts it too). */
-	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 352);
+	BUILD_BUG_ON(sizeof(struct contego_kmod_load) != 360);
 	if (ct_max_sessions < 1 || ct_max_sessions > 65536) {
 		pr_err("contego: max_sessions=%u: give 1 .. 65536\n", ct_max_sessions);
 		return -EINVAL;

@@ -163,11 +163,13 @@ static void ct_record_load(struct ct_policy *p, struct ct_policy *replaced)
 	ct_push(&rec, true);
 }
 
-/* p withdrawn after its load record, for the devices in `unsafe` whose safe
- * state it could not drive; the image in force again (`kept`, if any) in
- * fields[1], so that a reader names what follows from it. Under ct.lock.
+/* p withdrawn after its load record: sensors it could not read, or devices
+ * whose safe state it could not drive (req); the image in force again
+ * (`kept`, if any) in fields[2], so that a reader names what follows from
+ * it. Under ct.lock.
  */
-static void ct_record_unsafe_load(struct ct_policy *p, struct ct_policy *kept, u32 unsafe)
+static void ct_record_unsafe_load(struct ct_policy *p, struct ct_policy *kept,
+				  const struct contego_kmod_load *req)
 {
 	struct contego_kmod_record rec;
 
@@ -176,11 +178,12 @@ static void ct_record_unsafe_load(struct ct_policy *p, struct ct_policy *kept, u
 	ct_record_start(&rec, CONTEGO_KMOD_REC_LOAD_REFUSED, true);
 	rec.reason = CONTEGO_KMOD_REFUSED_UNSAFE;
 	rec.count = p->size;
-	rec.fields[0] = (s32)unsafe;
-	rec.field_count = 1;
+	rec.fields[0] = (s32)req->unsafe;
+	rec.fields[1] = (s32)req->unreadable;
+	rec.field_count = 2;
 	if (kept) {
-		rec.fields[1] = (s32)ct_image_crc(kept);
-		rec.field_count = 2;
+		rec.fields[2] = (s32)ct_image_crc(kept);
+		rec.field_count = 3;
 	}
 	ct_push(&rec, true);
 }
@@ -208,6 +211,8 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 	    req.ntasks > CONTEGO_KMOD_MAX_TASKS || (req.flags & ~CONTEGO_KMOD_LOAD_DEGRADED))
 		return -EINVAL;
 	req.unsafe = 0;
+	req.unreadable = 0;
+	req.pad = 0;
 	for (i = 0; i < req.ntasks; i++)
 		if (req.sessions[i] < 1 || req.sessions[i] > CONTEGO_KMOD_MAX_TASK_SESSIONS)
 			return -EINVAL;
@@ -317,21 +322,27 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		goto fail;
 	}
 	old = ct.policy;
-	/* Every actuator in the new policy's safe state before it takes over
-	 * (in place, the actuators keep what the running policy let them do).
-	 * One that cannot be driven (absent, or no form on its adapter) would
-	 * leave the policy unable to make it safe: refused, as the monitor
-	 * refuses to start, unless the caller asked for a degraded load. The
-	 * load record goes first: the safe-state records carry its names.
+	/* As the monitor starts: the first sample of every sensor, then every
+	 * actuator in the new policy's safe state, before it takes over (in
+	 * place, the actuators keep what the running policy let them do). A
+	 * sensor that cannot be read, or an actuator that cannot be driven
+	 * (absent, or no form on its adapter), would leave the policy blind or
+	 * unable to make it safe: refused, as the monitor refuses to start,
+	 * unless the caller asked for a degraded load. The load record goes
+	 * first: the records that follow carry its names.
 	 */
 	if (!carry) {
+		bool degraded = req.flags & CONTEGO_KMOD_LOAD_DEGRADED;
+
 		ct_record_load(p, NULL);
-		req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD, &req.unsafe);
-		if (req.unsafe && !(req.flags & CONTEGO_KMOD_LOAD_DEGRADED)) {
-			ct_record_unsafe_load(p, old, req.unsafe);
+		req.unreadable = ct_sample_all(p);
+		if (!req.unreadable || degraded)
+			req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD, &req.unsafe);
+		if ((req.unreadable || req.unsafe) && !degraded) {
+			ct_record_unsafe_load(p, old, &req);
 			mutex_unlock(&ct.lock);
-			pr_warn("contego: policy refused: the safe state of device(s) 0x%x could not be driven; the policy in force stays\n",
-				req.unsafe);
+			pr_warn("contego: policy refused: sensor(s) 0x%x could not be read, the safe state of device(s) 0x%x could not be driven; the policy in force stays\n",
+				req.unreadable, req.unsafe);
 			ret = -EIO;
 			goto fail;
 		}
@@ -356,13 +367,15 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 	else
 		pr_info("contego: policy loaded (%u bytes, %u bindings, %u devices in their safe state, budget factor %u)%s\n",
 			req.size, req.nbinds, req.devices, req.budget_factor,
-			req.unsafe ? ", degraded: a safe state was not driven" : "");
+			req.unsafe || req.unreadable ?
+			", degraded: a sensor not read or a safe state not driven" : "");
 	if (copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return 0;
 fail:
 	ct_policy_free(p);
-	if ((req.status != 0 || req.unsafe) && copy_to_user((void __user *)arg, &req, sizeof(req)))
+	if ((req.status != 0 || req.unsafe || req.unreadable) &&
+	    copy_to_user((void __user *)arg, &req, sizeof(req)))
 		return -EFAULT;
 	return ret;
 }

@@ -93,3 +93,27 @@ u32 ct_read_sample(void *context, u16 device, u8 *buf, u32 capacity, u64 *taken_
 		*taken_at_us = s->taken_us;
 	return n;
 }
+
+/* The first sample of every sensor of p, as the monitor takes it at start.
+ * Returns the sensors that could not be read (bit d: device d). Under
+ * ct.lock.
+ */
+u32 ct_sample_all(struct ct_policy *p)
+{
+	u64 now = div_u64(ktime_get_ns(), 1000);
+	contego_device_info info;
+	u32 unreadable = 0;
+	u16 d;
+
+	lockdep_assert_held(&ct.lock);
+	for (d = 0; d < CONTEGO_MAX_DEVICES; d++) {
+		if (!contego_device_info_of(p->checker, d, &info) ||
+		    !(info.role & CONTEGO_ROLE_SENSOR) || info.sample_len == 0 ||
+		    info.sample_len > CONTEGO_MAX_SAMPLE_BYTES)
+			continue;
+		ct_sample_device(p, d, &info, now);
+		if (!p->samples[d].valid)
+			unreadable |= 1u << d;
+	}
+	return unreadable;
+}

@@ -117,19 +117,28 @@ KmodNames::KmodNames(std::vector<Image> images)
 std::string KmodNames::follow(const contego_kmod_record& r) {
   if (r.type == CONTEGO_KMOD_REC_LOAD_REFUSED && r.reason == CONTEGO_KMOD_REFUSED_UNSAFE) {
     // An image withdrawn after its load record: its devices named, then
-    // the names of the image in force again (fields[1]; none: no policy).
-    std::string devices;
-    for (uint32_t d = 0; d < 32; ++d) {
-      if ((static_cast<uint32_t>(r.fields[0]) & (1u << d)) == 0) continue;
-      devices += fmt::format("{}{} ({})", devices.empty() ? "" : ", ", d,
-                             d < current_->devices.size() ? current_->devices[d] : "unknown");
+    // the names of the image in force again (fields[2]; none: no policy).
+    const auto named = [&](int32_t mask) {
+      std::string out;
+      for (uint32_t d = 0; d < 32; ++d) {
+        if ((static_cast<uint32_t>(mask) & (1u << d)) == 0) continue;
+        out += fmt::format("{}{} ({})", out.empty() ? "" : ", ", d,
+                           d < current_->devices.size() ? current_->devices[d] : "unknown");
+      }
+      return out;
+    };
+    std::string what;
+    if (r.fields[1] != 0) what = "sensor(s) " + named(r.fields[1]) + " not read";
+    if (r.fields[0] != 0) {
+      what += fmt::format("{}safe state of device(s) {} not driven", what.empty() ? "" : ", ",
+                          named(r.fields[0]));
     }
-    if (r.field_count < 2) {
+    if (r.field_count < 3) {
       current_ = &none_;
-      return fmt::format("device(s) {}; no policy is in force", devices);
+      return what + "; no policy is in force";
     }
-    return fmt::format("device(s) {}; the policy in force stays{}", devices,
-                       switch_to(static_cast<uint32_t>(r.fields[1]), " again"));
+    return what + "; the policy in force stays" +
+           switch_to(static_cast<uint32_t>(r.fields[2]), " again");
   }
   if (r.type != CONTEGO_KMOD_REC_LOAD) return {};
   if (r.field_count < 1) return "; a module without image checksums: names assumed unchanged";
@@ -230,9 +239,8 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
     case CONTEGO_KMOD_REC_LOAD_REFUSED:
       if (r.reason == CONTEGO_KMOD_REFUSED_UNSAFE) {
         return event("policy-load-refused",
-                     fmt::format("contego.ko: the image of {} bytes withdrawn after its load, "
-                                 "a safe state not driven (the device absent, or no form on its "
-                                 "adapter): {}; {}",
+                     fmt::format("contego.ko: the image of {} bytes withdrawn after its load "
+                                 "(a device absent, or no form on its adapter): {}; {}",
                                  r.count, load_note, caller(r)));
       }
       return event("policy-load-refused",

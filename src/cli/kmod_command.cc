@@ -52,7 +52,7 @@ namespace contego::cli {
 namespace {
 
 // CONTEGO_KMOD_LOAD_VERSION 4's layout (the module's BUILD_BUG_ON says the same).
-static_assert(sizeof(contego_kmod_load) == 352);
+static_assert(sizeof(contego_kmod_load) == 360);
 
 Result<uint32_t> uid_of(const std::string& user) {
   char* end = nullptr;
@@ -376,23 +376,30 @@ int load(const LoadArgs& a, const monitor::SetupOptions& source, bool in_place) 
   if (in_place) return load_in_place(fd.get(), &req, model, table.size());
   const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_LOAD, &req);
   const int err = errno;
-  if (rc != 0 && err == EIO && req.unsafe != 0) {
+  // What the module could not do at the load, as the monitor words it at start.
+  std::string problems;
+  if (req.unreadable != 0) {
+    problems = fmt::format("the first sample of {} could not be read",
+                           devices_named(model, req.unreadable));
+  }
+  if (req.unsafe != 0) {
+    problems += fmt::format("{}the safe state of {} could not be driven",
+                            problems.empty() ? "" : "; ", devices_named(model, req.unsafe));
+  }
+  if (rc != 0 && err == EIO && !problems.empty()) {
     fmt::print(stderr,
-               "contego kmod: load refused: the safe state of {} could not be driven (the device "
-               "absent, or its adapter has no form for the write; the kernel log and `contego kmod "
-               "audit` say which); the policy in force stays (--allow-degraded loads anyway)\n",
-               devices_named(model, req.unsafe));
+               "contego kmod: load refused: {} (the device absent, or its adapter has no form for "
+               "the transfer; the kernel log and `contego kmod audit` say which); the policy in "
+               "force stays (--allow-degraded loads anyway)\n",
+               problems);
     return 1;
   }
   if (rc != 0) {
     fmt::print(stderr, "{}\n", kmod_load_error(err, req));
     return 1;
   }
-  if (req.unsafe != 0) {
-    fmt::print(stderr,
-               "contego kmod: --allow-degraded: loaded although the safe state of {} could not "
-               "be driven\n",
-               devices_named(model, req.unsafe));
+  if (!problems.empty()) {
+    fmt::print(stderr, "contego kmod: --allow-degraded: loaded although {}\n", problems);
   }
   fmt::print(
       "contego kmod: loaded {} bytes, {} binding(s), {} device(s) in their safe state, budget "

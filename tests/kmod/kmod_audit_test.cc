@@ -430,28 +430,29 @@ TEST_F(KmodAudit, AWithdrawnLoadNamesItsDevicesAndGivesTheNamesBack) {
   refused.reason = CONTEGO_KMOD_REFUSED_UNSAFE;
   refused.count = 644;
   refused.fields[0] = 0x1;
-  refused.fields[1] = 0x1111;  // arm.policy's image stays in force
-  refused.field_count = 2;
+  refused.fields[2] = 0x1111;  // arm.policy's image stays in force
+  refused.field_count = 3;
   write(refused);
   write(d);
   write(ld);
-  refused.field_count = 1;  // nothing was in force before it
+  refused.fields[0] = 0;
+  refused.fields[1] = 0x1;  // a sensor not read
+  refused.field_count = 2;  // nothing was in force before it
   write(refused);
   write(d);
   auto l = lines();
   ASSERT_EQ(l.size(), 6u);
   const std::string first = l[1]["detail"].get<std::string>();
   EXPECT_EQ(l[1]["kind"], "policy-load-refused");
-  EXPECT_NE(first.find("the image of 644 bytes withdrawn after its load, a safe state not "
-                       "driven"),
-            std::string::npos)
-      << first;
-  EXPECT_NE(first.find("device(s) 0 (wheels); the policy in force stays; image CRC-32 00001111: "
-                       "arm.policy, whose names the records now carry again"),
+  EXPECT_NE(first.find("the image of 644 bytes withdrawn after its load (a device absent, or "
+                       "no form on its adapter): safe state of device(s) 0 (wheels) not driven; "
+                       "the policy in force stays; image CRC-32 00001111: arm.policy, whose "
+                       "names the records now carry again"),
             std::string::npos)
       << first;
   EXPECT_EQ(l[2]["task_name"], names_.tasks[1]);
-  EXPECT_NE(l[4]["detail"].get<std::string>().find("device(s) 0 (wheels); no policy is in force"),
+  EXPECT_NE(l[4]["detail"].get<std::string>().find(
+                "sensor(s) 0 (wheels) not read; no policy is in force"),
             std::string::npos)
       << l[4]["detail"];
   EXPECT_FALSE(l[5].contains("task_name")) << l[5];

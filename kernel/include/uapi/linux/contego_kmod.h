@@ -53,7 +53,7 @@ struct contego_kmod_bind {
 
 /* contego_kmod_load.flags */
 #define CONTEGO_KMOD_LOAD_DEGRADED 1 /* in force although a safe state was not driven */
-/* CONTEGO_KMOD_REC_LOAD_REFUSED's reason when a safe state was not driven */
+/* CONTEGO_KMOD_REC_LOAD_REFUSED's reason: a safe state not driven, a sensor not read */
 #define CONTEGO_KMOD_REFUSED_UNSAFE 0xff
 
 struct contego_kmod_load {
@@ -85,11 +85,14 @@ struct contego_kmod_load {
 	__u32 flags; /* in: (version 4) CONTEGO_KMOD_LOAD_* */
 	/*
 	 * out: (version 4) bit d: device d's declared safe state could not be
-	 * driven at load. Unless CONTEGO_KMOD_LOAD_DEGRADED, such a load is
-	 * refused (EIO) and the policy in force stays, as the monitor refuses
-	 * to start
+	 * driven at load; `unreadable`: sensor d's first sample could not be
+	 * read (then no safe state is driven). Unless
+	 * CONTEGO_KMOD_LOAD_DEGRADED, such a load is refused (EIO) and the
+	 * policy in force stays, as the monitor refuses to start
 	 */
 	__u32 unsafe;
+	__u32 unreadable;
+	__u32 pad; /* zero */
 };
 
 /* A load in place (CONTEGO_KMOD_RELOAD): the new image takes over the
@@ -174,8 +177,11 @@ enum contego_kmod_record_type {
 	CONTEGO_KMOD_REC_LOAD = 3,
 	/*
 	 * an image refused; reason = the verifier's status, or
-	 * CONTEGO_KMOD_REFUSED_UNSAFE with fields[0] = the devices
-	 * whose safe state could not be driven (bit d: device d)
+	 * CONTEGO_KMOD_REFUSED_UNSAFE after its load record:
+	 * fields[0] = the devices whose safe state could not be
+	 * driven, fields[1] = the sensors that could not be read
+	 * (bit d: device d), fields[2] (field_count 3) = the
+	 * CRC-32 of the image in force again
 	 */
 	CONTEGO_KMOD_REC_LOAD_REFUSED = 4,
 	CONTEGO_KMOD_REC_GAP = 5, /* count = records lost before this one */

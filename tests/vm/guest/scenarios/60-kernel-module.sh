@@ -407,7 +407,11 @@ tank_round() {  # tank_round LABEL LEVEL POLICY...
   n=0
   for policy in "$@"; do
     n=$((n + 1))
-    run_logged ${round}_load$n contego kmod load --policy $policy --bind monitor=task
+    if [ -n "$KMOD_LOAD_OPTS" ]; then  # the load without them first
+      run_logged ${round}_strict$n contego kmod load --policy $policy --bind monitor=task
+      eval STRICT_RC$n=$RC
+    fi
+    run_logged ${round}_load$n contego kmod load --policy $policy --bind monitor=task $KMOD_LOAD_OPTS
     run_logged ${round}_tone$n as_task i2cset -y 0 0x20 0x01 1
     eval TONE_RC$n=$RC
     run_logged ${round}_stats$n contego kmod stats
@@ -421,12 +425,18 @@ tank_round tank500 500 $POLICIES/tank.policy
   bad "level 500: tone(1) exit $TONE_RC1, $(cat "$LOGDIR/tank500_stats1.out")"
 expect_reg 0x20 0x01 0 "level 500 mm (normal): the buzzer's tone(1) did not land"
 # Level 900, first with the tank moved to an address where nothing answers:
-# its sample fails, its signals are unavailable, and tone(1) is ignored
-# (fail closed, recorded as signal-unavailable); then with tank.policy
-# itself: tone(1) lands.
+# the load is refused (its first sample cannot be read, as the monitor
+# refuses to start); loaded with --allow-degraded, its sample fails, its
+# signals are unavailable, and tone(1) is ignored (fail closed, recorded as
+# signal-unavailable); then with tank.policy itself: tone(1) lands.
 sed 's/^device tank : regmap at i2c-1 0x48/device tank : regmap at i2c-1 0x49/' \
   $POLICIES/tank.policy >/tmp/tank-missing.policy
-tank_round tank900 900 /tmp/tank-missing.policy $POLICIES/tank.policy
+KMOD_LOAD_OPTS=--allow-degraded tank_round tank900 900 /tmp/tank-missing.policy $POLICIES/tank.policy
+[ "$STRICT_RC1" = 1 ] && [ "$STRICT_RC2" = 0 ] &&
+  grep -q "load refused: the first sample of tank (i2c-1 0x49) could not be read" "$LOGDIR/tank900_strict1.out" &&
+  grep -q "allow-degraded: loaded although the first sample of tank (i2c-1 0x49) could not be read" "$LOGDIR/tank900_load1.out" &&
+  ok "a load whose sensor cannot be read is refused ($(cat "$LOGDIR/tank900_strict1.out")); --allow-degraded loads it, and says so" ||
+  bad "the load of an unreadable sensor: exit $STRICT_RC1 ($(cat "$LOGDIR/tank900_strict1.out")), tank.policy's exit $STRICT_RC2"
 grep -q "sample_errors=[1-9]" "$LOGDIR/tank900_stats1.out" &&
   grep -q '"reason_name":"signal-unavailable".*"rule_name":"INV_W"' $AUDIT_LOG &&
   ok "a tank that does not answer: the failed sample is counted, tone(1) ignored as signal-unavailable" ||
@@ -566,7 +576,7 @@ def load(size, version):
         return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
 print("size48", load(48, 0))
 print("size344", load(344, 3))
-print("version3", load(352, 3))
+print("version3", load(360, 3))
 PY
 run_logged oldload python3 /tmp/kmod_oldload.py
 grep -q "^size48 EPROTO" "$OUT" && grep -q "^size344 EPROTO" "$OUT" && grep -q "^version3 EPROTO version 4" "$OUT" &&
@@ -833,7 +843,7 @@ grep -q "image SHA-256 $want" "$OUT" && ok "the image in force before it stays i
 run_logged unsafe_set as_task i2cset -y 0 $A 0x01 0x04
 [ $RC = 0 ] && ok "the policy in force still decides: arm_init's i2cset MODE2 at 0x40 exits 0" ||
   bad "after the refused load arm_init's i2cset at 0x40 exits $RC"
-dmesg | grep -q "contego: policy refused: the safe state of device(s) 0x1 could not be driven; the policy in force stays" &&
+dmesg | grep -q "contego: policy refused: sensor(s) 0x0 could not be read, the safe state of device(s) 0x1 could not be driven; the policy in force stays" &&
   ok "the kernel log: $(dmesg | grep -o 'contego: policy refused: the safe state.*' | tail -n1)" ||
   bad "no refused load in the kernel log"
 run_logged degraded_load contego kmod load --policy /tmp/arm-moved.policy --bind arm_init=task --budget-factor 0 \
@@ -841,7 +851,7 @@ run_logged degraded_load contego kmod load --policy /tmp/arm-moved.policy --bind
 [ $RC = 0 ] && grep -q "allow-degraded: loaded although the safe state of arm (i2c-1 0x41) could not be driven" "$OUT" &&
   ok "kmod load --allow-degraded: in force, and loud about it" || bad "kmod load --allow-degraded: exit $RC"
 stop_reader
-grep -q 'withdrawn after its load, a safe state not driven.*device(s) 0 (.*"kind":"policy-load-refused"' $AUDIT_LOG &&
+grep -q 'withdrawn after its load (a device absent, or no form on its adapter): safe state of device(s) 0 (.*"kind":"policy-load-refused"' $AUDIT_LOG &&
   ok "the log records the withdrawn load and names the device" || bad "no withdrawn load in the module's log"
 grep -q 'in place (state carried over from image CRC-32 [0-9a-f]*, no safe state driven)' $AUDIT_LOG &&
   ok "the log names the load in place and the image it replaced" || bad "no load in place in the module's log"
