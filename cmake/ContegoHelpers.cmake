@@ -26,12 +26,15 @@ function(contego_use_core_lto target)
   endif()
 endfunction()
 
-# contego_test(NAME SOURCES ... DEPS ...): a GoogleTest binary registered with CTest.
+# contego_test(NAME SOURCES ... DEPS ... [SERIAL FILTER]): a GoogleTest binary
+# registered with CTest. The tests SERIAL's gtest filter names run alone
+# (RUN_SERIAL): they judge the scheduler's placement or timing, which a test
+# running beside them on a two-CPU machine decides instead.
 function(contego_test name)
   if(NOT CONTEGO_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "" "SERIAL" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/include ${PROJECT_SOURCE_DIR}/src)
   target_compile_options(${name} PRIVATE ${CONTEGO_WARNINGS})
@@ -41,7 +44,14 @@ function(contego_test name)
   # GCC 12's false -Wstringop-overflow and -overread in std::string and
   # std::vector code.)
   set_property(TARGET ${name} PROPERTY INTERPROCEDURAL_OPTIMIZATION OFF)
-  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+  if(ARG_SERIAL)
+    gtest_discover_tests(${name} TEST_FILTER "-${ARG_SERIAL}" PROPERTIES LABELS "${ARG_LABELS}"
+                         DISCOVERY_TIMEOUT 60)
+    gtest_discover_tests(${name} TEST_FILTER "${ARG_SERIAL}"
+                         PROPERTIES LABELS "${ARG_LABELS}" RUN_SERIAL TRUE DISCOVERY_TIMEOUT 60)
+  else()
+    gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" DISCOVERY_TIMEOUT 60)
+  endif()
 endfunction()
 
 # contego_cli_script_test(NAME SCRIPT [TIMEOUT SECONDS] [PASS REGEX] ARGS ...):
