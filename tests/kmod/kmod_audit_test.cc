@@ -366,14 +366,27 @@ TEST_F(KmodAudit, AnInexpressibleCallIsWordedAsTheMonitorWordsIt) {
 // The names follow the image in force: a policy-load record's CRC-32 picks
 // the reader's policy with that image; an image of none of them leaves the
 // records with numbers only.
-TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
-  monitor::NameTable other = names_;
+// arm.policy's names (image CRC 0x1111) and another policy's (0x2222),
+// whose tasks are pilot and observer and whose device 0 is `device`.
+KmodNames two_policies(const monitor::NameTable& arm, const std::string& device) {
+  monitor::NameTable other = arm;
   other.tasks = {"pilot", "observer"};
-  KmodNames names({{"arm.policy", 0x1111, names_}, {"other.policy", 0x2222, other}});
+  if (!device.empty()) other.devices = {device};
+  return KmodNames({{"arm.policy", 0x1111, arm}, {"other.policy", 0x2222, other}});
+}
+
+// A decision of task 1 on device 0's command 0.
+contego_kmod_record task1_decision() {
   contego_kmod_record d = record(CONTEGO_KMOD_REC_DECISION);
   d.task = 1;
   d.device = 0;
   d.command = 0;
+  return d;
+}
+
+TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
+  KmodNames names = two_policies(names_, "");
+  const contego_kmod_record d = task1_decision();
   auto write = [&](const contego_kmod_record& r) {
     const std::string note = names.follow(r);
     ASSERT_TRUE(write_kmod_record(log_, names.current(), r, note));
@@ -410,14 +423,8 @@ TEST_F(KmodAudit, NamesFollowThePolicyLoadRecords) {
 // A load withdrawn for a safe state not driven: its devices named by the
 // withdrawn image, then the names of the image in force again (or none).
 TEST_F(KmodAudit, AWithdrawnLoadNamesItsDevicesAndGivesTheNamesBack) {
-  monitor::NameTable other = names_;
-  other.tasks = {"pilot", "observer"};
-  other.devices = {"wheels"};
-  KmodNames names({{"arm.policy", 0x1111, names_}, {"other.policy", 0x2222, other}});
-  contego_kmod_record d = record(CONTEGO_KMOD_REC_DECISION);
-  d.task = 1;
-  d.device = 0;
-  d.command = 0;
+  KmodNames names = two_policies(names_, "wheels");
+  const contego_kmod_record d = task1_decision();
   auto write = [&](const contego_kmod_record& r) {
     const std::string note = names.follow(r);
     ASSERT_TRUE(write_kmod_record(log_, names.current(), r, note));
