@@ -208,11 +208,11 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		return -EPROTO;
 	}
 	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS ||
-	    req.ntasks > CONTEGO_KMOD_MAX_TASKS || (req.flags & ~CONTEGO_KMOD_LOAD_DEGRADED))
+	    req.ntasks > CONTEGO_KMOD_MAX_TASKS || (req.flags & ~CONTEGO_KMOD_LOAD_DEGRADED) ||
+	    req.pad)
 		return -EINVAL;
 	req.unsafe = 0;
 	req.unreadable = 0;
-	req.pad = 0;
 	for (i = 0; i < req.ntasks; i++)
 		if (req.sessions[i] < 1 || req.sessions[i] > CONTEGO_KMOD_MAX_TASK_SESSIONS)
 			return -EINVAL;

@@ -92,7 +92,7 @@ struct contego_kmod_load {
 	 */
 	__u32 unsafe;
 	__u32 unreadable;
-	__u32 pad; /* zero */
+	__u32 pad; /* zero (EINVAL otherwise) */
 };
 
 /* A load in place (CONTEGO_KMOD_RELOAD): the new image takes over the

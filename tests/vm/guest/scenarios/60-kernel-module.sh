@@ -582,6 +582,33 @@ run_logged oldload python3 /tmp/kmod_oldload.py
 grep -q "^size48 EPROTO" "$OUT" && grep -q "^size344 EPROTO" "$OUT" && grep -q "^version3 EPROTO version 4" "$OUT" &&
   ok "a load request of another size or version is refused (EPROTO; the module's version 4 is sent back)" ||
   bad "another contego's load request: $(cat "$OUT")"
+# A version-4 request with an unknown flag, or its pad not zero, is refused
+# (EINVAL) before anything is loaded; the same request with both zero loads.
+contego check $LIMITS --emit /tmp/limits.img >/dev/null 2>&1
+cat >/tmp/kmod_badflags.py <<'PY'
+import ctypes, errno, fcntl, os, struct
+fd = os.open("/dev/contego", os.O_RDWR)
+img = open("/tmp/limits.img", "rb").read()
+image = ctypes.create_string_buffer(img, len(img))
+def load(flags, pad):
+    b = bytearray(360)  # struct contego_kmod_load, version 4
+    struct.pack_into("<IIQIIQ", b, 0, 4, 0, ctypes.addressof(image), len(img), 0, 0)
+    struct.pack_into("<III", b, 48, 2, 0, 1)       # ntasks 2, complain 0, sessions[0] 1
+    struct.pack_into("<I", b, 60, 1)               # sessions[1] 1
+    struct.pack_into("<IIII", b, 344, flags, 0xffffffff, 0xffffffff, pad)
+    try:
+        fcntl.ioctl(fd, (3 << 30) | (360 << 16) | (0xC7 << 8) | 1, b)
+        return "ok unsafe=%d" % struct.unpack_from("<I", b, 348)
+    except OSError as e:
+        return errno.errorcode[e.errno]
+print("flags2", load(2, 0))
+print("pad1", load(0, 1))
+print("clean", load(0, 0))
+PY
+run_logged badflags python3 /tmp/kmod_badflags.py
+grep -q "^flags2 EINVAL" "$OUT" && grep -q "^pad1 EINVAL" "$OUT" && grep -q "^clean ok unsafe=0" "$OUT" &&
+  ok "a load request with an unknown flag or a non-zero pad is refused (EINVAL); the same request without them loads" ||
+  bad "hostile load requests: $(tr '\n' ';' <"$OUT")"
 
 stop_reader
 run_logged verify4 contego audit $AUDIT_LOG
