@@ -424,8 +424,27 @@ else
   echo 'this is not a policy' >/etc/contego/robot.policy
   systemctl restart contego-kmod-load 2>/dev/null && bad "contego-kmod-load accepted a broken policy" ||
     ok "a broken policy: contego-kmod-load fails ($(systemctl is-active contego-kmod-load)), the module keeps the old one"
+  # One the module refuses (the arm moved to 0x41, where nothing answers: a
+  # HAT not yet powered) is tried again every 2 s: once the policy can be
+  # loaded, the unit is active again without a hand.
+  sed 's/^device arm : pca9685 at i2c-1 0x40/device arm : pca9685 at i2c-1 0x41/' \
+    /tmp/robot.policy.good >/etc/contego/robot.policy
+  systemctl restart contego-kmod-load 2>/dev/null && bad "contego-kmod-load loaded a policy whose arm is absent"
+  sleep 3
+  state=$(systemctl show -p ActiveState --value contego-kmod-load)/$(systemctl show -p NRestarts --value contego-kmod-load)
   cp /tmp/robot.policy.good /etc/contego/robot.policy
-  journalctl -u contego-kmod-load --no-pager -o cat | tail -n 4 | show
+  i=0
+  until systemctl is-active -q contego-kmod-load; do
+    i=$((i + 1)); [ $i -gt 20 ] && break
+    sleep 0.5
+  done
+  case "$state" in
+  activating/[1-9]*) systemctl is-active -q contego-kmod-load &&
+    ok "a load refused for an absent device is tried again (state/restarts: $state); with the policy fixed the unit is active again by itself" ||
+    bad "contego-kmod-load did not come back after the policy was fixed ($(systemctl is-active contego-kmod-load))" ;;
+  *) bad "a refused load is not tried again: ActiveState/NRestarts $state" ;;
+  esac
+  journalctl -u contego-kmod-load --no-pager -o cat | tail -n 6 | show
   kaudit=/var/log/contego/kmod-audit.jsonl
   # The program as its unit would run it: its own user, nothing else. It holds
   # (sleeps) after its commands; its end is a session's end (safe state).
