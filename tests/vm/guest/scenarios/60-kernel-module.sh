@@ -561,51 +561,43 @@ acting_ms=$(sed -n 's/.*mean_us=\([0-9.]*\).*/\1/p' "$OUT" | awk '{ printf "%d",
 
 # Another contego's load request (the size before the per-task limits, 48
 # bytes; version 3's 344, before the degraded flag; or this size with version
-# 3) is refused with EPROTO, not misread;
-# a version mismatch gets the module's version back.
-cat >/tmp/kmod_oldload.py <<'PY'
-import errno, fcntl, os
-fd = os.open("/dev/contego", os.O_RDWR)
-def load(size, version):
-    buf = bytearray(size)
-    buf[0:4] = version.to_bytes(4, "little")
-    try:
-        fcntl.ioctl(fd, (3 << 30) | (size << 16) | (0xC7 << 8) | 1, buf)
-        return "ok"
-    except OSError as e:
-        return "%s version %d" % (errno.errorcode[e.errno], int.from_bytes(buf[0:4], "little"))
-print("size48", load(48, 0))
-print("size344", load(344, 3))
-print("version3", load(360, 3))
-PY
-run_logged oldload python3 /tmp/kmod_oldload.py
-grep -q "^size48 EPROTO" "$OUT" && grep -q "^size344 EPROTO" "$OUT" && grep -q "^version3 EPROTO version 4" "$OUT" &&
-  ok "a load request of another size or version is refused (EPROTO; the module's version 4 is sent back)" ||
-  bad "another contego's load request: $(cat "$OUT")"
-# A version-4 request with an unknown flag, or its pad not zero, is refused
-# (EINVAL) before anything is loaded; the same request with both zero loads.
+# 3) is refused with EPROTO, not misread; a version mismatch gets the
+# module's version back. A version-4 request with an unknown flag, or its pad
+# not zero, is refused (EINVAL) before anything is loaded; the same request
+# with both zero loads.
 contego check $LIMITS --emit /tmp/limits.img >/dev/null 2>&1
-cat >/tmp/kmod_badflags.py <<'PY'
+cat >/tmp/kmod_requests.py <<'PY'
 import ctypes, errno, fcntl, os, struct
 fd = os.open("/dev/contego", os.O_RDWR)
 img = open("/tmp/limits.img", "rb").read()
 image = ctypes.create_string_buffer(img, len(img))
-def load(flags, pad):
-    b = bytearray(360)  # struct contego_kmod_load, version 4
-    struct.pack_into("<IIQIIQ", b, 0, 4, 0, ctypes.addressof(image), len(img), 0, 0)
-    struct.pack_into("<III", b, 48, 2, 0, 1)       # ntasks 2, complain 0, sessions[0] 1
-    struct.pack_into("<I", b, 60, 1)               # sessions[1] 1
-    struct.pack_into("<IIII", b, 344, flags, 0xffffffff, 0xffffffff, pad)
+def load(b):  # CONTEGO_KMOD_LOAD of len(b) bytes: "ok" or the errno's name
     try:
-        fcntl.ioctl(fd, (3 << 30) | (360 << 16) | (0xC7 << 8) | 1, b)
-        return "ok unsafe=%d" % struct.unpack_from("<I", b, 348)
+        fcntl.ioctl(fd, (3 << 30) | (len(b) << 16) | (0xC7 << 8) | 1, b)
+        return "ok"
     except OSError as e:
         return errno.errorcode[e.errno]
-print("flags2", load(2, 0))
-print("pad1", load(0, 1))
-print("clean", load(0, 0))
+def other(size, version):
+    b = bytearray(size)
+    b[0:4] = version.to_bytes(4, "little")
+    return "%s version %d" % (load(b), int.from_bytes(b[0:4], "little"))
+def v4(flags, pad):
+    b = bytearray(360)  # struct contego_kmod_load, version 4
+    struct.pack_into("<IIQIIQ", b, 0, 4, 0, ctypes.addressof(image), len(img), 0, 0)
+    struct.pack_into("<IIII", b, 48, 2, 0, 1, 1)   # ntasks 2, complain 0, sessions 1 and 1
+    struct.pack_into("<IIII", b, 344, flags, 0xffffffff, 0xffffffff, pad)
+    return "%s unsafe=%d" % (load(b), struct.unpack_from("<I", b, 348)[0])
+print("size48", other(48, 0))
+print("size344", other(344, 3))
+print("version3", other(360, 3))
+print("flags2", v4(2, 0))
+print("pad1", v4(0, 1))
+print("clean", v4(0, 0))
 PY
-run_logged badflags python3 /tmp/kmod_badflags.py
+run_logged requests python3 /tmp/kmod_requests.py
+grep -q "^size48 EPROTO" "$OUT" && grep -q "^size344 EPROTO" "$OUT" && grep -q "^version3 EPROTO version 4" "$OUT" &&
+  ok "a load request of another size or version is refused (EPROTO; the module's version 4 is sent back)" ||
+  bad "another contego's load request: $(tr '\n' ';' <"$OUT")"
 grep -q "^flags2 EINVAL" "$OUT" && grep -q "^pad1 EINVAL" "$OUT" && grep -q "^clean ok unsafe=0" "$OUT" &&
   ok "a load request with an unknown flag or a non-zero pad is refused (EINVAL); the same request without them loads" ||
   bad "hostile load requests: $(tr '\n' ';' <"$OUT")"
