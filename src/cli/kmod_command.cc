@@ -496,8 +496,9 @@ int status(const std::string& device, bool json) {
       "checks:   {} ({} performed, {} refused, {} ignored, {} fail-safe; {} holds; {} refused "
       "without a form on their adapter)\n",
       s.checks, s.performed, s.refused, s.ignored, s.failsafe, s.holds, s.inexpressible);
-  fmt::print("loads:    {} ({} refused: by the verifier, or a safe state not driven)\n", s.loads,
-             s.refused_loads);
+  fmt::print(
+      "loads:    {} ({} refused: by the verifier, or a sensor or safe state failing at load)\n",
+      s.loads, s.refused_loads);
   return 0;
 }
 

@@ -131,7 +131,7 @@ struct contego_kmod_image {
 
 struct contego_kmod_stats {
 	__u64 loads; /* images accepted */
-	__u64 refused_loads; /* images refused: by the verifier, or a safe state not driven */
+	__u64 refused_loads; /* images refused: the verifier, a sensor or safe state at load */
 	__u64 checks; /* transactions checked */
 	__u64 performed; /* calls that acted on a bus */
 	__u64 refused; /* calls refused (errno to the program) */
