@@ -111,6 +111,8 @@ contego_load_result contego_load(contego_checker* c, const uint8_t* image, uint3
 void contego_set_host(contego_checker* c, const contego_host* host);
 void contego_check(contego_checker* c, const contego_transaction* tx, contego_verdict* out);
 int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out);
+/* What contego_safe_state would write, the model left as it was. */
+int contego_preview_safe_state(contego_checker* c, uint16_t device, contego_verdict* out);
 /* Transfers: the checks between begin and commit/abort are one unit (docs/core.md,
  * "Transfers"). contego_combine_transfer returns the action (0 perform, 1 refuse,
  * 2 ignore, 3 substitute, 4 safe state) and stores the deciding verdict's index. */

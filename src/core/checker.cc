@@ -560,7 +560,7 @@ bool CheckerState::emit_safe_state(uint16_t dev) {
   return true;
 }
 
-bool CheckerState::safe_state(uint16_t device, Verdict* out) {
+bool CheckerState::safe_state(uint16_t device, Verdict* out, bool apply) {
   init_verdict(out, nullptr);
   if (!loaded_ || device >= device_count_) return false;
   begin_tx(out);
@@ -572,7 +572,8 @@ bool CheckerState::safe_state(uint16_t device, Verdict* out) {
     truncate_emits(0, 0);
     return false;
   }
-  for (uint32_t i = 0; i < invariant_count_; ++i) {  // device scope: no task's word
+  if (!apply) rollback();  // the shadows it wrote; its state words stay pending
+  for (uint32_t i = 0; apply && i < invariant_count_; ++i) {  // device scope: no task's word
     if (bit_test(tx_.pending_state, i)) state_words_[i] = pending_state_[i];
   }
   out->decision = Decision::kFailsafe;
@@ -693,7 +694,9 @@ LoadResult Checker::load(const uint8_t* image, uint32_t size) { return state().l
 bool Checker::loaded() const { return state().loaded_; }
 void Checker::set_host(const Host& host) { state().host_ = host; }
 void Checker::check(const Transaction& tx, Verdict* out) { state().check(tx, out); }
-bool Checker::safe_state(uint16_t device, Verdict* out) { return state().safe_state(device, out); }
+bool Checker::safe_state(uint16_t device, Verdict* out, bool apply) {
+  return state().safe_state(device, out, apply);
+}
 void Checker::reset_latch(uint16_t device) { state().reset_latch(device); }
 uint32_t Checker::end_session(uint16_t task) { return state().end_session(task); }
 bool Checker::latched(uint16_t device) const { return state().latched(device); }

@@ -138,6 +138,11 @@ int contego_safe_state(contego_checker* c, uint16_t device, contego_verdict* out
   return checker(c)->safe_state(device, reinterpret_cast<core::Verdict*>(out)) ? 1 : 0;
 }
 
+int contego_preview_safe_state(contego_checker* c, uint16_t device, contego_verdict* out) {
+  if (c == nullptr || out == nullptr) return 0;
+  return checker(c)->safe_state(device, reinterpret_cast<core::Verdict*>(out), false) ? 1 : 0;
+}
+
 void contego_begin_transfer(contego_checker* c) {
   if (c != nullptr) checker(c)->begin_transfer();
 }

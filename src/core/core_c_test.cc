@@ -1,6 +1,7 @@
 // The C facade: storage provided by the caller, C host callbacks, verdicts.
 #include "contego/core_c.h"
 
+#include <cstring>
 #include <gtest/gtest.h>
 #include <vector>
 
@@ -122,8 +123,11 @@ TEST(CoreCTest, LoadCheckSafeStateAndLatchThroughTheCApi) {
   contego_commit_transfer(c);
   EXPECT_EQ(host.audits, 4);
 
+  contego_verdict preview{};
+  EXPECT_EQ(contego_preview_safe_state(c, rover::kGopigo, &preview), 1);
   EXPECT_EQ(contego_safe_state(c, rover::kGopigo, &v), 1);
   EXPECT_EQ(v.emit_bytes[0], 120);
+  EXPECT_EQ(std::memcmp(preview.emit_bytes, v.emit_bytes, v.emit_bytes_used), 0);
   EXPECT_EQ(contego_latched(c, rover::kGopigo), 0);
   contego_reset_latch(c, rover::kGopigo);
 }
@@ -203,6 +207,7 @@ TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
   EXPECT_STREQ(contego_reason_name(v.reason), "not-loaded");
   contego_check(nullptr, nullptr, nullptr);  // nowhere to answer: nothing happens
   EXPECT_EQ(contego_safe_state(nullptr, 0, &v), 0);
+  EXPECT_EQ(contego_preview_safe_state(nullptr, 0, &v), 0);
   contego_begin_transfer(nullptr);
   contego_commit_transfer(nullptr);
   contego_abort_transfer(nullptr, CONTEGO_REJECT);
@@ -229,6 +234,7 @@ TEST(CoreCTest, NullArgumentsFailClosedOrAreIgnored) {
   EXPECT_EQ(v.decision, CONTEGO_REJECT);
   EXPECT_EQ(v.reply_errno, 22);
   EXPECT_EQ(contego_safe_state(c, 0, nullptr), 0);
+  EXPECT_EQ(contego_preview_safe_state(c, 0, &v), 0);  // nothing loaded
 }
 
 }  // namespace

@@ -352,6 +352,30 @@ TEST_F(ArmTest, SafeStateIsWrittenAsRegisterPairs) {
   EXPECT_EQ(v.addr, kAddr);
 }
 
+// A preview (apply false) writes the same bytes and moves nothing: neither
+// the shadow the safe state writes nor the sequence position it sets.
+TEST_F(ArmTest, APreviewOfTheSafeStateLeavesTheModelAsItWas) {
+  auto m = arm::model();
+  m.invariants[arm::kSequence].record.after_safe = 2;  // step 1 (577 next) after it
+  load(m);
+  ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x21));
+  Verdict preview{};
+  ASSERT_TRUE(h.checker->safe_state(arm::kArm, &preview, false));
+  EXPECT_EQ(emits(preview), (Writes{{0x00, 0x11}}));
+  uint8_t mode1 = 0;
+  ASSERT_TRUE(h.checker->shadow(arm::kArm, 0x00, &mode1));
+  EXPECT_EQ(mode1, 0x21);
+  EXPECT_EQ(send({kLed5, 0, 0, 0xA4, 0x01}).decision, Decision::kAllow);  // 420: step 0 -> 1
+  EXPECT_EQ(send({kLed5, 0, 0, 0x41, 0x02}).decision, Decision::kAllow);  // 577: step 1 -> 0
+  Verdict applied{};
+  ASSERT_TRUE(h.checker->safe_state(arm::kArm, &applied));
+  EXPECT_EQ(emits(applied), emits(preview));
+  ASSERT_TRUE(h.checker->shadow(arm::kArm, 0x00, &mode1));
+  EXPECT_EQ(mode1, 0x11);
+  ASSERT_TRUE(h.checker->seed_register(arm::kArm, 0x00, 0x21));
+  EXPECT_EQ(send({kLed5, 0, 0, 0xA4, 0x01}).decision, Decision::kReject);  // at step 1 now
+}
+
 // What a host reads back to seed the shadow: every register of every group
 // (MODE1, MODE2, 16 LED groups of 4, ALL_LED, PRE_SCALE, TEST_MODE), each once.
 TEST_F(ArmTest, CommandRegistersListEveryGroupsRegistersOnce) {

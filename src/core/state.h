@@ -357,7 +357,7 @@ class CheckerState : public ResetOnLoad {
   bool register_map(uint16_t device) const;
   bool seed_register(uint16_t device, uint8_t reg, uint8_t value);
   uint32_t command_registers(uint16_t device, uint8_t* regs) const;
-  bool safe_state(uint16_t device, Verdict* out);
+  bool safe_state(uint16_t device, Verdict* out, bool apply);
   bool emit_safe_state(uint16_t dev);
 
   // decode.cc: device profiles, decoding writes and encoding substitutes.

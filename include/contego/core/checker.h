@@ -91,7 +91,9 @@ class Checker {
 
   // Writes the safe state of `device` (its templates, encoded) into `out` as
   // a kFailsafe verdict. Returns false if the device has none / is unknown.
-  bool safe_state(uint16_t device, Verdict* out);
+  // `apply` false: only what it would write, the model left as it was (a
+  // reload checks the new policy's safe states have a form, driving none).
+  bool safe_state(uint16_t device, Verdict* out, bool apply = true);
 
   // Operator reset of a latched device.
   void reset_latch(uint16_t device);
