@@ -245,6 +245,7 @@ int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_s
 bool ct_drive_safe_state(struct ct_policy *p, u16 d, u8 why);
 u32 ct_drive_safe_states(struct ct_policy *p, u8 why, u32 *failed);
 u32 ct_drive_safe_states_on(struct ct_policy *p, u8 bus, u8 why);
+u32 ct_safe_states_formless(struct ct_policy *p);
 
 /* contego_sample.c */
 u32 ct_read_sample(void *context, u16 device, u8 *buf, u32 capacity, u64 *taken_at_us);

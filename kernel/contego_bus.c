@@ -145,6 +145,14 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 	return true;
 }
 
+/* The adapter of the policy's bus `bus` (i2c_put_adapter it), or NULL. */
+static struct i2c_adapter *ct_adapter_of(u8 bus)
+{
+	struct ct_node *node = ct_node_for_bus(bus);
+
+	return node ? i2c_get_adapter(node->nr) : NULL;
+}
+
 /* Device d's declared safe state, written and recorded (best effort: the
  * record may be lost, then counted in the gap). `s`: the session whose end
  * drives it (its task and process go into the record), or NULL. Under
@@ -153,17 +161,19 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_session *s)
 {
 	struct contego_kmod_record r;
-	struct ct_node *node;
+	contego_device_info info;
 	struct i2c_adapter *adap;
 	bool done = false;
 
 	lockdep_assert_held(&ct.lock);
-	if (!contego_safe_state(p->checker, d, &ct.safe_verdict))
+	if (!contego_device_info_of(p->checker, d, &info) ||
+	    !contego_safe_state(p->checker, d, &ct.safe_verdict))
 		return -1;
-	node = ct_node_for_bus(ct.safe_verdict.bus);
-	adap = node ? i2c_get_adapter(node->nr) : NULL;
+	adap = ct_adapter_of(ct.safe_verdict.bus);
 	if (adap) {
-		done = ct_perform_emits(adap, NULL, &ct.safe_verdict, 0) == 0;
+		/* A 10-bit device's safe state goes to its 10-bit address. */
+		done = ct_perform_emits(adap, NULL, &ct.safe_verdict,
+					info.ten_bit ? I2C_M_TEN : 0) == 0;
 		i2c_put_adapter(adap);
 	}
 	if (!done)
@@ -222,4 +232,32 @@ u32 ct_drive_safe_states(struct ct_policy *p, u8 why, u32 *failed)
 			*failed |= 1u << d;
 	}
 	return n;
+}
+
+/* The devices of p whose safe state has no form on its adapter, or no
+ * adapter: what a load in place, which drives none, checks instead, as the
+ * monitor's reload does (the model left as it was). Under ct.lock.
+ */
+u32 ct_safe_states_formless(struct ct_policy *p)
+{
+	struct contego_i2c_formless why;
+	contego_device_info info;
+	struct i2c_adapter *adap;
+	u32 formless = 0;
+	u16 d;
+
+	lockdep_assert_held(&ct.lock);
+	for (d = 0; d < CONTEGO_MAX_DEVICES; d++) {
+		if (!contego_device_info_of(p->checker, d, &info) ||
+		    !contego_preview_safe_state(p->checker, d, &ct.safe_verdict))
+			continue;
+		adap = ct_adapter_of(info.bus);
+		if (!adap || !contego_i2c_emits_have_forms(&ct.safe_verdict,
+							   info.ten_bit ? I2C_M_TEN : 0,
+							   i2c_get_functionality(adap), &why))
+			formless |= BIT(d);
+		if (adap)
+			i2c_put_adapter(adap);
+	}
+	return formless;
 }

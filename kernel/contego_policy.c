@@ -209,7 +209,7 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 	}
 	if (req.size == 0 || req.size > CONTEGO_KMOD_MAX_IMAGE || req.nbinds > CONTEGO_KMOD_MAX_BINDS ||
 	    req.ntasks > CONTEGO_KMOD_MAX_TASKS || (req.flags & ~CONTEGO_KMOD_LOAD_DEGRADED) ||
-	    req.pad)
+	    (carry && req.flags) || req.pad)
 		return -EINVAL;
 	req.unsafe = 0;
 	req.unreadable = 0;
@@ -343,6 +343,21 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 			mutex_unlock(&ct.lock);
 			pr_warn("contego: policy refused: sensor(s) 0x%x could not be read, the safe state of device(s) 0x%x could not be driven; the policy in force stays\n",
 				req.unreadable, req.unsafe);
+			ret = -EIO;
+			goto fail;
+		}
+	}
+	/* In place, no safe state is driven: each must at least have a form on
+	 * its adapter, or a fail-safe of the new policy would act nothing.
+	 */
+	if (carry) {
+		req.unsafe = ct_safe_states_formless(p);
+		if (req.unsafe) {
+			ct_record_load(p, old);
+			ct_record_unsafe_load(p, old, &req);
+			mutex_unlock(&ct.lock);
+			pr_warn("contego: load in place refused: the safe state of device(s) 0x%x has no form on its adapter; the policy in force stays\n",
+				req.unsafe);
 			ret = -EIO;
 			goto fail;
 		}

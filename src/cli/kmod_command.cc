@@ -163,6 +163,22 @@ Result<std::pair<std::vector<uint8_t>, uint32_t>> running_image(int fd) {
   return make_error("the module's image kept changing while it was read back");
 }
 
+// The devices of `mask` (bit d: device d), named from the image.
+std::string devices_named(const image::ImageModel& model, uint32_t mask) {
+  std::string out;
+  for (uint32_t d = 0; d < 32; ++d) {
+    if ((mask & (1u << d)) == 0) continue;
+    out += out.empty() ? "" : ", ";
+    if (d < model.devices.size()) {
+      const auto& dev = model.devices[d];
+      out += fmt::format("{} (i2c-{} 0x{:02x})", dev.name, dev.record.bus, dev.record.addr);
+    } else {
+      out += fmt::format("device {}", d);
+    }
+  }
+  return out;
+}
+
 // CONTEGO_KMOD_RELOAD with `req` and the pairs of `now` with the image in
 // force; returns the exit code (said on stderr when not 0).
 int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, size_t nbinds) {
@@ -200,6 +216,12 @@ int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, 
       fmt::print(stderr,
                  "contego kmod reload: another policy was loaded while this one was paired with "
                  "it; the policy in force stays (run it again)\n");
+    } else if (err == EIO && r.load.unsafe != 0) {
+      fmt::print(stderr,
+                 "contego kmod reload: refused: the safe state of {} has no form on its adapter, "
+                 "or the adapter is absent (a load in place drives none, so it checks them); the "
+                 "policy in force stays\n",
+                 devices_named(now, r.load.unsafe));
     } else if (err == EINVAL && r.load.status == 0) {
       fmt::print(stderr,
                  "contego kmod reload: the module refused the pairs (the kernel log says why); "
@@ -232,22 +254,6 @@ struct LoadArgs {
   std::vector<std::string> complain_for;
   bool allow_degraded = false;
 };
-
-// The devices of `mask` (bit d: device d), named from the image.
-std::string devices_named(const image::ImageModel& model, uint32_t mask) {
-  std::string out;
-  for (uint32_t d = 0; d < 32; ++d) {
-    if ((mask & (1u << d)) == 0) continue;
-    out += out.empty() ? "" : ", ";
-    if (d < model.devices.size()) {
-      const auto& dev = model.devices[d];
-      out += fmt::format("{} (i2c-{} 0x{:02x})", dev.name, dev.record.bus, dev.record.addr);
-    } else {
-      out += fmt::format("device {}", d);
-    }
-  }
-  return out;
-}
 
 int load(const LoadArgs& a, const monitor::SetupOptions& source, bool in_place) {
   const std::string& device = a.device;
