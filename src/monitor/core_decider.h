@@ -18,6 +18,9 @@ class CoreDecider final : public Decider {
   bool safe_state(uint16_t device, core::Verdict* out) override {
     return checker_.safe_state(device, out);
   }
+  bool preview_safe_state(uint16_t device, core::Verdict* out) override {
+    return checker_.safe_state(device, out, false);
+  }
   void begin_transfer() override { checker_.begin_transfer(); }
   void commit_transfer() override { checker_.commit_transfer(); }
   void abort_transfer(core::Decision decision) override { checker_.abort_transfer(decision); }

@@ -24,6 +24,11 @@ class Decider {
   virtual void set_host(const core::Host& host) = 0;
   virtual void check(const core::Transaction& tx, core::Verdict* out) = 0;
   virtual bool safe_state(uint16_t device, core::Verdict* out) = 0;
+  // What safe_state would write, the model left as it was; scripted
+  // deciders keep no model, so theirs is one already.
+  virtual bool preview_safe_state(uint16_t device, core::Verdict* out) {
+    return safe_state(device, out);
+  }
   // The checks of one transfer as one unit (core::Checker's); scripted
   // deciders keep no model, so the defaults do nothing.
   virtual void begin_transfer() {}

@@ -2,6 +2,7 @@
 // the buses and the model kept (`contego reload`, docs/deployment.md).
 #include <fmt/core.h>
 
+#include "monitor/expressible.h"
 #include "monitor/monitor.h"
 
 namespace contego::monitor {
@@ -14,6 +15,23 @@ Result<std::string> Monitor::reload(Decider& decider, Policy policy,
         fmt::format("the new policy has {} devices, the running one {}: a reload "
                     "keeps the devices",
                     decider.device_count(), decider_->device_count()));
+  }
+  // A reload drives no safe state: each must at least have a form on its
+  // adapter, or a fail-safe under the new policy would act nothing.
+  for (uint16_t d = 0; d < decider.device_count(); ++d) {
+    core::Verdict v{};
+    if ((decider.device(d).role & core::kRoleActuator) == 0 || !decider.preview_safe_state(d, &v))
+      continue;
+    const auto bus = buses_.find(v.bus);
+    Status form = make_error("the monitor has no such bus");
+    if (bus != buses_.end()) form = emits_inexpressible(*bus->second, v, decider.device(d).ten_bit);
+    if (!form.ok()) {
+      return make_error(
+          fmt::format("the safe state of {} (i2c-{} 0x{:02x}) has no form on its "
+                      "adapter: {}",
+                      d < policy.names.devices.size() ? policy.names.devices[d] : "?", v.bus,
+                      v.addr, form.error()));
+    }
   }
   Result<std::string> detail = carry();
   if (!detail.ok()) return detail;

@@ -328,6 +328,37 @@ TEST_F(MonitorSmbus, SafeStateThatCannotBeExpressedIsAFaultWithTheReason) {
       << text;
 }
 
+// A reload drives no safe state, so it checks that each has a form: one that
+// has none keeps the running policy, its state not carried, nothing written.
+TEST_F(MonitorSmbus, AReloadWhoseSafeStateHasNoFormIsRefused) {
+  CountingDecider next;
+  next.safe = std::vector<uint8_t>(40, 0x00);
+  Monitor::Policy policy;
+  policy.names.devices = {"arm", "tank"};
+  int carried = 0;
+  auto carry = [&]() -> Result<std::string> {
+    ++carried;
+    return std::string("carried");
+  };
+  const int writes = dev->writes;
+  auto refused = mon.reload(next, policy, carry);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error(),
+            "the safe state of arm (i2c-1 0x40) has no form on its adapter: write 40 at 0x40: no "
+            "SMBus write carries more than a command byte and 32 data bytes (33 bytes, or 34 with "
+            "a block count), and the adapter has no plain I2C");
+  EXPECT_EQ(carried, 0);
+  EXPECT_EQ(dev->writes, writes);
+  EXPECT_EQ(send({wmsg(0x40, {0x06, 0x01})}).err, 0);
+  EXPECT_EQ(next.checks, 0);  // the running policy still decides
+  next.safe = {0x06, 0x00};
+  ASSERT_TRUE(mon.reload(next, policy, carry).ok());
+  EXPECT_EQ(carried, 1);
+  EXPECT_EQ(dev->writes, writes + 1);  // the allowed write only: no safe state driven
+  EXPECT_EQ(send({wmsg(0x40, {0x06, 0x01})}).err, 0);
+  EXPECT_EQ(next.checks, 1);
+}
+
 TEST_F(MonitorSmbus, SamplerReadsARegisterInOneTransaction) {
   mon.sample_all();
   EXPECT_EQ(decider.sample(1), (std::vector<uint8_t>{sensor->regs[0x10], sensor->regs[0x11],

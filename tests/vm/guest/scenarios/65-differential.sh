@@ -314,6 +314,56 @@ else
   bad "formless: a run did not complete"
 fi
 
+# ---- A reload's safe state, without a form ---------------------------------
+# A reload drives no safe state, so both clients check instead that every
+# safe state of the new policy has a form on its adapter: chip's `safe
+# r00(0)` is a [register, value] write, which the cut stub has none for (no
+# byte data). Refused, the policy in force kept; the same reload without it
+# goes through. Nothing written either way.
+NF_SAFE=/tmp/noform-safe.policy
+sed 's/^}$/  safe r00(0)\n}/' $NF_POLICY >$NF_SAFE
+NF_REFUSED="the safe state of chip (i2c-1 0x40) has no form on its adapter"
+rmmod i2c_stub && insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS functionality=$NF_FUNCS &&
+  own_adapter || bad "i2c-stub could not be loaded with functionality $NF_FUNCS"
+cp $NF_POLICY $POLICIES/noform.policy
+if start_monitor noform.policy; then
+  run_logged nf_reload_safe contego reload --policy $NF_SAFE --socket $SOCK
+  [ $RC = 1 ] && grep -q "$NF_REFUSED: write 2 at 0x40: .*; the running policy stays" "$OUT" &&
+    ok "monitor: a reload whose safe state has no form is refused: $(cat "$OUT")" ||
+    bad "monitor: the reload of a formless safe state: exit $RC: $(cat "$OUT")"
+  run_logged nf_reload_plain contego reload --policy $NF_POLICY --socket $SOCK
+  [ $RC = 0 ] && ok "monitor: the reload without it is taken" || bad "monitor: the plain reload: exit $RC"
+  stop_monitor
+  grep "\"kind\":\"reload-refused\"" $LOGDIR/monitor-audit.jsonl | grep -q "$NF_REFUSED" &&
+    ok "monitor: the refusal is in the audit log" || bad "monitor: no reload-refused record naming chip"
+fi
+rmmod i2c_dev
+run_logged nf_reload_insmod insmod $KO adapters=0 buses=1
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+AUDIT_LOG=$LOGDIR/noform-reload.jsonl
+start_reader $NF_POLICY
+run_logged nf_reload_load contego kmod load --policy $NF_POLICY --bind wire=task --budget-factor 0
+run_logged nf_kreload_safe contego kmod reload --policy $NF_SAFE --bind wire=task --budget-factor 0
+[ $RC = 1 ] && grep -q "refused: $NF_REFUSED, or the adapter is absent" "$OUT" &&
+  grep -q "the policy in force stays" "$OUT" &&
+  ok "contego.ko: a reload whose safe state has no form is refused: $(cat "$OUT")" ||
+  bad "contego.ko: the reload of a formless safe state: exit $RC: $(cat "$OUT")"
+dmesg | grep -q "contego: load in place refused: the safe state of device(s) 0x1 has no form on its adapter" &&
+  ok "contego.ko: the kernel log says which" || bad "contego.ko: no refused load in place in the kernel log"
+run_logged nf_kreload_plain contego kmod reload --policy $NF_POLICY --bind wire=task --budget-factor 0
+[ $RC = 0 ] && ok "contego.ko: the reload without it is taken" || bad "contego.ko: the plain reload: exit $RC: $(cat "$OUT")"
+run_logged nf_kreload_stats contego kmod stats
+grep -q "loads=2 refused_loads=1" "$OUT" && ok "contego.ko: counted: the load, the reload taken, the one refused" ||
+  bad "contego.ko: counters after the reloads: $(cat "$OUT")"
+stop_reader
+grep '"kind":"policy-load-refused"' $AUDIT_LOG | grep -q "withdrawn after its load.*safe state of device(s) 0 (" &&
+  ok "contego.ko: the log records the withdrawn load in place and names the device" ||
+  bad "contego.ko: no withdrawn load in place in the module's log"
+run_logged nf_reload_verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "contego audit verifies the log across the refused and the taken reload" ||
+  bad "contego audit exit $RC"
+back_to_i2c_dev
+
 rmmod i2c_plain_stub 2>/dev/null
 stub_reload
 finish
