@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "contego/core/checker.h"
+
 #include "image/image_model.h"
 
 namespace contego::image {
