@@ -79,6 +79,11 @@ struct ct_policy {
 	u64 phase_us[CONTEGO_MAX_TASKS];
 	u32 phase_set; /* bit per task */
 	struct ct_sample samples[CONTEGO_MAX_DEVICES];
+	/* A degraded load's gaps, bit per device: a safe state not driven and
+	 * a sensor not read since; each bit cleared when that succeeds.
+	 */
+	u32 undriven;
+	u32 unread;
 	/* What the monitor enforces beside the image (from CONTEGO_KMOD_LOAD):
 	 * each task's live sessions and actuations per job, and the hold.
 	 */

@@ -176,7 +176,9 @@ int ct_drive_safe_state_of(struct ct_policy *p, u16 d, u8 why, const struct ct_s
 					info.ten_bit ? I2C_M_TEN : 0) == 0;
 		i2c_put_adapter(adap);
 	}
-	if (!done)
+	if (done)
+		p->undriven &= ~BIT(d);
+	else
 		pr_warn("contego: safe state of device %u failed\n", d);
 	ct_record_start(&r, CONTEGO_KMOD_REC_SAFE_STATE, why != CONTEGO_KMOD_SAFE_UNLOAD &&
 							    why != CONTEGO_KMOD_SAFE_LOAD);

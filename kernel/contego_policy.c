@@ -135,6 +135,8 @@ static int ct_carry_locked(struct ct_policy *p, const struct ct_policy *old, str
 		}
 		p->budget[t] = old->budget[o];
 	}
+	p->undriven = old->undriven; /* the same devices, in their order */
+	p->unread = old->unread;
 	for (d = 0; d < c->counts[1] && d < ARRAY_SIZE(p->samples); d++)
 		if (map.devices[d] < ARRAY_SIZE(old->samples))
 			p->samples[d] = old->samples[map.devices[d]];
@@ -338,6 +340,8 @@ static long ct_load(unsigned long arg, struct ct_carry *carry)
 		req.unreadable = ct_sample_all(p);
 		if (!req.unreadable || degraded)
 			req.devices = ct_drive_safe_states(p, CONTEGO_KMOD_SAFE_LOAD, &req.unsafe);
+		p->unread = req.unreadable;
+		p->undriven = req.unsafe;
 		if ((req.unreadable || req.unsafe) && !degraded) {
 			ct_record_unsafe_load(p, old, &req);
 			mutex_unlock(&ct.lock);
@@ -499,6 +503,8 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		spin_lock_irq(&ct.ring.lock);
 		s = ct.stats;
 		s.reader = ct.ring.reader;
+		s.undriven = ct.policy ? ct.policy->undriven : 0;
+		s.unread = ct.policy ? ct.policy->unread : 0;
 		spin_unlock_irq(&ct.ring.lock);
 		mutex_unlock(&ct.lock);
 		return copy_to_user((void __user *)arg, &s, size) ? -EFAULT : 0;

@@ -57,6 +57,7 @@ static void ct_sample_device(struct ct_policy *p, u16 d, const contego_device_in
 		return;
 	}
 	ct.stats.samples++;
+	p->unread &= ~BIT(d);
 	s->len = info->sample_len;
 	s->taken_us = now;
 	s->valid = true;

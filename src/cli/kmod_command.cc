@@ -433,17 +433,19 @@ int status(const std::string& device, bool json) {
   nlohmann::ordered_json j;
   j["loaded"] = s.loaded != 0;
   auto running = s.loaded ? running_image(fd.get()) : make_error("no policy is in force");
+  image::ImageModel model;  // the image in force's names, when it can be read
   if (running.ok()) {
     const auto& bytes = running->first;
     j["image_sha256"] = monitor::sha256_hex(
         std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
     j["image_crc32"] = fmt::format("{:08x}", running->second);
     j["image_bytes"] = bytes.size();
-    if (auto model = image::deserialize(bytes); model.ok()) {
+    if (auto m = image::deserialize(bytes); m.ok()) {
+      model = std::move(*m);
       j["tasks"] = nlohmann::ordered_json::array();
-      for (const auto& t : model->tasks) j["tasks"].push_back(t.name);
+      for (const auto& t : model.tasks) j["tasks"].push_back(t.name);
       j["devices"] = nlohmann::ordered_json::array();
-      for (const auto& d : model->devices) {
+      for (const auto& d : model.devices) {
         j["devices"].push_back({{"name", d.name},
                                 {"bus", d.record.bus},
                                 {"addr", fmt::format("0x{:02x}", d.record.addr)}});
@@ -452,6 +454,17 @@ int status(const std::string& device, bool json) {
   } else if (s.loaded) {
     j["image_error"] = running.error();  // a module that predates CONTEGO_KMOD_IMAGE
   }
+  // A load with --allow-degraded: what it could not do, until it is done.
+  std::string degraded;
+  if (s.undriven != 0) {
+    degraded = fmt::format("the safe state of {} not driven since the load",
+                           devices_named(model, s.undriven));
+  }
+  if (s.unread != 0) {
+    degraded += fmt::format("{}{} not read since the load", degraded.empty() ? "" : "; ",
+                            devices_named(model, s.unread));
+  }
+  j["degraded"] = degraded;
   j["audit_reader"] = s.reader != 0;
   j["counters"] = {{"loads", s.loads},
                    {"refused_loads", s.refused_loads},
@@ -493,6 +506,7 @@ int status(const std::string& device, bool json) {
   } else {
     fmt::print("policy:   in force ({})\n", running.error());
   }
+  if (!degraded.empty()) fmt::print("DEGRADED: {} (loaded with --allow-degraded)\n", degraded);
   fmt::print("audit:    {}\n", s.reader ? "a reader is attached"
                                         : "NO READER: every call fails closed until `contego kmod "
                                           "audit` runs");
@@ -524,10 +538,11 @@ int stats(const std::string& device) {
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
       "failsafe={} reader={} records={} unrecorded={} audit_refused={} sessions={} "
       "session_ends={} sessions_refused={} sessions_limited={} holds={} samples={} "
-      "sample_errors={} inexpressible={}\n",
+      "sample_errors={} inexpressible={} undriven=0x{:x} unread=0x{:x}\n",
       s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
       s.reader, s.records, s.unrecorded, s.audit_refused, s.sessions, s.session_ends,
-      s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors, s.inexpressible);
+      s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors, s.inexpressible,
+      s.undriven, s.unread);
   return 0;
 }
 

@@ -154,6 +154,13 @@ struct contego_kmod_stats {
 	__u64 holds; /* transfers held to a later release (over-budget hold) */
 	/* Added with CONTEGO_KMOD_LOAD_VERSION 4: */
 	__u64 inexpressible; /* calls refused (EOPNOTSUPP): a part had no form on the adapter */
+	/*
+	 * The policy in force, loaded with CONTEGO_KMOD_LOAD_DEGRADED: bit d,
+	 * device d's safe state not driven since the load (`undriven`),
+	 * sensor d not read since (`unread`); a bit clears when that succeeds
+	 */
+	__u32 undriven;
+	__u32 unread;
 };
 
 /* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one

@@ -869,6 +869,9 @@ run_logged degraded_load contego kmod load --policy /tmp/arm-moved.policy --bind
   --allow-degraded
 [ $RC = 0 ] && grep -q "allow-degraded: loaded although the safe state of arm (i2c-1 0x41) could not be driven" "$OUT" &&
   ok "kmod load --allow-degraded: in force, and loud about it" || bad "kmod load --allow-degraded: exit $RC"
+run_logged degraded_status contego kmod status
+grep -q "^DEGRADED: the safe state of arm (i2c-1 0x41) not driven since the load" "$OUT" &&
+  ok "kmod status says so: $(grep DEGRADED "$OUT")" || bad "kmod status after the degraded load: $(cat "$OUT")"
 stop_reader
 grep -q 'withdrawn after its load (a device absent, or no form on its adapter): safe state of device(s) 0 (.*"kind":"policy-load-refused"' $AUDIT_LOG &&
   ok "the log records the withdrawn load and names the device" || bad "no withdrawn load in the module's log"

@@ -81,6 +81,32 @@ for what in 'adapter i2c-0 (the policy.s bus 1) removed' 'adapter i2c-0 (the pol
     'its adapter came back' '"kind":"adapter"'; do
   grep -q "$what" $AUDIT_LOG && ok "the log has $what" || bad "the log lacks $what"
 done
+
+# A load while the adapter is away (a HAT powered after boot): refused
+# strictly, in force with --allow-degraded, and `kmod status` says what it
+# could not do until the adapter comes and its device is driven.
+start_reader || { back_to_i2c_dev; finish; }
+rmmod i2c_stub
+run_logged away_load contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --budget-factor 0
+[ $RC = 1 ] && grep -q "load refused: the safe state of arm (i2c-1 0x40) could not be driven" "$OUT" &&
+  ok "a load with the adapter away is refused: $(cat "$OUT")" || bad "a load with the adapter away: exit $RC"
+run_logged away_degraded contego kmod load --policy $POLICIES/arm.policy --bind arm_init=task --budget-factor 0 \
+  --allow-degraded
+[ $RC = 0 ] && ok "--allow-degraded loads it" || bad "kmod load --allow-degraded with the adapter away: exit $RC"
+run_logged away_status contego kmod status
+grep -q "^DEGRADED: the safe state of arm (i2c-1 0x40) not driven since the load (loaded with --allow-degraded)" "$OUT" &&
+  contego kmod stats | grep -q " undriven=0x1 unread=0x0" &&
+  ok "kmod status: $(grep DEGRADED "$OUT")" || bad "kmod status after the degraded load: $(cat "$OUT")"
+run_logged away_json contego kmod status --json
+python3 -c 'import json, sys; s = json.load(open(sys.argv[1])); assert s["degraded"].startswith("the safe state of arm"), s' \
+  "$OUT" 2>/dev/null && ok "kmod status --json: the same under \"degraded\"" || bad "kmod status --json: $(cat "$OUT")"
+insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS && wait_for /dev/i2c-0 10 || bad "the adapter did not come back"
+led5_becomes 420 && ok "the adapter came: the arm driven to its safe state (LED5 off = 420)" ||
+  bad "after the adapter came LED5 off reads $(led5)"
+run_logged back_status contego kmod status
+! grep -q "DEGRADED" "$OUT" && contego kmod stats | grep -q " undriven=0x0 unread=0x0" &&
+  ok "kmod status: no longer degraded once the arm was driven" || bad "kmod status after the adapter came: $(cat "$OUT")"
+stop_reader
 klog_since removal | grep -E "BUG|Oops|WARNING|general protection|refcount" >/tmp/klog.bad
 [ -s /tmp/klog.bad ] && bad "kernel log: $(head -n 1 /tmp/klog.bad)" ||
   ok "no kernel warning through the removal and the return"

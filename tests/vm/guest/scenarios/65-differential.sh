@@ -140,7 +140,7 @@ for adapter in smbus plain; do
     bad "$adapter: the inexpressible lines differ ($n under contego.ko for $formless calls; monitor <, contego.ko >):"
     diff $m.formless $k.formless
   fi
-  grep -q " inexpressible=$formless\$" $k.stats &&
+  grep -q " inexpressible=$formless " $k.stats &&
     ok "$adapter: contego.ko's counters: inexpressible=$formless" || bad "$adapter: contego.ko's counters: $(cat $k.stats)"
   if cmp -s $m.chip $k.chip; then
     ok "$adapter: the chip's registers are the same after both runs"
