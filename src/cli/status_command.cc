@@ -38,10 +38,16 @@ void print_human(const nlohmann::json& j) {
   fmt::print("devices:\n");
   for (const auto& d : j["devices"]) {
     std::string more;
-    if (d.contains("sample_age_ms"))
+    if (d.contains("sample_age_ms") && d["sample_age_ms"].is_null()) {
+      more += ", NO READING (its signals are unavailable)";
+    } else if (d.contains("sample_age_ms")) {
       more += fmt::format(", newest reading {} ms old", d.value("sample_age_ms", 0));
-    if (d.contains("safe_state_age_s"))
+    }
+    if (d.contains("safe_state_age_s") && d["safe_state_age_s"].is_null()) {
+      more += ", SAFE STATE NOT DRIVEN since the start (--allow-degraded)";
+    } else if (d.contains("safe_state_age_s")) {
       more += fmt::format(", safe state driven {} s ago", d.value("safe_state_age_s", 0));
+    }
     fmt::print("  {:<16} {}{}\n", d.value("name", ""),
                d.value("latched", false) ? "LATCHED (contego reset clears it)" : "ok", more);
   }

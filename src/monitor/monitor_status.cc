@@ -40,12 +40,19 @@ std::string Monitor::status_json() const {
         {"id", d},
         {"name", d < names_.devices.size() ? names_.devices[d] : std::to_string(d)},
         {"latched", decider_->latched(id)}};
-    // A sensor's newest reading (the monitor's sample or a task's read).
+    const core::DeviceRecord& rec = decider_->device(id);
+    // A sensor's newest reading (the monitor's sample or a task's read);
+    // none fresh enough: its signals are unavailable.
     if (const readings::Reading* r = readings_.for_check(core::kNoTask, id, now)) {
       dev["sample_age_ms"] = now >= r->taken_at_us ? (now - r->taken_at_us) / 1000 : 0;
+    } else if (rec.sample_len != 0) {
+      dev["sample_age_ms"] = nullptr;
     }
+    // null: never driven since the start (an --allow-degraded start).
     if (auto s = safe_at_us_.find(id); s != safe_at_us_.end()) {
       dev["safe_state_age_s"] = now >= s->second ? (now - s->second) / 1000000 : 0;
+    } else if ((rec.role & core::kRoleActuator) != 0 && rec.safe_count != 0) {
+      dev["safe_state_age_s"] = nullptr;
     }
     devices.push_back(std::move(dev));
   }

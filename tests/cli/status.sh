@@ -112,4 +112,29 @@ if [ "$(id -u)" = 0 ]; then
   grep -q 'message type [0-9]*: the status socket answers status requests only' "$dir/audit.jsonl" ||
     fail "the refused requests are not audited"
 fi
+
+# A degraded start (the GoPiGo and the line sensor where the virtual bus has
+# nothing): the status says which safe state was never driven and which
+# sensor has no reading, for as long as it lasts.
+kill "$mon" && wait "$mon" 2>/dev/null || true
+mon=""
+sed -e 's/^device gopigo : gopigo2 at i2c-1 0x08/device gopigo : gopigo2 at i2c-1 0x09/' \
+  -e 's/^device line : line_follower at i2c-1 0x06/device line : line_follower at i2c-1 0x07/' \
+  "$policies/rover.policy" >"$dir/away.policy"
+"$contego" monitor --policy "$dir/away.policy" --virtual-bus 1 --socket "$dir/d.sock" \
+  --audit "$dir/d.jsonl" --allow-degraded 2>"$dir/mon.err" &
+mon=$!
+for _ in $(seq 100); do [ -S "$dir/d.sock" ] && break; sleep 0.1; done
+[ -S "$dir/d.sock" ] || { cat "$dir/mon.err"; fail "the degraded monitor did not start"; }
+"$contego" status --socket "$dir/d.sock" >"$dir/st.out" || fail "status exit $?"
+grep -q '^  gopigo .* ok, SAFE STATE NOT DRIVEN since the start (--allow-degraded)' "$dir/st.out" ||
+  fail "the status does not say the GoPiGo's safe state was never driven"
+grep -q '^  line .* ok, NO READING (its signals are unavailable)' "$dir/st.out" ||
+  fail "the status does not say the line sensor has no reading"
+"$contego" status --socket "$dir/d.sock" --json >"$dir/st.out" || fail "status --json exit $?"
+python3 -c '
+import json, sys
+s = {d["name"]: d for d in json.load(open(sys.argv[1]))["devices"]}
+assert s["gopigo"]["safe_state_age_s"] is None and s["line"]["sample_age_ms"] is None, s
+' "$dir/st.out" || fail "the JSON status of the degraded start"
 echo "ok"
