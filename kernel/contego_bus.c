@@ -236,9 +236,11 @@ u32 ct_drive_safe_states(struct ct_policy *p, u8 why, u32 *failed)
 	return n;
 }
 
-/* The devices of p whose safe state has no form on its adapter, or no
- * adapter: what a load in place, which drives none, checks instead, as the
- * monitor's reload does (the model left as it was). Under ct.lock.
+/* The devices of p whose safe state has no form on its adapter: what a
+ * load in place, which drives none, checks instead, as the monitor's reload
+ * does (the model left as it was). An adapter that is away is no new gap
+ * (the same device on the same bus is in force): its return drives the
+ * safe state. Under ct.lock.
  */
 u32 ct_safe_states_formless(struct ct_policy *p)
 {
@@ -254,12 +256,12 @@ u32 ct_safe_states_formless(struct ct_policy *p)
 		    !contego_preview_safe_state(p->checker, d, &ct.safe_verdict))
 			continue;
 		adap = ct_adapter_of(info.bus);
-		if (!adap || !contego_i2c_emits_have_forms(&ct.safe_verdict,
-							   info.ten_bit ? I2C_M_TEN : 0,
-							   i2c_get_functionality(adap), &why))
+		if (!adap)
+			continue;
+		if (!contego_i2c_emits_have_forms(&ct.safe_verdict, info.ten_bit ? I2C_M_TEN : 0,
+						  i2c_get_functionality(adap), &why))
 			formless |= BIT(d);
-		if (adap)
-			i2c_put_adapter(adap);
+		i2c_put_adapter(adap);
 	}
 	return formless;
 }

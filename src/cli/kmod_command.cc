@@ -218,9 +218,8 @@ int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, 
                  "it; the policy in force stays (run it again)\n");
     } else if (err == EIO && r.load.unsafe != 0) {
       fmt::print(stderr,
-                 "contego kmod reload: refused: the safe state of {} has no form on its adapter, "
-                 "or the adapter is absent (a load in place drives none, so it checks them); the "
-                 "policy in force stays\n",
+                 "contego kmod reload: refused: the safe state of {} has no form on its adapter "
+                 "(a load in place drives none, so it checks them); the policy in force stays\n",
                  devices_named(now, r.load.unsafe));
     } else if (err == EINVAL && r.load.status == 0) {
       fmt::print(stderr,

@@ -82,7 +82,7 @@ class CountingDecider final : public testing::FakeDecider {
     if (device != 0) return false;
     *v = core::Verdict{};
     v->decision = core::Decision::kFailsafe;
-    v->bus = 1;
+    v->bus = safe_bus;
     v->addr = 0x40;
     emit(v, safe);
     return true;
@@ -93,6 +93,7 @@ class CountingDecider final : public testing::FakeDecider {
   bool split_registers = false;
   bool long_allowed = false;  // the 40 bytes at 0x41 are the core's writes, not a substitute
   std::vector<uint8_t> safe{0x06, 0x00};
+  uint8_t safe_bus = 1;
 };
 
 gate::Message wmsg(uint16_t addr, std::vector<uint8_t> bytes) {
@@ -357,6 +358,16 @@ TEST_F(MonitorSmbus, AReloadWhoseSafeStateHasNoFormIsRefused) {
   EXPECT_EQ(dev->writes, writes + 1);  // the allowed write only: no safe state driven
   EXPECT_EQ(send({wmsg(0x40, {0x06, 0x01})}).err, 0);
   EXPECT_EQ(next.checks, 1);
+}
+
+// A safe state on a bus the monitor lacks (a degraded start) is no new gap
+// of the reload: the running policy has the same device there.
+TEST_F(MonitorSmbus, AReloadDoesNotRefuseASafeStateOnABusTheMonitorLacks) {
+  CountingDecider next;
+  next.safe = std::vector<uint8_t>(40, 0x00);
+  next.safe_bus = 2;
+  auto carry = []() -> Result<std::string> { return std::string("carried"); };
+  EXPECT_TRUE(mon.reload(next, Monitor::Policy{}, carry).ok());
 }
 
 TEST_F(MonitorSmbus, SamplerReadsARegisterInOneTransaction) {

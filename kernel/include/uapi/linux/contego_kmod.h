@@ -101,8 +101,8 @@ struct contego_kmod_load {
  * state is driven. Refused, the running policy kept, when another image was
  * loaded since (ESTALE: running_crc), when `counts` are not the new image's
  * (EINVAL), when the core finds a pair that disagrees (EINVAL), when a
- * device's new safe state has no form on its adapter, or it has no adapter
- * (EIO, load.unsafe says which), and for any load.flags (EINVAL).
+ * device's new safe state has no form on its adapter (EIO, load.unsafe
+ * says which), and for any load.flags (EINVAL).
  */
 struct contego_kmod_reload {
 	struct contego_kmod_load load; /* in/out: as CONTEGO_KMOD_LOAD */

@@ -100,6 +100,12 @@ grep -q "^DEGRADED: the safe state of arm (i2c-1 0x40) not driven since the load
 run_logged away_json contego kmod status --json
 python3 -c 'import json, sys; s = json.load(open(sys.argv[1])); assert s["degraded"].startswith("the safe state of arm"), s' \
   "$OUT" 2>/dev/null && ok "kmod status --json: the same under \"degraded\"" || bad "kmod status --json: $(cat "$OUT")"
+# A load in place meanwhile checks the forms of the safe states it can:
+# the adapter away is no new gap (its return drives them), so it is taken.
+sed 's/^limit gripper -> arm.led 1 per job/limit gripper -> arm.led 2 per job/' $POLICIES/arm.policy >/tmp/arm-more.policy
+run_logged away_reload contego kmod reload --policy /tmp/arm-more.policy --bind arm_init=task --budget-factor 0
+[ $RC = 0 ] && contego kmod stats | grep -q " undriven=0x1 " &&
+  ok "a load in place with the adapter away is taken, still degraded" || bad "kmod reload with the adapter away: exit $RC"
 insmod /lib/modules/i2c-stub.ko chip_addr=$STUB_ADDRS && wait_for /dev/i2c-0 10 || bad "the adapter did not come back"
 led5_becomes 420 && ok "the adapter came: the arm driven to its safe state (LED5 off = 420)" ||
   bad "after the adapter came LED5 off reads $(led5)"

@@ -344,7 +344,7 @@ AUDIT_LOG=$LOGDIR/noform-reload.jsonl
 start_reader $NF_POLICY
 run_logged nf_reload_load contego kmod load --policy $NF_POLICY --bind wire=task --budget-factor 0
 run_logged nf_kreload_safe contego kmod reload --policy $NF_SAFE --bind wire=task --budget-factor 0
-[ $RC = 1 ] && grep -q "refused: $NF_REFUSED, or the adapter is absent" "$OUT" &&
+[ $RC = 1 ] && grep -q "refused: $NF_REFUSED (a load in place drives none" "$OUT" &&
   grep -q "the policy in force stays" "$OUT" &&
   ok "contego.ko: a reload whose safe state has no form is refused: $(cat "$OUT")" ||
   bad "contego.ko: the reload of a formless safe state: exit $RC: $(cat "$OUT")"
