@@ -434,6 +434,46 @@ static long ct_reload(unsigned long arg)
 	return ret;
 }
 
+/* CONTEGO_KMOD_RESET: an operator's reset of a latched device, as the
+ * monitor's `contego reset`: no reset without its record.
+ */
+static long ct_reset(unsigned long arg)
+{
+	struct contego_kmod_reset req;
+	struct contego_kmod_record rec;
+	contego_device_info info;
+	long ret = 0;
+
+	if (copy_from_user(&req, (void __user *)arg, sizeof(req)))
+		return -EFAULT;
+	if (req.pad || req.device >= CONTEGO_MAX_DEVICES)
+		return -EINVAL;
+	if (mutex_lock_killable(&ct.lock))
+		return -EINTR;
+	if (!ct.policy) {
+		ret = -ENOENT;
+	} else if (ct_image_crc(ct.policy) != req.crc) {
+		ret = -ESTALE;
+	} else if (!contego_device_info_of(ct.policy->checker, req.device, &info)) {
+		ret = -EINVAL;
+	} else {
+		req.was_latched = contego_latched(ct.policy->checker, req.device) ? 1 : 0;
+		ct_record_start(&rec, CONTEGO_KMOD_REC_RESET, true);
+		rec.device = req.device;
+		rec.bus = info.bus;
+		rec.addr = info.addr;
+		rec.index = req.was_latched;
+		if (ct_push(&rec, true))
+			contego_reset_latch(ct.policy->checker, req.device);
+		else
+			ret = -EIO;
+	}
+	mutex_unlock(&ct.lock);
+	if (ret == 0 && copy_to_user((void __user *)arg, &req, sizeof(req)))
+		return -EFAULT;
+	return ret;
+}
+
 /* CONTEGO_KMOD_IMAGE: the image in force, copied out of the lock. */
 static long ct_image(unsigned long arg)
 {
@@ -475,6 +515,8 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 {
 	struct contego_kmod_stats s;
 	unsigned int size = _IOC_SIZE(cmd);
+	u32 latched = 0;
+	u16 i;
 
 	if (!capable(CAP_SYS_ADMIN))
 		return -EPERM;
@@ -493,6 +535,8 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 		return cmd == CONTEGO_KMOD_RELOAD ? ct_reload(arg) : -EPROTO;
 	case _IOC_NR(CONTEGO_KMOD_IMAGE):
 		return cmd == CONTEGO_KMOD_IMAGE ? ct_image(arg) : -ENOTTY;
+	case _IOC_NR(CONTEGO_KMOD_RESET):
+		return cmd == CONTEGO_KMOD_RESET ? ct_reset(arg) : -ENOTTY;
 	case _IOC_NR(CONTEGO_KMOD_STATS):
 		/* An older contego asks for fewer counters: the ones it knows. */
 		if (_IOC_DIR(cmd) != _IOC_READ || size > sizeof(s) ||
@@ -500,12 +544,16 @@ static long ct_ctl_ioctl(struct file *file, unsigned int cmd, unsigned long arg)
 			return -ENOTTY;
 		if (mutex_lock_killable(&ct.lock))
 			return -EINTR;
+		for (i = 0; ct.policy && i < CONTEGO_MAX_DEVICES; i++)
+			if (contego_latched(ct.policy->checker, i))
+				latched |= BIT(i);
 		spin_lock_irq(&ct.ring.lock);
 		s = ct.stats;
 		s.reader = ct.ring.reader;
+		spin_unlock_irq(&ct.ring.lock);
 		s.undriven = ct.policy ? ct.policy->undriven : 0;
 		s.unread = ct.policy ? ct.policy->unread : 0;
-		spin_unlock_irq(&ct.ring.lock);
+		s.latched = latched;
 		mutex_unlock(&ct.lock);
 		return copy_to_user((void __user *)arg, &s, size) ? -EFAULT : 0;
 	default:

@@ -290,6 +290,15 @@ bool write_kmod_record(monitor::AuditLog& log, const monitor::NameTable& names,
               : fmt::format("contego.ko: adapter i2c-{} (the policy's bus {}) back: its "
                             "node again, its devices to their safe state",
                             r.count, r.bus));
+    case CONTEGO_KMOD_REC_RESET:
+      // As the monitor's reset event.
+      return event("reset",
+                   fmt::format("contego.ko: device {} ({}) at bus {} 0x{:02x} reset by "
+                               "uid {} (pid {}); it was {}",
+                               r.device,
+                               r.device < names.devices.size() ? names.devices[r.device].c_str()
+                                                               : "(unknown)",
+                               r.bus, r.addr, r.uid, r.pid, r.index ? "latched" : "not latched"));
     case CONTEGO_KMOD_REC_INEXPRESSIBLE: {
       // As the monitor's inexpressible event, worded by the same function
       // from the planner's refusal the module recorded.

@@ -464,6 +464,7 @@ int status(const std::string& device, bool json) {
                             devices_named(model, s.unread));
   }
   j["degraded"] = degraded;
+  j["latched"] = s.latched != 0 ? devices_named(model, s.latched) : "";
   j["audit_reader"] = s.reader != 0;
   j["counters"] = {{"loads", s.loads},
                    {"refused_loads", s.refused_loads},
@@ -506,6 +507,10 @@ int status(const std::string& device, bool json) {
     fmt::print("policy:   in force ({})\n", running.error());
   }
   if (!degraded.empty()) fmt::print("DEGRADED: {} (loaded with --allow-degraded)\n", degraded);
+  if (s.latched != 0) {
+    fmt::print("LATCHED:  {} (held in the safe state; `contego kmod reset DEVICE` clears it)\n",
+               j["latched"].get<std::string>());
+  }
   fmt::print("audit:    {}\n", s.reader ? "a reader is attached"
                                         : "NO READER: every call fails closed until `contego kmod "
                                           "audit` runs");
@@ -537,11 +542,57 @@ int stats(const std::string& device) {
       "loaded={} loads={} refused_loads={} checks={} performed={} refused={} ignored={} "
       "failsafe={} reader={} records={} unrecorded={} audit_refused={} sessions={} "
       "session_ends={} sessions_refused={} sessions_limited={} holds={} samples={} "
-      "sample_errors={} inexpressible={} undriven=0x{:x} unread=0x{:x}\n",
+      "sample_errors={} inexpressible={} undriven=0x{:x} unread=0x{:x} latched=0x{:x}\n",
       s.loaded, s.loads, s.refused_loads, s.checks, s.performed, s.refused, s.ignored, s.failsafe,
       s.reader, s.records, s.unrecorded, s.audit_refused, s.sessions, s.session_ends,
       s.sessions_refused, s.sessions_limited, s.holds, s.samples, s.sample_errors, s.inexpressible,
-      s.undriven, s.unread);
+      s.undriven, s.unread, s.latched);
+  return 0;
+}
+
+// `contego kmod reset DEVICE`: the monitor's `contego reset` for contego.ko.
+// The device is named from the image in force, whose CRC the request
+// carries: a load in between is refused (ESTALE), not reset by number.
+// Exit 0 when the latch is clear, 1 when the module refused, 2 when it
+// cannot be reached or has no such device.
+int reset(const std::string& device, const std::string& name) {
+  const base::UniqueFd fd(::open(device.c_str(), O_RDWR | O_CLOEXEC));
+  if (!fd.valid()) {
+    fmt::print(stderr, "contego kmod reset: {}: {} (is contego.ko loaded?)\n", device,
+               std::strerror(errno));
+    return 2;
+  }
+  auto running = running_image(fd.get());
+  if (!running.ok()) {
+    fmt::print(stderr, "contego kmod reset: {}\n", running.error());
+    return 1;
+  }
+  auto model = image::deserialize(running->first);
+  if (!model.ok()) {
+    fmt::print(stderr, "contego kmod reset: the image in force cannot be read: {}\n",
+               model.error());
+    return 1;
+  }
+  contego_kmod_reset req{};
+  while (req.device < model->devices.size() && model->devices[req.device].name != name) {
+    ++req.device;
+  }
+  if (req.device == model->devices.size()) {
+    fmt::print(stderr, "contego kmod reset: the policy in force has no device '{}'\n", name);
+    return 2;
+  }
+  req.crc = running->second;
+  if (::ioctl(fd.get(), CONTEGO_KMOD_RESET, &req) != 0) {
+    const int err = errno;
+    fmt::print(stderr, "contego kmod reset: {}: {}\n", name,
+               err == ESTALE ? std::string("another policy was loaded meanwhile (run it again)")
+               : err == EIO  ? std::string("its record could not be taken (is `contego kmod "
+                                            "audit` running?); nothing was reset")
+                             : std::string(std::strerror(err)));
+    return 1;
+  }
+  fmt::print("contego kmod reset: {} {}\n", name,
+             req.was_latched ? "was latched; its latch is cleared" : "was not latched");
   return 0;
 }
 
@@ -612,6 +663,12 @@ void register_kmod(CLI::App& app) {
   auto* st = cmd->add_subcommand("stats", "Print contego.ko's counters");
   st->add_option("--device", *device, "the module's control device")->capture_default_str();
   st->callback([device] { set_exit_code(stats(*device)); });
+  auto reset_device = std::make_shared<std::string>();
+  auto* rs = cmd->add_subcommand(
+      "reset", "Clear a latched device in contego.ko (root; audited, as `contego reset`)");
+  rs->add_option("DEVICE", *reset_device, "the device's name in the policy in force")->required();
+  rs->add_option("--device", *device, "the module's control device")->capture_default_str();
+  rs->callback([device, reset_device] { set_exit_code(reset(*device, *reset_device)); });
   auto status_json = std::make_shared<bool>(false);
   auto* ss = cmd->add_subcommand(
       "status",

@@ -316,6 +316,27 @@ TEST_F(KmodAudit, AdapterRemovedAndBackAreNamedWithTheirBus) {
   EXPECT_NE(c.find("its adapter came back"), std::string::npos) << c;
 }
 
+// An operator's reset (`contego kmod reset`): a `reset` line as the
+// monitor's, naming the device, who asked and whether it was latched.
+TEST_F(KmodAudit, AResetNamesTheDeviceAndWhoAsked) {
+  contego_kmod_record r = record(CONTEGO_KMOD_REC_RESET);
+  r.device = 0;
+  r.bus = 1;
+  r.addr = 0x40;
+  r.pid = 77;
+  r.uid = 0;
+  r.index = 1;
+  contego_kmod_record again = r;
+  again.index = 0;
+  for (const auto* x : {&r, &again}) ASSERT_TRUE(write_kmod_record(log_, names_, *x));
+  auto l = lines();
+  ASSERT_EQ(l.size(), 2u);
+  EXPECT_EQ(l[0]["kind"], "reset");
+  EXPECT_EQ(l[0]["detail"],
+            "contego.ko: device 0 (arm) at bus 1 0x40 reset by uid 0 (pid 77); it was latched");
+  EXPECT_NE(std::string(l[1]["detail"]).find("it was not latched"), std::string::npos);
+}
+
 // A call refused because a part of what its verdicts would send has no form
 // on the adapter: an `inexpressible` line in the monitor's words (the same
 // function words both from the planner's refusal).

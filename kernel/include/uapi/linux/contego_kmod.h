@@ -161,6 +161,22 @@ struct contego_kmod_stats {
 	 */
 	__u32 undriven;
 	__u32 unread;
+	__u32 latched; /* bit d: device d latched (CONTEGO_KMOD_RESET clears it) */
+	__u32 pad; /* zero */
+};
+
+/* An operator's reset of a latched device (CONTEGO_KMOD_RESET), as the
+ * monitor's `contego reset`: recorded (CONTEGO_KMOD_REC_RESET), then the
+ * latch and the device's violation count cleared. ENOENT: no policy in
+ * force; ESTALE: another image than `crc` is in force; EINVAL: no such
+ * device, or `pad` not zero; EIO: the record could not be taken (no reader,
+ * the ring full): nothing reset.
+ */
+struct contego_kmod_reset {
+	__u32 device; /* in: the device's id in the image in force */
+	__u32 crc; /* in: that image's header CRC-32 (CONTEGO_KMOD_IMAGE's) */
+	__u32 was_latched; /* out: 1 if it was latched */
+	__u32 pad;
 };
 
 /* The audit ring (/dev/contego-audit, docs/kernel-client.md "Audit"): one
@@ -242,6 +258,13 @@ enum contego_kmod_record_type {
 	 * `fault` line
 	 */
 	CONTEGO_KMOD_REC_INEXPRESSIBLE = 10,
+	/*
+	 * an operator's reset of a latched device (CONTEGO_KMOD_RESET):
+	 * pid, uid: who asked; device, bus, addr: the device; index: 1 if it
+	 * was latched. A reader that predates this type writes it as a
+	 * `fault` line
+	 */
+	CONTEGO_KMOD_REC_RESET = 11,
 };
 
 enum contego_kmod_adapter_why {
@@ -306,6 +329,7 @@ struct contego_kmod_record {
 #define CONTEGO_KMOD_STATS _IOR(CONTEGO_KMOD_IOC_MAGIC, 2, struct contego_kmod_stats)
 #define CONTEGO_KMOD_RELOAD _IOWR(CONTEGO_KMOD_IOC_MAGIC, 4, struct contego_kmod_reload)
 #define CONTEGO_KMOD_IMAGE _IOWR(CONTEGO_KMOD_IOC_MAGIC, 5, struct contego_kmod_image)
+#define CONTEGO_KMOD_RESET _IOWR(CONTEGO_KMOD_IOC_MAGIC, 6, struct contego_kmod_reset)
 /* On /dev/contego-audit: records up to and including *arg are stored. */
 #define CONTEGO_KMOD_AUDIT_ACK _IOW(CONTEGO_KMOD_IOC_MAGIC, 3, __u64)
 

@@ -364,6 +364,64 @@ run_logged nf_reload_verify contego audit $AUDIT_LOG
   bad "contego audit exit $RC"
 back_to_i2c_dev
 
+# ---- contego.ko: a latched device and the operator's reset ----------------
+# Two refused writes latch the chip (its safe state driven, every later
+# command ignored); `kmod status` says LATCHED; `contego kmod reset chip`
+# clears it, as `contego reset` does for the monitor, after its record.
+LATCH_POLICY=/tmp/latch.policy
+{
+  echo "device chip : regmap at i2c-1 0x40 {"
+  echo "  auto_increment"
+  echo "  register 0x00 r00 : u8"
+  echo "  register 0x01 r01 : u8"
+  echo "  query register 0x30 id : u8"
+  echo "  safe r00(0)"
+  echo "  latch after 2 violations within 30s"
+  echo "}"
+  echo "task wire { period 1s; deadline 1s; wcet 10ms; priority 1 }"
+  echo "allow wire -> chip"
+  echo "allow wire reads chip"
+  echo "invariant CAP on chip.r01: require value <= 100 else reject"
+} >$LATCH_POLICY
+stub_reload
+rmmod i2c_dev
+run_logged latch_insmod insmod $KO adapters=0 buses=1
+wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
+AUDIT_LOG=$LOGDIR/latch.jsonl
+start_reader $LATCH_POLICY
+run_logged latch_load contego kmod load --policy $LATCH_POLICY --bind wire=task --budget-factor 0
+run_logged latch_bad1 as_task i2cset -y 0 $A 0x01 200
+run_logged latch_bad2 as_task i2cset -y 0 $A 0x01 200
+run_logged latch_status contego kmod status
+grep -q "^LATCHED:  chip (i2c-1 0x40) (held in the safe state; .contego kmod reset DEVICE. clears it)" "$OUT" &&
+  contego kmod stats | grep -q " latched=0x1$" &&
+  ok "contego.ko: two violations latch the chip: $(grep LATCHED "$OUT")" || bad "kmod status after two violations: $(cat "$OUT")"
+run_logged latch_held as_task i2cset -y 0 $A 0x01 60
+run_logged latch_nosuch contego kmod reset nosuch
+[ $RC = 2 ] && grep -q "the policy in force has no device 'nosuch'" "$OUT" &&
+  ok "kmod reset of an unknown device: exit 2, named" || bad "kmod reset nosuch: exit $RC: $(cat "$OUT")"
+run_logged latch_reset contego kmod reset chip
+[ $RC = 0 ] && grep -q "^contego kmod reset: chip was latched; its latch is cleared" "$OUT" &&
+  contego kmod stats | grep -q " latched=0x0$" &&
+  ok "contego kmod reset chip: $(cat "$OUT")" || bad "kmod reset chip: exit $RC: $(cat "$OUT")"
+held=$(as_task i2cget -y 0 $A 0x01)
+run_logged latch_after as_task i2cset -y 0 $A 0x01 50
+after=$(as_task i2cget -y 0 $A 0x01)
+[ "$held" = 0x00 ] && [ $RC = 0 ] && [ "$after" = 0x32 ] &&
+  ok "the write sent while latched did not land (r01 = $held); after the reset r01 = 50 lands ($after)" ||
+  bad "after the reset: r01 was $held (expected 0x00), the write exit $RC, r01 now $after (expected 0x32)"
+run_logged latch_again contego kmod reset chip
+grep -q "chip was not latched" "$OUT" && ok "a second reset: not latched" || bad "second reset: $(cat "$OUT")"
+stop_reader
+run_logged latch_unrecorded contego kmod reset chip
+[ $RC = 1 ] && grep -q "its record could not be taken (is .contego kmod audit. running?); nothing was reset" "$OUT" &&
+  ok "with no audit reader a reset is refused: $(cat "$OUT")" || bad "kmod reset with no reader: exit $RC: $(cat "$OUT")"
+grep '"kind":"reset"' $AUDIT_LOG | grep -q "device 0 (chip) at bus 1 0x40 reset by uid 0 (pid [0-9]*); it was latched" &&
+  ok "the log records the reset: who, which device, that it was latched" || bad "no reset record in the module's log"
+run_logged latch_verify contego audit $AUDIT_LOG
+[ $RC = 0 ] && ok "contego audit verifies the log across the latch and the reset" || bad "contego audit exit $RC"
+back_to_i2c_dev
+
 rmmod i2c_plain_stub 2>/dev/null
 stub_reload
 finish
