@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "base/unique_fd.h"
 
@@ -34,9 +35,9 @@ void family(std::string& out, const char* name, const char* type, const char* he
 
 }  // namespace
 
-std::string metrics_text(const std::string& status_json) {
-  const auto j = nlohmann::json::parse(status_json, nullptr, false);
-  if (j.is_discarded()) return {};
+namespace {
+
+std::string metrics_of(const nlohmann::json& j) {
   std::string out;
   family(out, "contego_info", "gauge", "The policy the monitor enforces (value 1).");
   out += fmt::format("contego_info{{policy=\"{}\",image_sha256=\"{}\",complain=\"{}\"}} 1\n",
@@ -69,9 +70,20 @@ std::string metrics_text(const std::string& status_json) {
   family(out, "contego_device_sample_age_seconds", "gauge",
          "Age of the sensor's newest reading (sensors that have one).");
   for (const auto& d : j["devices"]) {
-    if (!d.contains("sample_age_ms")) continue;
+    // null: no reading fresh enough (contego_device_unavailable says so).
+    if (!d.contains("sample_age_ms") || !d["sample_age_ms"].is_number()) continue;
     out += fmt::format("contego_device_sample_age_seconds{{device=\"{}\"}} {:.3f}\n",
-                       label(d.value("name", "")), d.value("sample_age_ms", 0) / 1000.0);
+                       label(d.value("name", "")), d["sample_age_ms"].get<double>() / 1000.0);
+  }
+  family(out, "contego_device_unavailable", "gauge",
+         "1: a sensor without a fresh reading, or a safe state not driven since the start.");
+  for (const auto& d : j["devices"]) {
+    for (const auto& [key, what] :
+         {std::pair{"sample_age_ms", "reading"}, std::pair{"safe_state_age_s", "safe_state"}}) {
+      if (!d.contains(key) || !d[key].is_null()) continue;
+      out += fmt::format("contego_device_unavailable{{device=\"{}\",what=\"{}\"}} 1\n",
+                         label(d.value("name", "")), what);
+    }
   }
   family(out, "contego_holds_total", "counter", "Transfers held over a task's budget.");
   out += fmt::format("contego_holds_total {}\n", j.value("holds", 0));
@@ -106,6 +118,20 @@ std::string metrics_text(const std::string& status_json) {
     out += fmt::format("contego_check_duration_seconds_count {}\n", c.value("count", 0));
   }
   return out;
+}
+
+}  // namespace
+
+std::string metrics_text(const std::string& status_json) {
+  const auto j = nlohmann::json::parse(status_json, nullptr, false);
+  if (j.is_discarded()) return {};
+  // A field of another type than expected must cost the metrics, never the
+  // daemon that decides (a periodic write runs on its own thread).
+  try {
+    return metrics_of(j);
+  } catch (const nlohmann::json::exception& e) {
+    return fmt::format("# contego: the status could not be read as metrics: {}\n", e.what());
+  }
 }
 
 Status write_metrics_file(const std::string& path, const std::string& text) {

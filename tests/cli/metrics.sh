@@ -62,6 +62,31 @@ grep -qE '^contego_check_duration_seconds_bucket\{le="\+Inf"\} [1-9][0-9]*$' "$d
 grep -qE '^contego_device_sample_age_seconds\{device="line"\} [0-9]+\.[0-9]{3}$' "$dir/m.prom" ||
   fail "no sample age of the line sensor"
 [ ! -e "$dir/m.prom.tmp" ] || fail "a temporary file was left"
+grep -q 'contego_device_unavailable{' "$dir/m.prom" && fail "a device unavailable in a start that was not degraded"
+kill "$mon"
+wait "$mon" || true
+mon=""
+
+# A degraded start (the GoPiGo and the line sensor where the virtual bus has
+# nothing): the metrics say which device is unavailable and why, every
+# interval, and the monitor keeps serving.
+sed -e 's/^device gopigo : gopigo2 at i2c-1 0x08/device gopigo : gopigo2 at i2c-1 0x09/' \
+  -e 's/^device line : line_follower at i2c-1 0x06/device line : line_follower at i2c-1 0x07/' \
+  "$policies/rover.policy" >"$dir/away.policy"
+rm -f "$dir/m.prom"
+"$contego" monitor --policy "$dir/away.policy" --virtual-bus 1 --socket "$dir/d.sock" \
+  --audit "$dir/d.jsonl" --allow-degraded --metrics-file "$dir/m.prom" --metrics-interval 1 \
+  2>"$dir/mon.err" &
+mon=$!
+for _ in $(seq 100); do [ -S "$dir/d.sock" ] && [ -f "$dir/m.prom" ] && break; sleep 0.1; done
+[ -f "$dir/m.prom" ] || { cat "$dir/mon.err"; fail "the degraded monitor wrote no metrics"; }
+sleep 1.5  # a periodic write too
+kill -0 "$mon" 2>/dev/null || { cat "$dir/mon.err"; fail "the degraded monitor died writing its metrics"; }
+grep -qx 'contego_device_unavailable{device="line",what="reading"} 1' "$dir/m.prom" &&
+  grep -qx 'contego_device_unavailable{device="gopigo",what="safe_state"} 1' "$dir/m.prom" ||
+  fail "the unavailable devices are not in the metrics"
+grep -q 'contego_device_sample_age_seconds{device="line"}' "$dir/m.prom" &&
+  fail "a sample age for a sensor with no reading"
 kill "$mon"
 wait "$mon" || true
 mon=""
