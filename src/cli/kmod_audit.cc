@@ -27,11 +27,14 @@
 #include "contego/core_c.h"
 #include "contego/i2c_plan.h"
 
+#include "base/clock.h"
 #include "base/unique_fd.h"
 #include "bus/smbus_plan.h"
+#include "cli/kmod_status.h"
 #include "cli/policy_load.h"
 #include "cli/stop_signals.h"
 #include "cli/trusted_setup.h"
+#include "monitor/metrics.h"
 
 namespace contego::cli {
 namespace {
@@ -374,6 +377,25 @@ int kmod_audit(const KmodAuditOptions& o) {
                                : "");
     return 2;
   }
+  // The metrics: a file that cannot be written refuses the start, naming it
+  // (as the monitor's); later failures are said and the reader goes on.
+  base::UniqueFd control;
+  auto write_metrics = [&]() -> Status {
+    auto state = kmod_status(control.get());
+    if (!state.ok()) return make_error(fmt::format("the module's state: {}", state.error()));
+    return monitor::write_metrics_file(o.metrics_file, kmod_metrics_text(*state));
+  };
+  const uint64_t interval_us = uint64_t{std::max(o.metrics_interval_s, 1u)} * 1000000;
+  uint64_t next_metrics_us = monotonic_us() + interval_us;
+  if (!o.metrics_file.empty()) {
+    control = base::UniqueFd(::open(o.control.c_str(), O_RDONLY | O_CLOEXEC));
+    Status s = control.valid() ? write_metrics()
+                               : make_error(fmt::format("{}: {}", o.control, std::strerror(errno)));
+    if (!s.ok()) {
+      fmt::print(stderr, "contego kmod audit: --metrics-file: {}\n", s.error());
+      return 2;
+    }
+  }
   log.event("start",
             fmt::format("contego kmod audit: reading {} for {} (names follow the policy-load "
                         "records)",
@@ -419,9 +441,20 @@ int kmod_audit(const KmodAuditOptions& o) {
     }
     if (stop) break;
     pollfd fds[2] = {{ring.get(), POLLIN, 0}, {signals.fd.get(), POLLIN, 0}};
-    if (::poll(fds, 2, -1) < 0 && errno != EINTR) {
+    int timeout_ms = -1;
+    if (control.valid()) {
+      const uint64_t now = monotonic_us();
+      timeout_ms = now >= next_metrics_us ? 0 : static_cast<int>((next_metrics_us - now) / 1000);
+    }
+    if (::poll(fds, 2, timeout_ms) < 0 && errno != EINTR) {
       fmt::print(stderr, "contego kmod audit: poll: {}\n", std::strerror(errno));
       return 1;
+    }
+    if (control.valid() && monotonic_us() >= next_metrics_us) {
+      if (Status s = write_metrics(); !s.ok()) {
+        fmt::print(stderr, "contego kmod audit: --metrics-file: {}\n", s.error());
+      }
+      next_metrics_us = monotonic_us() + interval_us;
     }
     signalfd_siginfo si{};
     while (::read(signals.fd.get(), &si, sizeof(si)) == static_cast<ssize_t>(sizeof(si))) {
@@ -431,6 +464,11 @@ int kmod_audit(const KmodAuditOptions& o) {
       } else {
         stop = true;  // one more drain of what the ring holds, then out
       }
+    }
+  }
+  if (control.valid()) {
+    if (Status s = write_metrics(); !s.ok()) {
+      fmt::print(stderr, "contego kmod audit: --metrics-file: {}\n", s.error());
     }
   }
   log.event("stop", fmt::format("contego kmod audit: {} record(s) taken", taken));

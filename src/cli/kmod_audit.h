@@ -21,6 +21,11 @@ struct KmodAuditOptions {
   std::string audit;                 // the log ("-" = standard error)
   monitor::AuditOptions audit_options;
   bool quiet = false;
+  // Prometheus metrics of the module's state (kmod_status.h), written at
+  // start, every interval and at the stop; read through `control`.
+  std::string metrics_file;
+  unsigned metrics_interval_s = 15;
+  std::string control = "/dev/contego";
 };
 
 // The wall-clock time (CLOCK_REALTIME, µs) of an instant `mono_us` on

@@ -41,6 +41,7 @@
 #include "cli/command.h"
 #include "cli/kmod_audit.h"
 #include "cli/kmod_load_error.h"
+#include "cli/kmod_status.h"
 #include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
 #include "image/image_model.h"
@@ -135,48 +136,6 @@ bool fill_complain(contego_kmod_load* req, const image::ImageModel& model, bool 
                fmt::join(named, ", "));
   }
   return true;
-}
-
-// The image in force in the module, read back (CONTEGO_KMOD_IMAGE), and its CRC.
-Result<std::pair<std::vector<uint8_t>, uint32_t>> running_image(int fd) {
-  contego_kmod_image req{};
-  std::vector<uint8_t> bytes;
-  for (int attempt = 0; attempt < 3; ++attempt) {  // a load between two asks: ask again
-    req.buf = reinterpret_cast<uintptr_t>(bytes.data());
-    req.size = static_cast<uint32_t>(bytes.size());
-    if (::ioctl(fd, CONTEGO_KMOD_IMAGE, &req) == 0) {
-      bytes.resize(req.size);
-      return std::pair{std::move(bytes), req.crc};
-    }
-    if (errno == ENOENT) {
-      return make_error("no policy is in force in the module: load one with `contego kmod load`");
-    }
-    if (errno == ENOTTY) {
-      return make_error(
-          "the module predates loads in place (no CONTEGO_KMOD_IMAGE): load the contego.ko built "
-          "with this contego, or `contego kmod load` (every device driven to its safe state)");
-    }
-    if (errno != ENOSPC)
-      return make_error(std::string("reading the image back: ") + strerror(errno));
-    bytes.resize(req.size);
-  }
-  return make_error("the module's image kept changing while it was read back");
-}
-
-// The devices of `mask` (bit d: device d), named from the image.
-std::string devices_named(const image::ImageModel& model, uint32_t mask) {
-  std::string out;
-  for (uint32_t d = 0; d < 32; ++d) {
-    if ((mask & (1u << d)) == 0) continue;
-    out += out.empty() ? "" : ", ";
-    if (d < model.devices.size()) {
-      const auto& dev = model.devices[d];
-      out += fmt::format("{} (i2c-{} 0x{:02x})", dev.name, dev.record.bus, dev.record.addr);
-    } else {
-      out += fmt::format("device {}", d);
-    }
-  }
-  return out;
 }
 
 // CONTEGO_KMOD_RELOAD with `req` and the pairs of `now` with the image in
@@ -424,77 +383,25 @@ int status(const std::string& device, bool json) {
                std::strerror(errno));
     return 2;
   }
-  contego_kmod_stats s{};
-  if (::ioctl(fd.get(), CONTEGO_KMOD_STATS, &s) != 0) {
-    fmt::print(stderr, "contego kmod status: stats: {}\n", std::strerror(errno));
+  auto state = kmod_status(fd.get());
+  if (!state.ok()) {
+    fmt::print(stderr, "contego kmod status: {}\n", state.error());
     return 2;
   }
-  nlohmann::ordered_json j;
-  j["loaded"] = s.loaded != 0;
-  auto running = s.loaded ? running_image(fd.get()) : make_error("no policy is in force");
-  image::ImageModel model;  // the image in force's names, when it can be read
-  if (running.ok()) {
-    const auto& bytes = running->first;
-    j["image_sha256"] = monitor::sha256_hex(
-        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-    j["image_crc32"] = fmt::format("{:08x}", running->second);
-    j["image_bytes"] = bytes.size();
-    if (auto m = image::deserialize(bytes); m.ok()) {
-      model = std::move(*m);
-      j["tasks"] = nlohmann::ordered_json::array();
-      for (const auto& t : model.tasks) j["tasks"].push_back(t.name);
-      j["devices"] = nlohmann::ordered_json::array();
-      for (const auto& d : model.devices) {
-        j["devices"].push_back({{"name", d.name},
-                                {"bus", d.record.bus},
-                                {"addr", fmt::format("0x{:02x}", d.record.addr)}});
-      }
-    }
-  } else if (s.loaded) {
-    j["image_error"] = running.error();  // a module that predates CONTEGO_KMOD_IMAGE
-  }
-  // A load with --allow-degraded: what it could not do, until it is done.
-  std::string degraded;
-  if (s.undriven != 0) {
-    degraded = fmt::format("the safe state of {} not driven since the load",
-                           devices_named(model, s.undriven));
-  }
-  if (s.unread != 0) {
-    degraded += fmt::format("{}{} not read since the load", degraded.empty() ? "" : "; ",
-                            devices_named(model, s.unread));
-  }
-  j["degraded"] = degraded;
-  j["latched"] = s.latched != 0 ? devices_named(model, s.latched) : "";
-  j["audit_reader"] = s.reader != 0;
-  j["counters"] = {{"loads", s.loads},
-                   {"refused_loads", s.refused_loads},
-                   {"checks", s.checks},
-                   {"performed", s.performed},
-                   {"refused", s.refused},
-                   {"ignored", s.ignored},
-                   {"failsafe", s.failsafe},
-                   {"holds", s.holds},
-                   {"inexpressible", s.inexpressible},
-                   {"records", s.records},
-                   {"unrecorded", s.unrecorded},
-                   {"audit_refused", s.audit_refused},
-                   {"sessions", s.sessions},
-                   {"session_ends", s.session_ends},
-                   {"sessions_refused", s.sessions_refused},
-                   {"sessions_limited", s.sessions_limited},
-                   {"samples", s.samples},
-                   {"sample_errors", s.sample_errors}};
+  const nlohmann::ordered_json& j = *state;
+  const auto& c = j["counters"];
+  auto n = [&](const char* key) { return c[key].get<uint64_t>(); };
   if (json) {
     fmt::print("{}\n", j.dump());
     return 0;
   }
-  if (!s.loaded) {
+  if (!j["loaded"].get<bool>()) {
     fmt::print(
         "contego.ko: no policy in force (every call is refused until `contego kmod load`)\n");
-  } else if (running.ok()) {
+  } else if (j.contains("image_sha256")) {
     fmt::print("policy:   image SHA-256 {} (CRC-32 {}, {} bytes)\n",
                j["image_sha256"].get<std::string>(), j["image_crc32"].get<std::string>(),
-               running->first.size());
+               j["image_bytes"].get<size_t>());
     if (j.contains("tasks")) {
       std::vector<std::string> tasks = j["tasks"], devices;
       for (const auto& d : j["devices"]) {
@@ -504,25 +411,29 @@ int status(const std::string& device, bool json) {
       fmt::print("tasks:    {}\ndevices:  {}\n", fmt::join(tasks, ", "), fmt::join(devices, ", "));
     }
   } else {
-    fmt::print("policy:   in force ({})\n", running.error());
+    fmt::print("policy:   in force ({})\n", j.value("image_error", ""));
   }
-  if (!degraded.empty()) fmt::print("DEGRADED: {} (loaded with --allow-degraded)\n", degraded);
-  if (s.latched != 0) {
+  if (const std::string degraded = j["degraded"]; !degraded.empty()) {
+    fmt::print("DEGRADED: {} (loaded with --allow-degraded)\n", degraded);
+  }
+  if (const std::string latched = j["latched"]; !latched.empty()) {
     fmt::print("LATCHED:  {} (held in the safe state; `contego kmod reset DEVICE` clears it)\n",
-               j["latched"].get<std::string>());
+               latched);
   }
-  fmt::print("audit:    {}\n", s.reader ? "a reader is attached"
-                                        : "NO READER: every call fails closed until `contego kmod "
-                                          "audit` runs");
+  fmt::print("audit:    {}\n", j["audit_reader"].get<bool>()
+                                   ? "a reader is attached"
+                                   : "NO READER: every call fails closed until `contego kmod "
+                                     "audit` runs");
   fmt::print("sessions: {} open, {} ended, {} refused for room, {} over their task's `sessions`\n",
-             s.sessions, s.session_ends, s.sessions_refused, s.sessions_limited);
+             n("sessions"), n("session_ends"), n("sessions_refused"), n("sessions_limited"));
   fmt::print(
       "checks:   {} ({} performed, {} refused, {} ignored, {} fail-safe; {} holds; {} refused "
       "without a form on their adapter)\n",
-      s.checks, s.performed, s.refused, s.ignored, s.failsafe, s.holds, s.inexpressible);
+      n("checks"), n("performed"), n("refused"), n("ignored"), n("failsafe"), n("holds"),
+      n("inexpressible"));
   fmt::print(
       "loads:    {} ({} refused: by the verifier, or a sensor or safe state failing at load)\n",
-      s.loads, s.refused_loads);
+      n("loads"), n("refused_loads"));
   return 0;
 }
 
@@ -690,6 +601,15 @@ void register_kmod(CLI::App& app) {
   au->add_option("--audit", audit->audit, "audit log file (- = standard error)");
   au->add_option("--device", audit->device, "the module's audit device")->capture_default_str();
   au->add_flag("--quiet", audit->quiet, "no start and stop lines on standard error");
+  au->add_option("--metrics-file", audit->metrics_file,
+                 "write the module's state as Prometheus metrics to this file (node_exporter's "
+                 "textfile collector), at start, every --metrics-interval and at the stop");
+  au->add_option("--metrics-interval", audit->metrics_interval_s, "seconds between two writes")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 3600u));
+  au->add_option("--control", audit->control,
+                 "the module's control device (its state, for --metrics-file)")
+      ->capture_default_str();
   add_audit_options(au, &audit->audit_options);
   au->callback([audit] {
     if ((audit->policies.empty() && audit->bundles.empty()) || audit->audit.empty()) {

@@ -13,10 +13,8 @@
 #include "base/unique_fd.h"
 
 namespace contego::monitor {
-namespace {
 
-// A label value in the exposition format: backslash, quote and newline escaped.
-std::string label(const std::string& v) {
+std::string metrics_label(const std::string& v) {
   std::string out;
   for (char c : v) {
     if (c == '\\' || c == '"') out += '\\';
@@ -29,13 +27,14 @@ std::string label(const std::string& v) {
   return out;
 }
 
-void family(std::string& out, const char* name, const char* type, const char* help) {
+void metrics_family(std::string& out, const char* name, const char* type, const char* help) {
   out += fmt::format("# HELP {} {}\n# TYPE {} {}\n", name, help, name, type);
 }
 
-}  // namespace
-
 namespace {
+
+const auto label = metrics_label;
+const auto family = metrics_family;
 
 std::string metrics_of(const nlohmann::json& j) {
   std::string out;

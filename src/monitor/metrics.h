@@ -14,6 +14,11 @@ namespace contego::monitor {
 // The exposition text of a status (as `contego status --json` prints it).
 std::string metrics_text(const std::string& status_json);
 
+// A label value in the exposition format: backslash, quote and newline escaped.
+std::string metrics_label(const std::string& v);
+// A family's HELP and TYPE lines, appended to `out`.
+void metrics_family(std::string& out, const char* name, const char* type, const char* help);
+
 // Writes `text` to `path` atomically: a temporary file beside it, fsync'd,
 // then renamed over it (a scrape never sees half a file). The error names
 // the path and the reason.

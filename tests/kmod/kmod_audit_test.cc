@@ -11,6 +11,8 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,7 @@
 
 #include "base/test_temp.h"
 #include "bus/smbus_plan.h"
+#include "cli/kmod_status.h"
 #include "cli/policy_load.h"
 #include "cli/trusted_setup.h"
 
@@ -335,6 +338,46 @@ TEST_F(KmodAudit, AResetNamesTheDeviceAndWhoAsked) {
   EXPECT_EQ(l[0]["detail"],
             "contego.ko: device 0 (arm) at bus 1 0x40 reset by uid 0 (pid 77); it was latched");
   EXPECT_NE(std::string(l[1]["detail"]).find("it was not latched"), std::string::npos);
+}
+
+// The module's state as `kmod audit --metrics-file` writes it: contego_info,
+// the counters, a latched device and a degraded load's gaps, every sample a
+// family's HELP and TYPE name; a label with a quote escaped.
+TEST(KmodMetrics, TheModulesStateInPrometheusFormat) {
+  nlohmann::ordered_json j;
+  j["loaded"] = true;
+  j["image_sha256"] = std::string(64, 'a');
+  j["devices"] = nlohmann::ordered_json::array();
+  j["devices"].push_back(
+      {{"name", "arm"}, {"latched", true}, {"undriven", false}, {"unread", false}});
+  j["devices"].push_back(
+      {{"name", "ta\"nk"}, {"latched", false}, {"undriven", false}, {"unread", true}});
+  j["audit_reader"] = true;
+  j["counters"] = {{"checks", 12}, {"refused", 3}, {"sessions", 2}};
+  const std::string m = kmod_metrics_text(j);
+  for (const char* line :
+       {"contego_info{client=\"contego.ko\",image_sha256=\""
+        "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa\",loaded=\"1\"} 1\n",
+        "contego_kmod_checks_total 12\n", "contego_kmod_refused_total 3\n",
+        "contego_kmod_performed_total 0\n", "contego_kmod_sessions 2\n",
+        "contego_kmod_audit_reader 1\n", "contego_device_latched{device=\"arm\"} 1\n",
+        "contego_device_latched{device=\"ta\\\"nk\"} 0\n",
+        "contego_device_unavailable{device=\"ta\\\"nk\",what=\"reading\"} 1\n"}) {
+    EXPECT_NE(m.find(line), std::string::npos) << line << "\n" << m;
+  }
+  EXPECT_EQ(m.find("what=\"safe_state\""), std::string::npos) << m;
+  std::istringstream in(m);
+  std::set<std::string> typed;
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("# TYPE ", 0) == 0) typed.insert(line.substr(7, line.find(' ', 7) - 7));
+    if (line.empty() || line[0] == '#') continue;
+    EXPECT_TRUE(typed.count(line.substr(0, line.find_first_of("{ ")))) << line;
+  }
+  // No image read (a module that predates it): no device lines, no throw.
+  nlohmann::ordered_json bare;
+  bare["loaded"] = false;
+  bare["counters"] = nlohmann::ordered_json::object();
+  EXPECT_NE(kmod_metrics_text(bare).find("contego_kmod_checks_total 0"), std::string::npos);
 }
 
 // A call refused because a part of what its verdicts would send has no form

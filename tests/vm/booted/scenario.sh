@@ -481,6 +481,17 @@ else
     bad "kmod audit log: $allowed allowed, $viol other decisions"
   contego audit $kaudit >/tmp/kaudit.out 2>&1 && ok "contego audit verifies $kaudit's chain ($(wc -l <$kaudit) records)" ||
     { bad "contego audit: $kaudit's chain does not verify"; show /tmp/kaudit.out | tail -n 5; }
+  # The module's state as Prometheus metrics (docs/kernel-client.md,
+  # "Counters"): the reader's unit takes --metrics-file from
+  # /etc/default/contego, as the monitor's does.
+  sed -i 's#^CONTEGO_KMOD_AUDIT_OPTS="\(.*\)"$#CONTEGO_KMOD_AUDIT_OPTS="\1 --metrics-file /run/contego-metrics/contego-kmod.prom"#' /etc/default/contego
+  systemctl restart contego-kmod-audit
+  kprom=/run/contego-metrics/contego-kmod.prom
+  for i in $(seq 1 50); do [ -s $kprom ] && break; sleep 0.2; done
+  grep -q '^contego_info{client="contego.ko",image_sha256="[0-9a-f]\{64\}",loaded="1"} 1$' $kprom &&
+    grep -qE '^contego_kmod_checks_total [1-9]' $kprom && grep -qx 'contego_kmod_audit_reader 1' $kprom &&
+    ok "contego-kmod-audit.service writes the module's metrics ($kprom: $(grep -c '^contego_' $kprom) samples, $(grep '^contego_kmod_checks_total' $kprom))" ||
+    bad "no kmod metrics at $kprom: $(systemctl is-active contego-kmod-audit) $(head -c 300 $kprom 2>&1)"
   if readme "$kmod_last" /vm/readme-kmod; then ok "README kernel-client block $kmod_last (removal) runs as written"
   else bad "README kernel-client block $kmod_last failed"; fi
   check "removal: contego.ko unloaded, its units off" sh -c '! grep -q "^contego " /proc/modules &&

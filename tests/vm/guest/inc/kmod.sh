@@ -38,8 +38,10 @@ led5_becomes() {  # led5_becomes VALUE: waits up to 5 s (a session ends from the
 }
 
 READER_PID=
-start_reader() {  # start_reader [POLICY]: the policy whose names the log gets (arm.policy)
-  contego kmod audit --policy ${1:-$POLICIES/arm.policy} --audit $AUDIT_LOG >>"$LOGDIR/reader.log" 2>&1 &
+start_reader() {  # start_reader [POLICY [ARGS...]]: the policy whose names the log gets (arm.policy)
+  reader_policy=${1:-$POLICIES/arm.policy}
+  [ $# -gt 0 ] && shift
+  contego kmod audit --policy $reader_policy --audit $AUDIT_LOG "$@" >>"$LOGDIR/reader.log" 2>&1 &
   READER_PID=$!
   i=0
   until contego kmod stats 2>/dev/null | grep -q "reader=1"; do

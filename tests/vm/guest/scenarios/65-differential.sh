@@ -388,7 +388,8 @@ rmmod i2c_dev
 run_logged latch_insmod insmod $KO adapters=0 buses=1
 wait_for /dev/i2c-0 10 && chmod 0666 /dev/i2c-0
 AUDIT_LOG=$LOGDIR/latch.jsonl
-start_reader $LATCH_POLICY
+PROM=$LOGDIR/kmod.prom
+start_reader $LATCH_POLICY --metrics-file $PROM --metrics-interval 1
 run_logged latch_load contego kmod load --policy $LATCH_POLICY --bind wire=task --budget-factor 0
 run_logged latch_bad1 as_task i2cset -y 0 $A 0x01 200
 run_logged latch_bad2 as_task i2cset -y 0 $A 0x01 200
@@ -396,6 +397,14 @@ run_logged latch_status contego kmod status
 grep -q "^LATCHED:  chip (i2c-1 0x40) (held in the safe state; .contego kmod reset DEVICE. clears it)" "$OUT" &&
   contego kmod stats | grep -q " latched=0x1$" &&
   ok "contego.ko: two violations latch the chip: $(grep LATCHED "$OUT")" || bad "kmod status after two violations: $(cat "$OUT")"
+prom_says() {  # prom_says LINE: waits up to 3 s for the reader's metrics file to hold LINE
+  i=0
+  until grep -qx "$1" $PROM 2>/dev/null; do i=$((i + 1)); [ $i -gt 30 ] && return 1; usleep 100000; done
+}
+prom_says 'contego_device_latched{device="chip"} 1' && grep -qE '^contego_kmod_refused_total [1-9]' $PROM &&
+  grep -qx 'contego_kmod_audit_reader 1' $PROM &&
+  ok "kmod audit --metrics-file: the latch and the refusals in Prometheus's format" ||
+  bad "the reader's metrics after the latch: $(cat $PROM 2>&1 | grep -v '^#' | tr '\n' ';')"
 run_logged latch_held as_task i2cset -y 0 $A 0x01 60
 run_logged latch_nosuch contego kmod reset nosuch
 [ $RC = 2 ] && grep -q "the policy in force has no device 'nosuch'" "$OUT" &&
@@ -410,6 +419,8 @@ after=$(as_task i2cget -y 0 $A 0x01)
 [ "$held" = 0x00 ] && [ $RC = 0 ] && [ "$after" = 0x32 ] &&
   ok "the write sent while latched did not land (r01 = $held); after the reset r01 = 50 lands ($after)" ||
   bad "after the reset: r01 was $held (expected 0x00), the write exit $RC, r01 now $after (expected 0x32)"
+prom_says 'contego_device_latched{device="chip"} 0' && ok "the metrics follow the reset (latched 0)" ||
+  bad "the reader's metrics after the reset: $(grep latched $PROM)"
 run_logged latch_again contego kmod reset chip
 grep -q "chip was not latched" "$OUT" && ok "a second reset: not latched" || bad "second reset: $(cat "$OUT")"
 stop_reader
