@@ -484,7 +484,8 @@ else
   # The module's state as Prometheus metrics (docs/kernel-client.md,
   # "Counters"): the reader's unit takes --metrics-file from
   # /etc/default/contego, as the monitor's does.
-  sed -i 's#^CONTEGO_KMOD_AUDIT_OPTS="\(.*\)"$#CONTEGO_KMOD_AUDIT_OPTS="\1 --metrics-file /run/contego-metrics/contego-kmod.prom"#' /etc/default/contego
+  # (The README's steps wrote the file anew: the line is added, as a user would.)
+  echo 'CONTEGO_KMOD_AUDIT_OPTS="--metrics-file /run/contego-metrics/contego-kmod.prom"' >>/etc/default/contego
   systemctl restart contego-kmod-audit
   kprom=/run/contego-metrics/contego-kmod.prom
   for i in $(seq 1 50); do [ -s $kprom ] && break; sleep 0.2; done
