@@ -1,10 +1,11 @@
 # The raw i2c-dev calls the vendor libraries end up making (the C library,
 # Adafruit's PureIO backend): open /dev/i2c-N, I2C_SLAVE, write(), read().
 # No smbus package needed, so these programs run wherever python3 does.
+import ctypes
 import fcntl
 import os
 
-I2C_SLAVE = 0x0703
+I2C_SLAVE, I2C_RDWR, I2C_M_RD = 0x0703, 0x0707, 0x0001
 
 
 class Device:
@@ -25,3 +26,20 @@ class Device:
     def read_u8(self, reg):  # Adafruit_GPIO.I2C.Device.readU8 (PureIO: write, then read)
         self.write([reg])
         return self.read(1)[0]
+
+    def write_then_read(self, out, n):  # PureIO's writeto_then_readfrom: one I2C_RDWR, 2 messages
+        wbuf = ctypes.create_string_buffer(bytes(out), len(out))
+        rbuf = ctypes.create_string_buffer(n)
+        msgs = (_Msg * 2)(_Msg(self.addr, 0, len(out), ctypes.addressof(wbuf)),
+                          _Msg(self.addr, I2C_M_RD, n, ctypes.addressof(rbuf)))
+        fcntl.ioctl(self.fd, I2C_RDWR, _RdwrData(ctypes.addressof(msgs), 2))
+        return rbuf.raw
+
+
+class _Msg(ctypes.Structure):  # struct i2c_msg
+    _fields_ = [("addr", ctypes.c_uint16), ("flags", ctypes.c_uint16),
+                ("len", ctypes.c_uint16), ("buf", ctypes.c_void_p)]
+
+
+class _RdwrData(ctypes.Structure):  # struct i2c_rdwr_ioctl_data
+    _fields_ = [("msgs", ctypes.c_void_p), ("nmsgs", ctypes.c_uint32)]

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The learn loop of docs/learn.md on the vendors' call patterns, on a virtual
 # bus, step by step as the README gives it:
-#  1. observe: the free-running follower (contego run --complain) and the 6DOF
-#     Hand in three runs under one monitor (contego monitor --complain);
+#  1. observe: the free-running follower (contego run --complain), the 6DOF
+#     Hand in three runs under one monitor (contego monitor --complain) and
+#     a gripper on Adafruit's current driver generation (one 5-byte
+#     auto-increment write per pulse, MODE1 read through I2C_RDWR);
 #  2. contego policy generate, check --strict, contego test with the
 #     generated tests;
 #  3. enforce: the same programs under the generated policies, 0 dropped;
@@ -62,14 +64,19 @@ grep -q '"kind":"start"' "$dir/rover-observe.jsonl" &&
 start_monitor "$policies/observe/arm.policy" arm-observe --complain
 hand_runs arm-observe
 stop_monitor || fail "the observing monitor exited $? on SIGTERM"
+"$contego" run --policy "$policies/observe/arm.policy" --task gripper --virtual-bus 1 \
+  --complain --audit "$dir/cpy-observe.jsonl" -- "$py" "$vendor/circuitpython_pca9685.py" \
+  420 577 420 >"$dir/cpy-observe.out" 2>"$dir/cpy-observe.err" || fail "cpy observe: exit $?"
 "$contego" audit "$dir/arm-observe.jsonl" >"$dir/arm-observe-audit.out" ||
   fail "the arm's observe log does not verify"
 echo "observed: $(grep -c '"kind":"decision"' "$dir/rover-observe.jsonl") rover and" \
   "$(grep -c '"kind":"decision"' "$dir/arm-observe.jsonl") arm decisions"
 
 # --- 2. generate, check, test --------------------------------------------------
-for robot in rover arm; do
-  "$contego" policy generate "$dir/$robot-observe.jsonl" --from "$policies/observe/$robot.policy" \
+for robot in rover arm cpy; do
+  observed="$policies/observe/$robot.policy"
+  [[ $robot == cpy ]] && observed="$policies/observe/arm.policy"
+  "$contego" policy generate "$dir/$robot-observe.jsonl" --from "$observed" \
     -o "$dir/$robot-gen.policy" --tests "$dir/$robot-gen.test" >"$dir/$robot-gen.out" \
     2>"$dir/$robot-gen.err" || fail "$robot: generate exited $?"
   "$contego" check --strict "$dir/$robot-gen.policy" >"$dir/$robot-check.out" \
@@ -91,6 +98,12 @@ start_monitor "$dir/arm-gen.policy" arm-enforce
 hand_runs arm-enforce
 stop_monitor || fail "the enforcing monitor exited $? on SIGTERM"
 verdicts arm-enforce "$dir/arm-enforce.jsonl"
+"$contego" run --policy "$dir/cpy-gen.policy" --task gripper --virtual-bus 1 \
+  --audit "$dir/cpy-enforce.jsonl" -- "$py" "$vendor/circuitpython_pca9685.py" 420 577 420 \
+  >"$dir/cpy-enforce.out" 2>"$dir/cpy-enforce.err" || fail "cpy enforce: exit $?"
+verdicts cpy-enforce "$dir/cpy-enforce.jsonl"
+grep -c '"command_name":"led"' "$dir/cpy-enforce.jsonl" | grep -qx 3 ||
+  fail "cpy enforce: the three pulses were not each decided as one led command"
 
 # --- 4. the paper's attacks against the generated policies --------------------------
 attack() {  # NAME POLICY TASK COMMAND WRITES...: COMMAND dropped, nothing else
@@ -108,6 +121,8 @@ attack dos-burst "$dir/rover-gen.policy" follower increase_speed 12*0x08:01,74,0
 attack high-pulse "$dir/arm-gen.policy" gripper led \
   0x40:1a,00 0x40:1b,00 0x40:1c,bc 0x40:1d,02
 attack prescale "$dir/arm-gen.policy" gripper prescale 0x40:00,11 0x40:fe,32
+# Auto-increment on (as the driver leaves it), then a pulse past the window in one write.
+attack cpy-high-pulse "$dir/cpy-gen.policy" gripper led 0x40:00,a0 0x40:1a,00,00,bc,02
 
 # --- 5. replay ---------------------------------------------------------------------
 "$contego" replay "$dir/rover-enforce.jsonl" --policy "$dir/rover-gen.policy" \

@@ -10,7 +10,10 @@
 #   process flooding increase_speed(): the flood is dropped, none of the
 #   loop's own frames is (a dropped frame spends no rate);
 # - sixdof_hand.py: the 6DOF Hand, open in one run and open, close in the next
-#   under one monitor: the next run starts the gripper's sequence afresh.
+#   under one monitor: the next run starts the gripper's sequence afresh;
+# - circuitpython_pca9685.py: Adafruit's current driver (one auto-increment
+#   write per pulse) as arm_init, which switches auto-increment on, then as
+#   the gripper, whose own start-up is dropped: both pulses act.
 # Usage: run_vendor_real.sh CONTEGO POLICIES_DIR VENDOR_DIR [SECONDS]
 set -uo pipefail
 contego="$1" policies="$2" vendor="$3" seconds="${4:-3}"
@@ -79,6 +82,22 @@ stop_monitor || fail "the arm's monitor exited $? on SIGTERM"
 verdicts hand "$dir/arm-monitor.jsonl" "${arm_by_design[@]}"
 grep -q '"decision":"allow".*"fields":\[0,577' "$dir/arm-monitor.jsonl" ||
   fail "hand: the second run's close did not act"
+
+start_monitor arm.policy cpy-monitor
+"$contego" run --socket "$dir/cpy-monitor.sock" --task arm_init \
+  -- "$py" "$vendor/circuitpython_pca9685.py" 420 >"$dir/cpy-init.out" 2>"$dir/cpy-init.err" ||
+  fail "cpy-init: exit $?"
+finished cpy-init
+sleep 1.1
+"$contego" run --socket "$dir/cpy-monitor.sock" --task gripper \
+  -- "$py" "$vendor/circuitpython_pca9685.py" 420 577 >"$dir/cpy-grip.out" 2>"$dir/cpy-grip.err" ||
+  fail "cpy-grip: exit $?"
+finished cpy-grip
+stop_monitor || fail "the current driver's monitor exited $? on SIGTERM"
+verdicts cpy "$dir/cpy-monitor.jsonl" "${arm_by_design[@]}"
+[ "$(grep -c '"command_name":"led","decision":"allow".*"task_name":"gripper"' \
+  "$dir/cpy-monitor.jsonl")" = 2 ] ||
+  fail "cpy: the gripper's two one-write pulses did not both act"
 
 # A pulse written one register at a time whose last register never comes
 # (OFF_H): the program was told each write succeeded, none reached the chip.
