@@ -241,7 +241,7 @@ int ct_bus_transfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i
 int ct_bus_smbus(struct i2c_adapter *adap, const struct ct_file *cf, u16 addr, u16 flags,
 		 char read_write, u8 command, int size, union i2c_smbus_data *data);
 int ct_xfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, u32 n,
-	    u16 client_flags, bool check_only);
+	    bool check_only);
 int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
 		     const contego_verdict *v, u16 flags);
 bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,

@@ -51,13 +51,15 @@ int ct_bus_smbus(struct i2c_adapter *adap, const struct ct_file *cf, u16 addr, u
 /* One combined transfer in the form the shared i2c-dev model gives it on
  * this adapter (contego/i2c_plan.h, the planner the monitor's buses use):
  * plain I2C, or the one SMBus transaction that puts the same bytes on the
- * wire, with `cf`'s timing (ct_bus_transfer). `client_flags`: the node's
- * I2C_CLIENT_PEC for an SMBus form.
+ * wire, with `cf`'s timing (ct_bus_transfer). The messages are the wire's
+ * bytes whole: an SMBus form goes without I2C_CLIENT_PEC, so that no byte
+ * the core did not check is added (a PEC the program asked for is already
+ * one of them: contego_i2c_smbus_msgs).
  * `check_only`: whether it has a form, nothing sent. 0 or -errno
  * (-EOPNOTSUPP: no form on this adapter).
  */
 int ct_xfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *m, u32 n,
-	    u16 client_flags, bool check_only)
+	    bool check_only)
 {
 	struct contego_i2c_plan plan;
 	union i2c_smbus_data data;
@@ -87,7 +89,7 @@ int ct_xfer(struct i2c_adapter *adap, const struct ct_file *cf, struct i2c_msg *
 	memcpy(data.block, plan.op.data, sizeof(data.block));
 	if (plan.op.size == I2C_SMBUS_WORD_DATA || plan.op.size == I2C_SMBUS_PROC_CALL)
 		data.word = plan.op.data[0] | (plan.op.data[1] << 8);
-	ret = ct_bus_smbus(adap, cf, plan.op.addr, client_flags & I2C_CLIENT_PEC,
+	ret = ct_bus_smbus(adap, cf, plan.op.addr, 0,
 			   plan.op.read ? I2C_SMBUS_READ : I2C_SMBUS_WRITE, plan.op.command,
 			   plan.op.size, &data);
 	if (ret < 0 || plan.op.reply < 0)
@@ -116,7 +118,7 @@ int ct_perform_emits(struct i2c_adapter *adap, const struct ct_file *cf,
 
 		if (off + len > CONTEGO_MAX_EMIT_BYTES)
 			return -EIO; /* malformed verdict: fail closed */
-		ret = ct_xfer(adap, cf, &m, 1, flags, false);
+		ret = ct_xfer(adap, cf, &m, 1, false);
 		if (ret < 0)
 			return ret;
 		off += len;
@@ -140,7 +142,7 @@ bool ct_emit_with_read(struct i2c_adapter *adap, const struct ct_file *cf,
 					i2c_get_functionality(adap), (struct contego_i2c_msg *)&m[0]))
 		return false;
 	m[1] = *read;
-	*ret = ct_xfer(adap, cf, m, 2, 0, false);
+	*ret = ct_xfer(adap, cf, m, 2, false);
 	read->len = m[1].len;
 	return true;
 }

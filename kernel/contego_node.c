@@ -54,7 +54,7 @@ static ssize_t ct_write(struct file *file, const char __user *buf, size_t count,
 	action = ct_decide(cf, task, &m, 1, 1, &decider, &hold_until);
 	if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
 	    contego_i2c_emits_as_sent(&ct.verdicts[0], cf->addr, tmp, count))
-		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false); /* as sent: one message */
+		ret = ct_xfer(cf->adap, cf, &m, 1, false); /* as sent: one message */
 	else if (action == CT_PERFORM || action == CT_SUBSTITUTE)
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	else if (action == CT_REFUSE)
@@ -98,7 +98,7 @@ static ssize_t ct_read(struct file *file, char __user *buf, size_t count, loff_t
 					     .ten = !!(cf->flags & I2C_M_TEN) };
 	action = ct_decide(cf, task, &m, 1, 1, &decider, &hold_until);
 	if (action == CT_PERFORM)
-		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
+		ret = ct_xfer(cf->adap, cf, &m, 1, false);
 	else if (action == CT_REFUSE)
 		ret = ct_refusal(decider);
 	else

@@ -20,14 +20,14 @@ static int ct_read_sample_bus(struct i2c_adapter *adap, const contego_device_inf
 	int ret;
 
 	if (req_len && !combined) {
-		ret = ct_xfer(adap, NULL, &m[0], 1, 0, false);
+		ret = ct_xfer(adap, NULL, &m[0], 1, false);
 		if (ret < 0)
 			return ret;
 	}
 	if (combined)
-		ret = ct_xfer(adap, NULL, m, 2, 0, false);
+		ret = ct_xfer(adap, NULL, m, 2, false);
 	else
-		ret = ct_xfer(adap, NULL, &m[1], 1, 0, false);
+		ret = ct_xfer(adap, NULL, &m[1], 1, false);
 	if (ret == 0 && m[1].len < info->sample_len)
 		return -EIO; /* a short I2C block read: no sample */
 	return ret;

@@ -75,9 +75,9 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 	} else if ((action == CT_PERFORM || action == CT_SUBSTITUTE) &&
 		   (ntx > 1 || ct.txs[0].kind == CONTEGO_TX_WRITE) &&
 		   contego_i2c_acts_as_sent(ct.txs, ct.verdicts, ntx) &&
-		   ct_xfer(cf->adap, cf, msgs, nmsgs, 0, true) == 0) {
+		   ct_xfer(cf->adap, cf, msgs, nmsgs, true) == 0) {
 		/* Every write exactly as sent: the program's one combined transfer. */
-		ret = ct_xfer(cf->adap, cf, msgs, nmsgs, 0, false);
+		ret = ct_xfer(cf->adap, cf, msgs, nmsgs, false);
 	} else if (action == CT_PERFORM || action == CT_SUBSTITUTE) {
 		/* In message order, only what the core allowed or substituted. */
 		for (i = 0; i < ntx && ret == 0; i++) {
@@ -94,7 +94,7 @@ static long ct_ioctl_rdwr(struct ct_file *cf, struct i2c_msg *msgs, u32 nmsgs,
 						       tx->ten ? I2C_M_TEN : 0);
 			} else {
 				ret = ct_xfer(cf->adap, cf, &msgs[tx->first_msg], tx->msg_count,
-					      0, false);
+					      false);
 			}
 		}
 	} else {
@@ -207,15 +207,15 @@ static int ct_proc_call(struct ct_file *cf, int size, union i2c_smbus_data *data
 		pair[0] = *w;
 		pair[1] = m;
 	}
-	if (w && ct_xfer(cf->adap, cf, pair, 2, cf->flags, true) == 0) {
-		ret = ct_xfer(cf->adap, cf, pair, 2, cf->flags, false);
+	if (w && ct_xfer(cf->adap, cf, pair, 2, true) == 0) {
+		ret = ct_xfer(cf->adap, cf, pair, 2, false);
 		m.len = pair[1].len;
 	} else if (!ct_emit_with_read(cf->adap, cf, &ct.verdicts[0], &m, &ret)) {
-		ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, true);
+		ret = ct_xfer(cf->adap, cf, &m, 1, true);
 		if (ret == 0)
 			ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 		if (ret == 0)
-			ret = ct_xfer(cf->adap, cf, &m, 1, cf->flags, false);
+			ret = ct_xfer(cf->adap, cf, &m, 1, false);
 	}
 	if (ret < 0)
 		return ret;
@@ -241,7 +241,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	bool read, proc, as_sent;
 	int r;
 	u8 action;
-	u16 task;
+	u16 task, client;
 	long ret;
 
 	if (a.size != I2C_SMBUS_BYTE && a.size != I2C_SMBUS_QUICK && a.size != I2C_SMBUS_BYTE_DATA &&
@@ -283,9 +283,18 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 		bytes[0] = data.word & 0xff;
 		bytes[1] = data.word >> 8;
 	}
-	r = contego_i2c_smbus_msgs(cf->addr, cf->flags & I2C_M_TEN,
-				   a.read_write == I2C_SMBUS_READ, a.command, a.size, bytes,
-				   (struct contego_i2c_msg *)m, wire, rbuf);
+	/* PEC, where the adapter sends one, as the shared model has it: a
+	 * write's is a byte of the write, which the core checks and the call
+	 * itself puts on the wire; a read's comes from the device and i2c-core
+	 * compares it; the counted reads go without.
+	 */
+	BUILD_BUG_ON(I2C_CLIENT_PEC != CONTEGO_I2C_CLIENT_PEC);
+	client = cf->flags & I2C_M_TEN;
+	if (contego_i2c_pec_on_wire(cf->flags & I2C_CLIENT_PEC, i2c_get_functionality(cf->adap)) &&
+	    contego_i2c_smbus_pec_kept(a.size, a.read_write == I2C_SMBUS_READ))
+		client |= I2C_CLIENT_PEC;
+	r = contego_i2c_smbus_msgs(cf->addr, client, a.read_write == I2C_SMBUS_READ, a.command,
+				   a.size, bytes, (struct contego_i2c_msg *)m, wire, rbuf);
 	if (r < 0)
 		return r;
 	nm = r;
@@ -321,14 +330,14 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 	} else if (a.size == I2C_SMBUS_QUICK || read ||
 		   (ct.verdicts[0].emit_count == 1 && as_sent)) {
 		/* Exactly what was asked: the call itself, from our copy. */
-		ret = ct_bus_smbus(cf->adap, cf, cf->addr, cf->flags, a.read_write, a.command,
+		ret = ct_bus_smbus(cf->adap, cf, cf->addr, client, a.read_write, a.command,
 				   a.size, (a.size == I2C_SMBUS_QUICK ||
 					    (a.size == I2C_SMBUS_BYTE && !read)) ? NULL : &data);
 	} else if (as_sent && !proc) {
 		/* The write's bytes, checked register by register, as one
 		 * message in the planner's form (as the monitor sends it).
 		 */
-		ret = ct_xfer(cf->adap, cf, m, 1, cf->flags, false);
+		ret = ct_xfer(cf->adap, cf, m, 1, false);
 	} else if (proc) {
 		ret = ct_proc_call(cf, a.size, &data, as_sent ? &m[0] : NULL);
 	} else {

@@ -228,13 +228,49 @@ int contego_i2c_call_has_forms(const struct contego_i2c_msg *msgs, uint32_t nmsg
  * call's union i2c_smbus_data as bytes (word as [lo, hi]), copied in, with
  * I2C_SMBUS_I2C_BLOCK_BROKEN already made I2C_SMBUS_I2C_BLOCK_DATA. A write's
  * bytes go to `wire`; a read message receives into `rbuf` (RECV_LEN's
- * count preset to 1). `ten`: I2C_M_TEN for a ten-bit address. `read`: the
- * call's read_write is I2C_SMBUS_READ. Returns the number of messages (1
- * or 2), or -22 (EINVAL) for an unknown size or a block count above 32. */
-int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read, uint8_t command,
+ * count preset to 1). `read`: the call's read_write is I2C_SMBUS_READ.
+ * `flags`: CONTEGO_I2C_M_TEN for a ten-bit address; CONTEGO_I2C_CLIENT_PEC
+ * when the descriptor asked for packet error checking (I2C_PEC) and the
+ * adapter puts it on the wire (contego_i2c_pec_on_wire). Then, for the calls
+ * that carry it (contego_i2c_smbus_pec_kept), a call that only writes ends
+ * with its PEC, one more byte (i2c-core's i2c_smbus_add_pec): a byte of the
+ * write like any other, which the core checks (a register map's
+ * auto-increment stores it in the next register) and which is sent as such,
+ * never added again; a call that reads gets one more byte from the device,
+ * its PEC, which the client compares (contego_smbus_pec) before it answers,
+ * EBADMSG on a mismatch, as i2c-core does. Returns the
+number of messages (1 or 2), or -22 (EINVAL) for an unknown size or a
+ * block count above 32. */
+#define CONTEGO_I2C_CLIENT_PEC 0x0004u     /* the kernel's I2C_CLIENT_PEC */
+#define CONTEGO_I2C_FUNC_SMBUS_PEC 0x0008u /* <linux/i2c.h>'s I2C_FUNC_SMBUS_PEC */
+int contego_i2c_smbus_msgs(uint16_t addr, uint16_t flags, uint8_t read, uint8_t command,
                            uint32_t size, const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
                            struct contego_i2c_msg m[2], uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES],
                            uint8_t rbuf[CONTEGO_SMBUS_DATA_BYTES - 1]);
+
+/* Whether a descriptor's SMBus writes carry a PEC on the wire: it set
+ * I2C_PEC (`pec`) and the adapter has I2C_FUNC_SMBUS_PEC (i2c-core's
+ * emulation on a plain I2C adapter, or a controller that computes it); an
+ * adapter without it sends none, whatever the descriptor asked. */
+static inline int contego_i2c_pec_on_wire(int pec, uint64_t funcs) {
+  return pec && (funcs & CONTEGO_I2C_FUNC_SMBUS_PEC) != 0;
+}
+
+/* Whether an I2C_SMBUS call of `size` (read: its read_write is
+ * I2C_SMBUS_READ) carries its PEC through contego when the wire has one:
+ * every call but a quick command and an I2C block transfer (i2c-core adds
+ * none to them) and the counted reads, an SMBus block read and a block
+ * process call, whose answer one byte longer has no form in the planner:
+ * they are sent without PEC, their data unverified. */
+static inline int contego_i2c_smbus_pec_kept(uint32_t size, int read) {
+  return size != CONTEGO_SMBUS_QUICK && size != CONTEGO_SMBUS_I2C_BLOCK_DATA &&
+         size != CONTEGO_SMBUS_BLOCK_PROC_CALL && !(size == CONTEGO_SMBUS_BLOCK_DATA && read);
+}
+
+/* SMBus's packet error code: CRC-8 (x^8 + x^2 + x + 1) of `n` bytes, on from
+ * `crc` (0 to start). i2c-core computes it over each message's address byte
+ * ((addr << 1) | R/W) and then its bytes. */
+uint8_t contego_smbus_pec(uint8_t crc, const uint8_t *bytes, uint32_t n);
 
 /* I2C_RETRIES and I2C_TIMEOUT: i2c-core's rule for one transfer
  * (__i2c_transfer and __i2c_smbus_xfer), which both clients apply with a

@@ -137,6 +137,16 @@ static void ct_kunit_smbus_call_table(struct kunit *test)
 	KUNIT_EXPECT_EQ(test, m[1].len, 33);
 	/* An unknown size is refused. */
 	KUNIT_EXPECT_LT(test, contego_i2c_smbus_msgs(0x40, 0, 0, 0x10, 6, data, m, wire, rbuf), 0);
+	/* With PEC on the wire, a byte write ends with its PEC: CRC-8 of
+	 * 0x80 (0x40 writing), 0x10, 0x34 is 0xd0; a read's request has none.
+	 */
+	KUNIT_ASSERT_EQ(test, contego_i2c_smbus_msgs(0x40, I2C_CLIENT_PEC, 0, 0x10,
+						     CONTEGO_SMBUS_BYTE_DATA, data, m, wire, rbuf), 1);
+	KUNIT_EXPECT_EQ(test, m[0].len, 3);
+	KUNIT_EXPECT_EQ(test, m[0].buf[2], 0xd0);
+	KUNIT_ASSERT_EQ(test, contego_i2c_smbus_msgs(0x40, I2C_CLIENT_PEC, 1, 0x10,
+						     CONTEGO_SMBUS_BYTE_DATA, data, m, wire, rbuf), 2);
+	KUNIT_EXPECT_EQ(test, m[0].len, 1);
 }
 
 static void ct_kunit_timing(struct kunit *test)

@@ -4,14 +4,29 @@
 #include "contego/i2c_msg_flags.h"
 #include "contego/i2c_plan.h"
 
-extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read, uint8_t command,
-                                      uint32_t size, const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
+extern "C" uint8_t contego_smbus_pec(uint8_t crc, const uint8_t* bytes, uint32_t n) {
+  for (uint32_t i = 0; i < n; ++i) {
+    crc ^= bytes[i];
+    for (int bit = 0; bit < 8; ++bit) {
+      crc = static_cast<uint8_t>((crc & 0x80) != 0 ? (crc << 1) ^ 0x07 : crc << 1);
+    }
+  }
+  return crc;
+}
+
+extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t client_flags, uint8_t read,
+                                      uint8_t command, uint32_t size,
+                                      const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],
                                       struct contego_i2c_msg m[2],
                                       uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES],
                                       uint8_t rbuf[CONTEGO_SMBUS_DATA_BYTES - 1]) {
   constexpr int kEinval = -22;
   constexpr uint32_t kMax = CONTEGO_SMBUS_BLOCK_MAX;
-  const uint16_t flags = ten & CONTEGO_I2C_M_TEN, rd = flags | CONTEGO_I2C_M_RD;
+  const uint16_t flags = client_flags & CONTEGO_I2C_M_TEN, rd = flags | CONTEGO_I2C_M_RD;
+  // One byte more, the PEC: after a write's bytes, or from the device after a read's.
+  const uint16_t pec =
+      (client_flags & CONTEGO_I2C_CLIENT_PEC) != 0 && contego_i2c_smbus_pec_kept(size, read) ? 1
+                                                                                             : 0;
   const bool proc = size == CONTEGO_SMBUS_PROC_CALL || size == CONTEGO_SMBUS_BLOCK_PROC_CALL;
   uint32_t len = 1;  // the write's: the command byte, then the data
   wire[0] = command;
@@ -20,8 +35,9 @@ extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read,
     case CONTEGO_SMBUS_QUICK:  // the address and the R/W bit only
       m[0] = {addr, static_cast<uint16_t>(read ? rd : flags), 0, nullptr};
       return 1;
-    case CONTEGO_SMBUS_BYTE:  // send byte, or receive byte (no command)
-      m[0] = read ? contego_i2c_msg{addr, rd, 1, rbuf} : contego_i2c_msg{addr, flags, 1, wire};
+    case CONTEGO_SMBUS_BYTE:  // send byte (the command alone), or receive byte
+      if (!read) break;
+      m[0] = {addr, rd, static_cast<uint16_t>(1 + pec), rbuf};
       return 1;
     case CONTEGO_SMBUS_BYTE_DATA:
     case CONTEGO_SMBUS_WORD_DATA:
@@ -29,7 +45,7 @@ extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read,
       const uint32_t n = size == CONTEGO_SMBUS_BYTE_DATA ? 1 : 2;
       if (read && !proc) {
         m[0] = {addr, flags, 1, wire};
-        m[1] = {addr, rd, static_cast<uint16_t>(n), rbuf};
+        m[1] = {addr, rd, static_cast<uint16_t>(n + pec), rbuf};
         return 2;
       }
       for (uint32_t i = 0; i < n; ++i) wire[len++] = data[i];
@@ -57,11 +73,16 @@ extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t ten, uint8_t read,
     default:
       return kEinval;
   }
+  if (pec != 0 && !proc) {
+    const uint8_t address_byte = static_cast<uint8_t>(addr << 1);  // i2c_8bit_addr_from_msg
+    wire[len] = contego_smbus_pec(contego_smbus_pec(0, &address_byte, 1), wire, len);
+    ++len;
+  }
   m[0] = {addr, flags, static_cast<uint16_t>(len), wire};
   if (!proc) return 1;
   // A process call's answer: a read without pointer after the write.
   m[1] = size == CONTEGO_SMBUS_PROC_CALL
-             ? contego_i2c_msg{addr, rd, 2, rbuf}
+             ? contego_i2c_msg{addr, rd, static_cast<uint16_t>(2 + pec), rbuf}
              : contego_i2c_msg{addr, static_cast<uint16_t>(rd | CONTEGO_I2C_M_RECV_LEN), 1 + kMax,
                                rbuf};
   return 2;

@@ -3,6 +3,7 @@
 #include <errno.h>
 
 #include <cstring>
+#include <span>
 
 #include "contego/i2c_msg_flags.h"
 #include "contego/i2c_plan.h"
@@ -75,7 +76,7 @@ gate::Message read_msg(const FdState& s, uint16_t len, uint16_t extra_flags = 0)
   return m;
 }
 
-Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
+Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory, uint64_t funcs) {
   RawSmbus a{};
   if (!memory.read(arg, &a, sizeof a)) return fail(EFAULT);
   uint32_t size = a.size;
@@ -119,20 +120,34 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory) {
   if (size == kSmbusI2cBlockData && read) c.smbus_block_len = data[0];
 
   // The call's messages: the shared model's table (contego/i2c_plan.h), as
-  // contego.ko makes them.
+  // contego.ko makes them, a write's PEC included where the adapter sends one.
   contego_i2c_msg m[2];
   uint8_t wire[CONTEGO_SMBUS_WIRE_BYTES], rbuf[CONTEGO_SMBUS_DATA_BYTES - 1];
-  const int n = contego_i2c_smbus_msgs(s.addr, s.ten_bit ? gate::kMsgTen : 0, read ? 1 : 0,
-                                       a.command, size, data, m, wire, rbuf);
+  const uint16_t flags =
+      static_cast<uint16_t>((s.ten_bit ? gate::kMsgTen : 0) |
+                            (contego_i2c_pec_on_wire(s.pec, funcs) ? CONTEGO_I2C_CLIENT_PEC : 0));
+  const int n =
+      contego_i2c_smbus_msgs(s.addr, flags, read ? 1 : 0, a.command, size, data, m, wire, rbuf);
   if (n < 0) return fail(EINVAL);
+  uint8_t pec = 0;  // i2c-core's, over every message but the answer's PEC byte
   for (int i = 0; i < n; ++i) {
     gate::Message msg;
     msg.addr = m[i].addr;
     msg.flags = m[i].flags;
     msg.len = m[i].len;
-    if (!(m[i].flags & gate::kMsgRead)) msg.data.assign(m[i].buf, m[i].buf + m[i].len);
+    const bool reads = (m[i].flags & gate::kMsgRead) != 0;
+    const auto address_byte = static_cast<uint8_t>((m[i].addr << 1) | (reads ? 1 : 0));
+    pec = contego_smbus_pec(pec, &address_byte, 1);
+    if (!reads) {
+      msg.data.assign(m[i].buf, m[i].buf + m[i].len);
+      pec = contego_smbus_pec(pec, m[i].buf, m[i].len);
+    }
     d.transfer.messages.push_back(std::move(msg));
   }
+  // A read with PEC: its answer ends with the device's (contego/i2c_plan.h).
+  c.smbus_pec = (flags & CONTEGO_I2C_CLIENT_PEC) != 0 && c.smbus_read_write == kSmbusRead &&
+                contego_i2c_smbus_pec_kept(size, read ? 1 : 0);
+  c.smbus_pec_partial = pec;
   return d;
 }
 
@@ -213,7 +228,7 @@ Decoded decode_ioctl(FdState& state, unsigned long request, uint64_t arg, Memory
     case kI2cRdwr:
       return decode_rdwr(state, arg, memory);
     case kI2cSmbus:
-      return decode_smbus(state, arg, memory);
+      return decode_smbus(state, arg, memory, funcs);
     default:
       return fail(ENOTTY);
   }
@@ -263,7 +278,15 @@ int64_t complete(const Completion& c, const gate::TransferReply& reply, Memory& 
     case Completion::Form::kSmbus: {
       if (c.smbus_read_write != kSmbusRead || c.smbus_size == kSmbusQuick) return 0;
       if (reply.reads.size() != 1) return -EIO;
-      const auto& r = reply.reads[0];
+      std::span<const uint8_t> r = reply.reads[0];
+      if (c.smbus_pec) {  // as i2c-core's i2c_smbus_check_pec
+        if (r.empty()) return -EIO;
+        r = r.first(r.size() - 1);
+        if (contego_smbus_pec(c.smbus_pec_partial, r.data(), static_cast<uint32_t>(r.size())) !=
+            reply.reads[0].back()) {
+          return -EBADMSG;
+        }
+      }
       uint8_t data[kSmbusDataSize] = {};
       switch (c.smbus_size) {
         case kSmbusByte:

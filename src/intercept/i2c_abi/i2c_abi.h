@@ -85,6 +85,10 @@ struct Completion {
   uint8_t smbus_read_write = 0;
   size_t smbus_datasize = 0;    // bytes the kernel copies back (1, 2 or 34)
   uint8_t smbus_block_len = 0;  // I2C_BLOCK_DATA read: requested length
+  // kSmbus read with PEC: the answer's last byte is the device's PEC, to be
+  // compared with contego_smbus_pec(smbus_pec_partial, the bytes before it).
+  bool smbus_pec = false;
+  uint8_t smbus_pec_partial = 0;  // over the messages before, and the read's address byte
 };
 
 // The outcome of decoding one call.

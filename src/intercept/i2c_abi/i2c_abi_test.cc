@@ -10,6 +10,8 @@
 #include <linux/i2c-dev.h>
 #include <linux/i2c.h>
 
+#include "contego/i2c_plan.h"
+
 namespace contego::intercept::i2c_abi {
 namespace {
 
@@ -20,13 +22,14 @@ class I2cAbi : public ::testing::Test {
   FdState state;
   LocalMemory mem;
 
-  Decoded smbus(uint8_t rw, uint8_t cmd, uint32_t size, i2c_smbus_data* data) {
+  Decoded smbus(uint8_t rw, uint8_t cmd, uint32_t size, i2c_smbus_data* data,
+                uint64_t funcs = 0x0FFF0001) {
     i2c_smbus_ioctl_data a{};
     a.read_write = rw;
     a.command = cmd;
     a.size = size;
     a.data = data;
-    return decode_ioctl(state, I2C_SMBUS, addr_of(&a), mem, 0x0FFF0001);
+    return decode_ioctl(state, I2C_SMBUS, addr_of(&a), mem, funcs);
   }
 };
 
@@ -135,6 +138,57 @@ TEST_F(I2cAbi, SmbusByteDataWriteIsCommandThenByte) {
   ASSERT_EQ(d.transfer.messages.size(), 1u);
   EXPECT_EQ(d.transfer.messages[0].addr, 0x40);
   EXPECT_EQ(d.transfer.messages[0].data, (std::vector<uint8_t>{0x00, 0x21}));
+}
+
+TEST_F(I2cAbi, APecWriteCarriesItsPacketErrorCodeWhereTheAdapterSendsOne) {
+  state.addr = 0x40;
+  ASSERT_EQ(decode_ioctl(state, I2C_PEC, 1, mem, 0).err, 0);
+  i2c_smbus_data data{};
+  data.byte = 0x34;
+  // A plain adapter (i2c-core's SMBus emulation adds the PEC): the core is
+  // given the byte the chip will get, CRC-8 of 0x80, 0x10, 0x34.
+  const uint64_t plain = I2C_FUNC_I2C | I2C_FUNC_SMBUS_EMUL;
+  EXPECT_EQ(
+      smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_BYTE_DATA, &data, plain).transfer.messages[0].data,
+      (std::vector<uint8_t>{0x10, 0x34, 0xD0}));
+  // An adapter without I2C_FUNC_SMBUS_PEC sends none.
+  EXPECT_EQ(smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_BYTE_DATA, &data).transfer.messages[0].data,
+            (std::vector<uint8_t>{0x10, 0x34}));
+  // write() never carries one, as under i2c-dev.
+  const uint8_t bytes[] = {0x10, 0x34};
+  EXPECT_EQ(decode_write(state, addr_of(bytes), 2, mem).transfer.messages[0].data,
+            (std::vector<uint8_t>{0x10, 0x34}));
+  ASSERT_EQ(decode_ioctl(state, I2C_PEC, 0, mem, 0).err, 0);
+  EXPECT_EQ(
+      smbus(I2C_SMBUS_WRITE, 0x10, I2C_SMBUS_BYTE_DATA, &data, plain).transfer.messages[0].data,
+      (std::vector<uint8_t>{0x10, 0x34}));
+}
+
+TEST_F(I2cAbi, APecReadIsAnsweredOnlyWhenTheDevicesPecMatches) {
+  state.addr = 0x40;
+  ASSERT_EQ(decode_ioctl(state, I2C_PEC, 1, mem, 0).err, 0);
+  i2c_smbus_data data{};
+  Decoded d =
+      smbus(I2C_SMBUS_READ, 0x10, I2C_SMBUS_BYTE_DATA, &data, I2C_FUNC_I2C | I2C_FUNC_SMBUS_EMUL);
+  ASSERT_EQ(d.transfer.messages.size(), 2u);
+  EXPECT_EQ(d.transfer.messages[1].len, 2);  // the byte and the device's PEC
+  // i2c-core's PEC of 0x80, 0x10, 0x81 (0x40 reading), 0x61.
+  const uint8_t answer[] = {0x80, 0x10, 0x81, 0x61};
+  const uint8_t good = contego_smbus_pec(0, answer, sizeof answer);
+  gate::TransferReply reply;
+  reply.reads = {{0x61, good}};
+  EXPECT_EQ(complete(d.completion, reply, mem), 0);
+  EXPECT_EQ(data.byte, 0x61);
+  data.byte = 0;
+  reply.reads = {{0x61, static_cast<uint8_t>(good ^ 1)}};
+  EXPECT_EQ(complete(d.completion, reply, mem), -EBADMSG);  // as i2c-core's check
+  EXPECT_EQ(data.byte, 0);
+  // Without the adapter's PEC, the answer is the byte alone.
+  Decoded plain = smbus(I2C_SMBUS_READ, 0x10, I2C_SMBUS_BYTE_DATA, &data);
+  EXPECT_EQ(plain.transfer.messages[1].len, 1);
+  reply.reads = {{0x62}};
+  EXPECT_EQ(complete(plain.completion, reply, mem), 0);
+  EXPECT_EQ(data.byte, 0x62);
 }
 
 TEST_F(I2cAbi, SmbusWordWriteIsLittleEndian) {

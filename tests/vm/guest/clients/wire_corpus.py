@@ -11,6 +11,11 @@
 # whether the call gets through: 3 retries ride out 3 losses, not 4; a
 # descriptor with I2C_RETRIES 0, or one that never set it, is told EAGAIN
 # at the first.
+# With PEC on (I2C_PEC), an SMBus write carries the packet error code as one
+# more byte where the adapter puts it on the wire (I2C_FUNC_SMBUS_PEC:
+# i2c-plain-stub's SMBus emulation, not i2c-stub): the chip stores it in the
+# register after the write's, so it must be checked as a byte of the write,
+# and a write() or an I2C block write never carries one.
 # Prints one line per step: what the program was told (ok and the bytes
 # read, or the errno's name). Under contego.ko and under the monitor, on the
 # same adapter, the two outputs must be the same.
@@ -91,6 +96,31 @@ def descriptor(retries=None):  # another open() of the bus, with I2C_RETRIES or 
     return other
 
 
+def crc8(data):  # SMBus PEC: CRC-8, polynomial x^8 + x^2 + x + 1
+    crc = 0
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def pec_bus():  # another open() of the bus, with I2C_PEC on
+    other = SMBus(int(sys.argv[1]))
+    other.pec = 1
+    return other
+
+
+def pec_landed(reg, wire):  # [1] if reg holds the PEC of `wire` written at A, else [0]
+    return [1 if bus.read_byte_data(A, reg) == crc8([A << 1] + wire) else 0]
+
+
+def pec_raw_write(data):
+    other = pec_bus()
+    fcntl.ioctl(other.fd, I2C_SLAVE, A)
+    return os.write(other.fd, bytes(data))
+
+
 steps = [
     ("I2C_RETRIES 3, I2C_TIMEOUT 7", own_timing),
     # I2C_RDWR writes: byte data, word data, I2C block, SMBus block, too long.
@@ -144,6 +174,22 @@ steps = [
     ("read() 1", lambda: raw_read(1)),
     ("read() 4", lambda: raw_read(4)),
     ("read() 0", lambda: raw_read(0)),
+    # I2C_PEC on: each write's PEC in the register after it, where the wire has one.
+    ("pec smbus write byte data", lambda: pec_bus().write_byte_data(A, 0x1A, 0x61)),
+    ("pec landed after write byte data", lambda: pec_landed(0x1B, [0x1A, 0x61])),
+    ("pec smbus write word data", lambda: pec_bus().write_word_data(A, 0x1C, 0x6362)),
+    ("pec landed after write word data", lambda: pec_landed(0x1E, [0x1C, 0x62, 0x63])),
+    ("pec smbus write byte", lambda: pec_bus().write_byte(A, 0x1F)),
+    ("pec landed after write byte", lambda: pec_landed(0x1F, [0x1F])),
+    ("pec smbus write block data", lambda: pec_bus().write_block_data(A, 0x14, [0x64, 0x65])),
+    ("pec landed after write block data", lambda: pec_landed(0x17, [0x14, 2, 0x64, 0x65])),
+    ("pec write() 2", lambda: pec_raw_write([0x18, 0x66])),
+    ("pec landed after write()", lambda: pec_landed(0x19, [0x18, 0x66])),
+    ("pec smbus write i2c block 1", lambda: pec_bus().write_i2c_block_data(A, 0x12, [0x67])),
+    ("pec landed after i2c block", lambda: pec_landed(0x13, [0x12, 0x67])),
+    ("pec smbus read byte data", lambda: pec_bus().read_byte_data(A, 0x1A)),
+    # The PEC of a write at r30 would land in r31, a register the policy does not have.
+    ("pec smbus write byte data r30", lambda: pec_bus().write_byte_data(A, 0x30, 0x68)),
 ]
 if LOSE:
     steps += [
