@@ -138,6 +138,17 @@ bool fill_complain(contego_kmod_load* req, const image::ImageModel& model, bool 
   return true;
 }
 
+// The module's control node, or a line on standard error saying which
+// command could not open it and why (the caller exits 2).
+base::UniqueFd open_control(const std::string& device, int flags, const char* command) {
+  base::UniqueFd fd(::open(device.c_str(), flags | O_CLOEXEC));
+  if (!fd.valid()) {
+    fmt::print(stderr, "{}: {}: {} (is contego.ko loaded?)\n", command, device,
+               std::strerror(errno));
+  }
+  return fd;
+}
+
 // CONTEGO_KMOD_RELOAD with `req` and the pairs of `now` with the image in
 // force; returns the exit code (said on stderr when not 0).
 int load_in_place(int fd, contego_kmod_load* req, const image::ImageModel& now, size_t nbinds) {
@@ -327,12 +338,8 @@ int load(const LoadArgs& a, const monitor::SetupOptions& source, bool in_place) 
     fmt::print(stderr, "contego kmod: more than {} bindings\n", CONTEGO_KMOD_MAX_BINDS);
     return 2;
   }
-  const base::UniqueFd fd(::open(device.c_str(), O_RDWR | O_CLOEXEC));
-  if (!fd.valid()) {
-    fmt::print(stderr, "contego kmod: {}: {} (is contego.ko loaded?)\n", device,
-               std::strerror(errno));
-    return 2;
-  }
+  const base::UniqueFd fd = open_control(device, O_RDWR, "contego kmod");
+  if (!fd.valid()) return 2;
   req.image = reinterpret_cast<uintptr_t>(image.data());
   req.size = static_cast<uint32_t>(image.size());
   req.nbinds = static_cast<uint32_t>(table.size());
@@ -377,12 +384,8 @@ int load(const LoadArgs& a, const monitor::SetupOptions& source, bool in_place) 
 // node: the image in force (read back: its SHA-256 is the one `contego
 // check --emit` and a bundle name), its tasks and devices, and the counters.
 int status(const std::string& device, bool json) {
-  const base::UniqueFd fd(::open(device.c_str(), O_RDONLY | O_CLOEXEC));
-  if (!fd.valid()) {
-    fmt::print(stderr, "contego kmod status: {}: {} (is contego.ko loaded?)\n", device,
-               std::strerror(errno));
-    return 2;
-  }
+  const base::UniqueFd fd = open_control(device, O_RDONLY, "contego kmod status");
+  if (!fd.valid()) return 2;
   auto state = kmod_status(fd.get());
   if (!state.ok()) {
     fmt::print(stderr, "contego kmod status: {}\n", state.error());
@@ -438,11 +441,8 @@ int status(const std::string& device, bool json) {
 }
 
 int stats(const std::string& device) {
-  const base::UniqueFd fd(::open(device.c_str(), O_RDONLY | O_CLOEXEC));
-  if (!fd.valid()) {
-    fmt::print(stderr, "contego kmod: {}: {}\n", device, std::strerror(errno));
-    return 2;
-  }
+  const base::UniqueFd fd = open_control(device, O_RDONLY, "contego kmod stats");
+  if (!fd.valid()) return 2;
   contego_kmod_stats s{};
   const int rc = ::ioctl(fd.get(), CONTEGO_KMOD_STATS, &s);
   if (rc != 0) {
@@ -467,12 +467,8 @@ int stats(const std::string& device) {
 // Exit 0 when the latch is clear, 1 when the module refused, 2 when it
 // cannot be reached or has no such device.
 int reset(const std::string& device, const std::string& name) {
-  const base::UniqueFd fd(::open(device.c_str(), O_RDWR | O_CLOEXEC));
-  if (!fd.valid()) {
-    fmt::print(stderr, "contego kmod reset: {}: {} (is contego.ko loaded?)\n", device,
-               std::strerror(errno));
-    return 2;
-  }
+  const base::UniqueFd fd = open_control(device, O_RDWR, "contego kmod reset");
+  if (!fd.valid()) return 2;
   auto running = running_image(fd.get());
   if (!running.ok()) {
     fmt::print(stderr, "contego kmod reset: {}\n", running.error());
