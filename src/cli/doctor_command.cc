@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fmt/core.h>
+#include <fmt/format.h>
 #include <fstream>
 #include <linux/seccomp.h>
 #include <string>
@@ -141,6 +142,62 @@ void check_buses(Report& r) {
   }
 }
 
+// Who, besides root, may open `st`'s node: its group's members (named, or
+// primary) when the group may read or write it, "everyone" when others may.
+std::vector<std::string> who_else_opens(const struct stat& st) {
+  if ((st.st_mode & 0006) != 0) return {"everyone"};
+  std::vector<std::string> users;
+  if ((st.st_mode & 0060) == 0 || st.st_gid == 0) return users;
+  if (const group* g = getgrgid(st.st_gid)) {
+    for (char** m = g->gr_mem; m != nullptr && *m != nullptr; ++m) users.emplace_back(*m);
+  }
+  setpwent();
+  while (const passwd* pw = getpwent()) {
+    if (pw->pw_gid == st.st_gid && pw->pw_uid != 0) users.emplace_back(pw->pw_name);
+  }
+  endpwent();
+  std::sort(users.begin(), users.end());
+  users.erase(std::unique(users.begin(), users.end()), users.end());
+  return users;
+}
+
+// Nodes that reach the bus without i2c-dev: physical memory and I/O ports,
+// and the GPIO controller, whose pins include the bus's own (the Pi's
+// header I2C is GPIO2/GPIO3). A user who can open one can bit-bang the bus
+// or write the controller's registers, and no checker ever sees it; the
+// current GoPiGo library does so by default (its bus "RPI_1SW").
+void check_bus_bypasses(Report& r) {
+  std::vector<std::string> nodes{"/dev/mem", "/dev/kmem", "/dev/port"};
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator("/dev", ec)) {
+    const std::string name = e.path().filename();
+    if (name.rfind("gpiomem", 0) == 0 || name.rfind("gpiochip", 0) == 0) nodes.push_back(e.path());
+  }
+  std::sort(nodes.begin(), nodes.end());
+  for (const auto& node : nodes) {
+    struct stat st {};
+    if (stat(node.c_str(), &st) != 0 || !S_ISCHR(st.st_mode)) continue;
+    const std::vector<std::string> users = who_else_opens(st);
+    const group* grp = getgrgid(st.st_gid);
+    const std::string group_name = grp ? grp->gr_name : std::to_string(st.st_gid);
+    if (users.empty()) {
+      r.ok(fmt::format("{}: only root opens it", node));
+      continue;
+    }
+    const bool gpio = node.find("gpio") != std::string::npos;
+    r.warn(fmt::format("{} (group {}, mode {:04o}): {} can {} and bypass contego", node, group_name,
+                       st.st_mode & 07777, fmt::join(users, ", "),
+                       gpio ? "drive the bus's pins themselves (a bit-banged bus is never checked)"
+                            : "write the bus controller's registers"),
+           users.front() == "everyone"
+               ? fmt::format("chmod o-rw {}", node)
+               : fmt::format("keep the robot's task users out of group {} (gpasswd -d USER {}); "
+                             "a program that bit-bangs the bus must use /dev/i2c-N instead "
+                             "(the GoPiGo library: set_bus(\"RPI_1\"))",
+                             group_name, group_name));
+  }
+}
+
 // Raspberry Pi: the header's I2C is off until config.txt turns it on.
 void check_raspberry_pi(Report& r) {
   const std::string model = first_line("/proc/device-tree/model");
@@ -221,6 +278,7 @@ void register_doctor(CLI::App& app) {
     Report r;
     check_kernel(r);
     check_buses(r);
+    check_bus_bypasses(r);
     check_raspberry_pi(r);
     check_monitor(r, *socket);
     fmt::print("{} problem(s), {} warning(s)\n", r.failures(), r.warnings());

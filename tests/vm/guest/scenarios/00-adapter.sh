@@ -28,4 +28,16 @@ run_logged direct as_task i2cget -y 0 0x40 0xfe
 run_logged doctor contego doctor
 [ $RC = 0 ] && grep -q '^\[ ok \] i2c-dev is loaded' "$OUT" && grep -q '^\[ ok \] /dev/i2c-0 (SMBus stub driver)' "$OUT" &&
   ok "contego doctor: kernel, i2c-dev and /dev/i2c-0 (i2c-stub, the monitor user's alone) reported, exit 0" || bad "contego doctor (exit $RC)"
+# A node that reaches the bus without i2c-dev, open to the task's group: a
+# Raspberry Pi's /dev/gpiomem for group gpio (here a stand-in node in the
+# task user's own group). The doctor names who can bypass contego by it.
+mknod /dev/gpiomem c 1 3 && chown 0:1000 /dev/gpiomem && chmod 0660 /dev/gpiomem
+run_logged doctor-gpio contego doctor
+rm -f /dev/gpiomem
+grep -q '^\[warn\] /dev/gpiomem (group task, mode 0660): task can drive the bus.s pins themselves' "$OUT" &&
+  grep -q 'fix: keep the robot.s task users out of group task' "$OUT" &&
+  ok "contego doctor: a GPIO node the task's group can open is named as a way around contego" ||
+  bad "contego doctor did not name /dev/gpiomem (exit $RC)"
+grep -q '^\[ ok \] /dev/mem: only root opens it' "$OUT" &&
+  ok "contego doctor: /dev/mem is root's alone" || bad "contego doctor said nothing right of /dev/mem"
 finish
