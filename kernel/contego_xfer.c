@@ -183,19 +183,36 @@ long ct_rdwr(struct ct_file *cf, unsigned long arg)
 
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
+/* i2c-core's PEC of an SMBus call's write and its answer's address byte:
+ * what the answer's PEC byte must continue to.
+ */
+static u8 ct_answer_pec(const struct i2c_msg m[2])
+{
+	u8 address = m[0].addr << 1, pec;
+
+	pec = contego_smbus_pec(0, &address, 1);
+	pec = contego_smbus_pec(pec, m[0].buf, m[0].len);
+	address |= 1;
+	return contego_smbus_pec(pec, &address, 1);
+}
+
 /* A process call the core allowed or substituted, into `data`: as the
  * program's call when its write goes out as sent (`w`: the call's write,
  * else NULL) and the pair has a form; else the one emit and the answer
  * together (ct_emit_with_read); else, as the monitor performs one, the
  * write's emits, then the answer read on its own (ct_xfer's form). Nothing
- * is written when the read has no form on this adapter. 0 or -errno.
+ * is written when the read has no form on this adapter. `answer`: the
+ * model's read message, whose length counts the device's PEC when the call
+ * has one (contego_i2c_smbus_msgs); `pec`: the PEC of all before that byte
+ * but the answer, which the answer's PEC must continue to (-EBADMSG, as
+ * i2c-core, and as the monitor's clients check it). 0 or -errno.
  */
 static int ct_proc_call(struct ct_file *cf, int size, union i2c_smbus_data *data,
-			const struct i2c_msg *w)
+			const struct i2c_msg *w, const struct i2c_msg *answer, u8 pec)
 {
 	u8 buf[1 + I2C_SMBUS_BLOCK_MAX] = { 1 }; /* RECV_LEN's preset */
 	struct i2c_msg m = { .addr = cf->addr, .flags = I2C_M_RD | (cf->flags & I2C_M_TEN),
-			     .len = 2, .buf = buf };
+			     .len = answer->len, .buf = buf };
 	struct i2c_msg pair[2];
 	int ret;
 
@@ -220,6 +237,8 @@ static int ct_proc_call(struct ct_file *cf, int size, union i2c_smbus_data *data
 	if (ret < 0)
 		return ret;
 	if (size == I2C_SMBUS_PROC_CALL) {
+		if (m.len == 3 && contego_smbus_pec(pec, buf, 2) != buf[2])
+			return -EBADMSG;
 		data->word = buf[0] | (buf[1] << 8);
 		return 0;
 	}
@@ -339,7 +358,8 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 		 */
 		ret = ct_xfer(cf->adap, cf, m, 1, false);
 	} else if (proc) {
-		ret = ct_proc_call(cf, a.size, &data, as_sent ? &m[0] : NULL);
+		ret = ct_proc_call(cf, a.size, &data, as_sent ? &m[0] : NULL, &m[1],
+				   ct_answer_pec(m));
 	} else {
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	}

@@ -1,6 +1,7 @@
 // A virtual I2C bus hosting register-level device models in the trusted
 // process, for tests and demos on machines without I2C. It answers like a
-// Linux adapter: I2C_FUNCS of an I2C + full SMBus controller, and ENXIO for
+// Linux adapter: I2C_FUNCS of an I2C + full SMBus controller (PEC included,
+// as i2c-core's emulation gives a plain one), and ENXIO for
 // an address nobody acknowledges (what i2c-dev reports for a NACK on most
 // adapters; i2cdetect treats any error as "no device"). set_funcs() makes it
 // an adapter with other abilities (kI2cStubFuncs: SMBus-only, like Linux's
@@ -39,7 +40,7 @@ class VirtualBus final : public Bus {
  public:
   static constexpr uint64_t kFuncs = kFuncI2c | kFuncSmbusQuick | kFuncSmbusAllByteWord |
                                      kFuncSmbusReadBlock | kFuncSmbusWriteBlock |
-                                     kFuncSmbusI2cBlock | kFuncSmbusBlockProcCall;
+                                     kFuncSmbusI2cBlock | kFuncSmbusBlockProcCall | kFuncSmbusPec;
 
   void attach(std::shared_ptr<DeviceModel> device);
   void set_funcs(uint64_t funcs) { funcs_.store(funcs); }

@@ -13,7 +13,9 @@
 #   under one monitor: the next run starts the gripper's sequence afresh;
 # - circuitpython_pca9685.py: Adafruit's current driver (one auto-increment
 #   write per pulse) as arm_init, which switches auto-increment on, then as
-#   the gripper, whose own start-up is dropped: both pulses act.
+#   the gripper, whose own start-up is dropped: both pulses act;
+# - pec_pulse.py: one pulse as byte writes, without and with I2C_PEC: the
+#   core checks the PEC bytes the chip gets.
 # Usage: run_vendor_real.sh CONTEGO POLICIES_DIR VENDOR_DIR [SECONDS]
 set -uo pipefail
 contego="$1" policies="$2" vendor="$3" seconds="${4:-3}"
@@ -110,6 +112,41 @@ grep -q "3 register write(s) staged and never completed" "$dir/partial.err" ||
   fail "partial: the dropped staging is not on standard error"
 grep -q '"kind":"staged-dropped"' "$dir/partial.jsonl" ||
   fail "partial: no staged-dropped record in the audit log"
+# Packet error checking (I2C_PEC) on the virtual bus, a plain adapter whose
+# SMBus writes carry their PEC byte as i2c-core's emulation sends them: the
+# PCA9685 takes it as data, so what the core checks is what the chip gets.
+# The pulse written without PEC acts. With PEC, auto-increment off, each
+# write's PEC lands in its own register after the value: ON_L, ON_H and
+# OFF_L end as PEC bytes, the last write is two commands (OFF_H = 0x01, then
+# its PEC): the core decodes the pulse the chip would get, and no pulse acts.
+pec_pulse() {  # pec|plain
+  "$contego" run --policy "$policies/arm.policy" --task gripper --virtual-bus 1 \
+    --audit "$dir/pec-$1.jsonl" -- "$py" "$vendor/pec_pulse.py" "$1" >"$dir/pec-$1.out" \
+    2>"$dir/pec-$1.err" || fail "pec-$1: exit $?"
+  finished "pec-$1"
+}
+pec_pulse plain
+grep -q '"command_name":"led","decision":"allow".*"fields":\[0,420,0,0\]' "$dir/pec-plain.jsonl" ||
+  fail "pec: the pulse without PEC did not act"
+pec_pulse pec
+want=$("$py" - <<'PY'
+def crc8(data):
+    crc = 0
+    for b in data:
+        crc ^= b
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+on_l, on_h, off_l = (crc8([0x80, 0x1A + i, v]) for i, v in enumerate([0, 0, 0xA4]))
+print("[%d,%d,0,0]" % ((on_h & 0x0F) << 8 | on_l, 0x01 << 8 | off_l))
+PY
+)
+grep -q '"command_name":"led","decision":"ignore".*"fields":'"${want//[/\\[}" "$dir/pec-pec.jsonl" ||
+  fail "pec: the core did not decode the pulse the chip gets (fields $want)"
+! grep -q '"command_name":"led","decision":"allow".*"fields":\[[0-9]' "$dir/pec-pec.jsonl" ||
+  fail "pec: a pulse acted with PEC on"
+echo "pec: the pulse acts without PEC; with it the core decodes what the chip gets, led(5) $want, and no pulse acts"
+
 # A stop() flood from a spoofing thread: stop is the safe state and always
 # allowed, but the flood is held to the task's budget per job and flagged.
 "$contego" run --policy "$policies/rover.policy" --task follower --virtual-bus 1 \

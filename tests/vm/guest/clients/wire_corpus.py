@@ -188,6 +188,7 @@ steps = [
     ("pec smbus write i2c block 1", lambda: pec_bus().write_i2c_block_data(A, 0x12, [0x67])),
     ("pec landed after i2c block", lambda: pec_landed(0x13, [0x12, 0x67])),
     ("pec smbus read byte data", lambda: pec_bus().read_byte_data(A, 0x1A)),
+    ("pec smbus process call", lambda: pec_bus().process_call(A, 0x0B, 0x5678)),
     # The PEC of a write at r30 would land in r31, a register the policy does not have.
     ("pec smbus write byte data r30", lambda: pec_bus().write_byte_data(A, 0x30, 0x68)),
 ]

@@ -201,8 +201,9 @@ for adapter in smbus plain; do
   # write's PEC landed in the register after it under both clients, as it
   # would without contego, and was checked as a byte of the write: the one
   # that would land in r31, which the policy does not have, was refused and
-  # r31 stayed 00. No PEC from write() or an I2C block write; a read's PEC
-  # is compared (the stub answers none, so EBADMSG, as i2c-core says). On
+  # r31 stayed 00. No PEC from write() or an I2C block write; a read's and a
+  # process call's answer's PEC is compared (the stub answers none, so
+  # EBADMSG, as i2c-core says). On
   # i2c-stub (no I2C_FUNC_SMBUS_PEC) nothing carries one: smbus2 refuses
   # to turn it on.
   for c in monitor kmod; do
@@ -213,11 +214,12 @@ for adapter in smbus plain; do
         grep -qx 'pec landed after write() ok 00' $f.steps &&
         grep -qx 'pec landed after i2c block ok 00' $f.steps &&
         grep -qx 'pec smbus read byte data err EBADMSG' $f.steps &&
+        grep -qx 'pec smbus process call err EBADMSG' $f.steps &&
         grep -q '^pec smbus write byte data r30 err ' $f.steps && [ "$r31" = 00 ] &&
         ok "plain, $c: PEC on the wire for the 4 SMBus writes, checked (the one for r31 refused, r31 = $r31), none for write() or an I2C block write, a read's compared" ||
         bad "plain, $c: PEC not as i2c-core puts it (r31 = $r31): $(grep '^pec' $f.steps | tr '\n' ';')"
     else
-      [ "$(grep -c '^pec smbus .* err None$' $f.steps)" = 7 ] &&
+      [ "$(grep -c '^pec smbus .* err None$' $f.steps)" = 8 ] &&
         ok "smbus, $c: no PEC on an adapter without it (smbus2 refuses I2C_PEC there)" ||
         bad "smbus, $c: PEC steps: $(grep '^pec' $f.steps | tr '\n' ';')"
     fi
