@@ -183,19 +183,6 @@ long ct_rdwr(struct ct_file *cf, unsigned long arg)
 
 /* ---- I2C_SMBUS ----------------------------------------------------------- */
 
-/* i2c-core's PEC of an SMBus call's write and its answer's address byte:
- * what the answer's PEC byte must continue to.
- */
-static u8 ct_answer_pec(const struct i2c_msg m[2])
-{
-	u8 address = m[0].addr << 1, pec;
-
-	pec = contego_smbus_pec(0, &address, 1);
-	pec = contego_smbus_pec(pec, m[0].buf, m[0].len);
-	address |= 1;
-	return contego_smbus_pec(pec, &address, 1);
-}
-
 /* A process call the core allowed or substituted, into `data`: as the
  * program's call when its write goes out as sent (`w`: the call's write,
  * else NULL) and the pair has a form; else the one emit and the answer
@@ -359,7 +346,7 @@ long ct_smbus(struct ct_file *cf, struct i2c_smbus_ioctl_data a)
 		ret = ct_xfer(cf->adap, cf, m, 1, false);
 	} else if (proc) {
 		ret = ct_proc_call(cf, a.size, &data, as_sent ? &m[0] : NULL, &m[1],
-				   ct_answer_pec(m));
+				   contego_i2c_answer_pec((struct contego_i2c_msg *)m, 2));
 	} else {
 		ret = ct_perform_emits(cf->adap, cf, &ct.verdicts[0], cf->flags);
 	}

@@ -238,9 +238,9 @@ int contego_i2c_call_has_forms(const struct contego_i2c_msg *msgs, uint32_t nmsg
  * auto-increment stores it in the next register) and which is sent as such,
  * never added again; a call that reads gets one more byte from the device,
  * its PEC, which the client compares (contego_smbus_pec) before it answers,
- * EBADMSG on a mismatch, as i2c-core does. Returns the
-number of messages (1 or 2), or -22 (EINVAL) for an unknown size or a
- * block count above 32. */
+ * EBADMSG on a mismatch, as i2c-core does (contego_i2c_answer_pec).
+ * Returns the number of messages (1 or 2), or -22 (EINVAL) for an unknown
+ * size or a block count above 32. */
 #define CONTEGO_I2C_CLIENT_PEC 0x0004u     /* the kernel's I2C_CLIENT_PEC */
 #define CONTEGO_I2C_FUNC_SMBUS_PEC 0x0008u /* <linux/i2c.h>'s I2C_FUNC_SMBUS_PEC */
 int contego_i2c_smbus_msgs(uint16_t addr, uint16_t flags, uint8_t read, uint8_t command,
@@ -271,6 +271,12 @@ static inline int contego_i2c_smbus_pec_kept(uint32_t size, int read) {
  * `crc` (0 to start). i2c-core computes it over each message's address byte
  * ((addr << 1) | R/W) and then its bytes. */
 uint8_t contego_smbus_pec(uint8_t crc, const uint8_t *bytes, uint32_t n);
+
+/* The PEC an SMBus call's answer must continue to, as i2c-core checks it:
+ * over each of the call's `n` messages before the last, its address byte
+ * and its bytes, then the last's (the read's) address byte. The answer's
+ * bytes but its last, on from it, must give its last byte. */
+uint8_t contego_i2c_answer_pec(const struct contego_i2c_msg *m, uint32_t n);
 
 /* I2C_RETRIES and I2C_TIMEOUT: i2c-core's rule for one transfer
  * (__i2c_transfer and __i2c_smbus_xfer), which both clients apply with a

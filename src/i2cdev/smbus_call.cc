@@ -14,6 +14,17 @@ extern "C" uint8_t contego_smbus_pec(uint8_t crc, const uint8_t* bytes, uint32_t
   return crc;
 }
 
+extern "C" uint8_t contego_i2c_answer_pec(const contego_i2c_msg* m, uint32_t n) {
+  uint8_t pec = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    const bool reads = (m[i].flags & CONTEGO_I2C_M_RD) != 0;
+    const auto address_byte = static_cast<uint8_t>((m[i].addr << 1) | (reads ? 1 : 0));
+    pec = contego_smbus_pec(pec, &address_byte, 1);
+    if (i + 1 < n) pec = contego_smbus_pec(pec, m[i].buf, m[i].len);
+  }
+  return pec;
+}
+
 extern "C" int contego_i2c_smbus_msgs(uint16_t addr, uint16_t client_flags, uint8_t read,
                                       uint8_t command, uint32_t size,
                                       const uint8_t data[CONTEGO_SMBUS_DATA_BYTES],

@@ -126,11 +126,16 @@ TEST(I2cSmbusCall, AReadWithPecOnTheWireTakesTheDevicesPecAsOneMoreByte) {
   ASSERT_EQ(read.n, 2);
   EXPECT_EQ(read.written(0), std::vector<uint8_t>({0x10}));  // the request has none
   EXPECT_EQ(read.m[1].len, 2);
+  // What the answer's PEC continues: 0x40 writing, the pointer, 0x40 reading.
+  EXPECT_EQ(contego_i2c_answer_pec(read.m, 2), reference_pec({0x80, 0x10, 0x81}));
   EXPECT_EQ(Call(1, CONTEGO_SMBUS_WORD_DATA, {}, 0x10, kPec).m[1].len, 3);
-  EXPECT_EQ(Call(1, CONTEGO_SMBUS_BYTE, {}, 0x10, kPec).m[0].len, 2);  // receive byte
+  Call receive(1, CONTEGO_SMBUS_BYTE, {}, 0x10, kPec);
+  EXPECT_EQ(receive.m[0].len, 2);
+  EXPECT_EQ(contego_i2c_answer_pec(receive.m, 1), reference_pec({0x81}));
   Call proc(0, CONTEGO_SMBUS_PROC_CALL, {0x34, 0x12}, 0x10, kPec);
   EXPECT_EQ(proc.written(0), std::vector<uint8_t>({0x10, 0x34, 0x12}));  // no PEC of its own
   EXPECT_EQ(proc.m[1].len, 3);
+  EXPECT_EQ(contego_i2c_answer_pec(proc.m, 2), reference_pec({0x80, 0x10, 0x34, 0x12, 0x81}));
   // The counted reads go without: their answer one byte longer has no form.
   EXPECT_EQ(Call(1, CONTEGO_SMBUS_BLOCK_DATA, {}, 0x10, kPec).m[1].len, 33);
   Call block_proc(0, CONTEGO_SMBUS_BLOCK_PROC_CALL, {1, 9}, 0x10, kPec);

@@ -129,25 +129,18 @@ Decoded decode_smbus(const FdState& s, uint64_t arg, Memory& memory, uint64_t fu
   const int n =
       contego_i2c_smbus_msgs(s.addr, flags, read ? 1 : 0, a.command, size, data, m, wire, rbuf);
   if (n < 0) return fail(EINVAL);
-  uint8_t pec = 0;  // i2c-core's, over every message but the answer's PEC byte
   for (int i = 0; i < n; ++i) {
     gate::Message msg;
     msg.addr = m[i].addr;
     msg.flags = m[i].flags;
     msg.len = m[i].len;
-    const bool reads = (m[i].flags & gate::kMsgRead) != 0;
-    const auto address_byte = static_cast<uint8_t>((m[i].addr << 1) | (reads ? 1 : 0));
-    pec = contego_smbus_pec(pec, &address_byte, 1);
-    if (!reads) {
-      msg.data.assign(m[i].buf, m[i].buf + m[i].len);
-      pec = contego_smbus_pec(pec, m[i].buf, m[i].len);
-    }
+    if (!(m[i].flags & gate::kMsgRead)) msg.data.assign(m[i].buf, m[i].buf + m[i].len);
     d.transfer.messages.push_back(std::move(msg));
   }
   // A read with PEC: its answer ends with the device's (contego/i2c_plan.h).
   c.smbus_pec = (flags & CONTEGO_I2C_CLIENT_PEC) != 0 && c.smbus_read_write == kSmbusRead &&
                 contego_i2c_smbus_pec_kept(size, read ? 1 : 0);
-  c.smbus_pec_partial = pec;
+  c.smbus_pec_partial = contego_i2c_answer_pec(m, static_cast<uint32_t>(n));
   return d;
 }
 
