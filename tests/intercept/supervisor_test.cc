@@ -32,6 +32,8 @@
 #include <sys/wait.h>
 #include <thread>
 
+#include "contego/i2c_plan.h"
+
 #include "bus/virtual_bus.h"
 #include "gate/channel.h"
 #include "gate/socket.h"
@@ -415,6 +417,17 @@ TEST_P(Supervised, PythonSmbus2ReplaysThePca9685Sequence) {
   EXPECT_EQ(pca->reg(0x1D), 0x10);  // channel 5 full off: the safe state after the task exited
   EXPECT_EQ(pca->reg(0xFE), 0x1E);  // the PRE_SCALE write was refused
   EXPECT_NE(output.find("prescale refused"), std::string::npos) << output;
+}
+
+// I2C_PEC on a plain adapter: every client puts the write's PEC on the wire
+// as one more byte of the write (the checker sees it), and compares a read's.
+TEST_P(Supervised, APecWritePutsItsPecOnTheWireAndAReadChecksIt) {
+  auto r = run({"/usr/bin/python3", CONTEGO_SCRIPTS_DIR "/pec_write.py"});
+  EXPECT_EQ(r.exit_code, 0) << output;
+  EXPECT_EQ(pca->reg(0x07), 0x22);
+  const uint8_t wire[] = {0x80, 0x07, 0x22};  // 0x40 writing, the register, the byte
+  EXPECT_EQ(pca->reg(0x08), contego_smbus_pec(0, wire, sizeof wire));
+  EXPECT_NE(output.find("read EBADMSG"), std::string::npos) << output;
 }
 
 TEST_P(Supervised, BufferRewrittenByASecondThreadNeverReachesTheBus) {
