@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <linux/seccomp.h>
+#include <map>
 #include <string>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -174,27 +175,45 @@ void check_bus_bypasses(Report& r) {
     if (name.rfind("gpiomem", 0) == 0 || name.rfind("gpiochip", 0) == 0) nodes.push_back(e.path());
   }
   std::sort(nodes.begin(), nodes.end());
+  // One line per way in: the nodes of one kind a group (or everyone) opens.
+  struct Way {
+    std::vector<std::string> nodes, users;
+    std::string group;
+    unsigned mode = 0;
+    bool gpio = false;
+  };
+  std::map<std::string, Way> ways;
+  std::vector<std::string> root_only;
   for (const auto& node : nodes) {
     struct stat st {};
     if (stat(node.c_str(), &st) != 0 || !S_ISCHR(st.st_mode)) continue;
-    const std::vector<std::string> users = who_else_opens(st);
-    const group* grp = getgrgid(st.st_gid);
-    const std::string group_name = grp ? grp->gr_name : std::to_string(st.st_gid);
+    std::vector<std::string> users = who_else_opens(st);
     if (users.empty()) {
-      r.ok(fmt::format("{}: only root opens it", node));
+      root_only.push_back(node);
       continue;
     }
+    const group* grp = getgrgid(st.st_gid);
     const bool gpio = node.find("gpio") != std::string::npos;
-    r.warn(fmt::format("{} (group {}, mode {:04o}): {} can {} and bypass contego", node, group_name,
-                       st.st_mode & 07777, fmt::join(users, ", "),
-                       gpio ? "drive the bus's pins themselves (a bit-banged bus is never checked)"
-                            : "write the bus controller's registers"),
-           users.front() == "everyone"
-               ? fmt::format("chmod o-rw {}", node)
-               : fmt::format("keep the robot's task users out of group {} (gpasswd -d USER {}); "
-                             "a program that bit-bangs the bus must use /dev/i2c-N instead "
-                             "(the GoPiGo library: set_bus(\"RPI_1\"))",
-                             group_name, group_name));
+    Way& way = ways[fmt::format("{} {} {:o}", gpio, st.st_gid, st.st_mode & 07777)];
+    way.nodes.push_back(node);
+    way.users = std::move(users);
+    way.group = grp ? grp->gr_name : std::to_string(st.st_gid);
+    way.mode = st.st_mode & 07777;
+    way.gpio = gpio;
+  }
+  if (!root_only.empty()) r.ok(fmt::format("{}: only root opens them", fmt::join(root_only, ", ")));
+  for (const auto& [kind, way] : ways) {
+    r.warn(
+        fmt::format("{} (group {}, mode {:04o}): {} can {} and bypass contego",
+                    fmt::join(way.nodes, ", "), way.group, way.mode, fmt::join(way.users, ", "),
+                    way.gpio ? "drive the bus's pins themselves (a bit-banged bus is never checked)"
+                             : "write the bus controller's registers"),
+        way.users.front() == "everyone"
+            ? fmt::format("chmod o-rw {}", fmt::join(way.nodes, " "))
+            : fmt::format("keep the robot's task users out of group {} (gpasswd -d USER {}); "
+                          "a program that bit-bangs the bus must use /dev/i2c-N instead "
+                          "(the GoPiGo library: set_bus(\"RPI_1\"))",
+                          way.group, way.group));
   }
 }
 
