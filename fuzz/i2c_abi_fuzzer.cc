@@ -1,6 +1,8 @@
 // Fuzzes the i2c-dev argument decoder: arbitrary requests and arguments over
 // an arbitrary task memory image, then a completion with arbitrary read data.
-// Input: [selector][arg: 8 bytes][count: 2 bytes][memory image...]; the
+// Input: [selector][arg: 8 bytes][count: 2 bytes][memory image...]
+// (selector: request in bits 0-3, the adapter's PEC 0x10, the descriptor's
+// I2C_PEC 0x20, ten-bit 0x40, a pointer into the image 0x80); the
 // memory image is mapped at kBase, everything else faults (EFAULT paths).
 #include <cstddef>
 #include <cstdint>
@@ -56,11 +58,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   FuzzMemory mem(std::vector<uint8_t>(data + 11, data + size));
   FdState state;
   state.ten_bit = (selector & 0x40) != 0;
+  // I2C_PEC set: SMBus writes carry a PEC byte and reads check one.
+  state.pec = (selector & 0x20) != 0;
   state.addr = static_cast<uint16_t>(count & 0x3FF);
+  // A plain adapter with I2C_FUNC_SMBUS_PEC (0x8), as i2c-core's emulation gives it, or without.
+  const uint64_t funcs = (selector & 0x10) != 0 ? 0x0FFF8009 : 0x0FFF8001;
   Decoded d;
   const uint8_t which = selector & 0x0F;
   if (which < 10) {
-    d = decode_ioctl(state, kRequests[which], arg, mem, 0x0FFF8001);
+    d = decode_ioctl(state, kRequests[which], arg, mem, funcs);
   } else if (which == 10) {
     d = decode_write(state, arg, count, mem);
   } else {
