@@ -42,7 +42,12 @@ perf::Workload policy_task(const char* file, const char* task, uint8_t addr) {
   return w;
 }
 
-// arm.policy's gripper setting LED5 to off=420 (the bench's arm row).
+// arm.policy's gripper writing LED5's four registers in one write. The
+// chip powers up with auto-increment off, and this rig seeds no shadow, so
+// the core takes all four bytes into LED5_ON_L and holds them (staged,
+// allowed): this times the monitor's transfer and audit path with a
+// register write decoded and staged, not a pulse checked by an invariant
+// (contego bench's arm row checks one, the Adafruit library's way).
 perf::Workload arm_gripper() {
   perf::Workload w = policy_task("arm.policy", "gripper", 0x40);
   w.bytes = {0x1A, 0x00, 0x00, 0xA4, 0x01};

@@ -139,6 +139,18 @@ bool write_file(const std::string& path, const std::string& text) {
 const std::vector<std::vector<uint8_t>> kRoverJob = {
     {0x01, 0x46, 80, 0x00, 0x00}, {0x01, 0x47, 80, 0x00, 0x00}, {0x01, 0x69, 0x00, 0x00, 0x00}};
 
+// The gripper's job: Adafruit_PCA9685's set_pwm(0, 0, 420), one register
+// per write, as the 6DOF arm's library sends it (with the chip's
+// auto-increment off, as it powers up, a 5-byte write would land whole in
+// LED0_ON_L and be held, never checked as a pulse). The first three are
+// staged, the fourth completes the pulse, checked by SERVO_WINDOW; channel 0,
+// as GRIP's sequence is on channel 5. The policy allows one pulse per job:
+// its 1 s period becomes 2 ms, as the rover's.
+const std::vector<std::vector<uint8_t>> kArmJob = {
+    {0x06, 0x00}, {0x07, 0x00}, {0x08, 420 & 0xFF}, {0x09, 420 >> 8}};
+constexpr const char* kArmTiming = "period 1s; deadline 1s; wcet 20ms";
+constexpr const char* kBenchArmTiming = "period 2ms; deadline 2ms; wcet 400us";
+
 void bench_per_job(const BenchArgs& a) {
   perf::PerJobOptions o;
   o.jobs = a.jobs;
@@ -179,15 +191,19 @@ void bench(const BenchArgs& a) {
   o.dos = !a.no_dos;
   set_common_options(a, o);
   if (!a.policy_dir.empty()) {
-    // The rover sends kRoverJob; arm.policy's GRIP sequence starts at 420.
+    // The rover sends kRoverJob, the gripper kArmJob, each a job per 2 ms.
     auto rover = policy_workload(a.policy_dir, "rover.policy", "follower", 0x08,
                                  {0x01, 0x46, 80, 0x00, 0x00}, {kRoverTiming, kBenchRoverTiming});
     if (rover.ok()) {
       rover->job = kRoverJob;
       rover->job_period_us = kBenchRoverPeriodUs;
     }
-    auto arm = policy_workload(a.policy_dir, "arm.policy", "gripper", 0x40,
-                               {0x1A, 0x00, 0x00, 0xA4, 0x01});
+    auto arm = policy_workload(a.policy_dir, "arm.policy", "gripper", 0x40, kArmJob[0],
+                               {kArmTiming, kBenchArmTiming});
+    if (arm.ok()) {
+      arm->job = kArmJob;
+      arm->job_period_us = kBenchRoverPeriodUs;
+    }
     for (auto* w : {&rover, &arm}) {
       if (!w->ok()) return fail(w->error());
       o.workloads.push_back(**w);

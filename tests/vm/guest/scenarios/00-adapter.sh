@@ -38,6 +38,6 @@ grep -q '^\[warn\] /dev/gpiomem (group task, mode 0660): task can drive the bus.
   grep -q 'fix: keep the robot.s task users out of group task' "$OUT" &&
   ok "contego doctor: a GPIO node the task's group can open is named as a way around contego" ||
   bad "contego doctor did not name /dev/gpiomem (exit $RC)"
-grep -q '^\[ ok \] /dev/mem.*: only root opens them' "$OUT" &&
+grep -q '^\[ ok \] .*/dev/mem.*: only root opens them' "$OUT" &&
   ok "contego doctor: /dev/mem is root's alone" || bad "contego doctor said nothing right of /dev/mem"
 finish
