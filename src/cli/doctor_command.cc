@@ -23,6 +23,7 @@
 #include <sys/sysmacros.h>
 #include <sys/un.h>
 #include <sys/utsname.h>
+#include <tuple>
 #include <vector>
 
 #include "cli/command.h"
@@ -179,10 +180,8 @@ void check_bus_bypasses(Report& r) {
   struct Way {
     std::vector<std::string> nodes, users;
     std::string group;
-    unsigned mode = 0;
-    bool gpio = false;
   };
-  std::map<std::string, Way> ways;
+  std::map<std::tuple<bool, gid_t, unsigned>, Way> ways;  // GPIO or not, group, mode
   std::vector<std::string> root_only;
   for (const auto& node : nodes) {
     struct stat st {};
@@ -194,26 +193,24 @@ void check_bus_bypasses(Report& r) {
     }
     const group* grp = getgrgid(st.st_gid);
     const bool gpio = node.find("gpio") != std::string::npos;
-    Way& way = ways[fmt::format("{} {} {:o}", gpio, st.st_gid, st.st_mode & 07777)];
+    Way& way = ways[{gpio, st.st_gid, st.st_mode & 07777}];
     way.nodes.push_back(node);
     way.users = std::move(users);
     way.group = grp ? grp->gr_name : std::to_string(st.st_gid);
-    way.mode = st.st_mode & 07777;
-    way.gpio = gpio;
   }
   if (!root_only.empty()) r.ok(fmt::format("{}: only root opens them", fmt::join(root_only, ", ")));
   for (const auto& [kind, way] : ways) {
-    r.warn(
-        fmt::format("{} (group {}, mode {:04o}): {} can {} and bypass contego",
-                    fmt::join(way.nodes, ", "), way.group, way.mode, fmt::join(way.users, ", "),
-                    way.gpio ? "drive the bus's pins themselves (a bit-banged bus is never checked)"
-                             : "write the bus controller's registers"),
-        way.users.front() == "everyone"
-            ? fmt::format("chmod o-rw {}", fmt::join(way.nodes, " "))
-            : fmt::format("keep the robot's task users out of group {} (gpasswd -d USER {}); "
-                          "a program that bit-bangs the bus must use /dev/i2c-N instead "
-                          "(the GoPiGo library: set_bus(\"RPI_1\"))",
-                          way.group, way.group));
+    const auto& [gpio, gid, mode] = kind;
+    r.warn(fmt::format("{} (group {}, mode {:04o}): {} can {} and bypass contego",
+                       fmt::join(way.nodes, ", "), way.group, mode, fmt::join(way.users, ", "),
+                       gpio ? "drive the bus's pins themselves (a bit-banged bus is never checked)"
+                            : "write the bus controller's registers"),
+           way.users.front() == "everyone"
+               ? fmt::format("chmod o-rw {}", fmt::join(way.nodes, " "))
+               : fmt::format("keep the robot's task users out of group {} (gpasswd -d USER {}); "
+                             "a program that bit-bangs the bus must use /dev/i2c-N instead "
+                             "(the GoPiGo library: set_bus(\"RPI_1\"))",
+                             way.group, way.group));
   }
 }
 
