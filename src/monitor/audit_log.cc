@@ -94,6 +94,11 @@ class LineWriter {
     room(24);
     p_ = std::to_chars(p_, p_ + 24, value).ptr;
   }
+  template <size_t N, typename T>
+  void number(const char (&key)[N], T value) {  // `key` is the text before the number
+    put(key);
+    number(value);
+  }
   void hex(const uint8_t* bytes, uint32_t len) {
     static const char* digits = "0123456789abcdef";
     if (bytes == nullptr || len == 0) return;
@@ -451,20 +456,16 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
     w.put("\":");
     w.string(value);
   };
-  w.put("{\"addr\":");
-  w.number(r.addr);
-  w.put(",\"bus\":");
-  w.number(r.bus);
+  w.number("{\"addr\":", r.addr);
+  w.number(",\"bus\":", r.bus);
   w.put(",\"bytes\":\"");
   w.hex(r.original, r.original_len);
-  w.put("\",\"command\":");
-  w.number(r.command);
+  w.number("\",\"command\":", r.command);
   name("command_name", names.command);
   if (names.complain) w.put(",\"complain\":true");
   w.put(",\"decision\":\"");
   w.put(std::string_view(core::decision_name(r.decision)));
-  w.put("\",\"device\":");
-  w.number(r.device);
+  w.number("\",\"device\":", r.device);
   name("device_name", names.device);
   w.put(",\"fields\":[");
   const uint8_t nfields = std::min<uint8_t>(r.field_count, 8);
@@ -472,50 +473,31 @@ bool AuditLog::decision(const core::AuditRecord& r, const RecordNames& names) {
     if (i) w.put(',');
     w.number(r.fields[i]);
   }
-  w.put("],\"index\":");
-  w.number(r.index);
-  w.put(",\"job\":");
-  w.number(r.job);
+  w.number("],\"index\":", r.index);
+  w.number(",\"job\":", r.job);
   w.put(",\"kind\":\"decision\"");
-  if (names.mono_us >= 0) {
-    w.put(",\"mono_us\":");
-    w.number(names.mono_us);
-  }
-  if (names.pid >= 0) {
-    w.put(",\"pid\":");
-    w.number(names.pid);
-  }
+  if (names.mono_us >= 0) w.number(",\"mono_us\":", names.mono_us);
+  if (names.pid >= 0) w.number(",\"pid\":", names.pid);
   if (names.readings != nullptr && !names.readings->empty()) {
     w.put(",\"readings\":");
     w.put(*names.readings);
   }
-  w.put(",\"reason\":");
-  w.number(static_cast<int>(r.reason));
+  w.number(",\"reason\":", static_cast<int>(r.reason));
   w.put(",\"reason_name\":\"");
   w.put(std::string_view(core::reason_name(r.reason)));
-  w.put("\",\"rule\":");
-  w.number(r.rule);
-  w.put(",\"rule_kind\":");
-  w.number(static_cast<int>(r.rule_kind));
+  w.number("\",\"rule\":", r.rule);
+  w.number(",\"rule_kind\":", static_cast<int>(r.rule_kind));
   name("rule_name", names.rule);
   if (r.substitute != nullptr) {
     w.put(",\"substitute\":\"");
     w.hex(r.substitute, r.substitute_len);
     w.put('"');
   }
-  w.put(",\"t_us\":");
-  w.number(t);
-  w.put(",\"task\":");
-  w.number(r.task);
+  w.number(",\"t_us\":", t);
+  w.number(",\"task\":", r.task);
   name("task_name", names.task);
-  if (names.tx >= 0) {
-    w.put(",\"tx\":");
-    w.number(names.tx);
-  }
-  if (names.uid >= 0) {
-    w.put(",\"uid\":");
-    w.number(names.uid);
-  }
+  if (names.tx >= 0) w.number(",\"tx\":", names.tx);
+  if (names.uid >= 0) w.number(",\"uid\":", names.uid);
   w.done();
   const bool written = commit_locked(line_);
   if (written) ++recorded_in_file_;
