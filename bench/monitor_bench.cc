@@ -42,15 +42,13 @@ perf::Workload policy_task(const char* file, const char* task, uint8_t addr) {
   return w;
 }
 
-// arm.policy's gripper writing LED5's four registers in one write. The
-// chip powers up with auto-increment off, and this rig seeds no shadow, so
-// the core takes all four bytes into LED5_ON_L and holds them (staged,
-// allowed): this times the monitor's transfer and audit path with a
-// register write decoded and staged, not a pulse checked by an invariant
-// (contego bench's arm row checks one, the Adafruit library's way).
+// arm.policy's gripper: the 6DOF arm library's set_pwm(0, 0, 420), one
+// register per write (contego bench's arm row): three staged, the fourth
+// completing the pulse SERVO_WINDOW checks. One pulse per job, as the
+// policy allows.
 perf::Workload arm_gripper() {
   perf::Workload w = policy_task("arm.policy", "gripper", 0x40);
-  w.bytes = {0x1A, 0x00, 0x00, 0xA4, 0x01};
+  w.job = {{0x06, 0x00}, {0x07, 0x00}, {0x08, 420 & 0xFF}, {0x09, 420 >> 8}};
   return w;
 }
 
@@ -80,24 +78,43 @@ gate::Transfer one_write(const perf::Workload& w) {
   return t;
 }
 
-// Monitor::transfer of the gripper write; `audited`: to a file in /tmp (the
-// bench's rig), else no log at all.
+// One transfer per write of the workload's job, in order.
+std::vector<gate::Transfer> job_transfers(perf::Workload w) {
+  std::vector<gate::Transfer> job;
+  for (const std::vector<uint8_t>& bytes : w.commands()) {
+    w.bytes = bytes;
+    job.push_back(one_write(w));
+  }
+  return job;
+}
+
+// Monitor::transfer of the gripper's writes, each job's on a manual clock
+// that moves one period per job (outside the timing); `audited`: to a file
+// in /tmp (the bench's rig), else no log at all.
 void BM_MonitorTransfer(benchmark::State& state, bool audited) {
   const perf::Workload w = arm_gripper();
   if (w.image.empty()) {
     state.SkipWithError("arm.policy did not compile (set CONTEGO_POLICY_DIR)");
     return;
   }
+  constexpr uint64_t kPeriodUs = 1000000;  // arm.policy's gripper
+  ManualClock clock(kPeriodUs);
   perf::detail::TempDir dir;
-  auto rig = perf::detail::Rig::make(audited ? dir.path + "/audit.jsonl" : "", w);
+  auto rig = perf::detail::Rig::make(audited ? dir.path + "/audit.jsonl" : "", w, clock);
   if (!rig.ok()) {
     state.SkipWithError(rig.error().c_str());
     return;
   }
-  const gate::Transfer t = one_write(w);
+  const std::vector<gate::Transfer> job = job_transfers(w);
   uint64_t failures = 0;
+  size_t n = 0;
   for (auto _ : state) {
-    const gate::TransferReply r = (*rig)->mon->transfer(w.task_id, t);
+    if (n % job.size() == 0) {
+      state.PauseTiming();
+      clock.set_us(clock.now_us() + kPeriodUs);
+      state.ResumeTiming();
+    }
+    const gate::TransferReply r = (*rig)->mon->transfer(w.task_id, job[n++ % job.size()]);
     failures += r.err != 0;
   }
   if (failures != 0) state.SkipWithError("a transfer failed");
@@ -126,13 +143,9 @@ void BM_MonitorTransferRover(benchmark::State& state) {
     state.SkipWithError(rig.error().c_str());
     return;
   }
-  std::vector<gate::Transfer> job;
-  for (const std::vector<uint8_t>& bytes : {std::vector<uint8_t>{0x01, 0x46, 80, 0x00, 0x00},
-                                            std::vector<uint8_t>{0x01, 0x47, 80, 0x00, 0x00},
-                                            std::vector<uint8_t>{0x01, 0x69, 0x00, 0x00, 0x00}}) {
-    w.bytes = bytes;
-    job.push_back(one_write(w));
-  }
+  w.job = {
+      {0x01, 0x46, 80, 0x00, 0x00}, {0x01, 0x47, 80, 0x00, 0x00}, {0x01, 0x69, 0x00, 0x00, 0x00}};
+  const std::vector<gate::Transfer> job = job_transfers(w);
   uint64_t failures = 0;
   size_t n = 0;
   for (auto _ : state) {

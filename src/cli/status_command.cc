@@ -28,12 +28,14 @@ void print_human(const nlohmann::json& j) {
       budget = fmt::format("job {}: {} acted, {} dropped", t["budget"].value("job", 0),
                            t["budget"].value("acted", 0), t["budget"].value("dropped", 0));
     }
+    const uint64_t staged = d.value("staged", uint64_t{0});
     fmt::print(
-        "  {:<16} sessions {}  job {}  ({})  {} allowed, {} ignored, {} substituted, "
+        "  {:<16} sessions {}  job {}  ({})  {} allowed{}, {} ignored, {} substituted, "
         "{} refused{}\n",
         t.value("name", ""), t.value("sessions", 0), t.value("job", 0), budget,
-        d.value("allowed", 0), d.value("ignored", 0), d.value("substituted", 0),
-        d.value("refused", 0), t.value("complain", false) ? "  (complain)" : "");
+        d.value("allowed", 0), staged != 0 ? fmt::format(" ({} staged)", staged) : "",
+        d.value("ignored", 0), d.value("substituted", 0), d.value("refused", 0),
+        t.value("complain", false) ? "  (complain)" : "");
   }
   fmt::print("devices:\n");
   for (const auto& d : j["devices"]) {

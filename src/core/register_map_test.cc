@@ -244,6 +244,44 @@ TEST_F(ArmTest, AGroupTheTaskLeavesIncompleteIsDroppedAndAudited) {
   EXPECT_EQ(h.checker->end_session(arm::kController), 2u);
 }
 
+TEST_F(ArmTest, AStagedRegisterWrittenAgainSaysItsEarlierByteNeverActed) {
+  // Adafruit's CircuitPython driver writes a pulse as one 5-byte write; with
+  // auto-increment off all four bytes land in LED5_ON_L, held. The second
+  // such write says at once that the first never reached the chip.
+  const Bytes pulse{kLed5, 0x00, 0x00, 0xA4, 0x01};
+  EXPECT_EQ(send(pulse).reason, Reason::kStaged);
+  EXPECT_EQ(h.audits.size(), 1u);
+  const Verdict again = send(pulse);
+  EXPECT_EQ(again.decision, Decision::kAllow);
+  EXPECT_EQ(again.reason, Reason::kStaged);
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagedIncomplete);
+  EXPECT_EQ(h.audits[0].decision, Decision::kIgnore);
+  EXPECT_EQ(h.audits[0].task, arm::kController);
+  EXPECT_EQ(h.audits[0].command, arm::kLed);
+  EXPECT_EQ(h.audits[0].index, 5);
+  EXPECT_EQ(h.audits[1].reason, Reason::kStaged);
+  // The group completes with the byte written last.
+  send({kLed5 + 1, 0x00});
+  send({kLed5 + 2, 0xA4});
+  EXPECT_EQ(emits(send({kLed5 + 3, 0x01})),
+            (Writes{{kLed5, 0x01}, {kLed5 + 1, 0x00}, {kLed5 + 2, 0xA4}, {kLed5 + 3, 0x01}}));
+  EXPECT_EQ(h.checker->end_session(arm::kController), 0u);
+}
+
+TEST_F(ArmTest, AnAbortedTransferDoesNotBringBackAByteItsWriteDropped) {
+  // A rewrite that does not act (another message of its transfer refused)
+  // has its record already: the byte it said dropped stays dropped.
+  EXPECT_EQ(send({kLed5, 0x05}).reason, Reason::kStaged);
+  h.checker->begin_transfer();
+  send({kLed5, 0x06});
+  ASSERT_EQ(h.audits.size(), 2u);
+  EXPECT_EQ(h.audits[0].reason, Reason::kStagedIncomplete);
+  h.checker->abort_transfer(Decision::kReject);
+  // Neither byte is staged: the earlier was said dropped, the later did not act.
+  EXPECT_EQ(h.checker->end_session(arm::kController), 0u);
+}
+
 TEST_F(ArmTest, ARegisterOfAGroupTheTaskCannotSendIsDecidedAtOnce) {
   // No actuate access: refused with the rule's errno on its first byte, not
   // held as "allowed (staged)" for a last register that never comes.

@@ -84,15 +84,18 @@ void CheckerState::settle_model(const Transaction& tx, Decision decision) {
       }
     }
   } else {
-    // Another task's staged bytes this check displaced are gone for good now
-    // that it acts (an aborted transfer does not bring them back): audited
-    // in the victim's name.
+    // Staged bytes this check displaced are gone for good now that it acts
+    // (an aborted transfer does not bring them back), audited in their
+    // task's name: another task's, or the task's own staged again before its
+    // group completed (a driver that never completes one says so at once).
     uint32_t last_group = 0xFFFFFFFFu;
     for (uint32_t i = 0; i < tx_.undo_count; ++i) {
       const Undo& u = tx_.undo[i];
-      if (!u.staged_bit || u.staged_task == tx.task) continue;
+      const bool own = u.staged_task == tx.task;
+      if (!u.staged_bit || (own && !bit_test(state_[u.device].staged_bits, u.reg))) continue;
       mark_dropped(u.device, u.reg);
-      audit_staging_drop(tx, u.device, u.reg, u.staged_task, Reason::kStagingConflict, last_group);
+      audit_staging_drop(tx, u.device, u.reg, u.staged_task,
+                         own ? Reason::kStagedIncomplete : Reason::kStagingConflict, last_group);
     }
     for (uint32_t word = 0; tx_.any_pending && word < kMaxInvariants / 32; ++word) {
       for (uint32_t bits = tx_.pending_state[word]; bits != 0; bits &= bits - 1) {

@@ -23,6 +23,7 @@ void DropReport::note(const core::AuditRecord& r, const RecordNames& names, uint
     switch (r.decision) {
       case core::Decision::kAllow:
         ++t.counts.allowed;
+        t.counts.staged += r.reason == core::Reason::kStaged ? 1 : 0;
         return;
       case core::Decision::kIgnore:
         ++t.counts.ignored;
@@ -68,8 +69,11 @@ const DecisionCounts& DropReport::counts(uint16_t task) const {
 
 std::string DropReport::summary(uint16_t task) const {
   const DecisionCounts& c = counts(task);
-  std::string s = fmt::format("{} allowed, {} ignored, {} substituted, {} refused", c.allowed,
-                              c.ignored, c.substituted, c.refused);
+  const std::string held =
+      c.staged != 0 ? fmt::format(" ({} staged: held until their group's last register)", c.staged)
+                    : "";
+  std::string s = fmt::format("{} allowed{}, {} ignored, {} substituted, {} refused", c.allowed,
+                              held, c.ignored, c.substituted, c.refused);
   if (c.complained != 0) {
     s +=
         fmt::format("; {} would have been dropped but acted as sent (complain mode)", c.complained);

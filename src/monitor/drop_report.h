@@ -23,6 +23,9 @@ struct RecordNames;
 
 struct DecisionCounts {
   uint64_t allowed = 0, ignored = 0, substituted = 0, refused = 0;
+  // Of the allowed: register writes held until their group's last register
+  // is written (they act then, or are said dropped).
+  uint64_t staged = 0;
   // Complain mode: commands the policy would have dropped that acted as sent
   // (counted here only, not as ignored, substituted or refused).
   uint64_t complained = 0;
@@ -41,7 +44,8 @@ class DropReport {
     if (task < tasks_.size()) tasks_[task] = PerTask{};
   }
   std::FILE* out() const { return out_; }  // where the lines go (nullptr: nowhere)
-  // "N allowed, N ignored, N substituted, N refused" for the task (and, in
+  // "N allowed, N ignored, N substituted, N refused" for the task (the
+  // allowed followed by "(N staged: ...)" when some were held, and in
   // complain mode, "; N would have been dropped but acted as sent").
   std::string summary(uint16_t task) const;
 

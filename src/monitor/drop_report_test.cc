@@ -52,6 +52,12 @@ TEST(DropReport, NamesTheFirstDropAndCountsTheRestUntilTheNextLine) {
             std::string::npos)
       << text;
   EXPECT_EQ(report.summary(0), "1 allowed, 2 ignored, 1 substituted, 1 refused");
+  core::AuditRecord staged = record(0, core::Decision::kAllow);
+  staged.reason = core::Reason::kStaged;
+  report.note(staged, names, 1'000'040);
+  EXPECT_EQ(report.summary(0),
+            "2 allowed (1 staged: held until their group's last register), 2 ignored, "
+            "1 substituted, 1 refused");
   EXPECT_EQ(report.counts(0).dropped(), 4u);
   EXPECT_EQ(report.counts(1).dropped(), 0u);  // counted per task
   std::fclose(out);

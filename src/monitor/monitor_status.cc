@@ -19,6 +19,7 @@ std::string Monitor::status_json() const {
                         {"period_us", decider_->task_period_us(task)},
                         {"decisions",
                          {{"allowed", c.allowed},
+                          {"staged", c.staged},
                           {"ignored", c.ignored},
                           {"substituted", c.substituted},
                           {"refused", c.refused},

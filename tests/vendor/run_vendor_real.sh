@@ -13,7 +13,8 @@
 #   under one monitor: the next run starts the gripper's sequence afresh;
 # - circuitpython_pca9685.py: Adafruit's current driver (one auto-increment
 #   write per pulse) as arm_init, which switches auto-increment on, then as
-#   the gripper, whose own start-up is dropped: both pulses act;
+#   the gripper, whose own start-up is dropped: both pulses act; and as the
+#   gripper alone, its pulses held in LED5_ON_L, said at the second one;
 # - pec_pulse.py: one pulse as byte writes, without and with I2C_PEC: the
 #   core checks the PEC bytes the chip gets.
 # Usage: run_vendor_real.sh CONTEGO POLICIES_DIR VENDOR_DIR [SECONDS]
@@ -112,6 +113,22 @@ grep -q "3 register write(s) staged and never completed" "$dir/partial.err" ||
   fail "partial: the dropped staging is not on standard error"
 grep -q '"kind":"staged-dropped"' "$dir/partial.jsonl" ||
   fail "partial: no staged-dropped record in the audit log"
+# Adafruit's current driver as the gripper alone under the shipped policy:
+# its MODE1 writes dropped by design, auto-increment stays off and each
+# 5-byte pulse lands whole in LED5_ON_L, held. Recorded at the second pulse
+# (the first pulse's bytes never reached the chip), not only when the
+# program ends; the run's summary counts the held writes apart.
+"$contego" run --policy "$policies/arm.policy" --task gripper --virtual-bus 1 \
+  --audit "$dir/cpy-alone.jsonl" -- "$py" "$vendor/circuitpython_pca9685.py" 420 577 \
+  >"$dir/cpy-alone.out" 2>"$dir/cpy-alone.err" || fail "cpy-alone: exit $?"
+finished cpy-alone
+grep -q '"command_name":"led","decision":"ignore".*"reason_name":"staged-incomplete"' \
+  "$dir/cpy-alone.jsonl" || fail "cpy-alone: no staged-incomplete record"
+grep -q "staged: held until their group's last register" "$dir/cpy-alone.err" ||
+  fail "cpy-alone: the summary does not count the held writes"
+[ "$(grep '"command_name":"led","decision":"allow"' "$dir/cpy-alone.jsonl" |
+  grep -vc '"reason_name":"staged"')" = 0 ] || fail "cpy-alone: a pulse acted"
+echo "cpy-alone: $(grep -c staged-incomplete "$dir/cpy-alone.jsonl") staged-incomplete record(s)"
 # Packet error checking (I2C_PEC) on the virtual bus, a plain adapter whose
 # SMBus writes carry their PEC byte as i2c-core's emulation sends them: the
 # PCA9685 takes it as data, so what the core checks is what the chip gets.

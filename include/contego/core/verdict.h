@@ -46,7 +46,7 @@ enum class Reason : uint8_t {
   kGeneralCall = 26,        // a general call (address 0) that is no declared general-call command
   kReservedAddress = 27,    // a 7-bit address the I2C specification reserves (0x01-0x07, 0x78-0x7F)
   kTransferDropped = 28,    // checks of a transfer that did not act: another message refused it
-  kStagedIncomplete = 29,   // the task's staged writes of a group it left for another; dropped
+  kStagedIncomplete = 29,   // a task's staged write its group never took (left, rewritten); dropped
   kNotTaken = 30,           // the device would not take it now (DeviceRecord::gated): not sent
 };
 
