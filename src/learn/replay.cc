@@ -69,7 +69,7 @@ std::map<std::string, std::vector<uint32_t>> job_numbers(const Trace& trace,
     std::vector<uint32_t>& out = jobs[task];
     for (size_t i : idx) out.push_back(trace.decisions[i].job);
     auto t = std::find_if(model.tasks.begin(), model.tasks.end(),
-                          [&](const auto& r) { return r.name == task; });
+                          [&name = task](const auto& r) { return r.name == name; });
     if (t == model.tasks.end()) continue;
     const uint64_t period = t->record.period_us;
     const TraceDecision& first = trace.decisions[idx.front()];
