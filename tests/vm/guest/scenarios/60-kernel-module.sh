@@ -267,6 +267,25 @@ grep -q "led5 577" "$OUT" &&
 led5_becomes 420 && ok "the script's end ended its session: LED5 off = 420" ||
   bad "after the script LED5 off reads $(led5), expected the safe state 420"
 
+# Adafruit's current driver with auto-increment off: each 5-byte pulse
+# lands whole in LED5_ON_L, held (the group never completes), and the second
+# says the first never reached the chip: a staged-incomplete record, as
+# under the monitor (the core both clients share). Auto-increment back on.
+run_logged ai_off as_task i2cset -y 0 $A 0x00 0x01
+cat >/tmp/kmod_held.py <<'PY'
+from smbus2 import SMBus
+with SMBus(0) as bus:
+    for off in (420, 577):
+        bus.write_i2c_block_data(0x40, 0x1A, [0, 0, off & 0xFF, off >> 8])
+print("held", flush=True)
+PY
+run_logged held as_task python3 /tmp/kmod_held.py
+grep -q "^held" "$OUT" && [ "$(led5)" = 420 ] &&
+  ok "two whole-pulse writes with auto-increment off: told success, LED5 off still 420" ||
+  bad "held pulses: output '$(cat "$OUT")', LED5 off $(led5)"
+run_logged ai_on as_task i2cset -y 0 $A 0x00 0x21
+[ $RC = 0 ] && ok "arm_init: MODE1=0x21 again" || bad "arm_init: MODE1 back exit $RC"
+
 # LED5 to 577 again, held by a live session (a script still running), so
 # that the unload's safe state shows on the chip and the unload meets a
 # session it must take off its wait queue.
@@ -281,6 +300,7 @@ run_logged verify contego audit $AUDIT_LOG
 [ $RC = 0 ] && ok "contego audit verifies the module's log" || bad "contego audit exit $RC"
 for what in '"kind":"audit-gap"' '"kind":"policy-load-refused"' \
     '"decision":"ignore"' '"decision":"reject"' '"task_name":"gripper"' '"rule_name":"PRESCALE"' '"mono_us":' \
+    '"command_name":"led","decision":"ignore".*"reason_name":"staged-incomplete"' \
     "task 1 (gripper) exited: pid $CTL uid 990 killed by signal 9; device 0 (arm)" \
     "task 0 (arm_init) exited: pid [0-9]* uid 1000 exited with status 0, then its process group's leader exited"; do
   grep -q "$what" $AUDIT_LOG && ok "the module's log has $what" || bad "the module's log lacks $what"
